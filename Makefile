@@ -1,0 +1,46 @@
+# repro: two commands do all set-up —  `make reproduce`  and  `make test`.
+# Both create .venv with pip when it is missing or stale (requirements changed).
+
+PYTHON ?= python3.11
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+JOBS   ?= 2
+SEED   ?= 0
+ARGS   ?=
+
+.DEFAULT_GOAL := help
+.PHONY: help setup test unit notebooks-quick reproduce bench lint clean
+
+help:  ## list the targets
+	@grep -E '^[a-z-]+:.*##' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-16s %s\n", $$1, $$2}'
+
+$(STAMP): requirements.txt requirements-dev.txt pyproject.toml
+	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found (Python 3.11 is required; set PYTHON=...)"; exit 1; }
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -r requirements-dev.txt
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
+	$(PY) -m ipykernel install --sys-prefix --name repro --display-name "repro (.venv)" >/dev/null
+	@touch $(STAMP)
+
+setup: $(STAMP)  ## create or refresh .venv (pip, pinned requirements, kernel "repro")
+
+unit: $(STAMP)  ## unit tests only (no notebooks)
+	$(PY) -m pytest -q -m "not notebook"
+
+test: $(STAMP)  ## lint + unit tests + every notebook executed with quick parameters
+	$(PY) -m ruff check src tests
+	$(PY) -m pytest -q
+
+reproduce: $(STAMP)  ## execute every notebook with full parameters; write build/report and refresh results/
+	$(PY) -m repro reproduce --jobs $(JOBS) --seed $(SEED) --snapshot $(ARGS)
+
+bench: $(STAMP)  ## measure the time budgets; writes build/bench/bench.json
+	$(PY) -m repro bench
+
+lint: $(STAMP)  ## ruff on the library, tests and notebooks
+	$(PY) -m ruff check src tests notebooks
+
+clean:  ## remove build outputs and caches (keeps .venv)
+	rm -rf build .pytest_cache .ruff_cache
