@@ -1,7 +1,10 @@
 """Where things live: the repository, the build folder, the model cache, the shared fixtures.
 
 Every path is absolute so that papermill's ``cwd`` never changes what a path means.
-Environment variables override the defaults (useful for CI and for a shared cache).
+Environment variables override the defaults (tests, CI, a shared cache):
+``REPRO_BUILD_ROOT`` (default ``build/``), ``REPRO_BUILD_DIR`` (the current run's folder,
+set by the runner and by ``setup_notebook``), ``REPRO_CACHE_DIR``, ``REPRO_SHARED_DIR``,
+``REPRO_NOTEBOOKS_DIR``.
 """
 
 from __future__ import annotations
@@ -12,14 +15,26 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
+def build_root() -> Path:
+    """``build/`` (git-ignored): full runs write here, quick runs under ``build/quick``."""
+    return Path(os.environ.get("REPRO_BUILD_ROOT", REPO_ROOT / "build")).resolve()
+
+
+def run_build_dir(quick: bool) -> Path:
+    """A run's output folder: quick (test) runs never overwrite a full run's outputs."""
+    return build_root() / "quick" if quick else build_root()
+
+
 def build_dir() -> Path:
-    """``build/`` (git-ignored): executed notebooks, claim sidecars, report, figures."""
-    return Path(os.environ.get("REPRO_BUILD_DIR", REPO_ROOT / "build")).resolve()
+    """The current run's folder: executed notebooks, claim sidecars, report, figures."""
+    return Path(os.environ.get("REPRO_BUILD_DIR", build_root())).resolve()
 
 
 def cache_dir() -> Path:
-    """Trained weights and generated datasets, keyed by a hash of their configuration."""
-    return Path(os.environ.get("REPRO_CACHE_DIR", build_dir() / "cache")).resolve()
+    """Trained weights and generated datasets, keyed by a hash of their configuration.
+
+    Shared by quick and full runs (their configurations differ, so their hashes do)."""
+    return Path(os.environ.get("REPRO_CACHE_DIR", build_root() / "cache")).resolve()
 
 
 def shared_dir() -> Path:
@@ -33,7 +48,7 @@ def humanml3d_sample_dir() -> Path:
 
 
 def notebooks_dir() -> Path:
-    return REPO_ROOT / "notebooks"
+    return Path(os.environ.get("REPRO_NOTEBOOKS_DIR", REPO_ROOT / "notebooks")).resolve()
 
 
 def data_stubs_dir() -> Path:
@@ -52,3 +67,11 @@ def figures_dir() -> Path:
 
 def claims_dir() -> Path:
     return build_dir() / "claims"
+
+
+def executed_notebooks_dir() -> Path:
+    return build_dir() / "notebooks"
+
+
+def report_dir() -> Path:
+    return build_dir() / "report"

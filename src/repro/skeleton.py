@@ -84,7 +84,8 @@ def forward_kinematics(root_positions: torch.Tensor, local_rotations: torch.Tens
     if local_rotations.shape[-2:] != (NUM_JOINTS, 4):
         raise ValueError(f"local_rotations must end in (22, 4), got {tuple(local_rotations.shape)}")
     if offsets is None:
-        offsets = torch.as_tensor(OFFSETS, dtype=local_rotations.dtype, device=local_rotations.device)
+        offsets = torch.as_tensor(OFFSETS, dtype=local_rotations.dtype,
+                                  device=local_rotations.device)
     global_rotations: list[torch.Tensor | None] = [None] * NUM_JOINTS
     positions: list[torch.Tensor | None] = [None] * NUM_JOINTS
     global_rotations[0] = local_rotations[..., 0, :]
@@ -92,7 +93,8 @@ def forward_kinematics(root_positions: torch.Tensor, local_rotations: torch.Tens
     for joint in range(1, NUM_JOINTS):  # SMPL order lists every parent before its children
         parent = PARENTS[joint]
         parent_rotation = global_rotations[parent]
-        positions[joint] = positions[parent] + qrot(parent_rotation, offsets[joint].expand_as(root_positions))
+        bone = offsets[joint].expand_as(root_positions)
+        positions[joint] = positions[parent] + qrot(parent_rotation, bone)
         global_rotations[joint] = qmul(parent_rotation, local_rotations[..., joint, :])
     return torch.stack(positions, dim=-2)
 

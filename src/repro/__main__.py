@@ -1,0 +1,108 @@
+"""Command line: ``python -m repro {list, reproduce, validate-dataset, bench, generate-stubs}``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+
+def _parse_parameter(text: str) -> tuple[str, Any]:
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(f"-p takes name=value, got {text!r}")
+    name, raw = text.split("=", 1)
+    try:
+        value = json.loads(raw)
+    except json.JSONDecodeError:
+        value = raw  # a bare string
+    return name, value
+
+
+def _cmd_list(_: argparse.Namespace) -> int:
+    from .claims import CLAIMS
+    from .runner import available_notebooks
+
+    print("notebooks:")
+    for name in available_notebooks():
+        print(f"  {name}")
+    print("claims:")
+    for claim in CLAIMS.values():
+        print(f"  {claim.id:7s} {claim.notebook:26s} {claim.statement[:70]}")
+    return 0
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from .runner import reproduce
+
+    extra = dict(args.parameter or [])
+    try:
+        return reproduce(quick=args.quick, only=args.only, jobs=args.jobs, seed=args.seed,
+                         device=args.device, snapshot=args.snapshot, extra_parameters=extra)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from .data import format_problems, validate_dataset
+
+    try:
+        problems = validate_dataset(args.directory)
+    except (FileNotFoundError, ValueError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    if problems:
+        print(format_problems(problems))
+        return 1
+    print(f"{args.directory}: no problems found")
+    return 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from .bench import run_bench
+
+    return run_bench(full=args.full, venv=args.venv)
+
+
+def _cmd_stubs(_: argparse.Namespace) -> int:
+    from .generator import regenerate_stubs
+
+    print(regenerate_stubs())
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m repro", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="print the notebooks and the claims").set_defaults(func=_cmd_list)
+
+    rep = sub.add_parser("reproduce", help="execute notebooks with papermill and write the report")
+    rep.add_argument("--quick", action="store_true", help="tiny data, few steps (tests only)")
+    rep.add_argument("--only", nargs="+", metavar="NOTEBOOK_OR_CLAIM",
+                     help="notebook names, number prefixes (01) or claim IDs (GMD-A1)")
+    rep.add_argument("--jobs", type=int, default=1, help="notebooks run in parallel")
+    rep.add_argument("--seed", type=int, default=0, help="base seed passed to every notebook")
+    rep.add_argument("--device", default="cpu", help="torch device, e.g. cuda")
+    rep.add_argument("-p", "--parameter", action="append", type=_parse_parameter,
+                     metavar="NAME=VALUE", help="extra notebook parameter (JSON value)")
+    rep.add_argument("--snapshot", action="store_true",
+                     help="after a successful full run of every notebook, refresh results/")
+    rep.set_defaults(func=_cmd_reproduce)
+
+    val = sub.add_parser("validate-dataset", help="check a HumanML3D-layout folder")
+    val.add_argument("directory")
+    val.set_defaults(func=_cmd_validate)
+
+    bench = sub.add_parser("bench", help="measure the time budgets (writes build/bench)")
+    bench.add_argument("--full", action="store_true", help="also time a full cold/warm reproduce")
+    bench.add_argument("--venv", action="store_true", help="also time a fresh venv set-up")
+    bench.set_defaults(func=_cmd_bench)
+
+    sub.add_parser("generate-stubs", help="regenerate data_stubs/").set_defaults(func=_cmd_stubs)
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,71 @@
+"""The runner end to end on two throw-away notebooks (one fails), in a temporary build root."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from repro import runner
+
+PARAMETERS = "quick = True\nseed = 0\ndevice = 'cpu'\nbuild_dir = None\n"
+
+
+def _notebook(path: Path, body: str) -> None:
+    notebook = nbformat.v4.new_notebook()
+    parameters = nbformat.v4.new_code_cell(PARAMETERS)
+    parameters.metadata["tags"] = ["parameters"]
+    notebook.cells = [parameters, nbformat.v4.new_code_cell(body)]
+    notebook.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3",
+                                       "language": "python"}
+    nbformat.write(notebook, path)
+
+
+GOOD = """
+from repro.notebook import setup_notebook
+from repro.ledger import record_claim
+ctx = setup_notebook(quick=quick, seed=seed, device=device, build_dir=build_dir)
+record_claim("GMD-A1", {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5},
+             seeds=[seed], quick=quick)
+"""
+
+
+@pytest.fixture()
+def sandbox(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    notebooks = tmp_path / "notebooks"
+    notebooks.mkdir()
+    _notebook(notebooks / "01_good.ipynb", GOOD)
+    _notebook(notebooks / "02_bad.ipynb", "raise RuntimeError('boom in cell two')")
+    monkeypatch.setenv("REPRO_NOTEBOOKS_DIR", str(notebooks))
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
+    monkeypatch.delenv("REPRO_BUILD_DIR", raising=False)
+    return tmp_path
+
+
+def test_resolve_targets(sandbox: Path) -> None:
+    assert runner.resolve_targets(None) == ["01_good", "02_bad"]
+    assert runner.resolve_targets(["02"]) == ["02_bad"]
+    assert runner.resolve_targets(["01_good.ipynb"]) == ["01_good"]
+    with pytest.raises(ValueError, match="unknown notebook or claim ID 'nope'"):
+        runner.resolve_targets(["nope"])
+
+
+def test_unknown_parameter_is_rejected_before_running(sandbox: Path) -> None:
+    with pytest.raises(ValueError, match="no parameter.*'stepz'"):
+        runner.run_notebooks(["01_good"], quick=True, extra_parameters={"stepz": 3})
+    assert not (sandbox / "build" / "quick" / "notebooks" / "01_good.ipynb").exists()
+
+
+def test_failure_names_notebook_and_cell_and_keeps_last_report(
+        sandbox: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert runner.reproduce(quick=True, only=["01"]) == 0
+    report = sandbox / "build" / "quick" / "report" / "REPORT.md"
+    text = report.read_text()
+    assert "quick run: not a result" in text and "GMD-A1" in text
+    assert runner.reproduce(quick=True, jobs=2) == 1
+    out = capsys.readouterr()
+    assert "notebook 02_bad, cell 2 of the executed notebook" in out.out and "boom in cell two" in out.out
+    assert report.read_text() == text  # the failed run did not overwrite the good report
+    assert (sandbox / "build" / "quick" / "notebooks" / "01_good.ipynb").is_file()
+    assert not (sandbox / "build" / "report").exists()  # quick never writes the full report
