@@ -7,10 +7,12 @@ presence means the entry is complete; every file goes through ``storage.atomic_o
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +21,7 @@ from torch import nn
 
 from repro import paths, storage
 
-__all__ = ["cached_artifact_dir", "canonical_json", "config_hash", "load_or_train"]
+__all__ = ["artifact_lock", "cached_artifact_dir", "canonical_json", "config_hash", "load_or_train"]
 
 _KIND_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
@@ -82,6 +84,19 @@ def _read_config(path: Path) -> Any:
         return None
 
 
+@contextlib.contextmanager
+def artifact_lock(directory: Path) -> Iterator[None]:
+    """An exclusive lock on a cache entry, so notebooks running in parallel that need the same
+    model train it once: the second waits, then loads what the first saved."""
+    directory.mkdir(parents=True, exist_ok=True)
+    with open(directory / ".lock", "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 def load_or_train(kind: str, config: dict[str, Any], build_model: Callable[[], nn.Module],
                   train: Callable[[nn.Module], Any], *, device: str | torch.device = "cpu",
                   retrain: bool = False) -> nn.Module:
@@ -94,6 +109,14 @@ def load_or_train(kind: str, config: dict[str, Any], build_model: Callable[[], n
     """
     device = torch.device(device)
     directory = _artifact_dir(kind, config)
+    with artifact_lock(directory):
+        return _load_or_train_locked(directory, config, build_model, train, device, retrain)
+
+
+def _load_or_train_locked(directory: Path, config: dict[str, Any],
+                          build_model: Callable[[], nn.Module], train: Callable[[nn.Module], Any],
+                          device: torch.device, retrain: bool) -> nn.Module:
+    kind = directory.parent.name
     weights_file = directory / "model.pt"
     if not retrain and weights_file.exists() and _read_config(
             directory / "config.json") == _normalised(config):
