@@ -54,8 +54,11 @@ def _cmd_validate(args: argparse.Namespace) -> int:
         return 2
     if problems:
         print(format_problems(problems))
+    errors = [p for p in problems if getattr(p, "severity", "error") == "error"]
+    if errors:
         return 1
-    print(f"{args.directory}: no problems found")
+    print(f"{args.directory}: no errors found"
+          + (f" ({len(problems)} warning(s))" if problems else ""))
     return 0
 
 
