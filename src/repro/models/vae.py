@@ -1,0 +1,356 @@
+"""An MLD-style motion VAE, tiny for CPU (EnergyMoGen Sec. 3.1, Fig. 2a; appendix A).
+
+Facts followed (REFERENCE.md "EnergyMoGen"; ChenFengYe/motion-latent-diffusion ``mld_vae.py``):
+
+- encoder: frames (B, T, 263) → Linear → width; 2N learned *distribution tokens* are prepended
+  and a transformer encoder runs over [tokens, frames] with the padded frames masked out; the
+  outputs at the first N tokens give μ, at the next N tokens log σ² of N latent vectors;
+- z = μ + σ·ε (reparameterisation), z ∈ R^{N×d} (the paper's N = 5, d = 256);
+- decoder: MLD's default "all-encoder" form — the N latent tokens are concatenated with T frame
+  queries (positional encodings) and one transformer encoder runs over both; the outputs at
+  the frame positions are mapped back to 263 features, padded frames set to 0;
+- loss: smooth-L1 reconstruction + KL(q(z|x) ‖ N(0, I)) with weight 1e-4 (appendix A).
+
+Our choices (the paper leaves them open or MLD's size does not fit 2 CPU cores):
+
+- μ and log σ² are read through two linear heads width → d, so d may differ from the width
+  (MLD uses d = width with no head);
+- embedded frames get a sinusoidal encoding of the frame index (the distribution tokens are
+  told apart by their learned values); the decoder's latent tokens get a learned per-index
+  embedding; frame queries are the same sinusoidal encoding plus one learned query vector; no
+  U-Net skips (MLD's ``SkipTransformerEncoder``); pre-LayerNorm blocks with a final LayerNorm;
+- reconstruction is the smooth-L1 mean over valid frames × features; KL is the mean over the
+  B·N·d latent entries (MLD's ``KLLoss`` mean);
+- inputs are the *normalised* features ((x − Mean)/Std): normalising is the caller's job.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from repro.cache import load_or_train
+from repro.models.unet import sinusoidal_embedding
+
+__all__ = [
+    "MotionVAE",
+    "VAETrainConfig",
+    "VAETrainResult",
+    "array_fingerprint",
+    "kl_to_standard_normal",
+    "lengths_to_mask",
+    "load_or_train_vae",
+    "train_vae",
+]
+
+_FORMAT_VERSION = 1
+
+
+def lengths_to_mask(lengths: Tensor | Sequence[int], frames: int,
+                    device: torch.device | str | None = None) -> Tensor:
+    """(B, frames) bool, True on the first ``lengths[b]`` frames; ValueError unless 1 ≤ ℓ ≤ T."""
+    lengths = torch.as_tensor(lengths, dtype=torch.long, device=device)
+    if lengths.dim() != 1:
+        raise ValueError(f"lengths must be a 1-D sequence, got shape {tuple(lengths.shape)}")
+    if lengths.numel() and (int(lengths.min()) < 1 or int(lengths.max()) > frames):
+        raise ValueError(f"lengths must lie in [1, {frames}] (the padded frame count), got "
+                         f"min {int(lengths.min())}, max {int(lengths.max())}")
+    return torch.arange(frames, device=lengths.device)[None, :] < lengths[:, None]
+
+
+def kl_to_standard_normal(mu: Tensor, logvar: Tensor) -> Tensor:
+    """Elementwise KL(N(μ, σ²) ‖ N(0, 1)) = ½(μ² + σ² − 1 − log σ²) ≥ 0."""
+    return 0.5 * (mu.pow(2) + logvar.exp() - 1.0 - logvar)
+
+
+def _encoder_stack(width: int, heads: int, layers: int, ff_size: int,
+                   dropout: float) -> nn.TransformerEncoder:
+    layer = nn.TransformerEncoderLayer(width, heads, ff_size, dropout, activation="gelu",
+                                       batch_first=True, norm_first=True)
+    return nn.TransformerEncoder(layer, layers, norm=nn.LayerNorm(width),
+                                 enable_nested_tensor=False)
+
+
+class MotionVAE(nn.Module):
+    """E(X) → (μ, log σ²) of N latent vectors of size d; D(z) → X̂ (EnergyMoGen Sec. 3.1).
+
+    Shapes: motion (B, T, feature_dim) normalised, lengths (B,) with 1 ≤ ℓ ≤ T ≤ max_frames,
+    latents (B, N, d) with N = ``latent_count``, d = ``latent_dim``.
+    """
+
+    def __init__(self, feature_dim: int = 263, latent_count: int = 5, latent_dim: int = 32,
+                 width: int = 64, layers: int = 2, heads: int = 4, max_frames: int = 196,
+                 ff_size: int | None = None, dropout: float = 0.1,
+                 kl_weight: float = 1e-4) -> None:
+        super().__init__()
+        for name, value in (("feature_dim", feature_dim), ("latent_count", latent_count),
+                            ("latent_dim", latent_dim), ("width", width), ("layers", layers),
+                            ("heads", heads), ("max_frames", max_frames)):
+            if int(value) != value or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if width % heads:
+            raise ValueError(f"width {width} must be divisible by heads {heads}")
+        if kl_weight < 0:
+            raise ValueError(f"kl_weight must be >= 0, got {kl_weight}")
+        self.feature_dim, self.latent_count, self.latent_dim = feature_dim, latent_count, latent_dim
+        self.width, self.max_frames, self.kl_weight = width, max_frames, kl_weight
+        ff_size = 2 * width if ff_size is None else ff_size
+
+        # encoder: 2N distribution tokens (first N → μ, next N → log σ²) + embedded frames
+        self.skel_embedding = nn.Linear(feature_dim, width)
+        self.distribution_tokens = nn.Parameter(torch.randn(2 * latent_count, width))
+        self.encoder = _encoder_stack(width, heads, layers, ff_size, dropout)
+        self.to_mu = nn.Linear(width, latent_dim)
+        self.to_logvar = nn.Linear(width, latent_dim)
+
+        # decoder ("all-encoder"): [latent tokens, frame queries] → frames
+        self.from_latent = nn.Linear(latent_dim, width)
+        self.latent_index_embedding = nn.Parameter(0.02 * torch.randn(latent_count, width))
+        self.frame_query = nn.Parameter(torch.zeros(width))
+        self.decoder = _encoder_stack(width, heads, layers, ff_size, dropout)
+        self.final_layer = nn.Linear(width, feature_dim)
+        self.register_buffer("frame_encoding",
+                             sinusoidal_embedding(torch.arange(max_frames), width),
+                             persistent=False)
+
+    def _frame_mask(self, frames: int, lengths: Tensor | Sequence[int], batch: int,
+                    device: torch.device) -> Tensor:
+        if frames > self.max_frames:
+            raise ValueError(f"{frames} frames exceed max_frames = {self.max_frames}")
+        mask = lengths_to_mask(lengths, frames, device)
+        if mask.shape[0] != batch:
+            raise ValueError(f"lengths has {mask.shape[0]} entries for a batch of {batch}")
+        return mask
+
+    def encode(self, motion: Tensor, lengths: Tensor | Sequence[int]) -> tuple[Tensor, Tensor]:
+        """(μ, log σ²), each (B, N, d), of q(z | X); padded frames are never attended to."""
+        if motion.dim() != 3 or motion.shape[-1] != self.feature_dim:
+            raise ValueError(f"motion must be (B, T, {self.feature_dim}), got "
+                             f"{tuple(motion.shape)}")
+        b, frames, _ = motion.shape
+        mask = self._frame_mask(frames, lengths, b, motion.device)
+        x = self.skel_embedding(motion) + self.frame_encoding[:frames]
+        tokens = self.distribution_tokens.expand(b, -1, -1)
+        keep = torch.cat([torch.ones(b, tokens.shape[1], dtype=torch.bool, device=x.device),
+                          mask], dim=1)
+        out = self.encoder(torch.cat([tokens, x], dim=1), src_key_padding_mask=~keep)
+        n = self.latent_count
+        return self.to_mu(out[:, :n]), self.to_logvar(out[:, n:2 * n])
+
+    @staticmethod
+    def sample_latent(mu: Tensor, logvar: Tensor,
+                      generator: torch.Generator | None = None) -> Tensor:
+        """z = μ + σ·ε, ε ~ N(0, I) drawn with ``generator`` (reparameterisation)."""
+        if mu.shape != logvar.shape:
+            raise ValueError(f"mu {tuple(mu.shape)} and logvar {tuple(logvar.shape)} differ")
+        eps = torch.randn(mu.shape, generator=generator, dtype=mu.dtype,
+                          device=generator.device if generator is not None else mu.device)
+        return mu + torch.exp(0.5 * logvar.clamp(-30.0, 20.0)) * eps.to(mu.device)
+
+    def decode(self, z: Tensor, lengths: Tensor | Sequence[int],
+               frames: int | None = None) -> Tensor:
+        """X̂ (B, T, feature_dim), T = ``frames`` or max(lengths); padded frames are 0."""
+        if z.dim() != 3 or z.shape[1:] != (self.latent_count, self.latent_dim):
+            raise ValueError(f"z must be (B, {self.latent_count}, {self.latent_dim}), got "
+                             f"{tuple(z.shape)}")
+        b = z.shape[0]
+        lengths = torch.as_tensor(lengths, dtype=torch.long)
+        if frames is None:
+            frames = int(lengths.max()) if lengths.numel() else 1
+        mask = self._frame_mask(frames, lengths, b, z.device)
+        latent = self.from_latent(z) + self.latent_index_embedding
+        queries = (self.frame_query + self.frame_encoding[:frames]).expand(b, -1, -1)
+        keep = torch.cat([torch.ones(b, self.latent_count, dtype=torch.bool, device=z.device),
+                          mask], dim=1)
+        out = self.decoder(torch.cat([latent, queries], dim=1), src_key_padding_mask=~keep)
+        motion = self.final_layer(out[:, self.latent_count:])
+        return motion * mask[..., None]
+
+    def forward(self, motion: Tensor, lengths: Tensor | Sequence[int],
+                generator: torch.Generator | None = None) -> tuple[Tensor, Tensor, Tensor]:
+        """(X̂, μ, log σ²): encode, sample z, decode to the input's frame count."""
+        mu, logvar = self.encode(motion, lengths)
+        z = self.sample_latent(mu, logvar, generator)
+        return self.decode(z, lengths, frames=motion.shape[1]), mu, logvar
+
+    def loss(self, motion: Tensor, lengths: Tensor | Sequence[int], *,
+             kl_weight: float | None = None,
+             generator: torch.Generator | None = None) -> dict[str, Tensor]:
+        """L = smoothL1(X̂, X) over valid frames + w_KL·KL(q(z|X) ‖ N(0, I)) (Sec. 3.1, app. A).
+
+        Returns ``{"loss", "recon", "kl"}`` (scalars); w_KL defaults to ``self.kl_weight``.
+        """
+        weight = self.kl_weight if kl_weight is None else kl_weight
+        if weight < 0:
+            raise ValueError(f"kl_weight must be >= 0, got {weight}")
+        recon, mu, logvar = self(motion, lengths, generator)
+        mask = lengths_to_mask(lengths, motion.shape[1], motion.device)[..., None]
+        error = F.smooth_l1_loss(recon, motion, reduction="none") * mask
+        recon_loss = error.sum() / (mask.sum() * motion.shape[-1])
+        kl = kl_to_standard_normal(mu, logvar).mean()
+        return {"loss": recon_loss + weight * kl, "recon": recon_loss, "kl": kl}
+
+    def config(self) -> dict[str, Any]:
+        """The constructor arguments (for cache keys)."""
+        encoder_layer = self.encoder.layers[0]
+        return {"feature_dim": self.feature_dim, "latent_count": self.latent_count,
+                "latent_dim": self.latent_dim, "width": self.width,
+                "layers": len(self.encoder.layers),
+                "heads": encoder_layer.self_attn.num_heads, "max_frames": self.max_frames,
+                "ff_size": encoder_layer.linear1.out_features,
+                "dropout": encoder_layer.dropout.p, "kl_weight": self.kl_weight}
+
+
+# ----------------------------------------------------------------------------------------------
+# Training
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass
+class VAETrainConfig:
+    """AdamW + gradient clipping, seeded (appendix A: AdamW, lr 1e-4, recon 1, KL 1e-4).
+
+    Our choice: lr 5e-4 by default because our runs are thousands, not 300K, of steps.
+    ``num_threads`` only changes speed and is left out of ``to_config``.
+    """
+
+    steps: int = 2000
+    batch_size: int = 64
+    lr: float = 5e-4
+    weight_decay: float = 0.01
+    grad_clip: float | None = 1.0
+    kl_weight: float = 1e-4
+    seed: int = 0
+    num_threads: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.steps < 1 or self.batch_size < 1:
+            raise ValueError(f"steps and batch_size must be >= 1, got {self.steps}, "
+                             f"{self.batch_size}")
+        if self.lr <= 0 or self.weight_decay < 0 or self.kl_weight < 0:
+            raise ValueError("need lr > 0, weight_decay >= 0 and kl_weight >= 0")
+        if self.grad_clip is not None and self.grad_clip <= 0:
+            raise ValueError(f"grad_clip must be > 0 or None, got {self.grad_clip}")
+
+    def to_config(self) -> dict[str, Any]:
+        config = asdict(self)
+        config.pop("num_threads")
+        return config
+
+
+@dataclass
+class VAETrainResult:
+    """The trained VAE and the per-step losses."""
+
+    model: MotionVAE
+    losses: dict[str, list[float]] = field(default_factory=dict)
+    seconds: float = 0.0
+
+    def metrics(self) -> dict[str, Any]:
+        return {"losses": self.losses, "seconds": self.seconds,
+                "final": {k: v[-1] for k, v in self.losses.items() if v}}
+
+    def for_cache(self) -> tuple[MotionVAE, dict[str, Any]]:
+        """``(module, metrics)`` as ``load_or_train``'s ``train`` callable returns."""
+        return self.model, self.metrics()
+
+
+def _as_float_tensor(array: Tensor | np.ndarray, name: str) -> Tensor:
+    tensor = torch.as_tensor(array, dtype=torch.float32)
+    if not torch.isfinite(tensor).all():
+        raise ValueError(f"{name} contains NaN or inf")
+    return tensor
+
+
+def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
+              lengths: Tensor | np.ndarray | Sequence[int],
+              config: VAETrainConfig | None = None) -> VAETrainResult:
+    """Minimise ``vae.loss`` on normalised motions (M, T, F) with lengths (M,).
+
+    Batches are drawn without replacement (a permutation per epoch) from
+    ``torch.Generator(seed)``; the same generator draws the reparameterisation noise. The
+    model is initialised by the caller; seed it before building for a reproducible run.
+    """
+    config = config or VAETrainConfig()
+    motions = _as_float_tensor(motions, "motions")
+    lengths = torch.as_tensor(np.asarray(lengths), dtype=torch.long)
+    if motions.dim() != 3 or motions.shape[0] < 1 or lengths.shape != (motions.shape[0],):
+        raise ValueError(f"need motions (M, T, F) and lengths (M,), got {tuple(motions.shape)} "
+                         f"and {tuple(lengths.shape)}")
+    lengths_to_mask(lengths, motions.shape[1])       # validates 1 ≤ ℓ ≤ T
+    device = next(vae.parameters()).device
+    generator = torch.Generator().manual_seed(config.seed)
+    optimizer = torch.optim.AdamW(vae.parameters(), lr=config.lr,
+                                  weight_decay=config.weight_decay)
+    previous_threads = torch.get_num_threads()
+    if config.num_threads is not None:
+        torch.set_num_threads(config.num_threads)
+    losses: dict[str, list[float]] = {"loss": [], "recon": [], "kl": []}
+    order = torch.empty(0, dtype=torch.long)
+    start = time.perf_counter()
+    vae.train()
+    try:
+        for step in range(config.steps):
+            while order.numel() < config.batch_size:
+                order = torch.cat([order, torch.randperm(motions.shape[0], generator=generator)])
+            index, order = order[:config.batch_size], order[config.batch_size:]
+            batch_lengths = lengths[index]
+            frames = int(batch_lengths.max())       # crop the batch to its longest clip
+            out = vae.loss(motions[index, :frames].to(device), batch_lengths.to(device),
+                           kl_weight=config.kl_weight, generator=generator)
+            if not torch.isfinite(out["loss"]):
+                raise FloatingPointError(f"VAE loss became {out['loss'].item()} at step {step}")
+            optimizer.zero_grad(set_to_none=True)
+            out["loss"].backward()
+            if config.grad_clip is not None:
+                nn.utils.clip_grad_norm_(vae.parameters(), config.grad_clip)
+            optimizer.step()
+            for key in losses:
+                losses[key].append(out[key].item())
+    finally:
+        if config.num_threads is not None:
+            torch.set_num_threads(previous_threads)
+    vae.eval()
+    return VAETrainResult(model=vae, losses=losses, seconds=time.perf_counter() - start)
+
+
+def array_fingerprint(*arrays: Tensor | np.ndarray) -> str:
+    """sha256 over the arrays' shapes, dtypes and bytes (part of a cache key)."""
+    digest = hashlib.sha256()
+    for array in arrays:
+        value = np.ascontiguousarray(array.detach().cpu().numpy() if isinstance(array, Tensor)
+                                     else np.asarray(array))
+        digest.update(f"{value.shape}{value.dtype}".encode())
+        digest.update(value.tobytes())
+    return digest.hexdigest()
+
+
+def load_or_train_vae(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray | Sequence[int],
+                      *, model_kwargs: dict[str, Any] | None = None,
+                      config: VAETrainConfig | None = None, retrain: bool = False,
+                      device: str | torch.device = "cpu") -> MotionVAE:
+    """The VAE for these kwargs, training config and data from ``repro.cache`` (kind
+    ``motion_vae``), trained with ``train_vae`` (model seeded with ``config.seed``) if absent.
+    """
+    model_kwargs = dict(model_kwargs or {})
+    config = config or VAETrainConfig()
+    cache_config = {"model": model_kwargs, "train": config.to_config(),
+                    "data": array_fingerprint(np.asarray(motions, dtype=np.float32),
+                                              np.asarray(lengths, dtype=np.int64)),
+                    "format": _FORMAT_VERSION}
+
+    def build() -> MotionVAE:
+        torch.manual_seed(config.seed)
+        return MotionVAE(**model_kwargs)
+
+    return load_or_train("motion_vae", cache_config, build,
+                         lambda vae: train_vae(vae, motions, lengths, config).for_cache(),
+                         device=device, retrain=retrain)
