@@ -30,7 +30,7 @@ unit: $(STAMP)  ## unit tests only (no notebooks)
 	$(PY) -m pytest -q -m "not notebook"
 
 test: $(STAMP)  ## lint + unit tests + every notebook executed with quick parameters
-	$(PY) -m ruff check src tests
+	$(PY) -m ruff check src tests notebooks
 	$(PY) -m pytest -q
 
 reproduce: $(STAMP)  ## execute every notebook with full parameters; write build/report and refresh results/
