@@ -37,3 +37,22 @@ def test_validate_dataset_names_missing_parts(tmp_path: Path,
     assert main(["validate-dataset", str(tmp_path)]) == 1
     out = capsys.readouterr().out
     assert "texts" in out and "Mean.npy" in out and "train.txt" in out
+
+
+def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    from repro.ledger import record_claim
+
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path))
+    monkeypatch.setenv("REPRO_BUILD_DIR", str(tmp_path))
+    assert main(["report"]) == 2  # nothing recorded yet
+    record_claim("GMD-A1", {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5},
+                 seeds=[0], quick=False)
+    assert main(["report", "--note", "assembled by hand"]) == 0
+    text = (tmp_path / "report" / "REPORT.md").read_text()
+    assert "**discrepancy in the paper**" in text and "assembled by hand" in text
+    monkeypatch.setenv("REPRO_BUILD_DIR", str(tmp_path / "quick"))
+    record_claim("GMD-A1", {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5},
+                 seeds=[0], quick=True)
+    assert main(["report", "--quick", "--snapshot"]) == 2  # a quick run is never a result
+    assert (tmp_path / "quick" / "report" / "REPORT.md").is_file()

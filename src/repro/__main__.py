@@ -44,6 +44,25 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         return 2
 
 
+def _cmd_report(args: argparse.Namespace) -> int:
+    from . import paths
+    from .report import write_report, write_snapshot
+
+    build = paths.run_build_dir(args.quick)
+    if not (build / "claims").is_dir():
+        print(f"error: no claim sidecars in {build / 'claims'}; run notebooks first",
+              file=sys.stderr)
+        return 2
+    report = write_report(build, quick=args.quick, provenance=args.note or "")
+    print(f"report: {report}")
+    if args.snapshot:
+        if args.quick:
+            print("error: a quick run is a test, not a result: no snapshot", file=sys.stderr)
+            return 2
+        print(f"results snapshot: {write_snapshot(build)}")
+    return 0
+
+
 def _cmd_validate(args: argparse.Namespace) -> int:
     from .data import format_problems, validate_dataset
 
@@ -92,6 +111,13 @@ def main(argv: list[str] | None = None) -> int:
     rep.add_argument("--snapshot", action="store_true",
                      help="after a successful full run of every notebook, refresh results/")
     rep.set_defaults(func=_cmd_reproduce)
+
+    rpt = sub.add_parser("report", help="rewrite the report from the recorded claim sidecars "
+                         "(e.g. after running notebooks one at a time with --only)")
+    rpt.add_argument("--quick", action="store_true", help="the quick build's sidecars")
+    rpt.add_argument("--snapshot", action="store_true", help="also refresh results/")
+    rpt.add_argument("--note", help="a provenance note printed at the top of the report")
+    rpt.set_defaults(func=_cmd_report)
 
     val = sub.add_parser("validate-dataset", help="check a HumanML3D-layout folder")
     val.add_argument("directory")

@@ -57,14 +57,17 @@ def _rows(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, str]]:
 
 
 def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
-              runs: Sequence[Any], figure_names: dict[str, list[str]]) -> str:
+              runs: Sequence[Any], figure_names: dict[str, list[str]],
+              provenance: str = "") -> str:
     when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = ["# Reproduction report", "",
              f"Generated {when} from "
              f"{'a QUICK (test) run: no verdict here is a result' if quick else 'a full run'}.",
              "Stand-in data and tiny models: the direction and shape of each effect is tested, "
-             "never the paper's absolute numbers.", "",
-             "| claim | statement | paper | ours | verdict | notebook |",
+             "never the paper's absolute numbers.", ""]
+    if provenance:
+        lines += [f"**Provenance.** {provenance}", ""]
+    lines += ["| claim | statement | paper | ours | verdict | notebook |",
              "|---|---|---|---|---|---|"]
     for r in rows:
         cells = [r["id"], r["statement"], r["paper"], r["ours"], f"**{r['verdict']}**",
@@ -110,7 +113,7 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
 
 
 def write_report(build_dir: str | os.PathLike, *, quick: bool,
-                 runs: Sequence[Any] = ()) -> Path:
+                 runs: Sequence[Any] = (), provenance: str = "") -> Path:
     """Write ``<build>/report/{REPORT.md, index.html, claims.json, figures/}``; returns the md."""
     build_dir = Path(build_dir)
     sidecars = load_sidecars(build_dir / "claims")
@@ -129,7 +132,7 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
                                             "claims": rows, "sidecars": sidecars})
     write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names))
     return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, quick, runs,
-                                                          figure_names))
+                                                          figure_names, provenance))
 
 
 def write_snapshot(build_dir: str | os.PathLike) -> Path:
