@@ -27,18 +27,11 @@ _KIND_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
 def _canonical_default(value: Any) -> Any:
-    import numpy as np
-
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    if isinstance(value, set | frozenset):
-        return sorted(value)
-    raise ValueError(f"config value of type {type(value).__name__} cannot be hashed; use "
-                     "JSON types (dict, list, str, int, float, bool, None)")
+    try:
+        return storage.json_default(value)
+    except TypeError:
+        raise ValueError(f"config value of type {type(value).__name__} cannot be hashed; use "
+                         "JSON types (dict, list, str, int, float, bool, None)") from None
 
 
 def canonical_json(config: dict[str, Any]) -> str:

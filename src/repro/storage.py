@@ -37,14 +37,17 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kwargs: Any) -> Iter
         raise
 
 
-def _json_default(value: Any) -> Any:
+def json_default(value: Any) -> Any:
+    """JSON for numpy scalars and arrays, paths, sets (sorted) and tuples."""
+    if isinstance(value, set | frozenset):
+        return sorted(value)
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, Path):
         return str(value)
-    if isinstance(value, set | frozenset | tuple):
+    if isinstance(value, tuple):
         return list(value)
     raise TypeError(f"cannot write {type(value).__name__} to JSON")
 
@@ -52,7 +55,7 @@ def _json_default(value: Any) -> Any:
 def write_json(path: str | os.PathLike, data: Any) -> Path:
     """Write ``data`` as indented JSON, atomically (numpy scalars and arrays become lists)."""
     with atomic_open(path, "w", encoding="utf-8") as handle:
-        json.dump(data, handle, indent=2, default=_json_default, allow_nan=True)
+        json.dump(data, handle, indent=2, default=json_default, allow_nan=True)
         handle.write("\n")
     return Path(path)
 
