@@ -626,7 +626,9 @@ def load_or_train_many(specs: Sequence[GMDModelSpec], data: MotionWindows, *,
     are trained in ``workers`` processes with one torch thread each (default: as many as
     this process's torch threads; small models use two cores better as two processes than as
     two threads of one). Every model is then loaded from the cache, in ``specs`` order.
-    ``data`` must be ``load_windows(spec.data)`` for every spec (checked by fingerprint)."""
+    ``data`` must be ``load_windows(spec.data)`` for every spec (checked by fingerprint).
+    Workers are spawned: a script calling this needs the ``if __name__ == "__main__":`` guard
+    (a notebook does not)."""
     if any(spec.data != data.config for spec in specs):
         raise ValueError("load_or_train_many needs specs that all train on data.config")
     workers = torch.get_num_threads() if workers is None else int(workers)
