@@ -186,6 +186,16 @@ def _randn(shape: Sequence[int], generator: torch.Generator, device: torch.devic
                        dtype=dtype).to(device)
 
 
+def _initial_noise(shape: tuple[int, ...], noise: Tensor | None, generator: torch.Generator,
+                   device: torch.device) -> Tensor:
+    """x_T: the given noise (checked against ``shape``) or a fresh draw from ``generator``."""
+    if noise is None:
+        return _randn(shape, generator, device)
+    if tuple(noise.shape) != shape:
+        raise ValueError(f"noise shape {tuple(noise.shape)} != shape {shape}")
+    return noise.to(device)
+
+
 def _make_generator(generator: torch.Generator | None, seed: int | None) -> torch.Generator:
     if generator is not None and seed is not None:
         raise ValueError("pass either generator or seed, not both")
@@ -403,12 +413,7 @@ class GaussianDiffusion:
         if not 0 <= stop_guidance_at <= self.num_timesteps:
             raise ValueError(f"stop_guidance_at must be in [0, {self.num_timesteps}], got "
                              f"{stop_guidance_at}")
-        if noise is not None:
-            if tuple(noise.shape) != shape:
-                raise ValueError(f"noise shape {tuple(noise.shape)} != shape {shape}")
-            x = noise.to(device)
-        else:
-            x = _randn(shape, generator, device)
+        x = _initial_noise(shape, noise, generator, device)
         impute_mode = None
         if imputation is not None:
             impute_mode, mask, target = self._check_imputation(imputation, x)
@@ -542,12 +547,7 @@ class GaussianDiffusion:
         device = torch.device(device) if device is not None else (
             noise.device if noise is not None else generator.device)
         shape = tuple(int(s) for s in shape)
-        if noise is not None:
-            if tuple(noise.shape) != shape:
-                raise ValueError(f"noise shape {tuple(noise.shape)} != shape {shape}")
-            x = noise.to(device)
-        else:
-            x = _randn(shape, generator, device)
+        x = _initial_noise(shape, noise, generator, device)
         timesteps = self.ddim_timesteps(steps)[::-1]
 
         def eps_of(x_t: Tensor, t: Tensor) -> Tensor:
