@@ -1,10 +1,12 @@
-"""Command line: ``python -m repro {list, reproduce, validate-dataset, bench, generate-stubs}``."""
+"""Command line: ``python -m repro {list, reproduce, report, stability, validate-dataset, bench,
+generate-stubs}``."""
 
 from __future__ import annotations
 
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import Any
 
 
@@ -63,6 +65,25 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_stability(args: argparse.Namespace) -> int:
+    from . import paths
+    from .stability import write_stability
+
+    labels = args.label or [Path(d).name for d in args.build_dirs]
+    if len(labels) != len(args.build_dirs) or len(set(labels)) != len(labels):
+        print(f"error: need one distinct --label per build folder, got {labels}", file=sys.stderr)
+        return 2
+    output = (paths.results_dir() / "STABILITY.md" if args.snapshot
+              else Path(args.build_dirs[0]) / "report" / "STABILITY.md")
+    try:
+        written = write_stability(dict(zip(labels, args.build_dirs, strict=True)), output)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    print(f"seed stability: {written}")
+    return 0
+
+
 def _cmd_validate(args: argparse.Namespace) -> int:
     from .data import format_problems, validate_dataset
 
@@ -118,6 +139,15 @@ def main(argv: list[str] | None = None) -> int:
     rpt.add_argument("--snapshot", action="store_true", help="also refresh results/")
     rpt.add_argument("--note", help="a provenance note printed at the top of the report")
     rpt.set_defaults(func=_cmd_report)
+
+    stab = sub.add_parser("stability", help="compare the verdicts of full runs made from "
+                          "different base seeds (reproduce --seed N into another build root)")
+    stab.add_argument("build_dirs", nargs="+", metavar="BUILD_DIR",
+                      help="build folders holding claims/ from full runs")
+    stab.add_argument("--label", action="append", help="a name per build folder, in order")
+    stab.add_argument("--snapshot", action="store_true",
+                      help="write results/STABILITY.md instead of <first build>/report/")
+    stab.set_defaults(func=_cmd_stability)
 
     val = sub.add_parser("validate-dataset", help="check a HumanML3D-layout folder")
     val.add_argument("directory")
