@@ -70,3 +70,15 @@ def test_failure_names_notebook_and_cell_and_keeps_last_report(
     assert report.read_text() == text  # the failed run did not overwrite the good report
     assert (sandbox / "build" / "quick" / "notebooks" / "01_good.ipynb").is_file()
     assert not (sandbox / "build" / "report").exists()  # quick never writes the full report
+
+
+def test_slowest_known_notebooks_are_started_first(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    from repro.storage import write_json
+
+    assert runner.longest_first(["00_a", "01_b", "02_c"], {"00_a": 5.0, "01_b": 50.0}) == [
+        "02_c", "01_b", "00_a"]
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path))
+    assert runner.previous_seconds(quick=True) == {}
+    write_json(tmp_path / "quick" / "report" / "claims.json", {"run_seconds": {"01_b": 7.5}})
+    assert runner.previous_seconds(quick=True) == {"01_b": 7.5}

@@ -129,7 +129,9 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
                 figure_names.setdefault(claim_id, []).append(source.name)
     rows = _rows(sidecars)
     write_json(report_dir / "claims.json", {"mode": "quick" if quick else "full",
-                                            "claims": rows, "sidecars": sidecars})
+                                            "claims": rows, "sidecars": sidecars,
+                                            "run_seconds": {r.name: round(r.seconds, 1)
+                                                            for r in runs}})
     write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names))
     return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, quick, runs,
                                                           figure_names, provenance))

@@ -23,6 +23,7 @@ from typing import Any
 
 from . import paths
 from .claims import CLAIMS
+from .storage import read_json
 
 STANDARD_PARAMETERS = ("quick", "seed", "device", "build_dir")
 
@@ -125,6 +126,28 @@ def _execute(name: str, parameters: dict[str, Any], output: str, timeout: int,
     return NotebookResult(name, True, time.perf_counter() - start, output)
 
 
+def previous_seconds(quick: bool) -> dict[str, float]:
+    """Each notebook's wall time in the last reports of this kind of run: the committed
+    ``results/`` snapshot's (full runs only), overridden by the build's own; {} if none."""
+    candidates = [paths.run_build_dir(quick) / "report" / "claims.json"]
+    if not quick:
+        candidates.insert(0, paths.results_dir() / "claims.json")
+    seconds: dict[str, float] = {}
+    for candidate in candidates:
+        try:
+            recorded = read_json(candidate).get("run_seconds", {})
+        except (OSError, ValueError, AttributeError):
+            continue
+        seconds.update({str(k): float(v) for k, v in recorded.items()})
+    return seconds
+
+
+def longest_first(targets: Sequence[str], seconds: dict[str, float]) -> list[str]:
+    """``targets`` with the slowest known notebooks first (unknown ones before them), so that
+    parallel workers do not end on one long notebook started last."""
+    return sorted(targets, key=lambda name: -seconds.get(name, float("inf")))
+
+
 def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device: str = "cpu",
                   jobs: int = 1, extra_parameters: dict[str, Any] | None = None,
                   timeout: int | None = None, log=print) -> list[NotebookResult]:
@@ -149,7 +172,8 @@ def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device:
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
         futures = {pool.submit(_execute, name, parameters, str(out_dir / f"{name}.ipynb"),
-                               timeout, threads, str(build_dir)): name for name in targets}
+                               timeout, threads, str(build_dir)): name
+                   for name in longest_first(targets, previous_seconds(quick))}
         for done, future in enumerate(as_completed(futures), start=1):
             result = future.result()
             results.append(result)
