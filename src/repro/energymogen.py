@@ -13,7 +13,11 @@ What it builds (every trained part cached by its full configuration, ``repro.cac
   in for CLIP (``repro.text.TextEncoder``, pretrained contrastively against the VAE latents
   and never the evaluator's); the latent ε-denoiser with energy-based cross-attention
   (``repro.models.latent_denoiser``, text dropped 10 % of training, appendix A); the tiny
-  contrastive evaluator (``repro.evaluator``).
+  contrastive evaluator (``repro.evaluator``). Built by stage (:func:`train_vae_stage`,
+  :func:`train_text_stage`, :func:`train_denoiser_stage`); a *training seed* seeds the VAE
+  and the denoiser (:func:`load_pipeline`'s ``train_seed``, :func:`retrain_pipeline`), while
+  the data, the frozen text encoder and the evaluator stay those of ``data_seed``;
+  :class:`SeedPipelines` gives one trained model per evaluation seed.
 - **sampling** — DDIM on latents with ε from ``repro.compose``: single text (optionally with
   AGD, Eq. 3–4), latent-aware conjunction/negation (Eq. 7/8), semantic-aware composition
   (Eq. 9), SEF (Eq. 10); decoding to features and joints.
@@ -58,15 +62,20 @@ from .training import TrainConfig
 __all__ = [
     "ARM_CONCEPTS", "FRAMES", "HELD_OUT_PAIRS", "LOWER_CONCEPTS", "NEGATION_CASES", "PAPER_TABLE3",
     "PAPER_TABLE7", "PAPER_TABLE9", "TABLE7_LAMBDAS", "TABLE9_GAMMAS", "CompositionItems",
-    "EnergyMoGenPipeline", "NegationItems", "PipelineConfig", "Sampler", "StandInData",
+    "DenoiserRows", "EnergyMoGenPipeline", "NegationItems", "PipelineConfig", "PipelineSource",
+    "Sampler", "SeedPipelines", "StandInData", "TextStage", "VAEStage",
     "agd_relative_change", "composition_items", "composition_metrics", "composition_study",
-    "concept_text", "denoiser_jacobian_asymmetry", "denoiser_kwargs", "energy_landscape",
+    "concept_text", "denoiser_cache_key", "denoiser_jacobian_asymmetry", "denoiser_kwargs",
+    "denoiser_rows", "denoiser_train_config", "encode_latents", "energy_landscape",
     "energy_linearity_error",
     "energy_map_case", "fid_formula_errors", "float64_copy", "gamma_key", "interval_text",
-    "jacobian_asymmetry", "lambda_key", "langevin_step_errors", "latent_plane",
-    "load_or_build_data", "load_pipeline", "map_similarity", "markdown_table", "negation_items",
-    "oracle_presence", "pipeline_config", "run_rows", "scaled_linear_betas", "smooth_energy_map",
-    "transition_distance_cm",
+    "jacobian_asymmetry", "lambda_key", "langevin_step_errors", "latent_diffusion",
+    "latent_plane", "load_or_build_data", "load_pipeline", "map_similarity", "markdown_table",
+    "negation_items", "oracle_presence", "pipeline_config", "pipeline_for", "retrain_pipeline",
+    "run_rows", "scaled_linear_betas", "smooth_energy_map", "stand_in_clip",
+    "text_encoder_cache_key", "train_denoiser_stage", "train_seed_for", "train_text_stage",
+    "train_vae_stage", "trained_pairs", "transition_distance_cm", "vae_kwargs",
+    "vae_train_config",
 ]
 
 #: clip length in feature frames (3.2 s at 20 fps): every pool concept fits (min ≤ 3.2 s).
@@ -254,9 +263,11 @@ def concept_text(name: str, rng: np.random.Generator) -> str:
     return f"{subject} {phrases[int(rng.integers(len(phrases)))][0]}."
 
 
-def _clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generator
-          ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """(features (frames, 263), canonical joints (frames, 22, 3), 3 captions)."""
+def stand_in_clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generator
+                  ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """One generated clip of ``concepts`` (one: single; two: simultaneous) as the pipeline's
+    data are drawn (random heading and start, :data:`RHYTHM_OVERRIDES`, generator seed from
+    ``rng``): (features (frames, 263), canonical joints (frames, 22, 3), 3 captions)."""
     params: dict[str, Any] = {"initial_heading": float(rng.uniform(-np.pi, np.pi)),
                               "start_xz": [float(v) for v in rng.uniform(-1.0, 1.0, 2)]}
     for name in concepts:
@@ -314,7 +325,7 @@ def build_stand_in_data(config: PipelineConfig) -> StandInData:
                 names: tuple[str, ...] = (pool[int(rng.integers(len(pool)))],)
             else:
                 names = pairs[int(rng.integers(len(pairs)))]
-            f, _, c = _clip(names, config.frames, rng)
+            f, _, c = stand_in_clip(names, config.frames, rng)
             feats.append(f)
             captions.append(tuple(c))
             concepts.append(names)
@@ -322,7 +333,7 @@ def build_stand_in_data(config: PipelineConfig) -> StandInData:
         for p, pair in enumerate(HELD_OUT_PAIRS):
             for k in range(config.test_clips_per_pair):
                 rng = np.random.default_rng([config.data_seed, 10 ** 6 + p, k])
-                f, j, c = _clip(pair, config.frames, rng)
+                f, j, c = stand_in_clip(pair, config.frames, rng)
                 test_f.append(f)
                 test_j.append(j)
                 test_c.append(tuple(c))
@@ -422,7 +433,7 @@ class NegationItems:
 
 def _pair_caption(pair: tuple[str, str], rng: np.random.Generator) -> str:
     """A simultaneous caption of ``pair`` with the generator's own templates (one clip's)."""
-    return _clip(pair, FRAMES, rng)[2][0]
+    return stand_in_clip(pair, FRAMES, rng)[2][0]
 
 
 def negation_items(seed: int, per_case: int) -> NegationItems:
@@ -457,10 +468,11 @@ class _LatentTextModel(nn.Module):
 
 
 def _train_text_encoder(model: _LatentTextModel, vocab: Vocabulary, captions: list[list[str]],
-                        latents: Tensor, config: PipelineConfig) -> tuple[nn.Module, dict]:
+                        latents: Tensor, config: PipelineConfig,
+                        seed: int) -> tuple[nn.Module, dict]:
     """Symmetric InfoNCE between sentence vectors and linear maps of the latents (CLIP-style);
-    identical captions are not negatives. AdamW, fixed seed."""
-    rng = np.random.default_rng(config.data_seed + 17)
+    identical captions are not negatives. AdamW, batches drawn with ``seed + 17``."""
+    rng = np.random.default_rng(seed + 17)
     optimiser = torch.optim.AdamW(model.parameters(), lr=config.text_lr, weight_decay=0.01)
     flat = latents.reshape(latents.shape[0], -1)
     batch, losses = min(128, flat.shape[0]), []
@@ -528,6 +540,12 @@ class EnergyMoGenPipeline:
     reference_embeddings: np.ndarray
     device: torch.device
     timings: dict[str, float] = field(default_factory=dict)
+    #: the seed the VAE and denoiser were trained with (:func:`load_pipeline`); None: data_seed
+    train_seed: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.train_seed is None:
+            self.train_seed = self.config.data_seed
 
     @property
     def latent_shape(self) -> tuple[int, int]:
@@ -616,13 +634,15 @@ class EnergyMoGenPipeline:
 # ----------------------------------------------------------------------------------------------
 
 
-def _vae_kwargs(config: PipelineConfig) -> dict[str, Any]:
+def vae_kwargs(config: PipelineConfig) -> dict[str, Any]:
+    """``MotionVAE`` constructor arguments for ``config`` (part of the VAE's cache key)."""
     return {"latent_count": config.latent_count, "latent_dim": config.latent_dim,
             "width": config.vae_width, "layers": config.vae_layers, "heads": 4,
             "max_frames": config.frames, "dropout": 0.0}
 
 
 def denoiser_kwargs(config: PipelineConfig) -> dict[str, Any]:
+    """``LatentDenoiser`` constructor arguments for ``config`` (part of its cache key)."""
     return {"latent_dim": config.latent_dim, "latent_count": config.latent_count,
             "text_dim": config.text_dim, "width": config.denoiser_width,
             "layers": config.denoiser_layers, "heads": 4}
@@ -634,14 +654,187 @@ def _evaluator_config(config: PipelineConfig) -> EvaluatorConfig:
                            data_id=f"energymogen-stand-in-{cache.config_hash(config.data_dict())}")
 
 
+def latent_diffusion(config: PipelineConfig) -> GaussianDiffusion:
+    """The latent diffusion: MLD's scaled-linear β (:func:`scaled_linear_betas`), T =
+    ``num_timesteps``, ε-prediction (Sec. 3.1)."""
+    return GaussianDiffusion(scaled_linear_betas(config.num_timesteps), prediction="epsilon")
+
+
+@torch.no_grad()
+def encode_latents(vae: MotionVAE, data: StandInData, features: np.ndarray,
+                   device: str | torch.device, chunk: int = 256) -> Tensor:
+    """Unscaled VAE means μ (M, N, d) of unnormalised features (M, T, 263), in chunks of
+    ``chunk`` clips (on ``device``)."""
+    x = torch.from_numpy(data.normalise(np.asarray(features))).to(device)
+    return torch.cat([vae.encode(x[i:i + chunk], [x.shape[1]] * len(x[i:i + chunk]))[0]
+                      for i in range(0, len(x), chunk)])
+
+
+@dataclass(frozen=True)
+class VAEStage:
+    """A trained motion VAE and what the later stages need from it.
+
+    ``latents`` (M, N, d, CPU) are the scaled means of the training clips, ``latent_scale``
+    = 1/std of the unscaled means (our choice, as Stable Diffusion's scale factor: the
+    diffusion sees unit-variance latents), ``seconds`` the wall time of the stage.
+    """
+
+    vae: MotionVAE
+    latent_scale: float
+    latents: Tensor
+    seconds: float
+
+
+def vae_train_config(config: PipelineConfig, train_seed: int,
+                     threads: int | None = None) -> VAETrainConfig:
+    """The VAE's training configuration: ``config``'s steps, batch and lr, seeded with
+    ``train_seed`` (initialisation, batches, reparameterisation noise). ``threads`` only
+    changes speed (not in the cache key)."""
+    return VAETrainConfig(steps=config.vae_steps, batch_size=config.vae_batch, lr=config.vae_lr,
+                          seed=int(train_seed), num_threads=threads)
+
+
+def train_vae_stage(data: StandInData, config: PipelineConfig, train_seed: int,
+                    device: str | torch.device = "cpu", *,
+                    threads: int | None = None) -> VAEStage:
+    """The motion VAE of ``config`` trained with ``train_seed`` on the normalised training
+    features (``load_or_train_vae``: cache kind ``motion_vae``, keyed by :func:`vae_kwargs`,
+    :func:`vae_train_config` and the data), and the scaled training latents."""
+    start = time.perf_counter()
+    lengths = np.full(len(data.train_features), data.frames)
+    vae = load_or_train_vae(
+        data.normalise(data.train_features), lengths, model_kwargs=vae_kwargs(config),
+        config=vae_train_config(config, train_seed, threads), device=device).eval()
+    mu = encode_latents(vae, data, data.train_features, device)
+    scale = float(1.0 / mu.std())
+    return VAEStage(vae, scale, (mu * scale).cpu(), time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class TextStage:
+    """The frozen text encoder (stand-in for CLIP) and its vocabulary."""
+
+    text_encoder: TextEncoder
+    vocab: Vocabulary
+    seconds: float
+
+
+def text_encoder_cache_key(vocab: Vocabulary, latents: Tensor, config: PipelineConfig,
+                           train_seed: int) -> dict[str, Any]:
+    """The cache key (kind ``emg_text_encoder``) of :func:`train_text_stage`."""
+    return {"vocab": list(vocab.tokens), "latents": array_fingerprint(latents),
+            "dim": config.text_dim, "steps": config.text_steps, "lr": config.text_lr,
+            "max_len": config.max_text_len, "seed": int(train_seed), "format": 1}
+
+
+def train_text_stage(data: StandInData, config: PipelineConfig, latents: Tensor,
+                     train_seed: int) -> TextStage:
+    """The frozen text encoder, trained contrastively (symmetric InfoNCE, CLIP-style) against
+    linear maps of the scaled training ``latents`` of a VAE, seeded with ``train_seed``
+    (cache kind ``emg_text_encoder``, :func:`text_encoder_cache_key`).
+
+    It stands in for the paper's frozen *pretrained* CLIP, so :func:`load_pipeline` always
+    trains it with ``config.data_seed`` against the ``data_seed`` VAE's latents, whatever the
+    training seed of the VAE and denoiser: the text encoder is the same for every training
+    seed, as CLIP is the same for every EnergyMoGen run (our choice)."""
+    start = time.perf_counter()
+    vocab = Vocabulary.build([c for caps in data.train_captions for c in caps])
+    captions = [list(c) for c in data.train_captions]
+
+    def build_text() -> nn.Module:
+        torch.manual_seed(int(train_seed))
+        return _LatentTextModel(len(vocab), config.text_dim, latents[0].numel())
+
+    text_model = cache.load_or_train(
+        "emg_text_encoder", text_encoder_cache_key(vocab, latents, config, train_seed),
+        build_text, lambda m: _train_text_encoder(m, vocab, captions, latents, config,
+                                                   int(train_seed)))
+    return TextStage(text_model.text.eval().requires_grad_(False), vocab,
+                     time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class DenoiserRows:
+    """Denoiser training rows: every caption of every training clip, with the clip's scaled
+    latent (M, N, d) and the frozen encoder's tokens (M, L, D) and mask (M, L), all CPU."""
+
+    latents: Tensor
+    tokens: Tensor
+    mask: Tensor
+
+
+def denoiser_rows(data: StandInData, latents: Tensor, text_encoder: TextEncoder,
+                  vocab: Vocabulary, config: PipelineConfig) -> DenoiserRows:
+    """One row per caption of each training clip: its scaled latent (``latents`` (M_clips,
+    N, d)) and the caption's frozen token features, cut to the longest caption."""
+    rows = [(i, c) for i, caps in enumerate(data.train_captions) for c in caps]
+    ids, text_lengths = vocab.encode_batch([c for _, c in rows], config.max_text_len)
+    with torch.no_grad():
+        tokens, mask = text_encoder.tokens(torch.from_numpy(ids), text_lengths)
+    width = int(mask.sum(1).max())
+    return DenoiserRows(latents[[i for i, _ in rows]], tokens[:, :width].cpu().contiguous(),
+                        mask[:, :width].cpu().contiguous())
+
+
+def denoiser_train_config(config: PipelineConfig, train_seed: int,
+                          threads: int | None = None) -> TrainConfig:
+    """The denoiser's training configuration (appendix A: AdamW, EMA 0.999, text dropped 10 %
+    of the time), seeded with ``train_seed`` (initialisation, batches, timesteps, noise,
+    dropout). ``threads`` only changes speed (not in the cache key)."""
+    return TrainConfig(steps=config.denoiser_steps, batch_size=config.denoiser_batch,
+                       lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
+                       seed=int(train_seed), num_threads=threads)
+
+
+def denoiser_cache_key(config: PipelineConfig, train_config: TrainConfig,
+                       rows: DenoiserRows) -> dict[str, Any]:
+    """The cache key (kind ``emg_latent_denoiser``) of :func:`train_denoiser_stage`."""
+    return {"model": denoiser_kwargs(config), "train": train_config.to_config(),
+            "schedule": "scaled_linear(0.00085, 0.012)", "T": config.num_timesteps,
+            "data": array_fingerprint(rows.latents, rows.tokens, rows.mask), "format": 1}
+
+
+def train_denoiser_stage(data: StandInData, config: PipelineConfig, latents: Tensor,
+                         text: TextStage, train_seed: int, device: str | torch.device = "cpu",
+                         *, threads: int | None = None) -> tuple[LatentDenoiser, float]:
+    """The latent ε-denoiser trained with ``train_seed`` on :func:`denoiser_rows` of the
+    scaled ``latents`` of a VAE (:attr:`VAEStage.latents`) and the frozen ``text`` encoder,
+    :func:`latent_diffusion` (cache kind ``emg_latent_denoiser``, :func:`denoiser_cache_key`).
+    Returns (denoiser in eval mode, seconds)."""
+    start = time.perf_counter()
+    rows = denoiser_rows(data, latents, text.text_encoder, text.vocab, config)
+    train_config = denoiser_train_config(config, train_seed, threads)
+    diffusion = latent_diffusion(config)
+
+    def build_denoiser() -> nn.Module:
+        torch.manual_seed(int(train_seed))
+        return LatentDenoiser(**denoiser_kwargs(config))
+
+    def train_denoiser(model: nn.Module) -> tuple[nn.Module, dict]:
+        return train_latent_denoiser(model, diffusion, rows.latents, rows.tokens, rows.mask,
+                                     train_config).for_cache()
+
+    denoiser = cache.load_or_train("emg_latent_denoiser",
+                                   denoiser_cache_key(config, train_config, rows),
+                                   build_denoiser, train_denoiser, device=device).eval()
+    return denoiser, time.perf_counter() - start
+
+
 def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
-                  log: Callable[[str], None] | None = print) -> EnergyMoGenPipeline:
+                  log: Callable[[str], None] | None = print,
+                  train_seed: int | None = None) -> EnergyMoGenPipeline:
     """Data, VAE, text encoder, denoiser and evaluator for ``config`` (each trained on a cache
     miss, loaded otherwise); ``timings`` holds the seconds of every stage.
 
+    ``train_seed`` (None: ``config.data_seed``) seeds the VAE (:func:`train_vae_stage`) and
+    the latent denoiser (:func:`train_denoiser_stage`); the data (``data_seed``), the frozen
+    text encoder (:func:`train_text_stage`, always ``data_seed`` against the ``data_seed``
+    VAE, the stand-in for a pretrained CLIP) and the evaluator (the measuring instrument) do
+    not depend on it. ``train_seed = data_seed`` is the default pipeline (the same cache
+    entries as before training seeds existed).
+
     - VAE: trained on the normalised training features (``load_or_train_vae``);
-    - latent scale: 1/std of the training latent means (our choice, as Stable Diffusion's
-      scale factor: the diffusion sees unit-variance latents);
+    - latent scale: 1/std of the training latent means (:class:`VAEStage`);
     - text encoder: contrastive against the scaled latents (a frozen pretrained encoder, as
       the paper's CLIP; the evaluator never shares it);
     - denoiser: ε-prediction on the scaled latent means, every caption of a clip a row;
@@ -649,77 +842,28 @@ def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
       instrument, never the generator.
     """
     device = torch.device(device)
+    seed = config.data_seed if train_seed is None else int(train_seed)
     timings: dict[str, float] = {}
 
-    def stage(name: str, start: float) -> None:
-        timings[name] = time.perf_counter() - start
+    def stage(name: str, seconds: float) -> None:
+        timings[name] = seconds
         if log is not None:
-            log(f"{name}: {timings[name]:.1f} s")
+            log(f"{name}: {seconds:.1f} s")
 
     start = time.perf_counter()
     data = load_or_build_data(config)
-    stage("data", start)
+    stage("data", time.perf_counter() - start)
 
-    start = time.perf_counter()
-    lengths = np.full(len(data.train_features), data.frames)
-    vae = load_or_train_vae(
-        data.normalise(data.train_features), lengths, model_kwargs=_vae_kwargs(config),
-        config=VAETrainConfig(steps=config.vae_steps, batch_size=config.vae_batch,
-                              lr=config.vae_lr, seed=config.data_seed), device=device).eval()
-    with torch.no_grad():
-        x = torch.from_numpy(data.normalise(data.train_features)).to(device)
-        mu = torch.cat([vae.encode(x[i:i + 256], [data.frames] * len(x[i:i + 256]))[0]
-                        for i in range(0, len(x), 256)])
-    scale = float(1.0 / mu.std())
-    latents = (mu * scale).cpu()
-    stage("vae", start)
+    reference_vae = train_vae_stage(data, config, config.data_seed, device)
+    vae = reference_vae if seed == config.data_seed else train_vae_stage(data, config, seed,
+                                                                         device)
+    stage("vae", reference_vae.seconds + (vae.seconds if vae is not reference_vae else 0.0))
 
-    start = time.perf_counter()
-    vocab = Vocabulary.build([c for caps in data.train_captions for c in caps])
-    text_key = {"vocab": list(vocab.tokens), "latents": array_fingerprint(latents),
-                "dim": config.text_dim, "steps": config.text_steps, "lr": config.text_lr,
-                "max_len": config.max_text_len, "seed": config.data_seed, "format": 1}
-    captions = [list(c) for c in data.train_captions]
+    text = train_text_stage(data, config, reference_vae.latents, config.data_seed)
+    stage("text_encoder", text.seconds)
 
-    def build_text() -> nn.Module:
-        torch.manual_seed(config.data_seed)
-        return _LatentTextModel(len(vocab), config.text_dim, latents[0].numel())
-
-    text_model = cache.load_or_train(
-        "emg_text_encoder", text_key, build_text,
-        lambda m: _train_text_encoder(m, vocab, captions, latents, config))
-    text_encoder = text_model.text.eval().requires_grad_(False)
-    stage("text_encoder", start)
-
-    start = time.perf_counter()
-    rows = [(i, c) for i, caps in enumerate(data.train_captions) for c in caps]
-    ids, text_lengths = vocab.encode_batch([c for _, c in rows], config.max_text_len)
-    with torch.no_grad():
-        tokens, mask = text_encoder.tokens(torch.from_numpy(ids), text_lengths)
-    width = int(mask.sum(1).max())
-    tokens, mask = tokens[:, :width].contiguous(), mask[:, :width].contiguous()
-    row_latents = latents[[i for i, _ in rows]]
-    betas = scaled_linear_betas(config.num_timesteps)
-    diffusion = GaussianDiffusion(betas, prediction="epsilon")
-    train_config = TrainConfig(steps=config.denoiser_steps, batch_size=config.denoiser_batch,
-                               lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
-                               seed=config.data_seed)
-    denoiser_key = {"model": denoiser_kwargs(config), "train": train_config.to_config(),
-                    "schedule": "scaled_linear(0.00085, 0.012)", "T": config.num_timesteps,
-                    "data": array_fingerprint(row_latents, tokens, mask), "format": 1}
-
-    def build_denoiser() -> nn.Module:
-        torch.manual_seed(config.data_seed)
-        return LatentDenoiser(**denoiser_kwargs(config))
-
-    def train_denoiser(model: nn.Module) -> tuple[nn.Module, dict]:
-        result = train_latent_denoiser(model, diffusion, row_latents, tokens, mask,
-                                       train_config)
-        return result.for_cache()
-
-    denoiser = cache.load_or_train("emg_latent_denoiser", denoiser_key, build_denoiser,
-                                   train_denoiser, device=device).eval()
-    stage("denoiser", start)
+    denoiser, seconds = train_denoiser_stage(data, config, vae.latents, text, seed, device)
+    stage("denoiser", seconds)
 
     start = time.perf_counter()
     all_features = np.concatenate([data.train_features, data.test_features])
@@ -728,9 +872,85 @@ def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
                                         all_captions, _evaluator_config(config))
     reference = evaluator.embed_motions(data.test_features,
                                         np.full(len(data.test_features), data.frames))
-    stage("evaluator", start)
-    return EnergyMoGenPipeline(config, data, vae, text_encoder, vocab, denoiser, diffusion,
-                               evaluator, scale, reference, device, timings)
+    stage("evaluator", time.perf_counter() - start)
+    return EnergyMoGenPipeline(config, data, vae.vae, text.text_encoder, text.vocab, denoiser,
+                               latent_diffusion(config), evaluator, vae.latent_scale, reference,
+                               device, timings, train_seed=seed)
+
+
+def retrain_pipeline(pipe: EnergyMoGenPipeline, train_seed: int, *,
+                     config: PipelineConfig | None = None, threads: int | None = None,
+                     log: Callable[[str], None] | None = None) -> EnergyMoGenPipeline:
+    """``pipe`` with the VAE and latent denoiser of ``config`` (default ``pipe.config``)
+    trained with ``train_seed`` — :func:`train_vae_stage` then :func:`train_denoiser_stage`,
+    the steps of :func:`load_pipeline` — sharing ``pipe``'s data, frozen text encoder,
+    vocabulary and evaluator (loaded from the cache when present; never a shortcut, so
+    ``retrain_pipeline(load_pipeline(c), s)`` has the models of ``load_pipeline(c,
+    train_seed=s)``). ``config`` may change model sizes or steps, not the data or the text
+    encoder. ``timings`` holds ``{"vae", "denoiser"}`` seconds."""
+    config = pipe.config if config is None else config
+    if config.data_dict() != pipe.config.data_dict():
+        raise ValueError("retrain_pipeline keeps the pipeline's data: config.data_dict() "
+                         "must not change")
+    text = TextStage(pipe.text_encoder, pipe.vocab, 0.0)
+    vae = train_vae_stage(pipe.data, config, train_seed, pipe.device, threads=threads)
+    denoiser, seconds = train_denoiser_stage(pipe.data, config, vae.latents, text, train_seed,
+                                             pipe.device, threads=threads)
+    timings = {"vae": vae.seconds, "denoiser": seconds}
+    if log is not None:
+        log(f"training seed {train_seed}: VAE {vae.seconds:.1f} s, denoiser {seconds:.1f} s")
+    return replace(pipe, config=config, vae=vae.vae, denoiser=denoiser,
+                   diffusion=latent_diffusion(config), latent_scale=vae.latent_scale,
+                   timings=timings, train_seed=int(train_seed))
+
+
+def train_seed_for(config: PipelineConfig, seed: int, base_seed: int) -> int:
+    """The training seed of evaluation seed ``seed`` in a list starting at ``base_seed``
+    (``repro.notebook.seeds_for``): ``config.data_seed + (seed − base_seed)``, so the base
+    seed gets the default pipeline and the k-th seed of the list training seed data_seed + k.
+    """
+    if seed < base_seed:
+        raise ValueError(f"seed {seed} precedes the base seed {base_seed}")
+    return config.data_seed + (int(seed) - int(base_seed))
+
+
+class SeedPipelines:
+    """One trained pipeline per evaluation seed (verdicts must hold across training seeds).
+
+    Calling it with seed s gives the pipeline whose VAE and denoiser are trained with
+    :func:`train_seed_for` (``base.config.data_seed + (s − base_seed)``): ``base`` itself for
+    s = ``base_seed``, else :func:`retrain_pipeline` of ``base`` (shared data, frozen text
+    encoder and evaluator; each built once, then kept). The studies (:func:`run_rows`,
+    :func:`composition_study`) take it in place of a single pipeline.
+    """
+
+    def __init__(self, base: EnergyMoGenPipeline, base_seed: int, *,
+                 threads: int | None = None, log: Callable[[str], None] | None = print) -> None:
+        if base.train_seed != base.config.data_seed:
+            raise ValueError("the base pipeline must be the default one (train_seed = "
+                             "data_seed)")
+        self.base, self.base_seed, self.threads, self.log = base, int(base_seed), threads, log
+        self._built: dict[int, EnergyMoGenPipeline] = {base.config.data_seed: base}
+
+    def train_seed(self, seed: int) -> int:
+        """:func:`train_seed_for` of ``seed``."""
+        return train_seed_for(self.base.config, seed, self.base_seed)
+
+    def __call__(self, seed: int) -> EnergyMoGenPipeline:
+        train_seed = self.train_seed(seed)
+        if train_seed not in self._built:
+            self._built[train_seed] = retrain_pipeline(self.base, train_seed,
+                                                       threads=self.threads, log=self.log)
+        return self._built[train_seed]
+
+
+PipelineSource = EnergyMoGenPipeline | Callable[[int], EnergyMoGenPipeline]
+
+
+def pipeline_for(source: PipelineSource, seed: int) -> EnergyMoGenPipeline:
+    """The pipeline of evaluation seed ``seed``: ``source`` itself if it is one pipeline (one
+    trained model for every seed), else ``source(seed)`` (e.g. :class:`SeedPipelines`)."""
+    return source if isinstance(source, EnergyMoGenPipeline) else source(seed)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -788,13 +1008,16 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
             "both_present": float(presence.all(axis=1).mean())}
 
 
-def run_rows(pipe: EnergyMoGenPipeline, rows: Mapping[str, Sampler], seeds: Sequence[int],
+def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequence[int],
              log: Callable[[str], None] | None = None) -> dict[str, dict[str, list[float]]]:
     """Every row of a table on the composition items of every seed: row → metric → per-seed
-    list. Within a seed all rows share the items and the initial noise; rows with the same
-    canonical sampler are sampled once. The ground truth is measured as row ``"real"``."""
+    list. Seed s uses ``pipeline_for(source, s)`` (one pipeline, or one trained model per seed:
+    :class:`SeedPipelines`). Within a seed all rows share the model, the items and the initial
+    noise; rows with the same canonical sampler are sampled once. The ground truth is measured
+    as row ``"real"``."""
     out: dict[str, dict[str, list[float]]] = {name: {} for name in [*rows, "real"]}
     for seed in seeds:
+        pipe = pipeline_for(source, seed)
         items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
         done: dict[Sampler, dict[str, float]] = {}
         start = time.perf_counter()
@@ -1114,11 +1337,13 @@ def _per_pair_mean(values: np.ndarray, pairs: np.ndarray) -> np.ndarray:
     return np.array([values[pairs == p].mean() for p in np.unique(pairs)])
 
 
-def composition_study(pipe: EnergyMoGenPipeline, seeds: Sequence[int], *, per_case: int,
+def composition_study(source: PipelineSource, seeds: Sequence[int], *, per_case: int,
                       log: Callable[[str], None] | None = None) -> dict[str, Any]:
     """EMG-2 (latent-aware, Eq. 7/8) and EMG-3 (semantic-aware, Eq. 9), oracle-measured.
 
-    Per seed, on the composition items (held-out pairs):
+    Seed s uses the model ``pipeline_for(source, s)`` (one pipeline for every seed, or one
+    trained model per seed: :class:`SeedPipelines`). Per seed, on the composition items
+    (held-out pairs):
     conjunction = Eq. 7 with w_i = s (latent) / Eq. 9 with w^s = (1, 1) guided with s
     (semantic); baselines: each concept's text alone (guided with s), the unconditional
     model, and the joined single text. "best single concept" is, per held-out pair, the better
@@ -1130,7 +1355,6 @@ def composition_study(pipe: EnergyMoGenPipeline, seeds: Sequence[int], *, per_ca
     Returns ``{"latent": measured, "semantic": measured, "extra": {...}, "examples": {...}}``
     where ``measured`` has the six registry names of EMG-2/3 as per-seed lists.
     """
-    s = pipe.config.guidance_scale
     names = ("conjunction_both_present", "best_single_concept_both_present",
              "negation_negated_present", "baseline_negated_present", "negation_kept_present",
              "baseline_kept_present")
@@ -1147,14 +1371,16 @@ def composition_study(pipe: EnergyMoGenPipeline, seeds: Sequence[int], *, per_ca
     examples: dict[str, np.ndarray] = {}
     for index, seed in enumerate(seeds):
         start = time.perf_counter()
+        pipe = pipeline_for(source, seed)
+        s = pipe.config.guidance_scale
         items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
         c1, c2 = items.concept_texts
         pairs = _pair_index(items)
 
         def presence(sampler: Sampler, concept_texts: Sequence[Sequence[str]],
                      multi: Sequence[str] | None, concepts: Sequence[Sequence[str]],
-                     batch: int, tag: str, seed: int = seed, keep: bool = index == 0
-                     ) -> np.ndarray:
+                     batch: int, tag: str, seed: int = seed, keep: bool = index == 0,
+                     pipe: EnergyMoGenPipeline = pipe) -> np.ndarray:
             joints = pipe.joints(pipe.decode(pipe.sample(sampler, concept_texts, multi, seed,
                                                          batch=batch)))
             if keep:

@@ -28,23 +28,19 @@ Our choices are in the docstrings ("our choice").
 from __future__ import annotations
 
 import contextlib
-import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 import torch
-from torch import nn
 
 from . import cache, metrics, storage
 from . import energymogen as em
 from .evaluator import evaluate_generated
 from .features import features_to_joints
-from .models.latent_denoiser import LatentDenoiser, train_latent_denoiser
-from .models.vae import MotionVAE, VAETrainConfig, array_fingerprint, load_or_train_vae
+from .models.vae import MotionVAE
 from .oracles import detect_concepts
-from .training import TrainConfig
 
 __all__ = [
     "LATENT_COUNTS", "PAPER_TABLE8", "PAPER_REAL_MOTION", "TABLE8_COLUMNS", "TextToMotionTest",
@@ -139,7 +135,7 @@ def build_text_to_motion_test(config: em.PipelineConfig, count: int) -> TextToMo
                 names: tuple[str, ...] = (pool[int(rng.integers(len(pool)))],)
             else:
                 names = pairs[int(rng.integers(len(pairs)))]
-            features, _, caps = em._clip(names, config.frames, rng)
+            features, _, caps = em.stand_in_clip(names, config.frames, rng)
             feats.append(features)
             captions.append(tuple(caps))
             concepts.append(names)
@@ -170,14 +166,12 @@ def load_or_build_text_to_motion_test(config: em.PipelineConfig,
 # ----------------------------------------------------------------------------------------------
 
 
-@torch.no_grad()
 def encode_latents(vae: MotionVAE, data: em.StandInData, features: np.ndarray,
                    device: torch.device, chunk: int = 256) -> torch.Tensor:
-    """Unscaled VAE means μ (M, N, d) of unnormalised features, in chunks of 256 (as
-    ``energymogen.load_pipeline`` encodes the training set)."""
-    x = torch.from_numpy(data.normalise(np.asarray(features))).to(device)
-    return torch.cat([vae.encode(x[i:i + chunk], [x.shape[1]] * len(x[i:i + chunk]))[0]
-                      for i in range(0, len(x), chunk)])
+    """Unscaled VAE means μ (M, N, d) of unnormalised features, in chunks of 256
+    (``energymogen.encode_latents``, as ``energymogen.train_vae_stage`` encodes the training
+    set)."""
+    return em.encode_latents(vae, data, features, device, chunk)
 
 
 def load_or_train_variant(pipe: em.EnergyMoGenPipeline, latent_count: int, seed: int, *,
@@ -187,15 +181,18 @@ def load_or_train_variant(pipe: em.EnergyMoGenPipeline, latent_count: int, seed:
     trained with training seed ``seed`` (cached by full configuration), sharing ``pipe``'s
     data, frozen text encoder, vocabulary, diffusion and evaluator.
 
-    The steps are ``energymogen.load_pipeline``'s, with ``seed`` where it uses ``data_seed``:
-    VAE on the normalised training features; latent scale 1/std of the training means;
-    denoiser rows = every caption of every training clip, text tokens from the frozen
-    encoder, 10 % text dropout, EMA 0.999. For (N, seed) = (pipe's N, data_seed) this is
-    ``pipe`` itself. ``threads`` only changes speed (not in the cache keys); our choice is 1:
-    at widths of 64 a second thread gains little and, on shared cores, costs a lot.
+    The steps are ``energymogen.load_pipeline``'s (``energymogen.retrain_pipeline``:
+    ``train_vae_stage``, ``train_denoiser_stage``) with training seed ``seed``: VAE on the
+    normalised training features; latent scale 1/std of the training means; denoiser rows =
+    every caption of every training clip, text tokens from the frozen encoder, 10 % text
+    dropout, EMA 0.999. For (N, seed) = (pipe's N, pipe's training seed) this is ``pipe``
+    itself; for N = 5 the variant of seed s is the model of ``load_pipeline(config,
+    train_seed=s)`` (the per-seed models of notebooks 04/05, the same cache entries).
+    ``threads`` only changes speed (not in the cache keys); our choice is 1: at widths of 64
+    a second thread gains little and, on shared cores, costs a lot.
     """
     config = replace(pipe.config, latent_count=int(latent_count))
-    if config == pipe.config and seed == pipe.config.data_seed:
+    if config == pipe.config and seed == pipe.train_seed:
         return pipe
     return _train_variant(pipe, config, seed, threads, log)
 
@@ -203,49 +200,14 @@ def load_or_train_variant(pipe: em.EnergyMoGenPipeline, latent_count: int, seed:
 def _train_variant(pipe: em.EnergyMoGenPipeline, config: em.PipelineConfig, seed: int,
                    threads: int | None, log: Callable[[str], None] | None
                    ) -> em.EnergyMoGenPipeline:
-    """:func:`load_or_train_variant` without the shortcut (tests check that it reproduces
-    the pipeline's own models, i.e. hits the same cache entries)."""
-    data, device = pipe.data, pipe.device
-    start = time.perf_counter()
-    lengths = np.full(len(data.train_features), data.frames)
-    vae = load_or_train_vae(
-        data.normalise(data.train_features), lengths, model_kwargs=em._vae_kwargs(config),
-        config=VAETrainConfig(steps=config.vae_steps, batch_size=config.vae_batch,
-                              lr=config.vae_lr, seed=seed, num_threads=threads),
-        device=device).eval()
-    mu = encode_latents(vae, data, data.train_features, device)
-    scale = float(1.0 / mu.std())
-    latents = (mu * scale).cpu()
-    vae_seconds = time.perf_counter() - start
-
-    start = time.perf_counter()
-    rows = [(i, c) for i, caps in enumerate(data.train_captions) for c in caps]
-    tokens, mask = pipe.encode([c for _, c in rows])
-    tokens, mask = tokens.cpu().contiguous(), mask.cpu().contiguous()
-    row_latents = latents[[i for i, _ in rows]]
-    train_config = TrainConfig(steps=config.denoiser_steps, batch_size=config.denoiser_batch,
-                               lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
-                               seed=seed, num_threads=threads)
-    key = {"model": em.denoiser_kwargs(config), "train": train_config.to_config(),
-           "schedule": "scaled_linear(0.00085, 0.012)", "T": config.num_timesteps,
-           "data": array_fingerprint(row_latents, tokens, mask), "format": 1}
-
-    def build() -> nn.Module:
-        torch.manual_seed(seed)
-        return LatentDenoiser(**em.denoiser_kwargs(config))
-
-    def train(model: nn.Module) -> tuple[nn.Module, dict]:
-        return train_latent_denoiser(model, pipe.diffusion, row_latents, tokens, mask,
-                                     train_config).for_cache()
-
-    denoiser = cache.load_or_train("emg_latent_denoiser", key, build, train,
-                                   device=device).eval()
-    timings = {"vae": vae_seconds, "denoiser": time.perf_counter() - start}
+    """:func:`load_or_train_variant` without the shortcut: ``energymogen.retrain_pipeline``
+    (``train_vae_stage`` and ``train_denoiser_stage`` with training seed ``seed``; tests check
+    that it reproduces the pipeline's own models, i.e. hits the same cache entries)."""
+    variant = em.retrain_pipeline(pipe, seed, config=config, threads=threads)
     if log is not None:
-        log(f"N={config.latent_count} seed {seed}: VAE {timings['vae']:.1f} s, denoiser "
-            f"{timings['denoiser']:.1f} s")
-    return replace(pipe, config=config, vae=vae, denoiser=denoiser, latent_scale=scale,
-                   timings=timings)
+        log(f"N={config.latent_count} seed {seed}: VAE {variant.timings['vae']:.1f} s, "
+            f"denoiser {variant.timings['denoiser']:.1f} s")
+    return variant
 
 
 # ----------------------------------------------------------------------------------------------
