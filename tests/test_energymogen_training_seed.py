@@ -210,20 +210,20 @@ def test_a_training_seed_changes_the_vae_and_denoiser_only(
 
 
 def test_seed_pipelines_map_seeds_to_training_seeds(base: em.EnergyMoGenPipeline) -> None:
-    assert em.train_seed_for(TINY, 10, 10) == TINY.data_seed
-    assert em.train_seed_for(TINY, 12, 10) == TINY.data_seed + 2
-    pipes = em.SeedPipelines(base, 10, log=None)
-    assert pipes(10) is base and em.pipeline_for(base, 11) is base
-    first = pipes(11)
-    assert first.train_seed == 1 and pipes(11) is first and em.pipeline_for(pipes, 11) is first
-    with pytest.raises(ValueError, match="precedes"):
-        pipes(9)
+    assert em.train_seed_for(TINY, 0) == TINY.data_seed
+    assert em.train_seed_for(TINY, 2) == TINY.data_seed + 2
+    pipes = em.SeedPipelines(base, log=None)
+    assert pipes(0) is base and em.pipeline_for(base, 1) is base
+    first = pipes(1)
+    assert first.train_seed == 1 and pipes(1) is first and em.pipeline_for(pipes, 1) is first
+    with pytest.raises(ValueError, match=">= 0"):
+        pipes(-1)
     with pytest.raises(ValueError, match="default"):
-        em.SeedPipelines(first, 11)
+        em.SeedPipelines(first)
 
 
 def test_studies_use_the_model_of_each_seed(base: em.EnergyMoGenPipeline) -> None:
-    pipes = em.SeedPipelines(base, 0, log=None)
+    pipes = em.SeedPipelines(base, log=None)
     rows = {"single": em.Sampler("single"), "latent": em.Sampler("latent")}
     per_seed = em.run_rows(pipes, rows, [0, 1])
     alone = {seed: em.run_rows(pipes(seed), rows, [seed]) for seed in (0, 1)}

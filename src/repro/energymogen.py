@@ -904,37 +904,36 @@ def retrain_pipeline(pipe: EnergyMoGenPipeline, train_seed: int, *,
                    timings=timings, train_seed=int(train_seed))
 
 
-def train_seed_for(config: PipelineConfig, seed: int, base_seed: int) -> int:
-    """The training seed of evaluation seed ``seed`` in a list starting at ``base_seed``
-    (``repro.notebook.seeds_for``): ``config.data_seed + (seed − base_seed)``, so the base
-    seed gets the default pipeline and the k-th seed of the list training seed data_seed + k.
-    """
-    if seed < base_seed:
-        raise ValueError(f"seed {seed} precedes the base seed {base_seed}")
-    return config.data_seed + (int(seed) - int(base_seed))
+def train_seed_for(config: PipelineConfig, seed: int) -> int:
+    """The training seed of evaluation seed ``seed``: ``config.data_seed + seed``. Seed 0 gets
+    the default pipeline; the seeds of a run from another base seed (``--seed 3``: 3, 4, ...)
+    get models of their own, so a seed-stability run replicates training too."""
+    if seed < 0:
+        raise ValueError(f"seeds must be >= 0, got {seed}")
+    return config.data_seed + int(seed)
 
 
 class SeedPipelines:
     """One trained pipeline per evaluation seed (verdicts must hold across training seeds).
 
     Calling it with seed s gives the pipeline whose VAE and denoiser are trained with
-    :func:`train_seed_for` (``base.config.data_seed + (s − base_seed)``): ``base`` itself for
-    s = ``base_seed``, else :func:`retrain_pipeline` of ``base`` (shared data, frozen text
-    encoder and evaluator; each built once, then kept). The studies (:func:`run_rows`,
-    :func:`composition_study`) take it in place of a single pipeline.
+    :func:`train_seed_for` (``base.config.data_seed + s``): ``base`` itself for s = 0, else
+    :func:`retrain_pipeline` of ``base`` (shared data, frozen text encoder and evaluator; each
+    built once, then kept). The studies (:func:`run_rows`, :func:`composition_study`) take it
+    in place of a single pipeline.
     """
 
-    def __init__(self, base: EnergyMoGenPipeline, base_seed: int, *,
+    def __init__(self, base: EnergyMoGenPipeline, *,
                  threads: int | None = None, log: Callable[[str], None] | None = print) -> None:
         if base.train_seed != base.config.data_seed:
             raise ValueError("the base pipeline must be the default one (train_seed = "
                              "data_seed)")
-        self.base, self.base_seed, self.threads, self.log = base, int(base_seed), threads, log
+        self.base, self.threads, self.log = base, threads, log
         self._built: dict[int, EnergyMoGenPipeline] = {base.config.data_seed: base}
 
     def train_seed(self, seed: int) -> int:
         """:func:`train_seed_for` of ``seed``."""
-        return train_seed_for(self.base.config, seed, self.base_seed)
+        return train_seed_for(self.base.config, seed)
 
     def __call__(self, seed: int) -> EnergyMoGenPipeline:
         train_seed = self.train_seed(seed)
