@@ -1,5 +1,7 @@
-"""The EnergyMoGen pipeline (repro.energymogen): data split, paper tables, the EMG-1 identities
-on toy fields with known answers, energy maps, the FID check, and a tiny end-to-end run."""
+"""The EnergyMoGen pipeline (repro.energymogen) and what is measured on it
+(repro.energymogen_studies, repro.energymogen_energy): data split, paper tables, the EMG-1
+identities on toy fields with known answers, energy maps, the FID check, and a tiny end-to-end
+run."""
 
 from __future__ import annotations
 
@@ -10,6 +12,8 @@ import pytest
 import torch
 
 from repro import energymogen as em
+from repro import energymogen_energy as em_energy
+from repro import energymogen_studies as em_studies
 from repro.claims import get_claim
 from repro.diffusion import GaussianDiffusion
 from repro.generator import can_be_simultaneous
@@ -34,13 +38,13 @@ def test_held_out_pairs_are_composable_and_never_trained() -> None:
 
 
 def test_paper_tables_have_the_registry_rows() -> None:
-    assert len(em.PAPER_TABLE7) == 12 and len(em.PAPER_TABLE9) == 6
+    assert len(em_studies.PAPER_TABLE7) == 12 and len(em_studies.PAPER_TABLE9) == 6
     for key in ("1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"):
-        assert key in em.PAPER_TABLE7
+        assert key in em_studies.PAPER_TABLE7
     for key in ("0.0,0.0", "0.1,0.2", "0.001,0.002"):
-        assert key in em.PAPER_TABLE9
-    assert all(abs(sum(lam) - 1) < 1e-9 for lam in em.TABLE7_LAMBDAS)
-    assert em.PAPER_TABLE9["0.001,0.002"]["r_precision_top3"] == 26.3
+        assert key in em_studies.PAPER_TABLE9
+    assert all(abs(sum(lam) - 1) < 1e-9 for lam in em_studies.TABLE7_LAMBDAS)
+    assert em_studies.PAPER_TABLE9["0.001,0.002"]["r_precision_top3"] == 26.3
     assert set(get_claim("EMG-5").measurements) == {"r_precision_top3", "transition_distance"}
 
 
@@ -64,9 +68,9 @@ def test_scaled_linear_betas() -> None:
 def test_sampler_steps_are_langevin_steps() -> None:
     diffusion = GaussianDiffusion(em.scaled_linear_betas(100))
     z = torch.randn(3, 2, 4, generator=torch.Generator().manual_seed(0))
-    errors = em.langevin_step_errors(diffusion, lambda x, t: torch.tanh(x) + 0.1 * t[:, None,
-                                                                                          None],
-                                     z, timesteps=range(100), ddim_steps=10)
+    errors = em_energy.langevin_step_errors(diffusion,
+                                            lambda x, t: torch.tanh(x) + 0.1 * t[:, None, None],
+                                            z, timesteps=range(100), ddim_steps=10)
     assert errors["max_abs_error"] < 1e-10 and errors["ddim_max_abs_error"] < 1e-10
     assert 0 < errors["ddpm_eps_coefficient_min"] < errors["ddpm_eps_coefficient_max"] < 1
 
@@ -76,10 +80,10 @@ def test_jacobian_asymmetry_of_known_fields() -> None:
     a = torch.randn(6, 6, generator=gen, dtype=torch.float64)
     sym = a + a.T
     z = torch.randn(4, 2, 3, generator=gen, dtype=torch.float64)
-    gradient_field = em.jacobian_asymmetry(
+    gradient_field = em_energy.jacobian_asymmetry(
         lambda x: (x.reshape(-1, 6) @ sym + x.reshape(-1, 6) ** 3).reshape(x.shape), z)
     assert np.all(gradient_field < 1e-12)
-    linear = em.jacobian_asymmetry(lambda x: (x.reshape(-1, 6) @ a.T).reshape(x.shape), z)
+    linear = em_energy.jacobian_asymmetry(lambda x: (x.reshape(-1, 6) @ a.T).reshape(x.shape), z)
     assert linear == pytest.approx(float((a - a.T).norm() / a.norm()), rel=1e-10)
 
 
@@ -88,7 +92,7 @@ def test_line_integral_energy_of_a_quadratic() -> None:
     a = torch.randn(5, 5, generator=gen, dtype=torch.float64)
     s = a @ a.T
     z = torch.randn(3, 5, generator=gen, dtype=torch.float64)
-    energy = em.line_integral_energy(lambda x: x @ s, z)
+    energy = em_energy.line_integral_energy(lambda x: x @ s, z)
     assert torch.allclose(energy, 0.5 * ((z @ s) * z).sum(1), atol=1e-12)
 
 
@@ -97,7 +101,7 @@ def test_energy_of_eq7_is_the_weighted_sum_of_energies() -> None:
     model = LatentDenoiser(4, 3, 4, width=16, layers=2, heads=2).eval()
     conds = [(torch.randn(1, 2, 4), torch.ones(1, 2, dtype=torch.bool)) for _ in range(2)]
     z = torch.randn(2, 3, 4)
-    out = em.energy_linearity_error(model, z, 10, conds, [2.5, -1.0], nodes=8)
+    out = em_energy.energy_linearity_error(model, z, 10, conds, [2.5, -1.0], nodes=8)
     assert out["max_abs_error"] < 1e-9 * max(1.0, out["max_energy"])
     assert out["gradient_relative_error"] > 1e-6      # a random network is not conservative
 
@@ -108,13 +112,13 @@ def test_energy_of_eq7_is_the_weighted_sum_of_energies() -> None:
 def test_latent_plane_and_maps() -> None:
     gen = torch.Generator().manual_seed(3)
     latents = torch.randn(20, 3, 4, generator=gen)
-    plane = em.latent_plane(latents)
+    plane = em_energy.latent_plane(latents)
     u, v, grid = plane.grid(5)
     assert grid.shape == (25, 3, 4) and len(u) == len(v) == 5
     assert np.all(np.abs(plane.scores) <= np.array(plane.extent) + 1e-6)
-    smooth = em.smooth_energy_map(np.arange(25.0).reshape(5, 5), upsample=2, sigma=1.0)
+    smooth = em_energy.smooth_energy_map(np.arange(25.0).reshape(5, 5), upsample=2, sigma=1.0)
     assert smooth.shape == (10, 10)
-    assert em.map_similarity(smooth, 2 * smooth + 1) == pytest.approx(1.0)
+    assert em_energy.map_similarity(smooth, 2 * smooth + 1) == pytest.approx(1.0)
 
 
 def test_energy_landscape_combines_linearly() -> None:
@@ -123,17 +127,17 @@ def test_energy_landscape_combines_linearly() -> None:
     diffusion = GaussianDiffusion(em.scaled_linear_betas(50))
     cond = (torch.randn(1, 2, 4), torch.ones(1, 2, dtype=torch.bool))
     latents = torch.randn(6, 3, 4)
-    maps = em.energy_landscape(model, diffusion, latents, {"∅": None, "c": cond},
-                               {"c": {"c": 1.0}, "same": {"∅": 0.0, "c": 1.0},
-                                "uncond": {"∅": 1.0}},
-                               timesteps=(5, 25), n_noise=2, seed=0, chunk=4)
+    maps = em_energy.energy_landscape(model, diffusion, latents, {"∅": None, "c": cond},
+                                      {"c": {"c": 1.0}, "same": {"∅": 0.0, "c": 1.0},
+                                       "uncond": {"∅": 1.0}},
+                                      timesteps=(5, 25), n_noise=2, seed=0, chunk=4)
     assert maps["c"].shape == (6,)
     assert np.allclose(maps["c"], maps["same"])
     assert not np.allclose(maps["c"], maps["uncond"])
 
 
 def test_fid_formula_check() -> None:
-    out = em.fid_formula_errors(seed=0, dim=8, draws=5)
+    out = em_energy.fid_formula_errors(seed=0, dim=8, draws=5)
     assert out["fid_vs_closed_form_relative_error"] < 1e-6
     assert out["printed_vs_closed_form_relative_error"] > 1e-3
 
@@ -174,23 +178,23 @@ def test_items_sampling_and_metrics(tiny_pipeline: em.EnergyMoGenPipeline) -> No
     rows = {"0.1,0.7,0.2": em.Sampler("sef"), "0.0,0.0,1.0": em.Sampler("sef", (0.0, 0.0, 1.0)),
             "0.0,0.0": em.Sampler("single"),
             "0.1,0.2": em.Sampler("single", gammas=(0.1, 0.2))}
-    results = em.run_rows(pipe, rows, seeds=[0])
+    results = em_studies.run_rows(pipe, rows, seeds=[0])
     assert results["0.0,0.0"] == results["0.0,0.0,1.0"]    # one sampler, sampled once
     assert set(results["real"]) >= {"r_precision_top3", "transition_distance", "fid",
                                     "oracle_accuracy"}
     assert results["real"]["both_present"][0] > 0.9       # the oracles see the ground truth
-    table = em.markdown_table(results, [("SEF", "0.1,0.7,0.2")], em.PAPER_TABLE7)
+    table = em_studies.markdown_table(results, [("SEF", "0.1,0.7,0.2")], em_studies.PAPER_TABLE7)
     assert "[28.0]" in table
-    assert em.agd_relative_change(pipe, items.multi_texts[:4], (0.1, 0.2)) > 0.0
-    assert em.agd_relative_change(pipe, items.multi_texts[:4], (0.0, 0.0)) == 0.0
+    assert em_studies.agd_relative_change(pipe, items.multi_texts[:4], (0.1, 0.2)) > 0.0
+    assert em_studies.agd_relative_change(pipe, items.multi_texts[:4], (0.0, 0.0)) == 0.0
 
 
 def test_studies_run(tiny_pipeline: em.EnergyMoGenPipeline) -> None:
-    study = em.composition_study(tiny_pipeline, seeds=[0], per_case=2)
+    study = em_studies.composition_study(tiny_pipeline, seeds=[0], per_case=2)
     for mode in ("latent", "semantic"):
         assert set(study[mode]) == set(get_claim("EMG-2").measurements)
         assert all(len(v) == 1 for v in study[mode].values())
-    case = em.energy_map_case(tiny_pipeline, "negation", 0, seed=0, grid=4, n_noise=1,
-                              timesteps=(100,), samples=4, upsample=2, sigma=1.0)
+    case = em_energy.energy_map_case(tiny_pipeline, "negation", 0, seed=0, grid=4, n_noise=1,
+                                     timesteps=(100,), samples=4, upsample=2, sigma=1.0)
     assert case["smooth"]["composed"].shape == (8, 8)
     assert -1.0 <= case["similarity_to_multi"] <= 1.0

@@ -16,6 +16,7 @@ import torch
 
 from repro import cache, paths
 from repro import energymogen as em
+from repro import energymogen_studies as em_studies
 from repro import latent_count as lc
 from repro.models import vae as vae_module
 from repro.models.vae import VAETrainConfig, array_fingerprint, load_or_train_vae
@@ -225,15 +226,15 @@ def test_seed_pipelines_map_seeds_to_training_seeds(base: em.EnergyMoGenPipeline
 def test_studies_use_the_model_of_each_seed(base: em.EnergyMoGenPipeline) -> None:
     pipes = em.SeedPipelines(base, log=None)
     rows = {"single": em.Sampler("single"), "latent": em.Sampler("latent")}
-    per_seed = em.run_rows(pipes, rows, [0, 1])
-    alone = {seed: em.run_rows(pipes(seed), rows, [seed]) for seed in (0, 1)}
+    per_seed = em_studies.run_rows(pipes, rows, [0, 1])
+    alone = {seed: em_studies.run_rows(pipes(seed), rows, [seed]) for seed in (0, 1)}
     for row in rows:
         for metric, values in per_seed[row].items():
             assert values == [alone[0][row][metric][0], alone[1][row][metric][0]]
-    shared = em.run_rows(base, rows, [1])
+    shared = em_studies.run_rows(base, rows, [1])
     assert shared["latent"]["fid"] != per_seed["latent"]["fid"][1:]
-    study = em.composition_study(pipes, [0, 1], per_case=1)
+    study = em_studies.composition_study(pipes, [0, 1], per_case=1)
     assert all(len(v) == 2 for v in study["latent"].values())
-    study1 = em.composition_study(pipes(1), [1], per_case=1)
+    study1 = em_studies.composition_study(pipes(1), [1], per_case=1)
     assert study1["semantic"]["conjunction_both_present"] == \
         study["semantic"]["conjunction_both_present"][1:]

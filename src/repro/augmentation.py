@@ -25,7 +25,7 @@ on the HumanML3D test set (Table 1). On the stand-in data:
   (``latent_count.TextToMotionTest``, the HumanML3D-test stand-in): R-precision, FID,
   MM-Dist, Diversity, oracle accuracy; and on the held-out composed texts (the joined texts
   of the held-out pairs, ``energymogen.composition_items``): oracle accuracy and both-present
-  rate, R@3 and FID as ``energymogen.composition_metrics``.
+  rate, R@3 and FID as ``energymogen_studies.composition_metrics``.
 
 A seed s redraws the composed set (pairs, texts, noise), seeds fine-tuning (batches,
 timesteps, noise, text dropout) and the evaluation noise and captions; the pretrained models
@@ -46,8 +46,9 @@ from torch import Tensor, nn
 
 from . import cache
 from . import energymogen as em
+from .energymogen_studies import composition_metrics, interval_text, oracle_presence
 from .features import FPS
-from .generator import ClipSpec, _captions, can_be_simultaneous
+from .generator import ClipSpec, can_be_simultaneous, sample_captions
 from .latent_count import TextToMotionTest, encode_latents, generation_metrics, torch_threads
 from .models.latent_denoiser import LatentDenoiser, train_latent_denoiser
 from .models.vae import array_fingerprint
@@ -83,7 +84,7 @@ def composed_set_size(config: em.PipelineConfig) -> int:
 def joined_caption(pair: tuple[str, str], frames: int, rng: np.random.Generator) -> str:
     """One caption of ``pair`` as the generator writes simultaneous clips (its templates
     and paraphrases: "a person walks forward while clapping.")."""
-    return _captions(ClipSpec(tuple(pair), "simultaneous", frames / FPS), rng, count=1)[0]
+    return sample_captions(ClipSpec(tuple(pair), "simultaneous", frames / FPS), rng, count=1)[0]
 
 
 @dataclass(frozen=True)
@@ -102,7 +103,7 @@ class ComposedSet:
 
     def presence(self) -> np.ndarray:
         """(B, 2) bool: does the oracle find each concept of each item?"""
-        return em.oracle_presence(self.joints, self.concepts)
+        return oracle_presence(self.joints, self.concepts)
 
 
 def compose_set(pipe: em.EnergyMoGenPipeline, size: int, seed: int,
@@ -206,12 +207,12 @@ def load_or_finetune(pipe: em.EnergyMoGenPipeline, rows: Rows,
 
 def held_out_composed_metrics(variant: em.EnergyMoGenPipeline, seed: int) -> dict[str, float]:
     """Text-to-motion from the joined texts of the held-out pairs (single-text guidance):
-    ``energymogen.composition_metrics`` (oracle accuracy, both-present rate, R@1/R@3 in %,
-    FID against the whole held-out pool, ...)."""
+    ``energymogen_studies.composition_metrics`` (oracle accuracy, both-present rate, R@1/R@3
+    in %, FID against the whole held-out pool, ...)."""
     items = em.composition_items(variant.data, seed, variant.config.items_per_pair)
     features = variant.decode(variant.sample(em.Sampler("single"), [], items.multi_texts,
                                              seed, batch=len(items)))
-    return em.composition_metrics(variant, features, variant.joints(features), items, seed)
+    return composition_metrics(variant, features, variant.joints(features), items, seed)
 
 
 def augmentation_study(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
@@ -280,9 +281,9 @@ def rows_markdown(results: Mapping[str, Mapping[str, Sequence[float]]],
              "|" + "---|" * (len(columns) + 1)]
     for row in rows:
         lines.append(f"| {row} | " + " | ".join(
-            em.interval_text(results[row][m]) for m, _ in columns) + " |")
+            interval_text(results[row][m]) for m, _ in columns) + " |")
     if "augmented" in results and "control" in results:
         lines.append("| augmented − control (paired) | " + " | ".join(
-            em.interval_text(paired_difference(results["augmented"][m], results["control"][m]))
+            interval_text(paired_difference(results["augmented"][m], results["control"][m]))
             for m, _ in columns) + " |")
     return "\n".join(lines)

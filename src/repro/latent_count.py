@@ -37,6 +37,7 @@ import torch
 
 from . import cache, metrics, storage
 from . import energymogen as em
+from .energymogen_studies import interval_text
 from .evaluator import evaluate_generated
 from .features import features_to_joints
 from .models.vae import MotionVAE
@@ -319,7 +320,7 @@ def table8_markdown(results: Mapping[str, Any], counts: Sequence[int] = LATENT_C
 
     def cell(values: Mapping[str, Sequence[float]], metric: str,
              paper: Mapping[str, float] | None) -> str:
-        ours = em.interval_text(values[metric]) if metric in values else "—"
+        ours = interval_text(values[metric]) if metric in values else "—"
         if paper is None or metric not in paper:
             return ours
         return f"{ours} [{paper[metric]}]"
