@@ -19,7 +19,7 @@ from typing import Any
 from . import paths
 from .claims import CLAIMS
 from .ledger import load_sidecars
-from .storage import write_json, write_text
+from .storage import read_json, write_json, write_text
 
 
 def _format_number(value: Any) -> str:
@@ -137,8 +137,33 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
                                                           figure_names, provenance))
 
 
+README_TABLE_START = "<!-- claims-table:start"
+README_TABLE_END = "<!-- claims-table:end -->"
+
+
+def readme_claims_table(rows: Sequence[dict[str, str]]) -> str:
+    """The README's verdict table: claim, verdict, notebook (one row per registry claim)."""
+    lines = ["| claim | verdict (stand-in data, tiny models) | notebook |", "|---|---|---|"]
+    lines += [f"| {r['id']} | {r['verdict']} | `{r['notebook']}` |" for r in rows]
+    return "\n".join(lines)
+
+
+def update_readme_table(readme: str | os.PathLike, rows: Sequence[dict[str, str]]) -> Path:
+    """Rewrite the table between the README's claims-table markers (atomically)."""
+    readme = Path(readme)
+    text = readme.read_text(encoding="utf-8")
+    start, end = text.find(README_TABLE_START), text.find(README_TABLE_END)
+    if start < 0 or end < start:
+        raise ValueError(f"{readme}: no claims-table markers ({README_TABLE_START} ... "
+                         f"{README_TABLE_END})")
+    body_start = text.index("\n", start) + 1
+    return write_text(readme, text[:body_start] + readme_claims_table(rows) + "\n"
+                      + text[end:])
+
+
 def write_snapshot(build_dir: str | os.PathLike) -> Path:
-    """Replace ``results/`` with the full run's REPORT.md, claims.json and PNG figures."""
+    """Replace ``results/`` with the full run's REPORT.md, claims.json and PNG figures, and
+    the README's verdict table with the same verdicts."""
     report_dir = Path(build_dir) / "report"
     target = paths.results_dir()
     staging = Path(tempfile.mkdtemp(prefix=".results.", dir=target.parent))
@@ -154,4 +179,5 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
         os.replace(target, old)
     os.replace(staging, target)
     shutil.rmtree(old, ignore_errors=True)
+    update_readme_table(paths.REPO_ROOT / "README.md", read_json(target / "claims.json")["claims"])
     return target
