@@ -49,7 +49,7 @@ from . import energymogen as em
 from .energymogen_studies import composition_metrics, interval_text, oracle_presence
 from .features import FPS
 from .generator import ClipSpec, can_be_simultaneous, sample_captions
-from .latent_count import TextToMotionTest, encode_latents, generation_metrics, torch_threads
+from .latent_count import TextToMotionTest, generation_metrics, torch_threads
 from .models.latent_denoiser import LatentDenoiser, train_latent_denoiser
 from .models.vae import array_fingerprint
 from .training import TrainConfig
@@ -147,7 +147,7 @@ def caption_rows(pipe: em.EnergyMoGenPipeline, features: np.ndarray,
     the motion's scaled VAE mean and the frozen encoder's tokens of the caption."""
     if len(captions) != len(features):
         raise ValueError(f"{len(captions)} caption lists for {len(features)} motions")
-    latents = (encode_latents(pipe.vae, pipe.data, features, pipe.device)
+    latents = (em.encode_latents(pipe.vae, pipe.data, features, pipe.device)
                * pipe.latent_scale).cpu()
     rows = [(i, c) for i, caps in enumerate(captions) for c in caps]
     tokens, mask = pipe.encode([c for _, c in rows])

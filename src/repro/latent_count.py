@@ -40,12 +40,11 @@ from . import energymogen as em
 from .energymogen_studies import interval_text
 from .evaluator import evaluate_generated
 from .features import features_to_joints
-from .models.vae import MotionVAE
 from .oracles import detect_concepts
 
 __all__ = [
     "LATENT_COUNTS", "PAPER_TABLE8", "PAPER_REAL_MOTION", "TABLE8_COLUMNS", "TextToMotionTest",
-    "build_text_to_motion_test", "encode_latents", "generation_metrics",
+    "build_text_to_motion_test", "generation_metrics",
     "latent_count_study", "load_or_build_text_to_motion_test", "load_or_train_variant",
     "mpjpe", "oracle_accuracy", "real_motion_metrics", "reconstruction_metrics", "table8_markdown",
     "text_to_motion_test_size", "torch_threads",
@@ -165,14 +164,6 @@ def load_or_build_text_to_motion_test(config: em.PipelineConfig,
 # ----------------------------------------------------------------------------------------------
 # Models with N latent vectors
 # ----------------------------------------------------------------------------------------------
-
-
-def encode_latents(vae: MotionVAE, data: em.StandInData, features: np.ndarray,
-                   device: torch.device, chunk: int = 256) -> torch.Tensor:
-    """Unscaled VAE means μ (M, N, d) of unnormalised features, in chunks of 256
-    (``energymogen.encode_latents``, as ``energymogen.train_vae_stage`` encodes the training
-    set)."""
-    return em.encode_latents(vae, data, features, device, chunk)
 
 
 def load_or_train_variant(pipe: em.EnergyMoGenPipeline, latent_count: int, seed: int, *,
