@@ -8,7 +8,7 @@ import pytest
 
 from repro.__main__ import main
 from repro.ledger import record_claim
-from repro.stability import compare_runs, load_full_sidecars
+from repro.stability import compare_runs, flatten_measurements, load_full_sidecars
 
 
 def _record(build: Path, monkeypatch: pytest.MonkeyPatch, printed_error: float, seeds: list[int],
@@ -37,6 +37,7 @@ def test_changed_verdict_is_named_with_both_values(tmp_path: Path,
     text = (tmp_path / "a" / "report" / "STABILITY.md").read_text()
     assert "Verdicts that changed with the seed: GMD-A1." in text
     assert "| GMD-A2 | reproduced | reproduced | yes |" in text
+    assert "Not compared (not recorded in every run): GMD-A3," in text
 
 
 def test_quick_runs_and_missing_runs_are_refused(tmp_path: Path,
@@ -51,3 +52,8 @@ def test_quick_runs_and_missing_runs_are_refused(tmp_path: Path,
     assert main(["stability", str(tmp_path / "full")]) == 2  # one run: nothing to compare
     assert main(["stability", str(tmp_path / "full"), str(tmp_path / "full"),
                  "--label", "x", "--label", "x"]) == 2
+
+
+def test_nested_measurements_are_compared_per_row() -> None:
+    assert flatten_measurements({"r3": {"a": [1.0, 2.0], "b": {"c": 3.0}}, "x": 4.0}) == {
+        "r3[a]": [1.0, 2.0], "r3[b][c]": 3.0, "x": 4.0}

@@ -10,7 +10,7 @@ a run's seeds, per run). Only full runs are compared: a quick run is a test of t
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -49,6 +49,18 @@ def _mean(value: Any) -> float | None:
     return None
 
 
+def flatten_measurements(measured: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested measurements (e.g. a value per λ row) as ``key[row]`` entries."""
+    flat: dict[str, Any] = {}
+    for key, value in measured.items():
+        name = f"{prefix}[{key}]" if prefix else str(key)
+        if isinstance(value, Mapping):
+            flat.update(flatten_measurements(value, name))
+        else:
+            flat[name] = value
+    return flat
+
+
 def load_full_sidecars(build_dir: str | os.PathLike) -> dict[str, dict[str, Any]]:
     """The full-run sidecars of ``build_dir``; a quick sidecar or no sidecars raise ValueError."""
     folder = Path(build_dir) / "claims"
@@ -73,8 +85,10 @@ def compare_runs(runs: Mapping[str, Mapping[str, dict[str, Any]]]) -> list[Stabi
             continue
         verdicts = {label: s[claim_id]["verdict"] for label, s in runs.items()}
         seeds = {label: list(s[claim_id].get("seeds", [])) for label, s in runs.items()}
-        keys = list(next(iter(runs.values()))[claim_id]["measured"])
-        means = {key: {label: _mean(s[claim_id]["measured"].get(key)) for label, s in runs.items()}
+        measured = {label: flatten_measurements(s[claim_id]["measured"])
+                    for label, s in runs.items()}
+        keys = list(next(iter(measured.values())))
+        means = {key: {label: _mean(values.get(key)) for label, values in measured.items()}
                  for key in keys}
         rows.append(StabilityRow(claim_id, verdicts, seeds, means))
     return rows
@@ -84,17 +98,27 @@ def _number(value: float | None) -> str:
     return "—" if value is None else f"{value:.3g}"
 
 
-def stability_markdown(rows: list[StabilityRow], labels: list[str]) -> str:
-    """A verdict table (changed verdicts marked) and, per claim, each measurement's means."""
+def not_compared(runs: Mapping[str, Mapping[str, dict[str, Any]]]) -> list[str]:
+    """Registry claims missing from at least one run (so absent from ``compare_runs``)."""
+    return [claim_id for claim_id in CLAIMS
+            if not all(claim_id in sidecars for sidecars in runs.values())]
+
+
+def stability_markdown(rows: list[StabilityRow], labels: list[str],
+                       missing: Sequence[str] = ()) -> str:
+    """A verdict table (changed verdicts marked) and, per claim, each measurement's means;
+    ``missing``: claims not recorded in every run, named as not compared."""
     changed = [r.claim_id for r in rows if not r.stable]
     lines = ["# Seed stability", "",
              f"The same notebooks from {len(labels)} base seeds ({', '.join(labels)}); every "
              "notebook's seed list starts at the base seed, so models, test items and noise all "
              "change. Measurements are means over each run's seeds.", "",
              (f"**Verdicts that changed with the seed: {', '.join(changed)}.**" if changed
-              else "**No verdict changed with the seed.**"), "",
-             "| claim | " + " | ".join(labels) + " | same verdict |",
-             "|---|" + "---|" * len(labels) + "---|"]
+              else "**No verdict changed with the seed.**"), ""]
+    if missing:
+        lines += [f"Not compared (not recorded in every run): {', '.join(missing)}.", ""]
+    lines += ["| claim | " + " | ".join(labels) + " | same verdict |",
+              "|---|" + "---|" * len(labels) + "---|"]
     for r in rows:
         lines.append(f"| {r.claim_id} | " + " | ".join(r.verdicts[label] for label in labels)
                      + f" | {'yes' if r.stable else '**no**'} |")
@@ -116,4 +140,4 @@ def write_stability(build_dirs: Mapping[str, str | os.PathLike], output: str | o
     rows = compare_runs(runs)
     if not rows:
         raise ValueError("no claim is recorded in every run: nothing to compare")
-    return write_text(output, stability_markdown(rows, list(build_dirs)))
+    return write_text(output, stability_markdown(rows, list(build_dirs), not_compared(runs)))
