@@ -56,3 +56,8 @@ def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
                  seeds=[0], quick=True)
     assert main(["report", "--quick", "--snapshot"]) == 2  # a quick run is never a result
     assert (tmp_path / "quick" / "report" / "REPORT.md").is_file()
+
+
+def test_reproduce_rejects_zero_threads(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["reproduce", "--quick", "--only", "00", "--threads", "0"]) == 2
+    assert "--threads must be at least 1" in capsys.readouterr().err

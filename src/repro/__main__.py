@@ -40,7 +40,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     extra = dict(args.parameter or [])
     try:
         return reproduce(quick=args.quick, only=args.only, jobs=args.jobs, seed=args.seed,
-                         device=args.device, snapshot=args.snapshot, extra_parameters=extra)
+                         device=args.device, snapshot=args.snapshot, extra_parameters=extra,
+                         threads=args.threads)
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -126,6 +127,8 @@ def main(argv: list[str] | None = None) -> int:
                      help="notebook names, number prefixes (01) or claim IDs (GMD-A1)")
     rep.add_argument("--jobs", type=int, default=1, help="notebooks run in parallel")
     rep.add_argument("--seed", type=int, default=0, help="base seed passed to every notebook")
+    rep.add_argument("--threads", type=int, help="torch threads per notebook (default: the "
+                     "cores shared among --jobs; 1 when other work shares the cores)")
     rep.add_argument("--device", default="cpu", help="torch device, e.g. cuda")
     rep.add_argument("-p", "--parameter", action="append", type=_parse_parameter,
                      metavar="NAME=VALUE", help="extra notebook parameter (JSON value)")

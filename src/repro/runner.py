@@ -150,8 +150,10 @@ def longest_first(targets: Sequence[str], seconds: dict[str, float]) -> list[str
 
 def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device: str = "cpu",
                   jobs: int = 1, extra_parameters: dict[str, Any] | None = None,
-                  timeout: int | None = None, log=print) -> list[NotebookResult]:
-    """Execute ``targets`` with papermill into ``<build>/notebooks``; returns one result each."""
+                  timeout: int | None = None, threads: int | None = None,
+                  log=print) -> list[NotebookResult]:
+    """Execute ``targets`` with papermill into ``<build>/notebooks``; returns one result each.
+    ``threads``: torch/BLAS threads per notebook (default: the cores shared among ``jobs``)."""
     targets = list(targets)
     if jobs < 1:
         raise ValueError(f"--jobs must be at least 1, got {jobs}")
@@ -164,7 +166,9 @@ def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device:
         validate_parameters(name, parameters)
     cores = os.cpu_count() or 1
     workers = min(jobs, len(targets)) or 1
-    threads = max(1, cores // workers)
+    if threads is not None and threads < 1:
+        raise ValueError(f"--threads must be at least 1, got {threads}")
+    threads = threads or max(1, cores // workers)
     timeout = timeout or (600 if quick else 3600)
     results: list[NotebookResult] = []
     log(f"running {len(targets)} notebook(s) ({'quick' if quick else 'full'} parameters, "
@@ -187,13 +191,13 @@ def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device:
 
 def reproduce(*, quick: bool, only: Sequence[str] | None = None, jobs: int = 1, seed: int = 0,
               device: str = "cpu", snapshot: bool = False,
-              extra_parameters: dict[str, Any] | None = None) -> int:
+              extra_parameters: dict[str, Any] | None = None, threads: int | None = None) -> int:
     """The ``reproduce`` command: run, then write the report (only when every notebook ran)."""
     from .report import write_report, write_snapshot
 
     targets = resolve_targets(only)
     results = run_notebooks(targets, quick=quick, seed=seed, device=device, jobs=jobs,
-                            extra_parameters=extra_parameters)
+                            extra_parameters=extra_parameters, threads=threads)
     failed = [r for r in results if not r.ok]
     build_dir = paths.run_build_dir(quick)
     if failed:
