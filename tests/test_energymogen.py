@@ -189,6 +189,39 @@ def test_items_sampling_and_metrics(tiny_pipeline: em.EnergyMoGenPipeline) -> No
     assert em_studies.agd_relative_change(pipe, items.multi_texts[:4], (0.0, 0.0)) == 0.0
 
 
+def test_sets_of_three_concepts(tiny_pipeline: em.EnergyMoGenPipeline, tmp_path: Path,
+                                monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path))
+    pipe = tiny_pipeline
+    assert len(em.THREE_CONCEPT_SETS) == len(em.LOWER_CONCEPTS)
+    pool = em.load_or_build_three_concept_pool(pipe.config)
+    assert pool.features.shape == (2 * len(em.THREE_CONCEPT_SETS), em.FRAMES, 263)
+    again = em.load_or_build_three_concept_pool(pipe.config)           # from the cache
+    assert np.array_equal(again.joints, pool.joints) and again.captions == pool.captions
+    assert all(" and " in c for caps in pool.captions for c in caps)
+    items = em.composition_items(pipe.data, 0, 5, pool)
+    assert len(items) == 35 and len(items.concept_texts) == 3
+    assert {c for c in items.concepts} == set(em.THREE_CONCEPT_SETS)
+    mixed = em.CompositionPool(np.concatenate([pool.features, pipe.data.test_features]),
+                               np.concatenate([pool.joints, pipe.data.test_joints]),
+                               pool.captions + pipe.data.test_captions,
+                               pool.concepts + pipe.data.test_concepts)
+    with pytest.raises(ValueError, match="one concept count"):
+        em.composition_items(pipe.data, 0, 5, mixed)
+    results = em_studies.run_rows(pipe, {"SEF": em.Sampler("sef")}, [0], three_concepts=True)
+    assert results["real"]["both_present"][0] > 0.9       # all three seen on the ground truth
+    assert results["SEF"]["fid"][0] != pytest.approx(
+        em_studies.run_rows(pipe, {"SEF": em.Sampler("sef")}, [0])["SEF"]["fid"][0])
+
+
+def test_oracle_counts_both_arms_waving_as_each_arm_only_for_sets_naming_both() -> None:
+    joints = em.build_composition_pool([("squat", "wave_both")], 1, 0, 7).joints
+    three = em_studies.oracle_presence(joints, [("squat", "wave_left", "wave_right")])
+    assert three.tolist() == [[True, True, True]]
+    one_arm = em_studies.oracle_presence(joints, [("squat", "wave_left")])
+    assert one_arm.tolist() == [[True, False]]             # one arm named: the oracle's call
+
+
 def test_studies_run(tiny_pipeline: em.EnergyMoGenPipeline) -> None:
     study = em_studies.composition_study(tiny_pipeline, seeds=[0], per_case=2)
     for mode in ("latent", "semantic"):

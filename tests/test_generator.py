@@ -114,6 +114,19 @@ def test_simultaneous_composition_takes_each_part_from_its_owner() -> None:
     assert both.labels["body_parts"]["legs"] == "walk_forward"
 
 
+def test_three_simultaneous_concepts_each_own_their_parts_and_all_are_captioned() -> None:
+    spec = g.ClipSpec(("squat", "wave_left", "wave_right"), "simultaneous", 3.2)
+    clip = g.generate_clip(spec, 5)
+    squat = g.generate_clip(single("squat", 3.2), 5)
+    assert clip.labels["body_parts"] == {"root": "squat", "legs": "squat", "torso": "squat",
+                                         "left_arm": "wave_left", "right_arm": "wave_right"}
+    assert not np.allclose(clip.joints[:, 20], squat.joints[:, 20], atol=0.05)  # left wrist
+    assert len(clip.captions) == 3
+    for caption in clip.captions:
+        assert "squat" in caption and "left" in caption and "right" in caption
+        g.humanml3d_text_line(caption)                         # every word is in the lexicon
+
+
 def test_sequential_clips_record_segments_and_blend_smoothly() -> None:
     spec = g.ClipSpec(("jump", "turn_left"), "sequential", 4.0, segment_durations=(2.0, 2.0))
     clip = g.generate_clip(spec, 2)
@@ -157,6 +170,10 @@ def test_pos_rules() -> None:
     (lambda: g.ClipSpec(("walk_circle",), duration=2.0), "needs at least 3.5 s"),
     (lambda: g.ClipSpec(("jump", "clap"), "sideways"), "unknown composition"),
     (lambda: g.ClipSpec(("jump", "clap"), "single"), "has 1 concept"),
+    (lambda: g.ClipSpec(("run", "wave_left", "clap"), "simultaneous"), "share"),
+    (lambda: g.ClipSpec(("run", "wave_left", "wave_left"), "simultaneous"), "twice"),
+    (lambda: g.ClipSpec(("jump", "clap", "run"), "sequential"), "has 2 concept"),
+    (lambda: g.ClipSpec(("jump",) * 4, "simultaneous"), "has 2 or 3 concept"),
 ])
 def test_bad_specs_are_rejected(make, message) -> None:
     with pytest.raises(ValueError, match=message):

@@ -56,12 +56,13 @@ from .training import TrainConfig
 
 __all__ = [
     "ARM_CONCEPTS", "FRAMES", "HELD_OUT_PAIRS", "LOWER_CONCEPTS", "NEGATION_CASES",
-    "CompositionItems", "DenoiserRows", "EnergyMoGenPipeline", "NegationItems", "PipelineConfig",
-    "PipelineSource", "Sampler", "SeedPipelines", "StandInData", "TextStage", "VAEStage",
-    "composition_items", "concept_text", "denoiser_cache_key", "denoiser_kwargs",
-    "denoiser_rows", "denoiser_train_config", "encode_latents", "latent_diffusion",
-    "load_or_build_data", "load_pipeline", "negation_items", "pair_caption", "pipeline_config",
-    "pipeline_for", "retrain_pipeline", "scaled_linear_betas", "stand_in_clip",
+    "THREE_CONCEPT_SETS", "CompositionItems", "CompositionPool", "DenoiserRows",
+    "EnergyMoGenPipeline", "NegationItems", "PipelineConfig", "PipelineSource", "Sampler",
+    "SeedPipelines", "StandInData", "TextStage", "VAEStage", "build_composition_pool",
+    "composition_items", "concept_text", "denoiser_cache_key", "denoiser_kwargs", "denoiser_rows",
+    "denoiser_train_config", "encode_latents", "latent_diffusion", "load_or_build_data",
+    "load_or_build_three_concept_pool", "load_pipeline", "negation_items", "pair_caption",
+    "pipeline_config", "pipeline_for", "retrain_pipeline", "scaled_linear_betas", "stand_in_clip",
     "text_encoder_cache_key", "train_denoiser_stage", "train_seed_for", "train_text_stage",
     "train_vae_stage", "trained_pairs", "vae_kwargs", "vae_train_config",
 ]
@@ -87,6 +88,15 @@ HELD_OUT_PAIRS: tuple[tuple[str, str], ...] = (
     ("walk_left", "wave_both"), ("walk_right", "wave_left"), ("run", "raise_arms"),
     ("jump", "wave_right"), ("jump", "clap"), ("squat", "wave_left"), ("squat", "wave_both"),
 )
+#: MTT-style sets of three simultaneous concepts: each lower concept with a wave of each arm.
+#: Lower body, left arm and right arm are the stand-in body's only three disjoint part groups,
+#: and ``wave_left``/``wave_right`` the pool's only one-arm concepts, so these are all the
+#: sets of three it can hold. Never seen as three texts in training; the motion is what
+#: ``wave_both`` names (``energymogen_studies.oracle_presence`` counts a detected
+#: ``wave_both`` as both arms' waves for them), and (walk_left | squat, wave_both) are held-out
+#: pairs, so for those two sets the motion itself is unseen too.
+THREE_CONCEPT_SETS: tuple[tuple[str, str, str], ...] = tuple(
+    (lower, "wave_left", "wave_right") for lower in LOWER_CONCEPTS)
 #: negation (Eq. 8): (trained pair c_i, the concept c_j to remove). As the paper's Fig. 5b
 #: ("jumping to the right" not "someone jumps"), c_i is a text that holds both concepts.
 NEGATION_CASES: tuple[tuple[tuple[str, str], str], ...] = (
@@ -148,6 +158,8 @@ class PipelineConfig:
     ddim_steps: int = 50
     guidance_scale: float = 2.5
     items_per_pair: int = 8
+    #: items per set of three (7 sets: 70 items, two R-precision batches of 32)
+    items_per_triple: int = 10
 
     def data_dict(self) -> dict[str, Any]:
         return {"generator_version": GENERATOR_VERSION, "frames": self.frames,
@@ -167,7 +179,7 @@ def pipeline_config(quick: bool) -> PipelineConfig:
         return PipelineConfig()
     return PipelineConfig(n_train_clips=160, test_clips_per_pair=3, vae_steps=40,
                           text_steps=40, denoiser_steps=80, evaluator_steps=40, ddim_steps=5,
-                          items_per_pair=4)
+                          items_per_pair=4, items_per_triple=5)
 
 
 def config_summary(config: PipelineConfig) -> dict[str, Any]:
@@ -193,6 +205,9 @@ def _check_pool() -> None:
     for name in LOWER_CONCEPTS + ARM_CONCEPTS:
         if name not in CONCEPTS:
             raise ValueError(f"concept {name!r} is not in repro.generator.CONCEPTS")
+    for names in THREE_CONCEPT_SETS:
+        if not set(names) <= set(LOWER_CONCEPTS + ARM_CONCEPTS):
+            raise ValueError(f"set of three {names} is not in the pipeline's concept pool")
     pairs = {frozenset(p) for p in HELD_OUT_PAIRS}
     for (pair, negated) in NEGATION_CASES:
         if frozenset(pair) in pairs or negated not in pair:
@@ -232,6 +247,37 @@ def stand_in_clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generat
     return features, joints, clip.captions
 
 
+@dataclass(frozen=True)
+class CompositionPool:
+    """Ground-truth composed clips for test items: K clips per composition set, in set order."""
+
+    features: np.ndarray                       # (S·K, T, 263) unnormalised
+    joints: np.ndarray                         # (S·K, T, 22, 3)
+    captions: list[tuple[str, ...]]
+    concepts: list[tuple[str, ...]]
+
+
+def build_composition_pool(sets: Sequence[tuple[str, ...]], per_set: int, data_seed: int,
+                    stream: int, frames: int = FRAMES) -> CompositionPool:
+    """``per_set`` simultaneous clips of every set; clip k of set p is drawn with
+    ``default_rng([data_seed, stream + p, k])`` (:func:`stand_in_clip`)."""
+    feats, joints, captions, concepts = [], [], [], []
+    with torch.inference_mode():
+        for p, names in enumerate(sets):
+            for k in range(per_set):
+                rng = np.random.default_rng([data_seed, stream + p, k])
+                f, j, c = stand_in_clip(tuple(names), frames, rng)
+                feats.append(f)
+                joints.append(j)
+                captions.append(tuple(c))
+                concepts.append(tuple(names))
+    return CompositionPool(np.stack(feats), np.stack(joints), captions, concepts)
+
+
+#: rng streams of the test pools (:func:`build_composition_pool`)
+_PAIR_STREAM, _TRIPLE_STREAM = 10 ** 6, 2 * 10 ** 6
+
+
 @dataclass
 class StandInData:
     """Training clips (fixed length) and the composition test pool of the held-out pairs.
@@ -257,6 +303,12 @@ class StandInData:
     def normalise(self, features: np.ndarray) -> np.ndarray:
         return ((features - self.mean) / self.std).astype(np.float32)
 
+    @property
+    def test_pool(self) -> CompositionPool:
+        """The held-out pairs' ground truth as a :class:`CompositionPool`."""
+        return CompositionPool(self.test_features, self.test_joints, self.test_captions,
+                        self.test_concepts)
+
 
 def build_stand_in_data(config: PipelineConfig) -> StandInData:
     """Generate the training clips and the test pool (deterministic in ``config``).
@@ -279,19 +331,12 @@ def build_stand_in_data(config: PipelineConfig) -> StandInData:
             feats.append(f)
             captions.append(tuple(c))
             concepts.append(names)
-        test_f, test_j, test_c, test_n = [], [], [], []
-        for p, pair in enumerate(HELD_OUT_PAIRS):
-            for k in range(config.test_clips_per_pair):
-                rng = np.random.default_rng([config.data_seed, 10 ** 6 + p, k])
-                f, j, c = stand_in_clip(pair, config.frames, rng)
-                test_f.append(f)
-                test_j.append(j)
-                test_c.append(tuple(c))
-                test_n.append(pair)
+    test = build_composition_pool(HELD_OUT_PAIRS, config.test_clips_per_pair, config.data_seed,
+                           _PAIR_STREAM, config.frames)
     train = np.stack(feats).astype(np.float32)
     mean, std = compute_statistics(list(train))
-    return StandInData(train, captions, concepts, np.stack(test_f), np.stack(test_j), test_c,
-                       test_n, mean, std)
+    return StandInData(train, captions, concepts, test.features, test.joints, test.captions,
+                       test.concepts, mean, std)
 
 
 def load_or_build_data(config: PipelineConfig) -> StandInData:
@@ -321,6 +366,32 @@ def load_or_build_data(config: PipelineConfig) -> StandInData:
             [tuple(c) for c in text["test_concepts"]], stored["mean"], stored["std"])
 
 
+def load_or_build_three_concept_pool(config: PipelineConfig) -> CompositionPool:
+    """``test_clips_per_pair`` clips of every :data:`THREE_CONCEPT_SETS` set, cached in
+    ``cache_dir()/emg_three_concepts/<hash>/`` (a test pool only: the training data and every
+    trained model are those of the pairs)."""
+    _check_pool()
+    key = {"generator_version": GENERATOR_VERSION, "frames": config.frames,
+           "per_set": config.test_clips_per_pair, "seed": config.data_seed,
+           "sets": [list(names) for names in THREE_CONCEPT_SETS], "rhythm": RHYTHM_OVERRIDES,
+           "stream": _TRIPLE_STREAM, "format": 1}
+    directory = cache.cached_artifact_dir("emg_three_concepts", key)
+    with cache.artifact_lock(directory):
+        arrays, meta = directory / "arrays.npz", directory / "meta.json"
+        if arrays.exists() and meta.exists():
+            stored, text = np.load(arrays), storage.read_json(meta)
+            return CompositionPool(stored["features"], stored["joints"],
+                            [tuple(c) for c in text["captions"]],
+                            [tuple(c) for c in text["concepts"]])
+        pool = build_composition_pool(THREE_CONCEPT_SETS, config.test_clips_per_pair,
+                               config.data_seed, _TRIPLE_STREAM, config.frames)
+        with storage.atomic_open(arrays, "wb") as handle:
+            np.savez(handle, features=pool.features, joints=pool.joints)
+        storage.write_json(meta, {"captions": [list(c) for c in pool.captions],
+                                  "concepts": [list(c) for c in pool.concepts]})
+        return pool
+
+
 # ----------------------------------------------------------------------------------------------
 # Test items
 # ----------------------------------------------------------------------------------------------
@@ -328,7 +399,8 @@ def load_or_build_data(config: PipelineConfig) -> StandInData:
 
 @dataclass(frozen=True)
 class CompositionItems:
-    """An MTT-like composition batch: B items of 2 concepts each (held-out pairs).
+    """An MTT-like composition batch: B items of n concepts each (n = 2: the held-out pairs;
+    n = 3: :data:`THREE_CONCEPT_SETS`).
 
     ``concept_texts[i]`` is the list of B texts of the i-th concept (the n concept conditions
     of Eq. 7–9), ``multi_texts`` the joined single text c_{1,n}, ``gt_*`` the ground truth.
@@ -344,26 +416,30 @@ class CompositionItems:
         return len(self.multi_texts)
 
 
-def composition_items(data: StandInData, seed: int, per_pair: int) -> CompositionItems:
-    """``per_pair`` items per held-out pair, drawn with ``seed``: a (clip, caption) of the
-    pool without replacement and a random paraphrase for each concept text."""
+def composition_items(data: StandInData, seed: int, per_pair: int,
+                      pool: CompositionPool | None = None) -> CompositionItems:
+    """``per_pair`` items per composition set of ``pool`` (default: the held-out pairs,
+    ``data.test_pool``), drawn with ``seed``: a (clip, caption) of the pool without
+    replacement and a random paraphrase for each concept text."""
+    pool = data.test_pool if pool is None else pool
+    sets = list(dict.fromkeys(tuple(c) for c in pool.concepts))
+    if len({len(names) for names in sets}) != 1:
+        raise ValueError(f"a composition batch needs one concept count, the pool has sets {sets}")
     rng = np.random.default_rng([seed, 404])
     concepts, texts, multi, index = [], [], [], []
-    for pair in HELD_OUT_PAIRS:
-        clips = [i for i, c in enumerate(data.test_concepts) if tuple(c) == pair]
-        options = [(i, j) for i in clips for j in range(len(data.test_captions[i]))]
-        if not options:
-            raise ValueError(f"the test pool has no clip of {pair}")
+    for names in sets:
+        clips = [i for i, c in enumerate(pool.concepts) if tuple(c) == names]
+        options = [(i, j) for i in clips for j in range(len(pool.captions[i]))]
         take = rng.choice(len(options), min(per_pair, len(options)), replace=False)
         for k in take:
             i, j = options[int(k)]
-            concepts.append(pair)
-            texts.append(tuple(concept_text(name, rng) for name in pair))
-            multi.append(data.test_captions[i][j])
+            concepts.append(names)
+            texts.append(tuple(concept_text(name, rng) for name in names))
+            multi.append(pool.captions[i][j])
             index.append(i)
-    per_concept = tuple(tuple(t[c] for t in texts) for c in range(2))
+    per_concept = tuple(tuple(t[c] for t in texts) for c in range(len(sets[0])))
     return CompositionItems(tuple(concepts), per_concept, tuple(multi),
-                            data.test_features[index], data.test_joints[index])
+                            pool.features[index], pool.joints[index])
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,7 @@ from .energymogen import (
     PipelineSource,
     Sampler,
     composition_items,
+    load_or_build_three_concept_pool,
     negation_items,
     pipeline_for,
 )
@@ -97,12 +98,19 @@ PAPER_TABLE3 = {k: dict(zip(_COLUMNS, v, strict=True)) for k, v in _T3.items()}
 
 
 def oracle_presence(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> np.ndarray:
-    """(B, n) bool: is the i-th concept of item b among ``oracles.detect_concepts`` of b?"""
+    """(B, n) bool: is the i-th concept of item b among ``oracles.detect_concepts`` of b?
+
+    The oracle calls both arms waving ``wave_both`` only; for an item that names the wave of
+    each arm (a set of three, ``energymogen.THREE_CONCEPT_SETS``) a detected ``wave_both``
+    is both of them. Items naming one arm's wave are scored as the oracle says.
+    """
     if len(joints) != len(concepts):
         raise ValueError(f"{len(joints)} motions for {len(concepts)} concept lists")
     out = []
     for clip, names in zip(joints, concepts, strict=True):
         found = detect_concepts(clip)
+        if {"wave_left", "wave_right"} <= set(names) and "wave_both" in found:
+            found |= {"wave_left", "wave_right"}
         out.append([name in found for name in names])
     return np.asarray(out, dtype=bool)
 
@@ -121,13 +129,16 @@ def transition_distance_cm(features: np.ndarray) -> float:
 
 
 def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints: np.ndarray,
-                        items: CompositionItems, seed: int) -> dict[str, float]:
+                        items: CompositionItems, seed: int,
+                        reference: np.ndarray | None = None) -> dict[str, float]:
     """Table 3/7/9 columns for one batch, plus oracle accuracy and foot skating.
 
     R@1/R@3 (%, batches of 32) and TMR M2T with the joined text, M2M against each item's
-    ground truth, FID against the whole test pool's ground truth (evaluator embeddings),
-    transition distance (cm, :func:`transition_distance_cm`), foot skating (m/s), jitter
-    (m/s²), oracle accuracy (fraction of (item, concept) present) and both-present rate.
+    ground truth, FID against ``reference`` (default: the whole held-out pair pool's ground
+    truth, ``pipe.reference_embeddings``; evaluator embeddings), transition distance (cm,
+    :func:`transition_distance_cm`), foot skating (m/s), jitter (m/s²), oracle accuracy
+    (fraction of (item, concept) present) and the rate of items with every concept present
+    (``both_present``: two of two, or three of three for sets of three).
     """
     evaluator = pipe.evaluator
     lengths = np.full(len(features), features.shape[1])
@@ -138,7 +149,8 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
     presence = oracle_presence(joints, items.concepts)
     return {"r_precision_top1": 100.0 * float(r[0]), "r_precision_top3": 100.0 * float(r[2]),
             "tmr_m2t": metrics.tmr_score(gen, text), "tmr_m2m": metrics.tmr_score(gen, gt),
-            "fid": metrics.fid(gen, pipe.reference_embeddings),
+            "fid": metrics.fid(gen, pipe.reference_embeddings if reference is None
+                               else reference),
             "transition_distance": transition_distance_cm(features),
             "foot_skating": metrics.foot_skating(joints),
             "jitter": metrics.jitter(joints).acceleration,
@@ -147,16 +159,29 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
 
 
 def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequence[int],
-             log: Callable[[str], None] | None = None) -> dict[str, dict[str, list[float]]]:
+             log: Callable[[str], None] | None = None, *, three_concepts: bool = False
+             ) -> dict[str, dict[str, list[float]]]:
     """Every row of a table on the composition items of every seed: row → metric → per-seed
     list. Seed s uses ``pipeline_for(source, s)`` (one pipeline, or one trained model per seed:
     :class:`SeedPipelines`). Within a seed all rows share the model, the items and the initial
     noise; rows with the same canonical sampler are sampled once. The ground truth is measured
-    as row ``"real"``."""
+    as row ``"real"``.
+
+    ``three_concepts``: the items are the sets of three (``THREE_CONCEPT_SETS``,
+    ``items_per_triple`` each) and FID is against their pool's ground truth; else the held-out
+    pairs (``items_per_pair`` each).
+    """
     out: dict[str, dict[str, list[float]]] = {name: {} for name in [*rows, "real"]}
     for seed in seeds:
         pipe = pipeline_for(source, seed)
-        items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
+        reference = None
+        if three_concepts:
+            pool = load_or_build_three_concept_pool(pipe.config)
+            items = composition_items(pipe.data, seed, pipe.config.items_per_triple, pool)
+            reference = pipe.evaluator.embed_motions(
+                pool.features, np.full(len(pool.features), pool.features.shape[1]))
+        else:
+            items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
         done: dict[Sampler, dict[str, float]] = {}
         start = time.perf_counter()
         for name, sampler in rows.items():
@@ -164,10 +189,11 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
             if key not in done:
                 features = pipe.decode(pipe.sample_items(key, items, seed))
                 done[key] = composition_metrics(pipe, features, pipe.joints(features), items,
-                                                seed)
+                                                seed, reference)
             for metric, value in done[key].items():
                 out[name].setdefault(metric, []).append(value)
-        real = composition_metrics(pipe, items.gt_features, items.gt_joints, items, seed)
+        real = composition_metrics(pipe, items.gt_features, items.gt_joints, items, seed,
+                                   reference)
         for metric, value in real.items():
             out["real"].setdefault(metric, []).append(value)
         if log is not None:

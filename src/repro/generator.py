@@ -13,8 +13,9 @@ phrases the concepts, draws clip specifications, composes concepts, solves and c
 clips, and writes datasets.
 
 Composition by body part (``root``, ``legs``, ``torso``, ``left_arm``, ``right_arm``):
-simultaneous concepts must own disjoint parts (a locomotion concept owns root + legs and
-gives arm swing as a secondary default that an arm concept replaces). Sequential concepts
+simultaneous concepts (two, or three as MTT's sets of three texts) must own disjoint parts (a
+locomotion concept owns root + legs and gives arm swing as a secondary default that an arm
+concept replaces). Sequential concepts
 are evaluated one after the other, each starting where the previous one left the root, and
 cross-faded over :data:`BLEND_FRAMES` frames around each transition.
 """
@@ -232,6 +233,25 @@ def can_be_simultaneous(first: str, second: str) -> bool:
             and frozenset({first, second}) not in _SAME_AS)
 
 
+def _check_three_simultaneous(names: Sequence[str]) -> None:
+    """Three simultaneous concepts: distinct, owning pairwise disjoint parts. Unlike a pair,
+    a set of three may name a wave of each arm beside a third concept: it is a set of three
+    texts (MTT's), not a clip labelled with fewer concepts than it shows."""
+    found = [_check_concept(name) for name in names]
+    if len(set(names)) != len(names):
+        raise ValueError(f"simultaneous concepts {tuple(names)} name a concept twice")
+    for i in range(3):
+        for j in range(i + 1, 3):
+            shared = found[i].parts & found[j].parts
+            if shared:
+                raise ValueError(f"{names[i]!r} and {names[j]!r} cannot be simultaneous: "
+                                 f"they share {sorted(shared)}")
+
+
+#: how many concepts a clip of each composition holds
+_CONCEPT_COUNTS = {"single": (1,), "simultaneous": (2, 3), "sequential": (2,)}
+
+
 # ---------------------------------------------------------------------------- clip specs
 
 @dataclass(frozen=True)
@@ -258,14 +278,17 @@ class ClipSpec:
         found = [_check_concept(name) for name in self.concepts]
         if self.composition not in COMPOSITIONS:
             raise ValueError(f"unknown composition {self.composition!r}; known: {COMPOSITIONS}")
-        expected = 1 if self.composition == "single" else 2
-        if len(self.concepts) != expected:
-            raise ValueError(f"a {self.composition} clip has {expected} concept(s), got "
+        expected = _CONCEPT_COUNTS[self.composition]
+        if len(self.concepts) not in expected:
+            raise ValueError(f"a {self.composition} clip has "
+                             f"{' or '.join(map(str, expected))} concept(s), got "
                              f"{len(self.concepts)}: {self.concepts}")
         if not MIN_DURATION <= self.duration <= MAX_DURATION:
             raise ValueError(f"duration must be in [{MIN_DURATION}, {MAX_DURATION}] s, got "
                              f"{self.duration}")
-        if self.composition == "simultaneous" and not can_be_simultaneous(*self.concepts):
+        if self.composition == "simultaneous" and len(self.concepts) == 3:
+            _check_three_simultaneous(self.concepts)
+        elif self.composition == "simultaneous" and not can_be_simultaneous(*self.concepts):
             raise ValueError(f"{self.concepts[0]!r} and {self.concepts[1]!r} cannot be "
                              "simultaneous: they share body parts or together are "
                              f"{_SAME_AS.get(frozenset(self.concepts), 'one concept')!r}")
@@ -461,6 +484,9 @@ _TEMPLATES = {
     "sequential": ("{S} {A}, then {B}.", "{S} {A} and then {B}.", "first {S} {A}, then {B}.",
                    "{S} {A} before {b}.", "after {a}, {S} {B}."),
 }
+#: three simultaneous concepts (MTT-style sets of three)
+_TEMPLATES_THREE = ("{S} {A} while {b} and {c}.", "{S} {A}, {B} and {C} at the same time.",
+                    "while {b} and {c}, {S} {A}.")
 
 #: lemma → (third person singular, gerund)
 _VERBS = {
@@ -550,7 +576,7 @@ def sample_captions(spec: ClipSpec, rng: np.random.Generator, count: int = 3) ->
     composition ("{S} {A} while {b}.", "{S} {A}, then {B}.", ...) filled with a subject and
     one paraphrase (third person or gerund) per concept. Every generated clip gets 3."""
     phrases = [CONCEPTS[name].phrases for name in spec.concepts]
-    templates = _TEMPLATES[spec.composition]
+    templates = _TEMPLATES_THREE if len(phrases) == 3 else _TEMPLATES[spec.composition]
     found: list[str] = []
     for _ in range(50 * count):
         template = templates[int(rng.integers(len(templates)))]
@@ -559,6 +585,8 @@ def sample_captions(spec: ClipSpec, rng: np.random.Generator, count: int = 3) ->
         fill = {"S": subject, "A": chosen[0][0], "a": chosen[0][1]}
         if len(chosen) > 1:
             fill.update(B=chosen[1][0], b=chosen[1][1])
+        if len(chosen) > 2:
+            fill.update(C=chosen[2][0], c=chosen[2][1])
         caption = template.format(**fill)
         if caption not in found:
             found.append(caption)
