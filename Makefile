@@ -36,8 +36,8 @@ test: $(STAMP)  ## lint + unit tests + every notebook executed with quick parame
 reproduce: $(STAMP)  ## execute every notebook with full parameters; write build/report and refresh results/
 	$(PY) -m repro reproduce --jobs $(JOBS) --seed $(SEED) --snapshot $(ARGS)
 
-bench: $(STAMP)  ## measure the time budgets; writes build/bench/bench.json
-	$(PY) -m repro bench
+bench: $(STAMP)  ## measure the time budgets; writes build/bench/bench.json (ARGS="--full", "--warm-cache DIR")
+	$(PY) -m repro bench $(ARGS)
 
 lint: $(STAMP)  ## ruff on the library, tests and notebooks
 	$(PY) -m ruff check src tests notebooks

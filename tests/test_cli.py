@@ -61,3 +61,33 @@ def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
 def test_reproduce_rejects_zero_threads(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["reproduce", "--quick", "--only", "00", "--threads", "0"]) == 2
     assert "--threads must be at least 1" in capsys.readouterr().err
+
+
+def test_bench_warm_cache_is_checked_and_rows_of_earlier_benches_stay(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from repro import bench
+    from repro.storage import read_json
+
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
+    assert main(["bench", "--no-quick", "--warm-cache", str(tmp_path / "absent")]) == 2
+    err = capsys.readouterr().err
+    assert "--warm-cache" in err and "absent: not a directory" in err
+    timed: list[dict[str, str] | None] = []
+
+    def fake_timed(command: list[str], env: dict[str, str] | None = None) -> tuple[float, int]:
+        timed.append(env)
+        return 3.0, 0
+
+    monkeypatch.setattr(bench, "_timed", fake_timed)
+    (tmp_path / "cache").mkdir()
+    out = tmp_path / "build" / "bench" / "bench.json"
+    out.parent.mkdir(parents=True)
+    out.write_text('{"rows": {"make_test_cold_cache": {"seconds": 176.0, "budget": 300, '
+                   '"exit_code": 0}}}')
+    assert bench.run_bench(quick=False, warm_cache=tmp_path / "cache") == 0
+    rows = read_json(out)["rows"]
+    assert rows["make_test_cold_cache"]["seconds"] == 176.0         # kept from the earlier bench
+    assert rows["reproduce_full_warm"]["seconds"] == 3.0
+    assert rows["reproduce_full_warm"]["cache"] == str((tmp_path / "cache").resolve())
+    assert timed == [{"REPRO_CACHE_DIR": str((tmp_path / "cache").resolve())}]

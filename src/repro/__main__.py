@@ -106,7 +106,12 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 def _cmd_bench(args: argparse.Namespace) -> int:
     from .bench import run_bench
 
-    return run_bench(full=args.full, venv=args.venv)
+    try:
+        return run_bench(full=args.full, venv=args.venv, quick=not args.no_quick,
+                         warm_cache=args.warm_cache)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
 
 
 def _cmd_stubs(_: argparse.Namespace) -> int:
@@ -159,6 +164,10 @@ def main(argv: list[str] | None = None) -> int:
     bench = sub.add_parser("bench", help="measure the time budgets (writes build/bench)")
     bench.add_argument("--full", action="store_true", help="also time a full cold/warm reproduce")
     bench.add_argument("--venv", action="store_true", help="also time a fresh venv set-up")
+    bench.add_argument("--no-quick", action="store_true",
+                       help="skip the unit tests, quick notebooks and make test")
+    bench.add_argument("--warm-cache", metavar="DIR",
+                       help="also time a full reproduce on DIR, an earlier full run's cache")
     bench.set_defaults(func=_cmd_bench)
 
     sub.add_parser("generate-stubs", help="regenerate data_stubs/").set_defaults(func=_cmd_stubs)
