@@ -210,6 +210,7 @@ def test_sets_of_three_concepts(tiny_pipeline: em.EnergyMoGenPipeline, tmp_path:
         em.composition_items(pipe.data, 0, 5, mixed)
     results = em_studies.run_rows(pipe, {"SEF": em.Sampler("sef")}, [0], three_concepts=True)
     assert results["real"]["both_present"][0] > 0.9       # all three seen on the ground truth
+    assert "oracle_accuracy_concept_3" in results["SEF"]
     assert results["SEF"]["fid"][0] != pytest.approx(
         em_studies.run_rows(pipe, {"SEF": em.Sampler("sef")}, [0])["SEF"]["fid"][0])
 

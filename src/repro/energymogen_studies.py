@@ -137,8 +137,9 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
     ground truth, FID against ``reference`` (default: the whole held-out pair pool's ground
     truth, ``pipe.reference_embeddings``; evaluator embeddings), transition distance (cm,
     :func:`transition_distance_cm`), foot skating (m/s), jitter (m/s²), oracle accuracy
-    (fraction of (item, concept) present) and the rate of items with every concept present
-    (``both_present``: two of two, or three of three for sets of three).
+    (fraction of (item, concept) present; ``oracle_accuracy_concept_i``: of the i-th concept
+    of the items alone) and the rate of items with every concept present (``both_present``:
+    two of two, or three of three for sets of three).
     """
     evaluator = pipe.evaluator
     lengths = np.full(len(features), features.shape[1])
@@ -155,7 +156,9 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
             "foot_skating": metrics.foot_skating(joints),
             "jitter": metrics.jitter(joints).acceleration,
             "oracle_accuracy": float(presence.mean()),
-            "both_present": float(presence.all(axis=1).mean())}
+            "both_present": float(presence.all(axis=1).mean()),
+            **{f"oracle_accuracy_concept_{i + 1}": float(rate)
+               for i, rate in enumerate(presence.mean(axis=0))}}
 
 
 def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequence[int],
