@@ -258,7 +258,7 @@ class CompositionPool:
 
 
 def build_composition_pool(sets: Sequence[tuple[str, ...]], per_set: int, data_seed: int,
-                    stream: int, frames: int = FRAMES) -> CompositionPool:
+                           stream: int, frames: int = FRAMES) -> CompositionPool:
     """``per_set`` simultaneous clips of every set; clip k of set p is drawn with
     ``default_rng([data_seed, stream + p, k])`` (:func:`stand_in_clip`)."""
     feats, joints, captions, concepts = [], [], [], []
@@ -307,7 +307,7 @@ class StandInData:
     def test_pool(self) -> CompositionPool:
         """The held-out pairs' ground truth as a :class:`CompositionPool`."""
         return CompositionPool(self.test_features, self.test_joints, self.test_captions,
-                        self.test_concepts)
+                               self.test_concepts)
 
 
 def build_stand_in_data(config: PipelineConfig) -> StandInData:
@@ -332,7 +332,7 @@ def build_stand_in_data(config: PipelineConfig) -> StandInData:
             captions.append(tuple(c))
             concepts.append(names)
     test = build_composition_pool(HELD_OUT_PAIRS, config.test_clips_per_pair, config.data_seed,
-                           _PAIR_STREAM, config.frames)
+                                  _PAIR_STREAM, config.frames)
     train = np.stack(feats).astype(np.float32)
     mean, std = compute_statistics(list(train))
     return StandInData(train, captions, concepts, test.features, test.joints, test.captions,
@@ -381,10 +381,10 @@ def load_or_build_three_concept_pool(config: PipelineConfig) -> CompositionPool:
         if arrays.exists() and meta.exists():
             stored, text = np.load(arrays), storage.read_json(meta)
             return CompositionPool(stored["features"], stored["joints"],
-                            [tuple(c) for c in text["captions"]],
-                            [tuple(c) for c in text["concepts"]])
+                                   [tuple(c) for c in text["captions"]],
+                                   [tuple(c) for c in text["concepts"]])
         pool = build_composition_pool(THREE_CONCEPT_SETS, config.test_clips_per_pair,
-                               config.data_seed, _TRIPLE_STREAM, config.frames)
+                                      config.data_seed, _TRIPLE_STREAM, config.frames)
         with storage.atomic_open(arrays, "wb") as handle:
             np.savez(handle, features=pool.features, joints=pool.joints)
         storage.write_json(meta, {"captions": [list(c) for c in pool.captions],
@@ -423,6 +423,8 @@ def composition_items(data: StandInData, seed: int, per_pair: int,
     replacement and a random paraphrase for each concept text."""
     pool = data.test_pool if pool is None else pool
     sets = list(dict.fromkeys(tuple(c) for c in pool.concepts))
+    if not sets:
+        raise ValueError("the composition pool is empty")
     if len({len(names) for names in sets}) != 1:
         raise ValueError(f"a composition batch needs one concept count, the pool has sets {sets}")
     rng = np.random.default_rng([seed, 404])

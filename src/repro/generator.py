@@ -15,9 +15,9 @@ clips, and writes datasets.
 Composition by body part (``root``, ``legs``, ``torso``, ``left_arm``, ``right_arm``):
 simultaneous concepts (two, or three as MTT's sets of three texts) must own disjoint parts (a
 locomotion concept owns root + legs and gives arm swing as a secondary default that an arm
-concept replaces). Sequential concepts
-are evaluated one after the other, each starting where the previous one left the root, and
-cross-faded over :data:`BLEND_FRAMES` frames around each transition.
+concept replaces). Sequential concepts are evaluated one after the other, each starting where
+the previous one left the root, and cross-faded over :data:`BLEND_FRAMES` frames around each
+transition.
 """
 
 from __future__ import annotations
