@@ -51,6 +51,12 @@ def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
     assert main(["report", "--note", "assembled by hand"]) == 0
     text = (tmp_path / "report" / "REPORT.md").read_text()
     assert "**discrepancy in the paper**" in text and "assembled by hand" in text
+    claims = tmp_path / "report" / "claims.json"
+    claims.write_text(claims.read_text().replace('"run_seconds": {}',
+                                                 '"run_seconds": {"01_x0_vs_eps": 230.5}'))
+    assert main(["report", "--note", "again"]) == 0          # run times of the last run kept
+    assert "| 01_x0_vs_eps | 230.5 |" in (tmp_path / "report" / "REPORT.md").read_text()
+    assert '"01_x0_vs_eps": 230.5' in claims.read_text()
     monkeypatch.setenv("REPRO_BUILD_DIR", str(tmp_path / "quick"))
     record_claim("GMD-A1", {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5},
                  seeds=[0], quick=True)

@@ -13,6 +13,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -112,12 +113,34 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
     return head + "\n".join(body)
 
 
+@dataclass(frozen=True)
+class RecordedRun:
+    """A notebook's wall time as an earlier report recorded it."""
+
+    name: str
+    seconds: float
+
+
+def recorded_runs(report_dir: Path) -> list[RecordedRun]:
+    """The run times kept in ``report_dir/claims.json`` ([] if none)."""
+    try:
+        seconds = read_json(report_dir / "claims.json").get("run_seconds", {})
+    except (OSError, ValueError, AttributeError):
+        return []
+    return [RecordedRun(str(name), float(value)) for name, value in seconds.items()]
+
+
 def write_report(build_dir: str | os.PathLike, *, quick: bool,
                  runs: Sequence[Any] = (), provenance: str = "") -> Path:
-    """Write ``<build>/report/{REPORT.md, index.html, claims.json, figures/}``; returns the md."""
+    """Write ``<build>/report/{REPORT.md, index.html, claims.json, figures/}``; returns the md.
+
+    ``runs``: the notebooks just run (name, seconds); the run times of the report being
+    replaced are kept for the notebooks not run again (``--only``, or ``report`` alone).
+    """
     build_dir = Path(build_dir)
     sidecars = load_sidecars(build_dir / "claims")
     report_dir = build_dir / "report"
+    runs = list({r.name: r for r in [*recorded_runs(report_dir), *runs]}.values())
     figures_out = report_dir / "figures"
     figures_out.mkdir(parents=True, exist_ok=True)
     figure_names: dict[str, list[str]] = {}
