@@ -82,3 +82,7 @@ def test_slowest_known_notebooks_are_started_first(tmp_path: Path,
     assert runner.previous_seconds(quick=True) == {}
     write_json(tmp_path / "quick" / "report" / "claims.json", {"run_seconds": {"01_b": 7.5}})
     assert runner.previous_seconds(quick=True) == {"01_b": 7.5}
+    # a later, faster (warm) run does not hide the slowest time known for a notebook
+    write_json(tmp_path / "quick" / "report" / "claims.json",
+               {"run_seconds": {"01_b": 2.0}, "slowest_seconds": {"01_b": 7.5, "02_c": 3.0}})
+    assert runner.previous_seconds(quick=True) == {"01_b": 7.5, "02_c": 3.0}

@@ -121,13 +121,34 @@ class RecordedRun:
     seconds: float
 
 
+def _recorded(claims_json: Path, key: str) -> dict[str, float]:
+    try:
+        seconds = read_json(claims_json).get(key, {})
+    except (OSError, ValueError, AttributeError):
+        return {}
+    return {str(name): float(value) for name, value in seconds.items()}
+
+
 def recorded_runs(report_dir: Path) -> list[RecordedRun]:
     """The run times kept in ``report_dir/claims.json`` ([] if none)."""
-    try:
-        seconds = read_json(report_dir / "claims.json").get("run_seconds", {})
-    except (OSError, ValueError, AttributeError):
-        return []
-    return [RecordedRun(str(name), float(value)) for name, value in seconds.items()]
+    return [RecordedRun(name, value)
+            for name, value in _recorded(report_dir / "claims.json", "run_seconds").items()]
+
+
+def slowest_seconds(claims_json: Path) -> dict[str, float]:
+    """Each notebook's slowest known wall time in a report's claims.json (``slowest_seconds``;
+    older reports: ``run_seconds``) — a cold run's, once one was recorded."""
+    return (_recorded(claims_json, "slowest_seconds")
+            or _recorded(claims_json, "run_seconds"))
+
+
+def slowest_of(*records: dict[str, float]) -> dict[str, float]:
+    """Per notebook, the largest of the records' times."""
+    out: dict[str, float] = {}
+    for record in records:
+        for name, value in record.items():
+            out[name] = max(value, out.get(name, 0.0))
+    return out
 
 
 def write_report(build_dir: str | os.PathLike, *, quick: bool,
@@ -141,6 +162,8 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
     sidecars = load_sidecars(build_dir / "claims")
     report_dir = build_dir / "report"
     runs = list({r.name: r for r in [*recorded_runs(report_dir), *runs]}.values())
+    slowest = slowest_of(slowest_seconds(report_dir / "claims.json"),
+                       {r.name: round(r.seconds, 1) for r in runs})
     figures_out = report_dir / "figures"
     figures_out.mkdir(parents=True, exist_ok=True)
     figure_names: dict[str, list[str]] = {}
@@ -154,7 +177,8 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
     write_json(report_dir / "claims.json", {"mode": "quick" if quick else "full",
                                             "claims": rows, "sidecars": sidecars,
                                             "run_seconds": {r.name: round(r.seconds, 1)
-                                                            for r in runs}})
+                                                            for r in runs},
+                                            "slowest_seconds": slowest})
     write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names))
     return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, quick, runs,
                                                           figure_names, provenance))
@@ -186,12 +210,17 @@ def update_readme_table(readme: str | os.PathLike, rows: Sequence[dict[str, str]
 
 def write_snapshot(build_dir: str | os.PathLike) -> Path:
     """Replace ``results/`` with the full run's REPORT.md, claims.json and PNG figures, and
-    the README's verdict table with the same verdicts."""
+    the README's verdict table with the same verdicts. ``slowest_seconds`` keeps the slowest
+    wall time of each notebook over the snapshots (``runner.longest_first`` orders by it, so
+    a warm run's times do not hide a cold run's)."""
     report_dir = Path(build_dir) / "report"
     target = paths.results_dir()
     staging = Path(tempfile.mkdtemp(prefix=".results.", dir=target.parent))
     shutil.copy2(report_dir / "REPORT.md", staging / "REPORT.md")
-    shutil.copy2(report_dir / "claims.json", staging / "claims.json")
+    claims = read_json(report_dir / "claims.json")
+    claims["slowest_seconds"] = slowest_of(slowest_seconds(target / "claims.json"),
+                                         slowest_seconds(report_dir / "claims.json"))
+    write_json(staging / "claims.json", claims)
     (staging / "figures").mkdir()
     for figure in (report_dir / "figures").glob("*.png"):
         shutil.copy2(figure, staging / "figures" / figure.name)

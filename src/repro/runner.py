@@ -23,7 +23,7 @@ from typing import Any
 
 from . import paths
 from .claims import CLAIMS
-from .storage import read_json
+from .report import slowest_of, slowest_seconds
 
 STANDARD_PARAMETERS = ("quick", "seed", "device", "build_dir")
 
@@ -127,19 +127,13 @@ def _execute(name: str, parameters: dict[str, Any], output: str, timeout: int,
 
 
 def previous_seconds(quick: bool) -> dict[str, float]:
-    """Each notebook's wall time in the last reports of this kind of run: the committed
-    ``results/`` snapshot's (full runs only), overridden by the build's own; {} if none."""
+    """Each notebook's slowest known wall time (``report.slowest_seconds``) in the reports of
+    this kind of run: the build's own and the committed ``results/`` snapshot's (full runs
+    only); {} if none."""
     candidates = [paths.run_build_dir(quick) / "report" / "claims.json"]
     if not quick:
         candidates.insert(0, paths.results_dir() / "claims.json")
-    seconds: dict[str, float] = {}
-    for candidate in candidates:
-        try:
-            recorded = read_json(candidate).get("run_seconds", {})
-        except (OSError, ValueError, AttributeError):
-            continue
-        seconds.update({str(k): float(v) for k, v in recorded.items()})
-    return seconds
+    return slowest_of(*(slowest_seconds(candidate) for candidate in candidates))
 
 
 def longest_first(targets: Sequence[str], seconds: dict[str, float]) -> list[str]:
