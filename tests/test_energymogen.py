@@ -194,9 +194,9 @@ def test_sets_of_three_concepts(tiny_pipeline: em.EnergyMoGenPipeline, tmp_path:
     monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path))
     pipe = tiny_pipeline
     assert len(em.THREE_CONCEPT_SETS) == len(em.LOWER_CONCEPTS)
-    pool = em.load_or_build_three_concept_pool(pipe.config)
+    pool = em.load_or_build_test_pool(pipe.config, "threes")
     assert pool.features.shape == (2 * len(em.THREE_CONCEPT_SETS), em.FRAMES, 263)
-    again = em.load_or_build_three_concept_pool(pipe.config)           # from the cache
+    again = em.load_or_build_test_pool(pipe.config, "threes")           # from the cache
     assert np.array_equal(again.joints, pool.joints) and again.captions == pool.captions
     assert all(" and " in c for caps in pool.captions for c in caps)
     items = em.composition_items(pipe.data, 0, 5, pool)
@@ -208,11 +208,16 @@ def test_sets_of_three_concepts(tiny_pipeline: em.EnergyMoGenPipeline, tmp_path:
                                pool.concepts + pipe.data.test_concepts)
     with pytest.raises(ValueError, match="one concept count"):
         em.composition_items(pipe.data, 0, 5, mixed)
-    results = em_studies.run_rows(pipe, {"SEF": em.Sampler("sef")}, [0], three_concepts=True)
+    results = em_studies.run_rows(pipe, {"SEF": em.Sampler("sef")}, [0], test_set="threes")
     assert results["real"]["both_present"][0] > 0.9       # all three seen on the ground truth
     assert "oracle_accuracy_concept_3" in results["SEF"]
     assert results["SEF"]["fid"][0] != pytest.approx(
         em_studies.run_rows(pipe, {"SEF": em.Sampler("sef")}, [0])["SEF"]["fid"][0])
+    control = em.load_or_build_test_pool(pipe.config, "threes_as_pairs")
+    assert {c for c in control.concepts} == set(em.THREES_AS_PAIRS)
+    assert em.load_or_build_test_pool(pipe.config, "pairs").concepts == pipe.data.test_concepts
+    with pytest.raises(ValueError, match="unknown test set 'fours'"):
+        em.load_or_build_test_pool(pipe.config, "fours")
 
 
 def test_oracle_counts_both_arms_waving_as_each_arm_only_for_sets_naming_both() -> None:

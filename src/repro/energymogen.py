@@ -55,16 +55,17 @@ from .text import TextEncoder, Vocabulary, tokenize
 from .training import TrainConfig
 
 __all__ = [
-    "ARM_CONCEPTS", "FRAMES", "HELD_OUT_PAIRS", "LOWER_CONCEPTS", "NEGATION_CASES",
-    "THREE_CONCEPT_SETS", "CompositionItems", "CompositionPool", "DenoiserRows",
-    "EnergyMoGenPipeline", "NegationItems", "PipelineConfig", "PipelineSource", "Sampler",
-    "SeedPipelines", "StandInData", "TextStage", "VAEStage", "build_composition_pool",
-    "composition_items", "concept_text", "denoiser_cache_key", "denoiser_kwargs", "denoiser_rows",
-    "denoiser_train_config", "encode_latents", "latent_diffusion", "load_or_build_data",
-    "load_or_build_three_concept_pool", "load_pipeline", "negation_items", "pair_caption",
-    "pipeline_config", "pipeline_for", "retrain_pipeline", "scaled_linear_betas", "stand_in_clip",
-    "text_encoder_cache_key", "train_denoiser_stage", "train_seed_for", "train_text_stage",
-    "train_vae_stage", "trained_pairs", "vae_kwargs", "vae_train_config",
+    "ARM_CONCEPTS", "EXTRA_TEST_SETS", "FRAMES", "HELD_OUT_PAIRS", "LOWER_CONCEPTS",
+    "NEGATION_CASES", "THREES_AS_PAIRS", "THREE_CONCEPT_SETS", "CompositionItems",
+    "CompositionPool", "DenoiserRows", "EnergyMoGenPipeline", "NegationItems", "PipelineConfig",
+    "PipelineSource", "Sampler", "SeedPipelines", "StandInData", "TextStage", "VAEStage",
+    "build_composition_pool", "composition_items", "concept_text", "denoiser_cache_key",
+    "denoiser_kwargs", "denoiser_rows", "denoiser_train_config", "encode_latents",
+    "latent_diffusion", "load_or_build_data", "load_or_build_test_pool", "load_pipeline",
+    "negation_items", "pair_caption", "pipeline_config", "pipeline_for", "retrain_pipeline",
+    "scaled_linear_betas", "stand_in_clip", "text_encoder_cache_key", "train_denoiser_stage",
+    "train_seed_for", "train_text_stage", "train_vae_stage", "trained_pairs", "vae_kwargs",
+    "vae_train_config",
 ]
 
 #: clip length in feature frames (3.2 s at 20 fps): every pool concept fits (min ≤ 3.2 s).
@@ -97,6 +98,13 @@ HELD_OUT_PAIRS: tuple[tuple[str, str], ...] = (
 #: pairs, so for those two sets the motion itself is unseen too.
 THREE_CONCEPT_SETS: tuple[tuple[str, str, str], ...] = tuple(
     (lower, "wave_left", "wave_right") for lower in LOWER_CONCEPTS)
+#: the control of the sets of three: the same motions named as two concepts (the lower concept
+#: and ``wave_both``): do the sets of three fail for the motion or for the split into three texts?
+THREES_AS_PAIRS: tuple[tuple[str, str], ...] = tuple(
+    (lower, "wave_both") for lower in LOWER_CONCEPTS)
+#: the extra composition test sets beside the held-out pairs: name → (sets, rng stream)
+EXTRA_TEST_SETS: dict[str, tuple[tuple[tuple[str, ...], ...], int]] = {
+    "threes": (THREE_CONCEPT_SETS, 2 * 10 ** 6), "threes_as_pairs": (THREES_AS_PAIRS, 3 * 10 ** 6)}
 #: negation (Eq. 8): (trained pair c_i, the concept c_j to remove). As the paper's Fig. 5b
 #: ("jumping to the right" not "someone jumps"), c_i is a text that holds both concepts.
 NEGATION_CASES: tuple[tuple[tuple[str, str], str], ...] = (
@@ -158,8 +166,8 @@ class PipelineConfig:
     ddim_steps: int = 50
     guidance_scale: float = 2.5
     items_per_pair: int = 8
-    #: items per set of three (7 sets: 70 items, two R-precision batches of 32)
-    items_per_triple: int = 10
+    #: items per set of :data:`EXTRA_TEST_SETS` (7 sets: 70 items, two R-precision batches)
+    items_per_extra_set: int = 10
 
     def data_dict(self) -> dict[str, Any]:
         return {"generator_version": GENERATOR_VERSION, "frames": self.frames,
@@ -179,7 +187,7 @@ def pipeline_config(quick: bool) -> PipelineConfig:
         return PipelineConfig()
     return PipelineConfig(n_train_clips=160, test_clips_per_pair=3, vae_steps=40,
                           text_steps=40, denoiser_steps=80, evaluator_steps=40, ddim_steps=5,
-                          items_per_pair=4, items_per_triple=5)
+                          items_per_pair=4, items_per_extra_set=5)
 
 
 def config_summary(config: PipelineConfig) -> dict[str, Any]:
@@ -205,9 +213,10 @@ def _check_pool() -> None:
     for name in LOWER_CONCEPTS + ARM_CONCEPTS:
         if name not in CONCEPTS:
             raise ValueError(f"concept {name!r} is not in repro.generator.CONCEPTS")
-    for names in THREE_CONCEPT_SETS:
-        if not set(names) <= set(LOWER_CONCEPTS + ARM_CONCEPTS):
-            raise ValueError(f"set of three {names} is not in the pipeline's concept pool")
+    for sets, _ in EXTRA_TEST_SETS.values():
+        for names in sets:
+            if not set(names) <= set(LOWER_CONCEPTS + ARM_CONCEPTS):
+                raise ValueError(f"test set {names} is not in the pipeline's concept pool")
     pairs = {frozenset(p) for p in HELD_OUT_PAIRS}
     for (pair, negated) in NEGATION_CASES:
         if frozenset(pair) in pairs or negated not in pair:
@@ -274,8 +283,8 @@ def build_composition_pool(sets: Sequence[tuple[str, ...]], per_set: int, data_s
     return CompositionPool(np.stack(feats), np.stack(joints), captions, concepts)
 
 
-#: rng streams of the test pools (:func:`build_composition_pool`)
-_PAIR_STREAM, _TRIPLE_STREAM = 10 ** 6, 2 * 10 ** 6
+#: rng stream of the held-out pairs' test pool (:func:`build_composition_pool`)
+_PAIR_STREAM = 10 ** 6
 
 
 @dataclass
@@ -366,16 +375,22 @@ def load_or_build_data(config: PipelineConfig) -> StandInData:
             [tuple(c) for c in text["test_concepts"]], stored["mean"], stored["std"])
 
 
-def load_or_build_three_concept_pool(config: PipelineConfig) -> CompositionPool:
-    """``test_clips_per_pair`` clips of every :data:`THREE_CONCEPT_SETS` set, cached in
-    ``cache_dir()/emg_three_concepts/<hash>/`` (a test pool only: the training data and every
-    trained model are those of the pairs)."""
+def load_or_build_test_pool(config: PipelineConfig, name: str) -> CompositionPool:
+    """The ground-truth pool of test set ``name``: ``"pairs"`` (the held-out pairs, part of
+    the data) or one of :data:`EXTRA_TEST_SETS` (``test_clips_per_pair`` clips per set,
+    cached in ``cache_dir()/emg_test_sets/<hash>/``; a test pool only: the training data and
+    every trained model are unchanged by it)."""
+    if name == "pairs":
+        return load_or_build_data(config).test_pool
+    if name not in EXTRA_TEST_SETS:
+        raise ValueError(f"unknown test set {name!r}; known: pairs, {', '.join(EXTRA_TEST_SETS)}")
     _check_pool()
+    sets, stream = EXTRA_TEST_SETS[name]
     key = {"generator_version": GENERATOR_VERSION, "frames": config.frames,
            "per_set": config.test_clips_per_pair, "seed": config.data_seed,
-           "sets": [list(names) for names in THREE_CONCEPT_SETS], "rhythm": RHYTHM_OVERRIDES,
-           "stream": _TRIPLE_STREAM, "format": 1}
-    directory = cache.cached_artifact_dir("emg_three_concepts", key)
+           "sets": [list(names) for names in sets], "rhythm": RHYTHM_OVERRIDES,
+           "stream": stream, "format": 1}
+    directory = cache.cached_artifact_dir("emg_test_sets", key)
     with cache.artifact_lock(directory):
         arrays, meta = directory / "arrays.npz", directory / "meta.json"
         if arrays.exists() and meta.exists():
@@ -383,8 +398,8 @@ def load_or_build_three_concept_pool(config: PipelineConfig) -> CompositionPool:
             return CompositionPool(stored["features"], stored["joints"],
                                    [tuple(c) for c in text["captions"]],
                                    [tuple(c) for c in text["concepts"]])
-        pool = build_composition_pool(THREE_CONCEPT_SETS, config.test_clips_per_pair,
-                                      config.data_seed, _TRIPLE_STREAM, config.frames)
+        pool = build_composition_pool(sets, config.test_clips_per_pair, config.data_seed,
+                                      stream, config.frames)
         with storage.atomic_open(arrays, "wb") as handle:
             np.savez(handle, features=pool.features, joints=pool.joints)
         storage.write_json(meta, {"captions": [list(c) for c in pool.captions],

@@ -34,7 +34,7 @@ from .energymogen import (
     PipelineSource,
     Sampler,
     composition_items,
-    load_or_build_three_concept_pool,
+    load_or_build_test_pool,
     negation_items,
     pipeline_for,
 )
@@ -162,7 +162,7 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
 
 
 def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequence[int],
-             log: Callable[[str], None] | None = None, *, three_concepts: bool = False
+             log: Callable[[str], None] | None = None, *, test_set: str = "pairs"
              ) -> dict[str, dict[str, list[float]]]:
     """Every row of a table on the composition items of every seed: row → metric → per-seed
     list. Seed s uses ``pipeline_for(source, s)`` (one pipeline, or one trained model per seed:
@@ -170,21 +170,22 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
     noise; rows with the same canonical sampler are sampled once. The ground truth is measured
     as row ``"real"``.
 
-    ``three_concepts``: the items are the sets of three (``THREE_CONCEPT_SETS``,
-    ``items_per_triple`` each) and FID is against their pool's ground truth; else the held-out
-    pairs (``items_per_pair`` each).
+    ``test_set``: ``"pairs"`` (the held-out pairs, ``items_per_pair`` each; FID against
+    ``pipe.reference_embeddings``) or a name of ``EXTRA_TEST_SETS`` (``"threes"``: the sets
+    of three; ``"threes_as_pairs"``: their control; ``items_per_extra_set`` each; FID against
+    that set's own ground-truth pool).
     """
     out: dict[str, dict[str, list[float]]] = {name: {} for name in [*rows, "real"]}
     for seed in seeds:
         pipe = pipeline_for(source, seed)
         reference = None
-        if three_concepts:
-            pool = load_or_build_three_concept_pool(pipe.config)
-            items = composition_items(pipe.data, seed, pipe.config.items_per_triple, pool)
+        if test_set == "pairs":
+            items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
+        else:
+            pool = load_or_build_test_pool(pipe.config, test_set)
+            items = composition_items(pipe.data, seed, pipe.config.items_per_extra_set, pool)
             reference = pipe.evaluator.embed_motions(
                 pool.features, np.full(len(pool.features), pool.features.shape[1]))
-        else:
-            items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
         done: dict[Sampler, dict[str, float]] = {}
         start = time.perf_counter()
         for name, sampler in rows.items():
