@@ -79,9 +79,10 @@ def compare_runs(runs: Mapping[str, Mapping[str, dict[str, Any]]]) -> list[Stabi
     order."""
     if len(runs) < 2:
         raise ValueError(f"need at least two runs to compare, got {len(runs)}")
+    missing = set(not_compared(runs))
     rows = []
     for claim_id in CLAIMS:
-        if not all(claim_id in sidecars for sidecars in runs.values()):
+        if claim_id in missing:
             continue
         verdicts = {label: s[claim_id]["verdict"] for label, s in runs.items()}
         seeds = {label: list(s[claim_id].get("seeds", [])) for label, s in runs.items()}
