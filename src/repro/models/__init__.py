@@ -1,4 +1,8 @@
-"""Tiny denoisers: GMD's 1D UNet with AdaGN (``unet``)."""
+"""Models (layer 4): the GMD UNet, the MLD-style VAE, the latent denoiser, the text-motion
+evaluator. Imports the layers below.
+
+Layers: docs/DESIGN.md."""
+
 
 from repro.models.unet import UNet1D
 

@@ -38,9 +38,9 @@ from typing import Any
 import torch
 from torch import Tensor, nn
 
-from repro.diffusion import GaussianDiffusion
+from repro.core.diffusion import GaussianDiffusion
+from repro.core.training import TrainConfig, TrainResult, train_diffusion
 from repro.models.unet import sinusoidal_embedding
-from repro.training import TrainConfig, TrainResult, train_diffusion
 
 __all__ = [
     "CrossAttentionControl",

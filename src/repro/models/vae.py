@@ -26,7 +26,6 @@ Our choices (the paper leaves them open or MLD's size does not fit 2 CPU cores):
 
 from __future__ import annotations
 
-import hashlib
 import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
@@ -37,7 +36,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-from repro.cache import load_or_train
+from repro.infra import cache
+from repro.infra.cache import load_or_train
 from repro.models.unet import sinusoidal_embedding
 
 __all__ = [
@@ -324,13 +324,8 @@ def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
 
 def array_fingerprint(*arrays: Tensor | np.ndarray) -> str:
     """sha256 over the arrays' shapes, dtypes and bytes (part of a cache key)."""
-    digest = hashlib.sha256()
-    for array in arrays:
-        value = np.ascontiguousarray(array.detach().cpu().numpy() if isinstance(array, Tensor)
-                                     else np.asarray(array))
-        digest.update(f"{value.shape}{value.dtype}".encode())
-        digest.update(value.tobytes())
-    return digest.hexdigest()
+    return cache.fingerprint(*(np.asarray(a) if not isinstance(a, Tensor) else a for a in arrays),
+                             with_layout=True)
 
 
 def load_or_train_vae(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray | Sequence[int],

@@ -1,0 +1,235 @@
+"""The report: REPORT.md and an HTML page built from the claim sidecars, and the committed
+``results/`` snapshot.
+
+A quick run's verdicts are never presented as results: its table says "quick run" instead.
+Reports are written atomically; a failed run does not call this (the last good one stays).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import html
+import os
+import shutil
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from repro.claims.ledger import load_sidecars
+from repro.claims.registry import CLAIMS
+from repro.infra import paths
+from repro.infra.storage import read_json, write_json, write_text
+
+
+def _format_number(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    return str(value)
+
+
+def headline(sidecar: dict[str, Any], limit: int = 4) -> str:
+    """Our key numbers in one line: the notebook's headline, else the first summaries."""
+    if sidecar.get("headline"):
+        return sidecar["headline"]
+    parts = []
+    for key, value in list(sidecar.get("summary", {}).items())[:limit]:
+        if isinstance(value, dict) and {"mean", "low", "high"} <= set(value):
+            parts.append(f"{key} {value['mean']:.3g} [{value['low']:.3g}, {value['high']:.3g}]")
+        elif isinstance(value, int | float | bool):
+            parts.append(f"{key} {_format_number(value)}")
+    return "; ".join(parts)
+
+
+def _rows(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, str]]:
+    rows = []
+    for claim in CLAIMS.values():
+        sidecar = sidecars.get(claim.id)
+        if sidecar is None:
+            verdict, ours = "not yet tested", ""
+        elif sidecar["mode"] == "quick":
+            verdict, ours = "— (quick run: not a result)", headline(sidecar)
+        else:
+            verdict, ours = sidecar["verdict"], headline(sidecar)
+        rows.append({"id": claim.id, "statement": claim.statement, "paper": claim.paper_value,
+                     "ours": ours, "verdict": verdict, "notebook": claim.notebook})
+    return rows
+
+
+def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
+              runs: Sequence[Any], figure_names: dict[str, list[str]],
+              provenance: str = "") -> str:
+    when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    lines = ["# Reproduction report", "",
+             f"Generated {when} from "
+             f"{'a QUICK (test) run: no verdict here is a result' if quick else 'a full run'}.",
+             "Stand-in data and tiny models: the direction and shape of each effect is tested, "
+             "never the paper's absolute numbers.", ""]
+    if provenance:
+        lines += [f"**Provenance.** {provenance}", ""]
+    lines += ["| claim | statement | paper | ours | verdict | notebook |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        cells = [r["id"], r["statement"], r["paper"], r["ours"], f"**{r['verdict']}**",
+                 r["notebook"]]
+        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    if runs:
+        lines += ["", "## Notebook run times", "", "| notebook | seconds |", "|---|---|"]
+        lines += [f"| {r.name} | {r.seconds:.1f} |" for r in runs]
+    for claim_id, sidecar in sidecars.items():
+        lines += ["", f"## {claim_id} — {sidecar['verdict']} ({sidecar['mode']})", "",
+                  f"*{sidecar['statement']}* ({sidecar['paper']}, {sidecar['section']})", "",
+                  f"- Rule (fixed before the run): {sidecar['rule']}",
+                  f"- Why: {sidecar['reason']}",
+                  f"- Seeds: {sidecar['seeds']}; commit {sidecar.get('commit')}"]
+        if sidecar.get("notes"):
+            lines.append(f"- Notes: {sidecar['notes']}")
+        for name in figure_names.get(claim_id, []):
+            lines += ["", f"![{claim_id}](figures/{name})"]
+    return "\n".join(lines) + "\n"
+
+
+def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
+          figure_names: dict[str, list[str]]) -> str:
+    esc = html.escape
+    head = ("<!doctype html><meta charset='utf-8'><title>repro report</title><style>"
+            "body{font-family:sans-serif;max-width:1200px;margin:auto}td,th{border:1px solid "
+            "#ccc;padding:4px;vertical-align:top}table{border-collapse:collapse}img{max-width:"
+            "100%}</style>")
+    body = [f"<h1>Reproduction report{' (QUICK run: not results)' if quick else ''}</h1>",
+            "<table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
+            "<th>verdict</th><th>notebook</th></tr>"]
+    for r in markdown_rows:
+        body.append("<tr>" + "".join(f"<td>{esc(r[k])}</td>" for k in
+                                     ("id", "statement", "paper", "ours", "verdict", "notebook"))
+                    + "</tr>")
+    body.append("</table>")
+    for claim_id, s in sidecars.items():
+        body.append(f"<h2>{esc(claim_id)} — {esc(s['verdict'])} ({esc(s['mode'])})</h2>"
+                    f"<p><i>{esc(s['statement'])}</i></p><p>Rule: {esc(s['rule'])}</p>"
+                    f"<p>Why: {esc(s['reason'])}</p>")
+        body += [f"<img src='figures/{esc(n)}'>" for n in figure_names.get(claim_id, [])]
+    return head + "\n".join(body)
+
+
+@dataclass(frozen=True)
+class RecordedRun:
+    """A notebook's wall time as an earlier report recorded it."""
+
+    name: str
+    seconds: float
+
+
+def _recorded(claims_json: Path, key: str) -> dict[str, float]:
+    try:
+        seconds = read_json(claims_json).get(key, {})
+    except (OSError, ValueError, AttributeError):
+        return {}
+    return {str(name): float(value) for name, value in seconds.items()}
+
+
+def recorded_runs(report_dir: Path) -> list[RecordedRun]:
+    """The run times kept in ``report_dir/claims.json`` ([] if none)."""
+    return [RecordedRun(name, value)
+            for name, value in _recorded(report_dir / "claims.json", "run_seconds").items()]
+
+
+def slowest_seconds(claims_json: Path) -> dict[str, float]:
+    """Each notebook's slowest known wall time in a report's claims.json (``slowest_seconds``;
+    older reports: ``run_seconds``) — a cold run's, once one was recorded."""
+    return (_recorded(claims_json, "slowest_seconds")
+            or _recorded(claims_json, "run_seconds"))
+
+
+def slowest_of(*records: dict[str, float]) -> dict[str, float]:
+    """Per notebook, the largest of the records' times."""
+    out: dict[str, float] = {}
+    for record in records:
+        for name, value in record.items():
+            out[name] = max(value, out.get(name, 0.0))
+    return out
+
+
+def write_report(build_dir: str | os.PathLike, *, quick: bool,
+                 runs: Sequence[Any] = (), provenance: str = "") -> Path:
+    """Write ``<build>/report/{REPORT.md, index.html, claims.json, figures/}``; returns the md.
+
+    ``runs``: the notebooks just run (name, seconds); the run times of the report being
+    replaced are kept for the notebooks not run again (``--only``, or ``report`` alone).
+    """
+    build_dir = Path(build_dir)
+    sidecars = load_sidecars(build_dir / "claims")
+    report_dir = build_dir / "report"
+    runs = list({r.name: r for r in [*recorded_runs(report_dir), *runs]}.values())
+    slowest = slowest_of(slowest_seconds(report_dir / "claims.json"),
+                       {r.name: round(r.seconds, 1) for r in runs})
+    figures_out = report_dir / "figures"
+    figures_out.mkdir(parents=True, exist_ok=True)
+    figure_names: dict[str, list[str]] = {}
+    for claim_id, sidecar in sidecars.items():
+        for figure in sidecar.get("figures", []):
+            source = Path(figure)
+            if source.is_file():
+                shutil.copy2(source, figures_out / source.name)
+                figure_names.setdefault(claim_id, []).append(source.name)
+    rows = _rows(sidecars)
+    write_json(report_dir / "claims.json", {"mode": "quick" if quick else "full",
+                                            "claims": rows, "sidecars": sidecars,
+                                            "run_seconds": {r.name: round(r.seconds, 1)
+                                                            for r in runs},
+                                            "slowest_seconds": slowest})
+    write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names))
+    return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, quick, runs,
+                                                          figure_names, provenance))
+
+
+README_TABLE_START = "<!-- claims-table:start"
+README_TABLE_END = "<!-- claims-table:end -->"
+
+
+def readme_claims_table(rows: Sequence[dict[str, str]]) -> str:
+    """The README's verdict table: claim, verdict, notebook (one row per registry claim)."""
+    lines = ["| claim | verdict (stand-in data, tiny models) | notebook |", "|---|---|---|"]
+    lines += [f"| {r['id']} | {r['verdict']} | `{r['notebook']}` |" for r in rows]
+    return "\n".join(lines)
+
+
+def update_readme_table(readme: str | os.PathLike, rows: Sequence[dict[str, str]]) -> Path:
+    """Rewrite the table between the README's claims-table markers (atomically)."""
+    readme = Path(readme)
+    text = readme.read_text(encoding="utf-8")
+    start, end = text.find(README_TABLE_START), text.find(README_TABLE_END)
+    if start < 0 or end < start:
+        raise ValueError(f"{readme}: no claims-table markers ({README_TABLE_START} ... "
+                         f"{README_TABLE_END})")
+    body_start = text.index("\n", start) + 1
+    return write_text(readme, text[:body_start] + readme_claims_table(rows) + "\n"
+                      + text[end:])
+
+
+def write_snapshot(build_dir: str | os.PathLike) -> Path:
+    """Replace ``results/`` with the full run's REPORT.md, claims.json and PNG figures, and
+    the README's verdict table with the same verdicts. ``slowest_seconds`` keeps the slowest
+    wall time of each notebook over the snapshots (``runner.longest_first`` orders by it, so
+    a warm run's times do not hide a cold run's)."""
+    report_dir = Path(build_dir) / "report"
+    target = paths.results_dir()
+    staging = Path(tempfile.mkdtemp(prefix=".results.", dir=target.parent))
+    shutil.copy2(report_dir / "REPORT.md", staging / "REPORT.md")
+    claims = read_json(report_dir / "claims.json")
+    claims["slowest_seconds"] = slowest_of(slowest_seconds(target / "claims.json"),
+                                         slowest_seconds(report_dir / "claims.json"))
+    write_json(staging / "claims.json", claims)
+    (staging / "figures").mkdir()
+    for figure in (report_dir / "figures").glob("*.png"):
+        shutil.copy2(figure, staging / "figures" / figure.name)
+    old = target.with_name(".results.old")
+    if old.exists():
+        shutil.rmtree(old)
+    if target.exists():
+        os.replace(target, old)
+    os.replace(staging, target)
+    shutil.rmtree(old, ignore_errors=True)
+    update_readme_table(paths.REPO_ROOT / "README.md", read_json(target / "claims.json")["claims"])
+    return target

@@ -1,0 +1,233 @@
+"""Training loop for the tiny diffusion models: AdamW, gradient clipping, EMA (GMD appendix E).
+
+GMD trains with AdamW (lr 1e-4, weight decay 0.01), clips the gradient norm at 1 and samples
+from an exponential moving average of the weights (β = 0.9999). Our runs are a few thousand
+steps, where a 0.9999 average would still be mostly the random initialisation, so the EMA
+decay is warmed up (improved-diffusion / TF ExponentialMovingAverage ``num_updates``):
+
+    decay_n = min(ema_decay, (1 + n)/(10 + n))   for the n-th update (n = 0, 1, …)
+
+so the average covers roughly the last n/9 steps early on and the configured horizon
+1/(1 − ema_decay) once n is large. ``ema_warmup=False`` uses ``ema_decay`` from the start.
+
+Data: a tensor (N, C, T) with optional ``cond`` (N, D) and frame ``mask`` (N, T), batched with
+a seeded generator; or an iterable of batches (a DataLoader) each either a tensor x or a dict
+with ``"x"`` and optional ``"cond"`` and ``"mask"``. Models are called as
+``model(x_t, t, cond=…, cond_mask=…)``; ``cond_mask`` (true = keep) is drawn here when
+``cond_dropout > 0`` (classifier-free training).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import sys
+import time
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import torch
+from torch import Tensor, nn
+
+from repro.core.diffusion import GaussianDiffusion, UniformSampler
+from repro.infra.cache import load_or_train
+
+__all__ = ["TrainConfig", "TrainResult", "ema_decay_at", "load_or_train", "train_diffusion"]
+
+
+@dataclass
+class TrainConfig:
+    """Optimisation settings. ``to_config()`` is what a cache hash should cover."""
+
+    steps: int = 1000
+    batch_size: int = 64
+    lr: float = 1e-4
+    weight_decay: float = 0.01
+    grad_clip: float | None = 1.0
+    ema_decay: float = 0.9999
+    ema_warmup: bool = True
+    seed: int = 0
+    feature_weights: list[float] | None = None
+    cond_dropout: float = 0.0
+    device: str = "cpu"
+    num_threads: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.steps < 1 or self.batch_size < 1:
+            raise ValueError(f"steps and batch_size must be >= 1, got {self.steps}, "
+                             f"{self.batch_size}")
+        if self.lr <= 0 or self.weight_decay < 0:
+            raise ValueError(f"need lr > 0 and weight_decay >= 0, got {self.lr}, "
+                             f"{self.weight_decay}")
+        if self.grad_clip is not None and self.grad_clip <= 0:
+            raise ValueError(f"grad_clip must be > 0 or None, got {self.grad_clip}")
+        if not 0.0 <= self.ema_decay < 1.0:
+            raise ValueError(f"ema_decay must be in [0, 1), got {self.ema_decay}")
+        if not 0.0 <= self.cond_dropout <= 1.0:
+            raise ValueError(f"cond_dropout must be in [0, 1], got {self.cond_dropout}")
+        if self.feature_weights is not None:
+            self.feature_weights = [float(w) for w in self.feature_weights]
+
+    def to_config(self) -> dict[str, Any]:
+        """Every field that changes the trained weights (not ``device`` or ``num_threads``)."""
+        config = dataclasses.asdict(self)
+        config.pop("device")
+        config.pop("num_threads")
+        return config
+
+
+@dataclass
+class TrainResult:
+    """The trained model, its EMA copy, and the loss of every step."""
+
+    model: nn.Module
+    ema_model: nn.Module
+    losses: list[float] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def steps_per_second(self) -> float:
+        return len(self.losses) / self.seconds if self.seconds > 0 else float("nan")
+
+    def metrics(self) -> dict[str, Any]:
+        return {"losses": self.losses, "final_loss": self.losses[-1] if self.losses else None,
+                "seconds": self.seconds, "steps_per_second": self.steps_per_second}
+
+    def for_cache(self, use_ema: bool = True) -> tuple[nn.Module, dict[str, Any]]:
+        """``(module, metrics)`` as ``load_or_train``'s ``train`` callable should return."""
+        return (self.ema_model if use_ema else self.model), self.metrics()
+
+
+def ema_decay_at(update: int, ema_decay: float, warmup: bool = True) -> float:
+    """decay_n = min(ema_decay, (1 + n)/(10 + n)) with warm-up, else ema_decay."""
+    return min(ema_decay, (1.0 + update) / (10.0 + update)) if warmup else ema_decay
+
+
+@torch.no_grad()
+def _update_ema(ema_model: nn.Module, model: nn.Module, decay: float) -> None:
+    """θ_ema ← decay·θ_ema + (1 − decay)·θ; buffers are copied."""
+    for ema_param, param in zip(ema_model.parameters(), model.parameters(), strict=True):
+        ema_param.lerp_(param.detach(), 1.0 - decay)
+    for ema_buffer, buffer in zip(ema_model.buffers(), model.buffers(), strict=True):
+        ema_buffer.copy_(buffer)
+
+
+def _tensor_batches(x: Tensor, cond: Tensor | None, mask: Tensor | None, batch_size: int,
+                    generator: torch.Generator) -> Iterator[dict[str, Tensor]]:
+    """Endless shuffled batches: one permutation per epoch, drawn with ``generator``."""
+    n = x.shape[0]
+    order = torch.empty(0, dtype=torch.long)
+    while True:
+        while order.numel() < batch_size:
+            order = torch.cat([order, torch.randperm(n, generator=generator)])
+        index, order = order[:batch_size], order[batch_size:]
+        batch = {"x": x[index]}
+        if cond is not None:
+            batch["cond"] = cond[index]
+        if mask is not None:
+            batch["mask"] = mask[index]
+        yield batch
+
+
+def _loader_batches(loader: Iterable[Any]) -> Iterator[dict[str, Tensor]]:
+    while True:
+        empty = True
+        for batch in loader:
+            empty = False
+            if isinstance(batch, Tensor):
+                yield {"x": batch}
+            elif isinstance(batch, dict) and "x" in batch:
+                yield batch
+            else:
+                raise ValueError("a data loader must yield tensors x or dicts with key 'x' "
+                                 f"(optional 'cond', 'mask'), got {type(batch).__name__}")
+        if empty:
+            raise ValueError("the data loader yielded no batch")
+
+
+def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: GaussianDiffusion,
+                    data: Tensor | Iterable[Any], config: TrainConfig, *,
+                    cond: Tensor | None = None, mask: Tensor | None = None,
+                    progress: bool = True) -> TrainResult:
+    """Minimise ``diffusion.training_losses`` (simple MSE on x0 or ε) for ``config.steps``.
+
+    Deterministic given ``config.seed`` (on one device/thread count): the model's
+    initialisation uses ``torch.manual_seed(seed)`` when ``model`` is a factory, and batches,
+    timesteps, noise and condition dropout come from one ``torch.Generator(seed)``.
+    The progress bar is shown only when ``progress`` is true and stderr is a terminal.
+    """
+    device = torch.device(config.device)
+    torch.manual_seed(config.seed)
+    if not isinstance(model, nn.Module):
+        model = model()
+        if not isinstance(model, nn.Module):
+            raise ValueError("model must be an nn.Module or a factory returning one")
+    model = model.to(device).train()
+    ema_model = copy.deepcopy(model).eval().requires_grad_(False)
+
+    generator = torch.Generator().manual_seed(config.seed)
+    if isinstance(data, Tensor):
+        if data.dim() < 2 or data.shape[0] < 1:
+            raise ValueError(f"data must be (N, C, T), got shape {tuple(data.shape)}")
+        for name, extra in (("cond", cond), ("mask", mask)):
+            if extra is not None and extra.shape[0] != data.shape[0]:
+                raise ValueError(f"{name} has {extra.shape[0]} rows but data has {data.shape[0]}")
+        batches = _tensor_batches(data, cond, mask, config.batch_size, generator)
+    else:
+        if cond is not None or mask is not None:
+            raise ValueError("with a data loader, put cond and mask in its batches")
+        batches = _loader_batches(data)
+
+    feature_weights = (None if config.feature_weights is None
+                       else torch.tensor(config.feature_weights, device=device))
+    optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr,
+                                  weight_decay=config.weight_decay)
+    sampler = UniformSampler(diffusion.num_timesteps)
+    previous_threads = torch.get_num_threads()
+    if config.num_threads is not None:
+        torch.set_num_threads(config.num_threads)
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=config.steps, desc="training", leave=False,
+               disable=not (progress and sys.stderr.isatty()))
+    losses: list[float] = []
+    start = time.perf_counter()
+    try:
+        for step in range(config.steps):
+            batch = next(batches)
+            x0 = batch["x"].to(device)
+            b = x0.shape[0]
+            t = sampler.sample(b, generator=generator, device=device)
+            noise = torch.randn(x0.shape, generator=generator, dtype=x0.dtype).to(device)
+            model_kwargs: dict[str, Any] = {}
+            if batch.get("cond") is not None:
+                model_kwargs["cond"] = batch["cond"].to(device)
+                if config.cond_dropout > 0:
+                    keep = torch.rand(b, generator=generator) >= config.cond_dropout
+                    model_kwargs["cond_mask"] = keep.to(device)
+            batch_mask = batch.get("mask")
+            loss = diffusion.training_losses(
+                model, x0, t, model_kwargs=model_kwargs, noise=noise,
+                feature_weights=feature_weights,
+                mask=None if batch_mask is None else batch_mask.to(device)).mean()
+            if not torch.isfinite(loss):
+                raise FloatingPointError(f"loss became {loss.item()} at step {step}")
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            if config.grad_clip is not None:
+                nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
+            optimizer.step()
+            _update_ema(ema_model, model, ema_decay_at(step, config.ema_decay, config.ema_warmup))
+            losses.append(loss.item())
+            bar.update(1)
+            if step % 50 == 0:
+                bar.set_postfix(loss=f"{losses[-1]:.4f}")
+    finally:
+        bar.close()
+        if config.num_threads is not None:
+            torch.set_num_threads(previous_threads)
+    seconds = time.perf_counter() - start
+    model.eval()
+    return TrainResult(model=model, ema_model=ema_model, losses=losses, seconds=seconds)

@@ -1,0 +1,329 @@
+"""EMG-7: the number N of latent vectors of the motion VAE (EnergyMoGen appendix D, Table 8).
+
+The sweep N ∈ {1, 3, 5, 7} retrains the VAE and the latent denoiser of the shared pipeline
+(``repro.energymogen``) with *everything else identical*: the same data, widths, steps,
+learning rates and schedule (``PipelineConfig`` with only ``latent_count`` replaced), the same
+frozen text encoder (the stand-in for CLIP, which the paper keeps fixed for every N) and the
+same evaluator. A *training seed* s seeds the VAE (initialisation, batches, reparameterisation
+noise) and the denoiser (initialisation, batches, timesteps, noise, text dropout); the data do
+not change with s. For N = 5 and s = the pipeline's ``data_seed`` the models *are* the
+pipeline's (notebooks 04/05), taken from it, not retrained.
+
+Measured on a held-out **text-to-motion test set** (:class:`TextToMotionTest`, the stand-in
+for the HumanML3D test set): clips drawn exactly as the training clips (single concepts and
+the trained pairs, same probabilities) with random keys disjoint from the training ones.
+
+- reconstruction (Table 8 top): decode(μ(x)) of every test clip; our reconstruction error is
+  the **MPJPE** — mean per-joint position error in metres between the joints recovered from
+  the reconstructed and from the true features (global positions, root trajectory included,
+  as MLD's reconstruction MPJPE); beside it the MSE of normalised features and the Table 8
+  columns of the reconstructions (FID, R-precision, MM-Dist, Diversity);
+- generation (Table 8 bottom): one caption per test clip (drawn with the seed), single-text
+  classifier-free guidance with the pipeline's scale and DDIM steps, decoded; the Table 8
+  columns against the test clips.
+
+Our choices are in the docstrings ("our choice").
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+import torch
+
+from repro.core import metrics
+from repro.core.tables import interval_text
+from repro.energymogen import pipeline as em
+from repro.infra import cache, storage
+from repro.models.evaluator import evaluate_generated
+from repro.motion.features import features_to_joints
+from repro.standin.oracles import detect_concepts
+
+__all__ = [
+    "LATENT_COUNTS", "PAPER_TABLE8", "PAPER_REAL_MOTION", "TABLE8_COLUMNS", "TextToMotionTest",
+    "build_text_to_motion_test", "generation_metrics",
+    "latent_count_study", "load_or_build_text_to_motion_test", "load_or_train_variant",
+    "mpjpe", "oracle_accuracy", "real_motion_metrics", "reconstruction_metrics", "table8_markdown",
+    "text_to_motion_test_size", "torch_threads",
+]
+
+LATENT_COUNTS = (1, 3, 5, 7)
+#: Table 8 columns: (key, label).
+TABLE8_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("r_precision_top1", "Top-1"), ("r_precision_top2", "Top-2"), ("r_precision_top3", "Top-3"),
+    ("fid", "FID"), ("mm_dist", "MM-Dist"), ("diversity", "Diversity"))
+_T8_RECON = ((0.493, 0.681, 0.787, 0.170, 3.160, 9.589), (0.501, 0.696, 0.792, 0.117, 3.037, 9.621),
+             (0.508, 0.700, 0.795, 0.080, 3.004, 9.620), (0.513, 0.704, 0.797, 0.022, 2.984, 9.603))
+_T8_GEN = ((0.498, 0.686, 0.791, 0.424, 3.085, 9.705), (0.523, 0.712, 0.814, 0.418, 2.946, 9.443),
+           (0.523, 0.715, 0.815, 0.188, 2.915, 9.488), (0.514, 0.713, 0.813, 0.291, 2.938, 9.456))
+#: Table 8 of the paper (HumanML3D test set): part → str(N) → column → value.
+PAPER_TABLE8: dict[str, dict[str, dict[str, float]]] = {
+    part: {str(n): dict(zip((k for k, _ in TABLE8_COLUMNS), row, strict=True))
+           for n, row in zip(LATENT_COUNTS, rows, strict=True)}
+    for part, rows in (("reconstruction", _T8_RECON), ("generation", _T8_GEN))}
+#: the paper's "Real motion" row on the HumanML3D test set (Table 4, the same test set).
+PAPER_REAL_MOTION = dict(zip((k for k, _ in TABLE8_COLUMNS),
+                             (0.511, 0.703, 0.797, 0.002, 2.974, 9.503), strict=True))
+
+#: random keys of the test clips start here (training clips use keys 0..n_train−1, the
+#: composition pool 10⁶ + pair): disjoint by construction.
+_TEST_KEY = 2 * 10 ** 6
+
+
+@contextlib.contextmanager
+def torch_threads(threads: int | None) -> Iterator[None]:
+    """Run the block with ``torch.set_num_threads(threads)`` (None: unchanged), then restore.
+
+    Our choice for notebooks 07/08 is 1: with widths of 64 a second thread gains little, and
+    on cores shared with other processes we measured 2 threads 10–30× *slower* (spin-waits).
+    """
+    previous = torch.get_num_threads()
+    if threads is not None:
+        torch.set_num_threads(int(threads))
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
+
+
+# ----------------------------------------------------------------------------------------------
+# The held-out text-to-motion test set
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TextToMotionTest:
+    """Held-out clips of the training distribution: features (M, T, 263) unnormalised, three
+    captions and the concept names of each clip."""
+
+    features: np.ndarray
+    captions: tuple[tuple[str, ...], ...]
+    concepts: tuple[tuple[str, ...], ...]
+
+    def __len__(self) -> int:
+        return int(self.features.shape[0])
+
+    @property
+    def lengths(self) -> np.ndarray:
+        return np.full(len(self), self.features.shape[1])
+
+    def texts(self, seed: int) -> list[str]:
+        """One caption per clip, drawn with ``seed`` (the same for every model of a seed)."""
+        rng = np.random.default_rng([seed, 707])
+        return [c[int(rng.integers(len(c)))] for c in self.captions]
+
+
+def text_to_motion_test_size(quick: bool) -> int:
+    """Our choice: 256 clips (8 R-precision batches of 32; FID of 32-d embeddings from 256
+    samples), 64 in quick runs."""
+    return 64 if quick else 256
+
+
+def build_text_to_motion_test(config: em.PipelineConfig, count: int) -> TextToMotionTest:
+    """``count`` clips drawn as ``energymogen.build_stand_in_data`` draws training clips (a
+    single concept with probability ``single_fraction``, else a trained pair; random heading
+    and start), clip i from ``default_rng([data_seed, 2·10⁶ + i])``."""
+    pool, pairs = em.LOWER_CONCEPTS + em.ARM_CONCEPTS, em.trained_pairs()
+    feats, captions, concepts = [], [], []
+    with torch.inference_mode():
+        for i in range(count):
+            rng = np.random.default_rng([config.data_seed, _TEST_KEY + i])
+            if rng.uniform() < config.single_fraction:
+                names: tuple[str, ...] = (pool[int(rng.integers(len(pool)))],)
+            else:
+                names = pairs[int(rng.integers(len(pairs)))]
+            features, _, caps = em.stand_in_clip(names, config.frames, rng)
+            feats.append(features)
+            captions.append(tuple(caps))
+            concepts.append(names)
+    return TextToMotionTest(np.stack(feats).astype(np.float32), tuple(captions), tuple(concepts))
+
+
+def load_or_build_text_to_motion_test(config: em.PipelineConfig,
+                                      count: int) -> TextToMotionTest:
+    """:func:`build_text_to_motion_test` from ``cache_dir()/emg_t2m_test/<hash>/``."""
+    key = {"data": config.data_dict(), "count": count, "key_offset": _TEST_KEY, "format": 1}
+    directory = cache.cached_artifact_dir("emg_t2m_test", key)
+    with cache.artifact_lock(directory):
+        arrays, meta = directory / "features.npy", directory / "meta.json"
+        if arrays.exists() and meta.exists():
+            text = storage.read_json(meta)
+            return TextToMotionTest(np.load(arrays),
+                                    tuple(tuple(c) for c in text["captions"]),
+                                    tuple(tuple(c) for c in text["concepts"]))
+        test = build_text_to_motion_test(config, count)
+        storage.write_json(meta, {"captions": [list(c) for c in test.captions],
+                                  "concepts": [list(c) for c in test.concepts]})
+        storage.write_npy(arrays, test.features)
+        return test
+
+
+# ----------------------------------------------------------------------------------------------
+# Models with N latent vectors
+# ----------------------------------------------------------------------------------------------
+
+
+def load_or_train_variant(pipe: em.EnergyMoGenPipeline, latent_count: int, seed: int, *,
+                          threads: int | None = 1,
+                          log: Callable[[str], None] | None = None) -> em.EnergyMoGenPipeline:
+    """The pipeline with a VAE of ``latent_count`` latent vectors and its latent denoiser,
+    trained with training seed ``seed`` (cached by full configuration), sharing ``pipe``'s
+    data, frozen text encoder, vocabulary, diffusion and evaluator.
+
+    The steps are ``energymogen.load_pipeline``'s (``energymogen.retrain_pipeline``:
+    ``train_vae_stage``, ``train_denoiser_stage``) with training seed ``seed``: VAE on the
+    normalised training features; latent scale 1/std of the training means; denoiser rows =
+    every caption of every training clip, text tokens from the frozen encoder, 10 % text
+    dropout, EMA 0.999. For (N, seed) = (pipe's N, pipe's training seed) this is ``pipe``
+    itself; for N = 5 the variant of seed s is the model of ``load_pipeline(config,
+    train_seed=s)`` (the per-seed models of notebooks 04/05, the same cache entries).
+    ``threads`` only changes speed (not in the cache keys); our choice is 1: at widths of 64
+    a second thread gains little and, on shared cores, costs a lot.
+    """
+    config = replace(pipe.config, latent_count=int(latent_count))
+    if config == pipe.config and seed == pipe.train_seed:
+        return pipe
+    return _train_variant(pipe, config, seed, threads, log)
+
+
+def _train_variant(pipe: em.EnergyMoGenPipeline, config: em.PipelineConfig, seed: int,
+                   threads: int | None, log: Callable[[str], None] | None
+                   ) -> em.EnergyMoGenPipeline:
+    """:func:`load_or_train_variant` without the shortcut: ``energymogen.retrain_pipeline``
+    (``train_vae_stage`` and ``train_denoiser_stage`` with training seed ``seed``; tests check
+    that it reproduces the pipeline's own models, i.e. hits the same cache entries)."""
+    variant = em.retrain_pipeline(pipe, seed, config=config, threads=threads)
+    if log is not None:
+        log(f"N={config.latent_count} seed {seed}: VAE {variant.timings['vae']:.1f} s, "
+            f"denoiser {variant.timings['denoiser']:.1f} s")
+    return variant
+
+
+# ----------------------------------------------------------------------------------------------
+# Measurements
+# ----------------------------------------------------------------------------------------------
+
+
+def mpjpe(features_a: np.ndarray, features_b: np.ndarray) -> float:
+    """Mean per-joint position error (m) between the joints recovered from two feature
+    arrays (..., T, 263) (``features_to_joints``: global positions, root path included)."""
+    with torch.no_grad():
+        a = features_to_joints(torch.from_numpy(np.asarray(features_a, np.float32)))
+        b = features_to_joints(torch.from_numpy(np.asarray(features_b, np.float32)))
+    return float((a - b).norm(dim=-1).mean())
+
+
+def oracle_accuracy(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> float:
+    """Mean over clips of the fraction of the clip's concepts that ``oracles.detect_concepts``
+    finds in its joints (B, T, 22, 3); clips may hold different numbers of concepts."""
+    if len(joints) != len(concepts):
+        raise ValueError(f"{len(joints)} motions for {len(concepts)} concept lists")
+    return float(np.mean([np.mean([name in found for name in names]) for names, found in
+                          zip(concepts, map(detect_concepts, joints), strict=True)]))
+
+
+def reconstruction_metrics(variant: em.EnergyMoGenPipeline, test: TextToMotionTest,
+                           seed: int) -> dict[str, float]:
+    """Reconstructions decode(μ(x)) of the test clips: MPJPE (m), MSE of normalised features,
+    oracle accuracy (as :func:`generation_metrics`) and the Table 8 columns
+    (``evaluator.evaluate_generated``, captions drawn with ``seed``)."""
+    recon = variant.decode(variant.encode_motion(test.features))
+    normalised = variant.data.normalise(recon) - variant.data.normalise(test.features)
+    out = evaluate_generated(variant.evaluator, recon, test.lengths, test.texts(seed),
+                             test.features, test.lengths, seed=seed)
+    out.update(mpjpe=mpjpe(recon, test.features), feature_mse=float(np.mean(normalised ** 2)),
+               oracle_accuracy=oracle_accuracy(variant.joints(recon), test.concepts))
+    return out
+
+
+def generation_metrics(variant: em.EnergyMoGenPipeline, test: TextToMotionTest,
+                       seed: int) -> dict[str, float]:
+    """Text-to-motion on the test captions (drawn with ``seed``): single-text guidance with
+    the pipeline's scale, DDIM from ``variant.noise(seed)``, decoded; Table 8 columns plus
+    ``oracle_accuracy``: per clip the fraction of its concepts the oracles find, averaged."""
+    texts = test.texts(seed)
+    features = variant.decode(variant.sample(em.Sampler("single"), [], texts, seed,
+                                             batch=len(texts)))
+    out = evaluate_generated(variant.evaluator, features, test.lengths, texts, test.features,
+                             test.lengths, seed=seed)
+    out["oracle_accuracy"] = oracle_accuracy(variant.joints(features), test.concepts)
+    return out
+
+
+def real_motion_metrics(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
+                        seed: int) -> dict[str, float]:
+    """The "Real motion" row: the test clips with their captions; FID of as many *training*
+    clips against the test clips (the finite-sample floor of FID, our choice)."""
+    count = min(len(test), len(pipe.data.train_features))
+    out = evaluate_generated(pipe.evaluator, test.features, test.lengths, test.texts(seed),
+                             test.features, test.lengths, seed=seed)
+    train = pipe.evaluator.embed_motions(pipe.data.train_features[:count],
+                                         np.full(count, pipe.data.frames))
+    out["fid"] = metrics.fid(train, pipe.evaluator.embed_motions(test.features, test.lengths))
+    out["oracle_accuracy"] = oracle_accuracy(pipe.joints(test.features), test.concepts)
+    return out
+
+
+def latent_count_study(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
+                       counts: Sequence[int], seeds: Sequence[int], *, threads: int | None = 1,
+                       log: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Every (N, training seed): train or load the variant, measure reconstruction and
+    generation, all with ``threads`` torch threads (:func:`torch_threads`). Returns
+    ``{"reconstruction": {str(N): {metric: per-seed list}},
+    "generation": {...}, "real": {metric: per-seed list}, "seconds": {str(N): per-seed
+    training seconds (0 when cached)}}``."""
+    out: dict[str, Any] = {"reconstruction": {}, "generation": {}, "real": {}, "seconds": {}}
+    for n in counts:
+        for part in ("reconstruction", "generation"):
+            out[part][str(n)] = {}
+        out["seconds"][str(n)] = []
+    with torch_threads(threads):
+        _measure_counts(pipe, test, counts, seeds, out, threads, log)
+    return out
+
+
+def _measure_counts(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest, counts: Sequence[int],
+                    seeds: Sequence[int], out: dict[str, Any], threads: int | None,
+                    log: Callable[[str], None] | None) -> None:
+    for seed in seeds:
+        for n in counts:
+            variant = load_or_train_variant(pipe, n, seed, threads=threads, log=log)
+            out["seconds"][str(n)].append(sum(variant.timings.values())
+                                          if variant is not pipe else 0.0)
+            for part, measure in (("reconstruction", reconstruction_metrics),
+                                  ("generation", generation_metrics)):
+                for metric, value in measure(variant, test, seed).items():
+                    out[part][str(n)].setdefault(metric, []).append(float(value))
+        for metric, value in real_motion_metrics(pipe, test, seed).items():
+            out["real"].setdefault(metric, []).append(float(value))
+
+
+def table8_markdown(results: Mapping[str, Any], counts: Sequence[int] = LATENT_COUNTS,
+                    extra: Sequence[tuple[str, str]] = (("mpjpe", "MPJPE m"),)) -> str:
+    """Table 8's layout: reconstruction then generation rows by N, ours (mean ± 95 %
+    half-width over seeds) [paper]; a real-motion row; ``extra`` columns (ours only)."""
+    columns = list(TABLE8_COLUMNS) + list(extra)
+    head = "| | N | " + " | ".join(label for _, label in columns) + " |"
+    lines = [head, "|" + "---|" * (len(columns) + 2)]
+
+    def cell(values: Mapping[str, Sequence[float]], metric: str,
+             paper: Mapping[str, float] | None) -> str:
+        ours = interval_text(values[metric]) if metric in values else "—"
+        if paper is None or metric not in paper:
+            return ours
+        return f"{ours} [{paper[metric]}]"
+
+    for part in ("reconstruction", "generation"):
+        for n in counts:
+            values = results[part][str(n)]
+            paper = PAPER_TABLE8[part].get(str(n))
+            lines.append(f"| {part} | {n} | " + " | ".join(
+                cell(values, m, paper) for m, _ in columns) + " |")
+    lines.append("| real motion | — | " + " | ".join(
+        cell(results["real"], m, PAPER_REAL_MOTION) if m != "mpjpe" else "—"
+        for m, _ in columns) + " |")
+    return "\n".join(lines)

@@ -1,0 +1,361 @@
+"""GMD appendix F on the tiny trajectory model: guidance strength s and the stop step.
+
+GMD (appendix F; REFERENCE.md "Guidance") guides its ε trajectory model with goal functions
+on x̂0, μ̃ = μ − s·Σ_t·∇_{x_t}G(x̂0), with s = 100 ("performs well within the range of 100 to
+200"), imputes where feasible, and stops both at t = 20 of T = 1000 "as this led to a slight
+improvement in the motion coherence". For obstacle avoidance it drops point-to-point
+imputation, which could lead through an obstacle.
+
+This module adds what notebook 06 needs on top of ``repro.gmd`` (whose sampler and goal
+functions it reuses unchanged):
+
+- ``model_stop_step``: GMD's stop step mapped to a model with fewer steps (same fraction of T);
+- ``sweep_strengths``: one sampling call for many strengths at once (a per-sample strength is
+  exactly a guidance of strength 1 on Σ_b s_b·G_b, because samples do not interact), with
+  the same x_T for every strength;
+- goal-keypoint and point-to-point imputation targets (GMD's two imputations, absolute root);
+- per-sample circular obstacles: a hinge cost, penetration depth, collisions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from repro.core.diffusion import Guidance, Imputation
+from repro.gmd import library as gmd
+
+__all__ = [
+    "GMD_NUM_TIMESTEPS",
+    "ObstacleArm",
+    "ObstacleSet",
+    "StrengthSweep",
+    "goal_keypoint_imputation",
+    "model_stop_step",
+    "obstacle_experiment",
+    "obstacle_cost",
+    "obstacles_between",
+    "penetration_depth",
+    "point_to_point_imputation",
+    "shared_start_noise",
+    "strength_key",
+    "sweep_strengths",
+    "weighted_guidance",
+]
+
+#: GMD's number of diffusion steps (Table D.1): its "t = 20" is a step of T = 1000.
+GMD_NUM_TIMESTEPS = 1000
+#: model channels of the world root x and z in the absolute-root trajectory view (angle, x, z, y)
+X_CHANNEL, Z_CHANNEL = 1, 2
+
+
+def model_stop_step(gmd_step: int, num_timesteps: int) -> int:
+    """GMD's stop step ``gmd_step`` (of T = 1000) at the same fraction of ``num_timesteps``:
+    round(gmd_step · T_model / 1000). The cosine schedule is a function of t/T, so the noise
+    level ᾱ at which guidance stops is (nearly) the same; e.g. 20 → 2 at T = 100."""
+    if not 0 <= gmd_step <= GMD_NUM_TIMESTEPS:
+        raise ValueError(f"gmd_step must be in [0, {GMD_NUM_TIMESTEPS}], got {gmd_step}")
+    return int(round(gmd_step * num_timesteps / GMD_NUM_TIMESTEPS))
+
+
+def strength_key(strength: float) -> str:
+    """The key of a strength in the registered measurements: ``str(s)`` of the number as
+    written, e.g. 100.0 → "100", 0.5 → "0.5"."""
+    return f"{float(strength):g}"
+
+
+def weighted_guidance(goal_fn: Callable[[Tensor], Tensor], strengths: Tensor | Sequence[float],
+                      ) -> Guidance:
+    """Guidance with a strength per sample: goal Σ_b s_b·G_b(x̂0) at strength 1.
+
+    The samples of a batch do not interact (the UNet normalises per sample), so
+    ∇_{x_t^b} Σ_b' s_b'·G_b' = s_b·∇_{x_t^b} G_b and the shift −Σ_t·s_b·∇G_b is exactly that of
+    a separate run with strength s_b (``diffusion.Guidance``)."""
+    weights = torch.as_tensor(np.asarray(strengths, dtype=np.float32))
+
+    def goal(pred_x0: Tensor) -> Tensor:
+        values = goal_fn(pred_x0)
+        if values.shape != (pred_x0.shape[0],):
+            raise ValueError(f"goal_fn must return one value per sample, got {values.shape}")
+        return weights.to(values.device, values.dtype) * values
+
+    return Guidance(goal, strength=1.0)
+
+
+def shared_start_noise(trained: gmd.TrainedGMD, n: int, groups: int, *, seed: int) -> Tensor:
+    """x_T (groups·n, C, frames): n draws (generator seeded with ``seed``) repeated for each of
+    ``groups`` groups, so every strength starts sample i from the same x_T."""
+    generator = torch.Generator().manual_seed(int(seed))
+    x_t = torch.randn((n, trained.space.channels, trained.spec.data.frames),
+                      generator=generator)
+    return x_t.repeat(groups, 1, 1).to(trained.device)
+
+
+def _check_absolute(space: gmd.FeatureSpace) -> None:
+    if space.task != "trajectory" or space.representation != "absolute":
+        raise ValueError("location imputation needs the absolute-root trajectory model "
+                         f"(got {space.task}, {space.representation}); in the relative "
+                         "representation a location is not a feature (GMD appendix B)")
+
+
+def _normalised_xz(space: gmd.FeatureSpace, xz: np.ndarray) -> np.ndarray:
+    """World x/z (..., 2) in metres → the model's normalised channels 1 and 2."""
+    mean = np.asarray(space.mean, dtype=np.float32)[[X_CHANNEL, Z_CHANNEL]]
+    std = np.asarray(space.std, dtype=np.float32)[[X_CHANNEL, Z_CHANNEL]]
+    return (np.asarray(xz, dtype=np.float32) - mean) / std
+
+
+def goal_keypoint_imputation(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
+                             active: Sequence[bool] | np.ndarray | None = None,
+                             frame: int = -1) -> Imputation:
+    """Impute the goal (B, 2) as the root x/z of frame ``frame`` (GMD's key-location
+    imputation); ``active`` (B,) picks the samples that are imputed (default all)."""
+    space = trained.space
+    _check_absolute(space)
+    targets = np.asarray(targets_xz, dtype=np.float32).reshape(-1, 2)
+    n, frames = len(targets), trained.spec.data.frames
+    target = torch.zeros((n, space.channels, frames))
+    mask = torch.zeros((n, space.channels, frames), dtype=torch.bool)
+    goal = torch.from_numpy(_normalised_xz(space, targets))
+    target[:, [X_CHANNEL, Z_CHANNEL], frame] = goal
+    mask[:, [X_CHANNEL, Z_CHANNEL], frame] = True
+    if active is not None:
+        mask &= torch.as_tensor(np.asarray(active, dtype=bool))[:, None, None]
+    return Imputation(mask, target)
+
+
+def point_to_point_imputation(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
+                              active: Sequence[bool] | np.ndarray | None = None) -> Imputation:
+    """Impute the straight line from the start (origin) to the goal at the last frame, evenly
+    spaced over all frames, as root x/z (GMD's point-to-point trajectory imputation)."""
+    space = trained.space
+    _check_absolute(space)
+    targets = np.asarray(targets_xz, dtype=np.float32).reshape(-1, 2)
+    n, frames = len(targets), trained.spec.data.frames
+    fraction = np.linspace(0.0, 1.0, frames, dtype=np.float32)
+    line = targets[:, None, :] * fraction[None, :, None]                   # (B, frames, 2)
+    target = torch.zeros((n, space.channels, frames))
+    target[:, [X_CHANNEL, Z_CHANNEL], :] = torch.from_numpy(
+        _normalised_xz(space, line)).transpose(1, 2)
+    mask = torch.zeros((n, space.channels, frames), dtype=torch.bool)
+    mask[:, [X_CHANNEL, Z_CHANNEL], :] = True
+    if active is not None:
+        mask &= torch.as_tensor(np.asarray(active, dtype=bool))[:, None, None]
+    return Imputation(mask, target)
+
+
+@dataclass
+class StrengthSweep:
+    """One sampling call: ``len(strengths)`` groups of the same n goals, group g guided with
+    strength ``strengths[g]``, all stopping at model step ``stop`` (guidance while t ≥ stop).
+
+    ``samples`` (G, n, C, frames) in model space; ``goal_error`` (G, n) in metres;
+    ``jerk``/``acceleration`` (G,) the mean root jerk (m/s³) / acceleration (m/s²) of each
+    group (``gmd.jitter_of``); ``imputed`` whether the goal keypoint was also imputed.
+    With ``record_steps``: ``timesteps`` (S,) T−1 … 0, ``shift_size`` (S, G) the mean
+    |guidance shift| −s·Σ_t·∇G per entry of each group, ``state_size`` (S, G) the largest
+    |x_t| of each group (both in model units, at the input of each step).
+    """
+
+    strengths: np.ndarray
+    stop: int
+    targets: np.ndarray
+    samples: Tensor
+    goal_error: np.ndarray
+    jerk: np.ndarray
+    acceleration: np.ndarray
+    imputed: bool
+    timesteps: np.ndarray | None = None
+    shift_size: np.ndarray | None = None
+    state_size: np.ndarray | None = None
+
+    def index(self, strength: float) -> int:
+        """The group of ``strength``."""
+        hits = np.flatnonzero(np.isclose(self.strengths, float(strength)))
+        if not len(hits):
+            raise KeyError(f"strength {strength} not in the sweep {self.strengths.tolist()}")
+        return int(hits[0])
+
+    def mean_goal_error(self, strength: float) -> float:
+        return float(self.goal_error[self.index(strength)].mean())
+
+    def mean_jerk(self, strength: float) -> float:
+        return float(self.jerk[self.index(strength)])
+
+
+def sweep_strengths(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
+                    strengths: Sequence[float], *, seed: int, stop: int,
+                    impute_goal: bool = False, frame: int = -1,
+                    record_steps: bool = False) -> StrengthSweep:
+    """Sample the goals (n, 2) once per strength in one batch, with GMD's goal guidance
+    (``gmd.goal_reaching_loss``: ½‖root_xz(x̂0)[frame] − goal‖₁) and, if ``impute_goal``,
+    the goal keypoint imputed too; both act while t ≥ ``stop`` (model steps).
+
+    Same x_T for every strength (``shared_start_noise``); the per-step noise comes from
+    ``seed`` and the batch position, so two calls with the same strengths, goals and seed but
+    another ``stop`` are paired sample by sample (imputation draws extra noise while active,
+    which pairs only calls with the same active steps).
+    """
+    targets = np.asarray(targets_xz, dtype=np.float32).reshape(-1, 2)
+    values = np.asarray(strengths, dtype=np.float64)
+    if values.ndim != 1 or not len(values) or np.any(values < 0):
+        raise ValueError(f"strengths must be a non-empty list of values >= 0, got {strengths}")
+    n, groups = len(targets), len(values)
+    all_targets = np.tile(targets, (groups, 1))
+    per_sample = np.repeat(values, n)
+    guidance = weighted_guidance(gmd.goal_reaching_loss(trained.space, all_targets, frame),
+                                 per_sample)
+    imputation = goal_keypoint_imputation(trained, all_targets, frame=frame) if impute_goal \
+        else None
+    out = gmd.sample(trained, n * groups, seed=seed, guidance=guidance, imputation=imputation,
+                     stop_guidance_at=stop, return_trajectory=record_steps,
+                     noise=shared_start_noise(trained, n, groups, seed=seed))
+    x = (out[0] if record_steps else out).cpu()
+    error = gmd.goal_error(trained.space, x, all_targets, frame).reshape(groups, n)
+    samples = x.reshape(groups, n, *x.shape[1:])
+    jitters = [gmd.jitter_of(trained.space, samples[g]) for g in range(groups)]
+    sweep = StrengthSweep(values, int(stop), targets, samples, error,
+                          np.array([j.jerk for j in jitters]),
+                          np.array([j.acceleration for j in jitters]), impute_goal)
+    if record_steps:
+        path = out[1]
+        steps = len(path.timesteps)
+        shift = path.guidance_shift.reshape(steps, groups, -1)
+        state = path.x_t.reshape(steps, groups, -1)
+        sweep.timesteps = np.asarray(path.timesteps)
+        sweep.shift_size = shift.abs().mean(dim=2).double().numpy()
+        sweep.state_size = state.abs().amax(dim=2).double().numpy()
+    return sweep
+
+
+# ---------------------------------------------------------------------------------------------
+# Obstacles
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ObstacleSet:
+    """One circular obstacle per sample: ``centres`` (B, 2) world x/z and ``radii`` (B,), m."""
+
+    centres: np.ndarray
+    radii: np.ndarray
+
+    def __post_init__(self) -> None:
+        if self.centres.shape != (len(self.radii), 2):
+            raise ValueError(f"centres {self.centres.shape} and radii {self.radii.shape} "
+                             "must be (B, 2) and (B,)")
+
+    def tile(self, groups: int) -> ObstacleSet:
+        """The same obstacles for ``groups`` consecutive groups of samples."""
+        return ObstacleSet(np.tile(self.centres, (groups, 1)), np.tile(self.radii, groups))
+
+
+def obstacles_between(targets_xz: np.ndarray, *, position: float = 0.5,
+                      radius_fraction: float = 0.3, max_radius: float = 0.4) -> ObstacleSet:
+    """An obstacle on the straight line from the start (origin) to each goal, at ``position``
+    of the way, radius min(``max_radius``, ``radius_fraction``·‖goal‖). With the defaults the
+    start and the goal are ≥ 0.2·‖goal‖ outside the circle: it blocks the straight path but
+    can be walked around."""
+    targets = np.asarray(targets_xz, dtype=np.float32).reshape(-1, 2)
+    distance = np.linalg.norm(targets, axis=1)
+    radii = np.minimum(max_radius, radius_fraction * distance).astype(np.float32)
+    return ObstacleSet((position * targets).astype(np.float32), radii)
+
+
+def _signed_clearance(space: gmd.FeatureSpace, x: Tensor, obstacles: ObstacleSet) -> Tensor:
+    """‖p_xz(t) − c‖ − r (B, T): negative inside the sample's obstacle."""
+    position = space.root_xz(x)                                            # (B, T, 2)
+    centres = torch.as_tensor(obstacles.centres, dtype=position.dtype, device=position.device)
+    radii = torch.as_tensor(obstacles.radii, dtype=position.dtype, device=position.device)
+    if len(centres) != len(position):
+        raise ValueError(f"{len(centres)} obstacles for {len(position)} samples")
+    return (position - centres[:, None, :]).norm(dim=-1) - radii[:, None]
+
+
+def obstacle_cost(space: gmd.FeatureSpace, obstacles: ObstacleSet) -> Callable[[Tensor], Tensor]:
+    """G_obs(x̂0) = Σ_t max(0, r − ‖p_xz(t) − c‖) per sample (m): the penetration of the root
+    path into its own obstacle, summed over frames (the hinge of ``gmd.obstacle_loss``, one
+    obstacle per sample)."""
+
+    def cost(pred_x0: Tensor) -> Tensor:
+        return torch.relu(-_signed_clearance(space, pred_x0, obstacles)).sum(dim=1)
+
+    return cost
+
+
+def penetration_depth(space: gmd.FeatureSpace, x: Tensor, obstacles: ObstacleSet) -> np.ndarray:
+    """The deepest point of each root path inside its obstacle, max_t max(0, r − ‖p − c‖)
+    (B,) in metres; > 0 means a collision."""
+    with torch.no_grad():
+        clearance = _signed_clearance(space, x.detach(), obstacles)
+    return torch.relu(-clearance).amax(dim=1).cpu().numpy()
+
+
+@dataclass
+class ObstacleArm:
+    """One arm of ``obstacle_experiment``: n samples toward the goals past the obstacles."""
+
+    label: str
+    strength: float
+    obstacle_weight: float
+    point_to_point: bool
+    samples: Tensor
+    goal_error: np.ndarray
+    penetration: np.ndarray
+    jerk: float
+
+    @property
+    def collision_rate(self) -> float:
+        """Fraction of samples whose root path enters its obstacle."""
+        return float(np.mean(self.penetration > 0.0))
+
+
+def obstacle_experiment(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
+                        obstacles: ObstacleSet, strengths: Sequence[float], *, seed: int,
+                        stop: int, obstacle_weight: float = 1.0,
+                        frame: int = -1) -> list[ObstacleArm]:
+    """Goal reaching past one obstacle per goal, in one sampling call (same x_T for all arms):
+
+    - "unguided";
+    - per strength s: "goal" (goal guidance only), "goal + obstacle" (guidance on
+      G = G_goal + ``obstacle_weight``·G_obs, no imputation: GMD's obstacle task) and
+      "goal + obstacle + p2p" (the same plus the straight start→goal line imputed, which GMD
+      avoids because the line can cross the obstacle).
+
+    Guidance and imputation act while t ≥ ``stop``.
+    """
+    targets = np.asarray(targets_xz, dtype=np.float32).reshape(-1, 2)
+    n = len(targets)
+    plan = [("unguided", 0.0, 0.0, False)]
+    for s in strengths:
+        plan += [(f"goal, s={strength_key(s)}", float(s), 0.0, False),
+                 (f"goal + obstacle, s={strength_key(s)}", float(s), obstacle_weight, False),
+                 (f"goal + obstacle + p2p, s={strength_key(s)}", float(s), obstacle_weight,
+                  True)]
+    groups = len(plan)
+    all_targets = np.tile(targets, (groups, 1))
+    all_obstacles = obstacles.tile(groups)
+    strength = torch.as_tensor(np.repeat([p[1] for p in plan], n), dtype=torch.float32)
+    weight = torch.as_tensor(np.repeat([p[2] for p in plan], n), dtype=torch.float32)
+    goal = gmd.goal_reaching_loss(trained.space, all_targets, frame)
+    avoid = obstacle_cost(trained.space, all_obstacles)
+
+    def combined(pred_x0: Tensor) -> Tensor:
+        w = weight.to(pred_x0.device, pred_x0.dtype)
+        return goal(pred_x0) + w * avoid(pred_x0)
+
+    imputation = point_to_point_imputation(trained, all_targets,
+                                           active=np.repeat([p[3] for p in plan], n))
+    x = gmd.sample(trained, n * groups, seed=seed, guidance=weighted_guidance(combined, strength),
+                   imputation=imputation, stop_guidance_at=stop,
+                   noise=shared_start_noise(trained, n, groups, seed=seed)).cpu()
+    error = gmd.goal_error(trained.space, x, all_targets, frame).reshape(groups, n)
+    depth = penetration_depth(trained.space, x, all_obstacles).reshape(groups, n)
+    samples = x.reshape(groups, n, *x.shape[1:])
+    return [ObstacleArm(label, s, w, p2p, samples[g], error[g], depth[g],
+                        float(gmd.jitter_of(trained.space, samples[g]).jerk))
+            for g, (label, s, w, p2p) in enumerate(plan)]

@@ -1,0 +1,158 @@
+"""Cached artefacts keyed by a hash of their full configuration (DESIGN.md "Caches").
+
+Layout: ``cache_dir()/<kind>/<hash>/`` holding ``config.json`` (the canonical config),
+``model.pt`` (a state dict) and ``metrics.json``. ``model.pt`` is written last, so its
+presence means the entry is complete; every file goes through ``storage.atomic_open``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import json
+import re
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+from repro.infra import paths, storage
+
+__all__ = ["artifact_lock", "cached_artifact_dir", "canonical_json", "config_hash", "fingerprint",
+           "load_or_train"]
+
+_KIND_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+
+
+def _canonical_default(value: Any) -> Any:
+    try:
+        return storage.json_default(value)
+    except TypeError:
+        raise ValueError(f"config value of type {type(value).__name__} cannot be hashed; use "
+                         "JSON types (dict, list, str, int, float, bool, None)") from None
+
+
+def canonical_json(config: dict[str, Any]) -> str:
+    """Sorted keys, no whitespace, tuples as lists, numpy scalars as numbers; NaN rejected."""
+    if not isinstance(config, dict):
+        raise ValueError(f"config must be a dict, got {type(config).__name__}")
+    try:
+        return json.dumps(config, sort_keys=True, separators=(",", ":"), ensure_ascii=True,
+                          allow_nan=False, default=_canonical_default)
+    except TypeError as error:     # e.g. non-string dict keys mixed with strings
+        raise ValueError(f"config cannot be written as canonical JSON: {error}") from error
+
+
+def fingerprint(*parts: Any, digits: int | None = None, with_layout: bool = False) -> str:
+    """sha256 over ``parts`` in order: the package's one content hash for cache keys.
+
+    An array (numpy or torch) contributes its C-contiguous bytes, preceded by its shape and
+    dtype when ``with_layout``; ``bytes`` as they are; a ``str`` as UTF-8; anything else as
+    ``json.dumps`` of it. ``digits`` keeps that many leading hex digits (None: all 64).
+    """
+    digest = hashlib.sha256()
+    for part in parts:
+        if isinstance(part, Tensor | np.ndarray):
+            value = np.ascontiguousarray(part.detach().cpu().numpy() if isinstance(part, Tensor)
+                                         else part)
+            if with_layout:
+                digest.update(f"{value.shape}{value.dtype}".encode())
+            digest.update(value.tobytes())
+        elif isinstance(part, bytes):
+            digest.update(part)
+        elif isinstance(part, str):
+            digest.update(part.encode("utf-8"))
+        else:
+            digest.update(json.dumps(part).encode("utf-8"))
+    text = digest.hexdigest()
+    return text[:digits] if digits else text
+
+
+def config_hash(config: dict[str, Any]) -> str:
+    """The first 16 hex digits of sha256(canonical JSON of ``config``)."""
+    return fingerprint(canonical_json(config), digits=16)
+
+
+def _normalised(config: dict[str, Any]) -> Any:
+    """The config as it reads back from JSON (tuples → lists etc.), for comparisons."""
+    return json.loads(canonical_json(config))
+
+
+def cached_artifact_dir(kind: str, config: dict[str, Any]) -> Path:
+    """``cache_dir()/kind/<config_hash>/``, created, with ``config.json`` written beside."""
+    directory = _artifact_dir(kind, config)
+    config_file = directory / "config.json"
+    if not config_file.exists() or _read_config(config_file) != _normalised(config):
+        storage.write_json(config_file, _normalised(config))
+    return directory
+
+
+def _artifact_dir(kind: str, config: dict[str, Any]) -> Path:
+    if not isinstance(kind, str) or not _KIND_PATTERN.match(kind):
+        raise ValueError(f"cache kind must be a simple folder name like 'gmd_traj', got {kind!r}")
+    return paths.cache_dir() / kind / config_hash(config)
+
+
+def _read_config(path: Path) -> Any:
+    try:
+        return storage.read_json(path)
+    except (OSError, ValueError):
+        return None
+
+
+@contextlib.contextmanager
+def artifact_lock(directory: Path) -> Iterator[None]:
+    """An exclusive lock on a cache entry, so notebooks running in parallel that need the same
+    model train it once: the second waits, then loads what the first saved."""
+    directory.mkdir(parents=True, exist_ok=True)
+    with open(directory / ".lock", "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def load_or_train(kind: str, config: dict[str, Any], build_model: Callable[[], nn.Module],
+                  train: Callable[[nn.Module], Any], *, device: str | torch.device = "cpu",
+                  retrain: bool = False) -> nn.Module:
+    """Load ``cache/kind/hash/model.pt`` if it exists for this exact config; else train and save.
+
+    ``build_model()`` makes a fresh (untrained) module; ``train(module)`` returns the trained
+    module, or ``(module, metrics)`` with a JSON-able dict (e.g. losses), written to
+    ``metrics.json``. The state dict is loaded with ``map_location=device``; the returned
+    module is on ``device`` in eval mode. ``retrain=True`` ignores an existing entry.
+    """
+    device = torch.device(device)
+    directory = _artifact_dir(kind, config)
+    with artifact_lock(directory):
+        return _load_or_train_locked(directory, config, build_model, train, device, retrain)
+
+
+def _load_or_train_locked(directory: Path, config: dict[str, Any],
+                          build_model: Callable[[], nn.Module], train: Callable[[nn.Module], Any],
+                          device: torch.device, retrain: bool) -> nn.Module:
+    kind = directory.parent.name
+    weights_file = directory / "model.pt"
+    if not retrain and weights_file.exists() and _read_config(
+            directory / "config.json") == _normalised(config):
+        model = build_model()
+        state = torch.load(weights_file, map_location=device, weights_only=True)
+        model.load_state_dict(state)
+        return model.to(device).eval()
+
+    result = train(build_model().to(device))
+    model, metrics = result if isinstance(result, tuple) else (result, None)
+    if not isinstance(model, nn.Module):
+        raise ValueError(f"train must return an nn.Module or (nn.Module, dict), got "
+                         f"{type(model).__name__}")
+    cached_artifact_dir(kind, config)      # writes config.json
+    if metrics is not None:
+        storage.write_json(directory / "metrics.json", metrics)
+    with storage.atomic_open(weights_file, "wb") as handle:
+        torch.save({k: v.detach().cpu() for k, v in model.state_dict().items()}, handle)
+    return model.to(device).eval()

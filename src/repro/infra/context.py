@@ -1,0 +1,58 @@
+"""One run's settings, passed explicitly from the notebook to the library and the ledger.
+
+``repro.run.notebook.setup_notebook`` builds it from the notebook's parameters (and the user's
+environment overrides, read once there); nothing inside the process reads them back from the
+environment.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import torch
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """Where a run writes and how it runs.
+
+    Attributes:
+        quick: tiny data and few steps (a test of the code; never a result).
+        seed: base seed; experiments take ``seeds(...)`` from it.
+        device: where models train and sample.
+        threads: torch threads of this process.
+        build_dir: the run's output folder (claims/, figures/ below it).
+        cache_dir: trained models and generated data, keyed by their configuration.
+        data_dir: a HumanML3D-layout folder, or None for the generated stand-in set.
+        run_id: names the run in every sidecar (commit, base seed, mode, start); "" by hand.
+    """
+
+    quick: bool
+    seed: int
+    device: torch.device
+    threads: int
+    build_dir: Path
+    cache_dir: Path
+    data_dir: Path | None = None
+    run_id: str = ""
+
+    @property
+    def mode(self) -> str:
+        return "quick" if self.quick else "full"
+
+    @property
+    def figures_dir(self) -> Path:
+        return self.build_dir / "figures"
+
+    @property
+    def claims_dir(self) -> Path:
+        return self.build_dir / "claims"
+
+    def figure_path(self, name: str) -> Path:
+        """Where a figure named ``name`` (e.g. ``gmd_a2_coefficients.png``) is saved."""
+        return self.figures_dir / name
+
+    def seeds(self, full: int, quick: int = 1) -> list[int]:
+        """``full`` consecutive seeds from the base seed (``quick`` of them in quick mode)."""
+        return [self.seed + i for i in range(quick if self.quick else full)]

@@ -1,0 +1,77 @@
+"""Where things live: the repository, the build folder, the model cache, the shared fixtures.
+
+Every path is absolute so that papermill's ``cwd`` never changes what a path means.
+Environment variables override the defaults (tests, CI, a shared cache):
+``REPRO_BUILD_ROOT`` (default ``build/``), ``REPRO_BUILD_DIR`` (the current run's folder,
+set by the runner and by ``setup_notebook``), ``REPRO_CACHE_DIR``, ``REPRO_SHARED_DIR``,
+``REPRO_NOTEBOOKS_DIR``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[3]
+
+
+def build_root() -> Path:
+    """``build/`` (git-ignored): full runs write here, quick runs under ``build/quick``."""
+    return Path(os.environ.get("REPRO_BUILD_ROOT", REPO_ROOT / "build")).resolve()
+
+
+def run_build_dir(quick: bool) -> Path:
+    """A run's output folder: quick (test) runs never overwrite a full run's outputs."""
+    return build_root() / "quick" if quick else build_root()
+
+
+def build_dir() -> Path:
+    """The current run's folder: executed notebooks, claim sidecars, report, figures."""
+    return Path(os.environ.get("REPRO_BUILD_DIR", build_root())).resolve()
+
+
+def cache_dir() -> Path:
+    """Trained weights and generated datasets, keyed by a hash of their configuration.
+
+    Shared by quick and full runs (their configurations differ, so their hashes do)."""
+    return Path(os.environ.get("REPRO_CACHE_DIR", build_root() / "cache")).resolve()
+
+
+def shared_dir() -> Path:
+    """``../shared`` beside the clone: claims, reference facts and the real HumanML3D sample."""
+    return Path(os.environ.get("REPRO_SHARED_DIR", REPO_ROOT.parent / "shared")).resolve()
+
+
+def humanml3d_sample_dir() -> Path:
+    """The real HumanML3D clips used only by conformance tests (never committed)."""
+    return shared_dir() / "humanml3d_sample"
+
+
+def notebooks_dir() -> Path:
+    return Path(os.environ.get("REPRO_NOTEBOOKS_DIR", REPO_ROOT / "notebooks")).resolve()
+
+
+def data_stubs_dir() -> Path:
+    """The small committed stand-in dataset in HumanML3D's folder layout."""
+    return REPO_ROOT / "data_stubs"
+
+
+def results_dir() -> Path:
+    """The committed snapshot of the last full run (claims table, report, figures)."""
+    return REPO_ROOT / "results"
+
+
+def figures_dir() -> Path:
+    return build_dir() / "figures"
+
+
+def claims_dir() -> Path:
+    return build_dir() / "claims"
+
+
+def executed_notebooks_dir() -> Path:
+    return build_dir() / "notebooks"
+
+
+def report_dir() -> Path:
+    return build_dir() / "report"

@@ -1,0 +1,123 @@
+"""Pictures of motion: skeleton filmstrips, top-down root trajectories, short GIFs.
+
+Joints are (T, 22, 3) with Y up (HumanML3D); the side view plots x (right) against y (up),
+the top-down view x against z (the body faces +Z at frame 0).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use(os.environ.get("MPLBACKEND", "Agg"))
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
+
+from repro.motion.skeleton import KINEMATIC_CHAINS  # noqa: E402
+
+CHAIN_COLOURS = ("tab:red", "tab:blue", "black", "tab:orange", "tab:green")
+
+
+def _check_joints(joints: np.ndarray) -> np.ndarray:
+    joints = np.asarray(joints)
+    if joints.ndim != 3 or joints.shape[1:] != (22, 3):
+        raise ValueError(f"joints must be (T, 22, 3), got {joints.shape}")
+    return joints
+
+
+def draw_skeleton(ax: plt.Axes, pose: np.ndarray, *, view: str = "front",
+                  offset: float = 0.0, alpha: float = 1.0) -> None:
+    """One pose (22, 3) as coloured kinematic chains; view 'front' (x–y) or 'side' (z–y)."""
+    horizontal = 0 if view == "front" else 2
+    for chain, colour in zip(KINEMATIC_CHAINS, CHAIN_COLOURS, strict=True):
+        ax.plot(pose[list(chain), horizontal] + offset, pose[list(chain), 1], color=colour,
+                lw=2, alpha=alpha, solid_capstyle="round")
+
+
+def filmstrip(joints: np.ndarray, *, frames: int = 8, title: str | None = None,
+              view: str = "side", ax: plt.Axes | None = None) -> plt.Figure:
+    """``frames`` evenly spaced poses side by side (each centred on its own root)."""
+    joints = _check_joints(joints)
+    picks = np.linspace(0, len(joints) - 1, frames).round().astype(int)
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(1.3 * frames, 2.6))
+    else:
+        fig = ax.figure
+    horizontal = 0 if view == "front" else 2
+    for k, frame in enumerate(picks):
+        pose = joints[frame].copy()
+        pose[:, horizontal] -= pose[0, horizontal]
+        draw_skeleton(ax, pose, view=view, offset=1.0 * k)
+        ax.text(1.0 * k, -0.15, f"{frame}", ha="center", fontsize=7)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_ylim(-0.25, max(2.0, float(joints[..., 1].max()) + 0.1))
+    ax.grid(False)
+    if title:
+        ax.set_title(title, fontsize=9)
+    return fig
+
+
+def trajectories(joints_list: Sequence[np.ndarray], *, labels: Sequence[str] | None = None,
+                 ax: plt.Axes | None = None, title: str | None = None) -> plt.Figure:
+    """Top-down root paths (x against z) of several clips, with start and end marked."""
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(4.5, 4.5))
+    else:
+        fig = ax.figure
+    for i, joints in enumerate(joints_list):
+        root = np.asarray(joints)[:, 0]
+        label = labels[i] if labels is not None else None
+        line, = ax.plot(root[:, 0], root[:, 2], lw=1.5, label=label)
+        ax.plot(root[0, 0], root[0, 2], "o", color=line.get_color(), ms=4)
+        ax.plot(root[-1, 0], root[-1, 2], ">", color=line.get_color(), ms=5)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m, facing direction at frame 0)")
+    ax.set_aspect("equal", adjustable="datalim")
+    if labels is not None:
+        ax.legend(fontsize=7, loc="best")
+    if title:
+        ax.set_title(title, fontsize=9)
+    return fig
+
+
+def animate(joints: np.ndarray, path: str | os.PathLike, *, fps: int = 20,
+            view: str = "side", stride: int = 2) -> Path:
+    """A short GIF of a clip (every ``stride``-th frame), the camera following the root."""
+    joints = _check_joints(joints)
+    fig, ax = plt.subplots(figsize=(3, 3))
+    horizontal = 0 if view == "front" else 2
+
+    def update(frame: int) -> None:
+        ax.clear()
+        pose = joints[frame]
+        draw_skeleton(ax, pose, view=view)
+        centre = pose[0, horizontal]
+        ax.set_xlim(centre - 1.0, centre + 1.0)
+        ax.set_ylim(-0.1, 1.9)
+        ax.set_aspect("equal")
+        ax.axhline(0.0, color="grey", lw=0.5)
+        ax.set_title(f"frame {frame}", fontsize=8)
+
+    animation = FuncAnimation(fig, update, frames=range(0, len(joints), stride))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp.gif")
+    animation.save(tmp, writer=PillowWriter(fps=max(1, fps // stride)))
+    os.replace(tmp, path)
+    plt.close(fig)
+    return path
+
+
+def save_figure(fig: plt.Figure, path: str | os.PathLike) -> Path:
+    """Save a figure atomically as PNG (the report copies it) and return the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp.png")
+    fig.savefig(tmp, bbox_inches="tight", format="png")
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,177 @@
+"""Command line: ``python -m repro {list, reproduce, report, stability, validate-dataset, bench,
+generate-stubs}``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+
+def _parse_parameter(text: str) -> tuple[str, Any]:
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(f"-p takes name=value, got {text!r}")
+    name, raw = text.split("=", 1)
+    try:
+        value = json.loads(raw)
+    except json.JSONDecodeError:
+        value = raw  # a bare string
+    return name, value
+
+
+def _cmd_list(_: argparse.Namespace) -> int:
+    from repro.claims.registry import CLAIMS
+    from repro.run.runner import available_notebooks
+
+    print("notebooks:")
+    for name in available_notebooks():
+        print(f"  {name}")
+    print("claims:")
+    for claim in CLAIMS.values():
+        print(f"  {claim.id:7s} {claim.notebook:26s} {claim.statement[:70]}")
+    return 0
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from repro.run.runner import reproduce
+
+    extra = dict(args.parameter or [])
+    try:
+        return reproduce(quick=args.quick, only=args.only, jobs=args.jobs, seed=args.seed,
+                         device=args.device, snapshot=args.snapshot, extra_parameters=extra,
+                         threads=args.threads)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from repro.claims.report import write_report, write_snapshot
+    from repro.infra import paths
+
+    build = paths.run_build_dir(args.quick)
+    if not (build / "claims").is_dir():
+        print(f"error: no claim sidecars in {build / 'claims'}; run notebooks first",
+              file=sys.stderr)
+        return 2
+    report = write_report(build, quick=args.quick, provenance=args.note or "")
+    print(f"report: {report}")
+    if args.snapshot:
+        if args.quick:
+            print("error: a quick run is a test, not a result: no snapshot", file=sys.stderr)
+            return 2
+        print(f"results snapshot: {write_snapshot(build)}")
+    return 0
+
+
+def _cmd_stability(args: argparse.Namespace) -> int:
+    from repro.claims.stability import write_stability
+    from repro.infra import paths
+
+    labels = args.label or [Path(d).name for d in args.build_dirs]
+    if len(labels) != len(args.build_dirs) or len(set(labels)) != len(labels):
+        print(f"error: need one distinct --label per build folder, got {labels}", file=sys.stderr)
+        return 2
+    output = (paths.results_dir() / "STABILITY.md" if args.snapshot
+              else Path(args.build_dirs[0]) / "report" / "STABILITY.md")
+    try:
+        written = write_stability(dict(zip(labels, args.build_dirs, strict=True)), output)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    print(f"seed stability: {written}")
+    return 0
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from repro.motion.humanml3d import format_problems, validate_dataset
+
+    try:
+        problems = validate_dataset(args.directory)
+    except (FileNotFoundError, ValueError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    if problems:
+        print(format_problems(problems))
+    errors = [p for p in problems if getattr(p, "severity", "error") == "error"]
+    if errors:
+        return 1
+    print(f"{args.directory}: no errors found"
+          + (f" ({len(problems)} warning(s))" if problems else ""))
+    return 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from repro.run.bench import run_bench
+
+    try:
+        return run_bench(full=args.full, venv=args.venv, quick=not args.no_quick,
+                         warm_cache=args.warm_cache)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+
+def _cmd_stubs(_: argparse.Namespace) -> int:
+    from repro.standin.generator import regenerate_stubs
+
+    print(regenerate_stubs())
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m repro", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="print the notebooks and the claims").set_defaults(func=_cmd_list)
+
+    rep = sub.add_parser("reproduce", help="execute notebooks with papermill and write the report")
+    rep.add_argument("--quick", action="store_true", help="tiny data, few steps (tests only)")
+    rep.add_argument("--only", nargs="+", metavar="NOTEBOOK_OR_CLAIM",
+                     help="notebook names, number prefixes (01) or claim IDs (GMD-A1)")
+    rep.add_argument("--jobs", type=int, default=1, help="notebooks run in parallel")
+    rep.add_argument("--seed", type=int, default=0, help="base seed passed to every notebook")
+    rep.add_argument("--threads", type=int, help="torch threads per notebook (default: the "
+                     "cores shared among --jobs; 1 when other work shares the cores)")
+    rep.add_argument("--device", default="cpu", help="torch device, e.g. cuda")
+    rep.add_argument("-p", "--parameter", action="append", type=_parse_parameter,
+                     metavar="NAME=VALUE", help="extra notebook parameter (JSON value)")
+    rep.add_argument("--snapshot", action="store_true",
+                     help="after a successful full run of every notebook, refresh results/")
+    rep.set_defaults(func=_cmd_reproduce)
+
+    rpt = sub.add_parser("report", help="rewrite the report from the recorded claim sidecars "
+                         "(e.g. after running notebooks one at a time with --only)")
+    rpt.add_argument("--quick", action="store_true", help="the quick build's sidecars")
+    rpt.add_argument("--snapshot", action="store_true", help="also refresh results/")
+    rpt.add_argument("--note", help="a provenance note printed at the top of the report")
+    rpt.set_defaults(func=_cmd_report)
+
+    stab = sub.add_parser("stability", help="compare the verdicts of full runs made from "
+                          "different base seeds (reproduce --seed N into another build root)")
+    stab.add_argument("build_dirs", nargs="+", metavar="BUILD_DIR",
+                      help="build folders holding claims/ from full runs")
+    stab.add_argument("--label", action="append", help="a name per build folder, in order")
+    stab.add_argument("--snapshot", action="store_true",
+                      help="write results/STABILITY.md instead of <first build>/report/")
+    stab.set_defaults(func=_cmd_stability)
+
+    val = sub.add_parser("validate-dataset", help="check a HumanML3D-layout folder")
+    val.add_argument("directory")
+    val.set_defaults(func=_cmd_validate)
+
+    bench = sub.add_parser("bench", help="measure the time budgets (writes build/bench)")
+    bench.add_argument("--full", action="store_true", help="also time a full cold/warm reproduce")
+    bench.add_argument("--venv", action="store_true", help="also time a fresh venv set-up")
+    bench.add_argument("--no-quick", action="store_true",
+                       help="skip the unit tests, quick notebooks and make test")
+    bench.add_argument("--warm-cache", metavar="DIR",
+                       help="also time a full reproduce on DIR, an earlier full run's cache")
+    bench.set_defaults(func=_cmd_bench)
+
+    sub.add_parser("generate-stubs", help="regenerate data_stubs/").set_defaults(func=_cmd_stubs)
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+

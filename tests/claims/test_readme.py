@@ -1,0 +1,26 @@
+"""README's verdict table is the committed snapshot's (results/claims.json)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from repro.claims.report import readme_claims_table, update_readme_table
+from repro.infra import paths
+from repro.infra.storage import read_json
+
+
+def test_readme_table_matches_the_results_snapshot() -> None:
+    rows = read_json(paths.results_dir() / "claims.json")["claims"]
+    readme = (paths.REPO_ROOT / "README.md").read_text(encoding="utf-8")
+    assert readme_claims_table(rows) in readme
+
+
+def test_update_replaces_only_the_marked_table(tmp_path: Path) -> None:
+    readme = tmp_path / "README.md"
+    readme.write_text("intro\n<!-- claims-table:start x -->\n| old |\n<!-- claims-table:end -->\n"
+                      "outro\n", encoding="utf-8")
+    rows = [{"id": "GMD-A1", "verdict": "reproduced", "notebook": "01_x0_vs_eps"}]
+    update_readme_table(readme, rows)
+    text = readme.read_text(encoding="utf-8")
+    assert "| old |" not in text and "| GMD-A1 | reproduced | `01_x0_vs_eps` |" in text
+    assert text.startswith("intro\n<!-- claims-table:start x -->\n") and text.endswith("outro\n")

@@ -1,0 +1,240 @@
+"""Training seeds of the EnergyMoGen pipeline (issue #6): the stage functions keep the cache keys
+of the default pipeline byte-identical to those ``load_pipeline`` built before it took a
+``train_seed`` (so existing caches stay valid), a training seed changes the VAE and the
+denoiser only, and the studies take one trained model per seed."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import torch
+
+from repro.core.training import TrainConfig
+from repro.energymogen import latent_count as lc
+from repro.energymogen import pipeline as em
+from repro.energymogen import studies as em_studies
+from repro.infra import cache, paths
+from repro.models import vae as vae_module
+from repro.models.vae import VAETrainConfig, array_fingerprint, load_or_train_vae
+from repro.standin.text import Vocabulary
+
+torch.set_num_threads(1)
+
+TINY = em.PipelineConfig(n_train_clips=24, test_clips_per_pair=2, vae_steps=2, text_steps=2,
+                         denoiser_steps=2, evaluator_steps=2, ddim_steps=2, items_per_pair=4)
+TRAINED_KINDS = ("motion_vae", "emg_text_encoder", "emg_latent_denoiser", "evaluator")
+
+#: sha256[:16] of each key with its data fingerprints replaced by "<fingerprint>", recorded
+#: from ``load_pipeline`` (and ``latent_count._train_variant`` for seed 1) *before* the stage
+#: functions existed: model sizes, training configs, seeds and formats must stay as they were.
+TINY_STRUCTURE = {
+    0: {"motion_vae": "b58ce7876b306d20", "emg_text_encoder": "a96b2ec63ab24b34",
+        "emg_latent_denoiser": "12cfbac03317eecb", "evaluator": "c9801f870ef8a1e9"},
+    1: {"motion_vae": "1934f9e81145ca9f", "emg_text_encoder": "a96b2ec63ab24b34",
+        "emg_latent_denoiser": "134cae56e2f7af8c", "evaluator": "c9801f870ef8a1e9"},
+}
+#: the entries under build/cache that the quick and full notebooks use (recorded before the
+#: change): the default pipeline (train seed 0), and for the full configuration the N = 5
+#: models of training seeds 1 and 2 that notebook 07 trained (notebooks 04/05 reuse them).
+BUILD_CACHE = {
+    ("quick", 0): {"motion_vae": "97428cc5042b6a1d", "emg_text_encoder": "ef319294ef89a6d7",
+                   "emg_latent_denoiser": "4179c092c74e0b13", "evaluator": "2dffcf3001e930e1"},
+    ("full", 0): {"motion_vae": "ff191e559f9a1a15", "emg_text_encoder": "91948f4ba241c395",
+                  "emg_latent_denoiser": "d1bd07bf701d1d04", "evaluator": "84585cd0d9627136"},
+    ("full", 1): {"motion_vae": "3d823447cc0d98bd", "emg_text_encoder": "91948f4ba241c395",
+                  "emg_latent_denoiser": "149ee26c7c942f2e", "evaluator": "84585cd0d9627136"},
+    ("full", 2): {"motion_vae": "94d2101cd6766177", "emg_text_encoder": "91948f4ba241c395",
+                  "emg_latent_denoiser": "a5666f8df81663da", "evaluator": "84585cd0d9627136"},
+}
+
+
+def _structure_hash(key: dict[str, Any]) -> str:
+    return cache.config_hash({k: "<fingerprint>" if k in ("data", "latents") else v
+                              for k, v in key.items()})
+
+
+class KeySpy:
+    """Records every (kind, key) that reaches ``repro.cache`` (through ``_artifact_dir``, which
+    every cache entry goes through before anything is written); ``forbid_misses`` raises on an
+    entry without ``model.pt`` before a directory is made."""
+
+    def __init__(self, forbid_misses: bool = False) -> None:
+        self.keys: dict[str, dict[str, Any]] = {}
+        self.forbid_misses = forbid_misses
+        self._original = cache._artifact_dir
+
+    def __call__(self, kind: str, config: dict[str, Any]) -> Path:
+        directory = self._original(kind, config)
+        if kind in TRAINED_KINDS:
+            self.keys[kind] = json.loads(cache.canonical_json(config))
+            if self.forbid_misses and not (directory / "model.pt").exists():
+                raise LookupError(f"cache miss: {kind}/{directory.name}")
+        return directory
+
+    def hashes(self) -> dict[str, str]:
+        return {kind: cache.config_hash(key) for kind, key in self.keys.items()}
+
+
+@pytest.fixture(scope="module")
+def tiny_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    directory = tmp_path_factory.mktemp("cache")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("REPRO_CACHE_DIR", str(directory))
+        yield directory
+
+
+@pytest.fixture(scope="module")
+def base(tiny_cache: Path) -> em.EnergyMoGenPipeline:
+    return em.load_pipeline(TINY, log=None)
+
+
+def _spied_load(monkeypatch: pytest.MonkeyPatch, config: em.PipelineConfig,
+                train_seed: int | None = None, forbid_misses: bool = False
+                ) -> tuple[em.EnergyMoGenPipeline, KeySpy]:
+    spy = KeySpy(forbid_misses)
+    monkeypatch.setattr(cache, "_artifact_dir", spy)
+    pipe = em.load_pipeline(config, log=None, train_seed=train_seed)
+    monkeypatch.undo()
+    return pipe, spy
+
+
+def _keys_as_before(config: em.PipelineConfig,
+                    pipe: em.EnergyMoGenPipeline) -> dict[str, dict[str, Any]]:
+    """The keys as ``load_pipeline`` built them before the stage functions (its code, copied
+    verbatim; the text tokens from ``pipe``'s encoder, whose own key is checked first)."""
+    data = em.load_or_build_data(config)
+    lengths = np.full(len(data.train_features), data.frames)
+    model_kwargs = {"latent_count": config.latent_count, "latent_dim": config.latent_dim,
+                    "width": config.vae_width, "layers": config.vae_layers, "heads": 4,
+                    "max_frames": config.frames, "dropout": 0.0}
+    vae_config = VAETrainConfig(steps=config.vae_steps, batch_size=config.vae_batch,
+                                lr=config.vae_lr, seed=config.data_seed)
+    motions = data.normalise(data.train_features)
+    vae_key = {"model": model_kwargs, "train": vae_config.to_config(),
+               "data": array_fingerprint(np.asarray(motions, dtype=np.float32),
+                                         np.asarray(lengths, dtype=np.int64)),
+               "format": vae_module._FORMAT_VERSION}
+    vae = load_or_train_vae(motions, lengths, model_kwargs=model_kwargs,
+                            config=vae_config).eval()
+    with torch.no_grad():
+        x = torch.from_numpy(data.normalise(data.train_features))
+        mu = torch.cat([vae.encode(x[i:i + 256], [data.frames] * len(x[i:i + 256]))[0]
+                        for i in range(0, len(x), 256)])
+    scale = float(1.0 / mu.std())
+    latents = (mu * scale).cpu()
+    vocab = Vocabulary.build([c for caps in data.train_captions for c in caps])
+    text_key = {"vocab": list(vocab.tokens), "latents": array_fingerprint(latents),
+                "dim": config.text_dim, "steps": config.text_steps, "lr": config.text_lr,
+                "max_len": config.max_text_len, "seed": config.data_seed, "format": 1}
+    rows = [(i, c) for i, caps in enumerate(data.train_captions) for c in caps]
+    ids, text_lengths = vocab.encode_batch([c for _, c in rows], config.max_text_len)
+    with torch.no_grad():
+        tokens, mask = pipe.text_encoder.tokens(torch.from_numpy(ids), text_lengths)
+    width = int(mask.sum(1).max())
+    tokens, mask = tokens[:, :width].contiguous(), mask[:, :width].contiguous()
+    row_latents = latents[[i for i, _ in rows]]
+    train_config = TrainConfig(steps=config.denoiser_steps, batch_size=config.denoiser_batch,
+                               lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
+                               seed=config.data_seed)
+    denoiser_key = {"model": em.denoiser_kwargs(config), "train": train_config.to_config(),
+                    "schedule": "scaled_linear(0.00085, 0.012)", "T": config.num_timesteps,
+                    "data": array_fingerprint(row_latents, tokens, mask), "format": 1}
+    return {kind: json.loads(cache.canonical_json(key)) for kind, key in
+            (("motion_vae", vae_key), ("emg_text_encoder", text_key),
+             ("emg_latent_denoiser", denoiser_key))}
+
+
+def test_default_cache_keys_are_byte_identical_to_before(
+        base: em.EnergyMoGenPipeline, monkeypatch: pytest.MonkeyPatch) -> None:
+    for train_seed in (None, TINY.data_seed):
+        pipe, spy = _spied_load(monkeypatch, TINY, train_seed)
+        before = _keys_as_before(TINY, pipe)
+        for kind, key in before.items():
+            assert cache.canonical_json(spy.keys[kind]) == cache.canonical_json(key), kind
+        assert {k: _structure_hash(v) for k, v in spy.keys.items()} == TINY_STRUCTURE[0]
+        assert pipe.train_seed == TINY.data_seed
+
+
+def test_a_training_seed_has_the_keys_of_the_latent_count_variant(
+        base: em.EnergyMoGenPipeline, monkeypatch: pytest.MonkeyPatch) -> None:
+    pipe, spy = _spied_load(monkeypatch, TINY, 1)
+    assert {k: _structure_hash(v) for k, v in spy.keys.items()} == TINY_STRUCTURE[1]
+    variant_spy = KeySpy()
+    monkeypatch.setattr(cache, "_artifact_dir", variant_spy)
+    lc._train_variant(base, base.config, 1, 1, None)
+    monkeypatch.undo()
+    for kind in ("motion_vae", "emg_latent_denoiser"):
+        assert variant_spy.keys[kind] == spy.keys[kind]
+
+
+@pytest.mark.parametrize("mode, train_seed", sorted(BUILD_CACHE))
+def test_build_cache_entries_are_still_hit(mode: str, train_seed: int,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    """The real entries under build/cache (skipped where a clone has not trained them)."""
+    monkeypatch.delenv("REPRO_CACHE_DIR", raising=False)
+    expected = BUILD_CACHE[(mode, train_seed)]
+    if not all((paths.cache_dir() / kind / h / "model.pt").exists()
+               for kind, h in expected.items()):
+        pytest.skip(f"build/cache holds no {mode} models of training seed {train_seed}")
+    config = em.pipeline_config(mode == "quick")
+    _, spy = _spied_load(monkeypatch, config, train_seed, forbid_misses=True)
+    assert spy.hashes() == expected
+
+
+def test_a_training_seed_changes_the_vae_and_denoiser_only(
+        base: em.EnergyMoGenPipeline) -> None:
+    other = em.load_pipeline(TINY, log=None, train_seed=1)
+    assert other.train_seed == 1 and set(other.timings) == set(base.timings)
+    for a, b in zip(other.text_encoder.parameters(), base.text_encoder.parameters(),
+                    strict=True):
+        assert torch.equal(a, b)
+    assert other.vocab.tokens == base.vocab.tokens
+    assert np.array_equal(other.reference_embeddings, base.reference_embeddings)
+    assert not all(torch.equal(a, b) for a, b in zip(other.vae.parameters(),
+                                                     base.vae.parameters(), strict=True))
+    assert not all(torch.equal(a, b) for a, b in zip(other.denoiser.parameters(),
+                                                     base.denoiser.parameters(), strict=True))
+    retrained = em.retrain_pipeline(base, 1)
+    assert retrained.train_seed == 1 and retrained.data is base.data
+    for part in ("vae", "denoiser"):
+        for a, b in zip(getattr(retrained, part).parameters(),
+                        getattr(other, part).parameters(), strict=True):
+            assert torch.equal(a, b)
+    assert retrained.latent_scale == pytest.approx(other.latent_scale)
+    with pytest.raises(ValueError, match="data"):
+        em.retrain_pipeline(base, 1, config=em.PipelineConfig(n_train_clips=30))
+
+
+def test_seed_pipelines_map_seeds_to_training_seeds(base: em.EnergyMoGenPipeline) -> None:
+    assert em.train_seed_for(TINY, 0) == TINY.data_seed
+    assert em.train_seed_for(TINY, 2) == TINY.data_seed + 2
+    pipes = em.SeedPipelines(base, log=None)
+    assert pipes(0) is base and em.pipeline_for(base, 1) is base
+    first = pipes(1)
+    assert first.train_seed == 1 and pipes(1) is first and em.pipeline_for(pipes, 1) is first
+    with pytest.raises(ValueError, match=">= 0"):
+        pipes(-1)
+    with pytest.raises(ValueError, match="default"):
+        em.SeedPipelines(first)
+
+
+def test_studies_use_the_model_of_each_seed(base: em.EnergyMoGenPipeline) -> None:
+    pipes = em.SeedPipelines(base, log=None)
+    rows = {"single": em.Sampler("single"), "latent": em.Sampler("latent")}
+    per_seed = em_studies.run_rows(pipes, rows, [0, 1])
+    alone = {seed: em_studies.run_rows(pipes(seed), rows, [seed]) for seed in (0, 1)}
+    for row in rows:
+        for metric, values in per_seed[row].items():
+            assert values == [alone[0][row][metric][0], alone[1][row][metric][0]]
+    shared = em_studies.run_rows(base, rows, [1])
+    assert shared["latent"]["fid"] != per_seed["latent"]["fid"][1:]
+    study = em_studies.composition_study(pipes, [0, 1], per_case=1)
+    assert all(len(v) == 2 for v in study["latent"].values())
+    study1 = em_studies.composition_study(pipes(1), [1], per_case=1)
+    assert study1["semantic"]["conjunction_both_present"] == \
+        study["semantic"]["conjunction_both_present"][1:]

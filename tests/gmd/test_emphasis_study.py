@@ -1,0 +1,114 @@
+"""Emphasis models over repro.gmd: projected feature space, x̂0 imputation, coherence measures."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from torch import nn
+
+from repro.gmd import library as gmd
+from repro.gmd.emphasis import EmphasisProjection
+from repro.gmd.emphasis_study import (
+    ImputedX0,
+    ProjectedFeatureSpace,
+    Variant,
+    coherence,
+    draw_targets,
+    project_windows,
+    root_velocity_disagreement,
+    trajectory_error,
+)
+from repro.infra.paths import data_stubs_dir
+
+
+@pytest.fixture(scope="module")
+def windows() -> gmd.MotionWindows:
+    config = gmd.DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=32)
+    return gmd.load_windows(config)
+
+
+def _projected_space(windows: gmd.MotionWindows, c: float = 10.0) -> ProjectedFeatureSpace:
+    space = windows.space("motion")
+    return ProjectedFeatureSpace(space.task, space.representation, space.mean, space.std,
+                                 EmphasisProjection(c=c, seed=3))
+
+
+def test_projected_space_recovers_the_same_motion(windows: gmd.MotionWindows) -> None:
+    plain = windows.space("motion")
+    projected = _projected_space(windows)
+    x = windows.x[:4].double()
+    y = projected.projection.project_channels_first(x)
+    torch.testing.assert_close(projected.unnormalise(y), plain.unnormalise(x), rtol=1e-9,
+                               atol=1e-9)
+    torch.testing.assert_close(projected.normalise(plain.unnormalise(x)), y, rtol=1e-9,
+                               atol=1e-9)
+    torch.testing.assert_close(projected.joints(y), plain.joints(x), rtol=1e-9, atol=1e-9)
+
+
+def test_project_windows_changes_data_and_fingerprint(windows: gmd.MotionWindows) -> None:
+    projection = EmphasisProjection(c=5.0, seed=1)
+    projected = project_windows(windows, projection)
+    assert projected.fingerprint != windows.fingerprint
+    assert projected.x.dtype == torch.float32 and projected.x.shape == windows.x.shape
+    torch.testing.assert_close(projected.x, projection.project_channels_first(windows.x))
+    other = project_windows(windows, EmphasisProjection(c=5.0, seed=2))
+    assert other.fingerprint != projected.fingerprint
+
+
+class _Constant(nn.Module):
+    def __init__(self, value: torch.Tensor) -> None:
+        super().__init__()
+        self.value = value
+
+    def forward(self, x_t: torch.Tensor, t: torch.Tensor, **_: object) -> torch.Tensor:
+        return self.value.expand_as(x_t).clone()
+
+
+def test_imputed_x0_overwrites_root_in_unprojected_space(windows: gmd.MotionWindows) -> None:
+    space = _projected_space(windows)
+    x = windows.x[:2].double()
+    prediction = space.projection.project_channels_first(torch.zeros_like(x))
+    mask = torch.zeros_like(x, dtype=torch.bool)
+    mask[:, [1, 2]] = True
+    wrapper = ImputedX0(_Constant(prediction), space, mask, x, stop=5)
+    out = wrapper(prediction, torch.full((2,), 7))
+    back = space.projection.unproject_channels_first(out)
+    torch.testing.assert_close(back[:, [1, 2]], x[:, [1, 2]], rtol=1e-9, atol=1e-9)
+    assert back[:, 3:].abs().max() < 1e-9
+    untouched = wrapper(prediction, torch.full((2,), 4))
+    torch.testing.assert_close(untouched, prediction)
+
+
+def test_root_velocity_disagreement_is_zero_on_data(windows: gmd.MotionWindows) -> None:
+    features = windows.features()
+    assert root_velocity_disagreement(features).max() < 1e-4
+    shifted = features.clone()
+    shifted[:, 10:, 1] += 0.5  # the root jumps 0.5 m; the velocity features do not
+    assert root_velocity_disagreement(shifted).max() > 0.2
+
+
+def test_coherence_and_trajectory_error_of_ground_truth(windows: gmd.MotionWindows) -> None:
+    targets = draw_targets(windows, 8, seed=0)
+    space = windows.space("motion")
+    measured = coherence(space, targets.x)
+    assert set(measured) == {"foot_skating", "foot_skating_ratio", "root_velocity_disagreement",
+                             "acceleration", "jerk"}
+    assert measured["root_velocity_disagreement"] < 1e-4
+    np.testing.assert_allclose(trajectory_error(space, targets.x, targets.xz), 0.0, atol=1e-6)
+    assert targets.relative.shape == (8, 32, 263)
+
+
+def test_variants_follow_gmds_configs() -> None:
+    base = gmd.GMDModelSpec(task="motion", prediction="x0")
+    loss = Variant("loss_scaling", 10).spec(base, seed=4)
+    assert loss.seed == 4 and loss.feature_weights[:5] == (100.0, 100.0, 100.0, 100.0, 1.0)
+    assert Variant("loss_scaling", 1).spec(base, seed=4).feature_weights is None
+    assert Variant("loss_scaling", 2).projection(seed=0) is None
+    emphasis = Variant("emphasis", 5)
+    assert emphasis.spec(base, seed=2).feature_weights is None
+    projection = emphasis.projection(seed=2)
+    assert projection.c == 5.0 and projection.seed == 2 and projection.emphasised == (0, 1, 2)
+    assert emphasis.label == "Emphasis c=5"
+    with pytest.raises(ValueError):
+        Variant("both", 2)  # type: ignore[arg-type]

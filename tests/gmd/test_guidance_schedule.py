@@ -1,0 +1,145 @@
+"""Notebook 06's helpers: stop-step mapping, per-sample strengths, imputations, obstacles."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from repro.core.diffusion import Guidance
+from repro.gmd import guidance_schedule as gs
+from repro.gmd import library as gmd
+from repro.standin.generator import write_dataset
+
+torch.set_num_threads(1)
+FRAMES = 16
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory: pytest.TempPathFactory) -> gmd.TrainedGMD:
+    root = write_dataset(tmp_path_factory.mktemp("stand_in"), n_clips=10, seed=3)
+    cache = tmp_path_factory.mktemp("cache")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("REPRO_CACHE_DIR", str(cache))
+        spec = gmd.GMDModelSpec(task="trajectory", prediction="epsilon",
+                                data=gmd.DataConfig(data_dir=str(root), frames=FRAMES, stride=8),
+                                base_channels=8, channel_mults=(1, 2), diffusion_steps=20,
+                                train_steps=3, batch_size=8)
+        return gmd.load_or_train_gmd(spec)
+
+
+GOALS = np.array([[0.5, 1.5], [-1.0, 2.0], [0.0, 0.8]], dtype=np.float32)
+
+
+def test_stop_step_keeps_gmd_fraction_of_t() -> None:
+    assert [gs.model_stop_step(s, 100) for s in (0, 20, 50, 200, 1000)] == [0, 2, 5, 20, 100]
+    assert gs.model_stop_step(20, 1000) == 20
+    assert gs.model_stop_step(20, 20) == 0  # 0.4 rounds to 0 (quick mode)
+    with pytest.raises(ValueError, match="gmd_step"):
+        gs.model_stop_step(1001, 100)
+
+
+def test_strength_key_is_str_of_the_number() -> None:
+    assert [gs.strength_key(s) for s in (0, 100.0, 150, 0.5, 1000)] == [
+        "0", "100", "150", "0.5", "1000"]
+
+
+def test_per_sample_strength_equals_separate_strengths(trained: gmd.TrainedGMD) -> None:
+    # a batch of two identical starts: row b under weights (s1, s2) must equal row b of a run
+    # where the whole batch has strength s_b (same shape, so the same per-step noise)
+    targets = GOALS[:2]
+    goal = gmd.goal_reaching_loss(trained.space, targets)
+    noise = gs.shared_start_noise(trained, 2, 1, seed=5)
+    weighted = gmd.sample(trained, 2, seed=5, noise=noise,
+                          guidance=gs.weighted_guidance(goal, [3.0, 30.0]), stop_guidance_at=1)
+    for row, strength in enumerate((3.0, 30.0)):
+        alone = gmd.sample(trained, 2, seed=5, noise=noise,
+                           guidance=Guidance(goal, strength=strength), stop_guidance_at=1)
+        torch.testing.assert_close(weighted[row], alone[row], rtol=1e-4, atol=1e-4)
+
+
+def test_shared_start_noise_repeats_per_group(trained: gmd.TrainedGMD) -> None:
+    x = gs.shared_start_noise(trained, 3, 4, seed=1)
+    assert x.shape == (12, 4, FRAMES)
+    assert torch.equal(x[:3], x[9:]) and not torch.equal(x[0], x[1])
+
+
+def test_sweep_groups_pair_across_stop_steps(trained: gmd.TrainedGMD) -> None:
+    a = gs.sweep_strengths(trained, GOALS, [0.0, 10.0], seed=2, stop=0)
+    b = gs.sweep_strengths(trained, GOALS, [0.0, 10.0], seed=2, stop=5)
+    assert a.samples.shape == (2, 3, 4, FRAMES) and a.goal_error.shape == (2, 3)
+    assert a.jerk.shape == (2,) and np.all(a.jerk > 0)
+    # strength 0 is unguided whatever the stop step: identical samples, same noise
+    torch.testing.assert_close(a.samples[0], b.samples[0])
+    assert not torch.allclose(a.samples[1], b.samples[1])
+    assert a.mean_goal_error(0) == pytest.approx(float(a.goal_error[0].mean()))
+    with pytest.raises(KeyError):
+        a.index(7.0)
+
+
+def test_goal_keypoint_imputation_to_the_end_lands_on_the_goal(trained: gmd.TrainedGMD) -> None:
+    sweep = gs.sweep_strengths(trained, GOALS, [0.0], seed=0, stop=0, impute_goal=True)
+    assert sweep.goal_error.max() < 1e-4
+    stopped = gs.sweep_strengths(trained, GOALS, [0.0], seed=0, stop=3, impute_goal=True)
+    assert stopped.goal_error.max() > 1e-4  # the last three steps are free
+
+
+def test_point_to_point_imputation_is_the_straight_line(trained: gmd.TrainedGMD) -> None:
+    imputation = gs.point_to_point_imputation(trained, GOALS, active=[True, False, True])
+    assert imputation.mask[1].sum() == 0 and imputation.mask[0, 1:3].all()
+    assert not imputation.mask[0, [0, 3]].any()
+    path = trained.space.root_xz(imputation.target)
+    np.testing.assert_allclose(path[0, 0].numpy(), [0.0, 0.0], atol=1e-5)
+    np.testing.assert_allclose(path[0, -1].numpy(), GOALS[0], atol=1e-5)
+    np.testing.assert_allclose(path[2, FRAMES // 2].numpy(),
+                               GOALS[2] * (FRAMES // 2) / (FRAMES - 1), atol=1e-5)
+
+
+def test_obstacles_block_the_line_but_not_the_ends() -> None:
+    targets = np.array([[0.0, 1.0], [3.0, 4.0]], dtype=np.float32)
+    obstacles = gs.obstacles_between(targets)
+    np.testing.assert_allclose(obstacles.centres, [[0.0, 0.5], [1.5, 2.0]])
+    np.testing.assert_allclose(obstacles.radii, [0.3, 0.4])
+    distance = np.linalg.norm(targets, axis=1)
+    clearance = np.linalg.norm(obstacles.centres, axis=1) - obstacles.radii  # start and goal
+    assert np.all(clearance >= 0.2 * distance - 1e-6)
+    with pytest.raises(ValueError):
+        gs.ObstacleSet(np.zeros((2, 2)), np.zeros(3))
+
+
+def test_penetration_and_cost_of_a_straight_path(trained: gmd.TrainedGMD) -> None:
+    line = gs.point_to_point_imputation(trained, GOALS).target
+    obstacles = gs.obstacles_between(GOALS)
+    depth = gs.penetration_depth(trained.space, line, obstacles)
+    # the line passes (near) the centre: depth ≈ radius (frames are discrete)
+    assert np.all(depth > 0.8 * obstacles.radii) and np.all(depth <= obstacles.radii + 1e-6)
+    x = line.clone().requires_grad_(True)
+    cost = gs.obstacle_cost(trained.space, obstacles)(x)
+    assert cost.shape == (3,) and torch.all(cost > 0)
+    cost.sum().backward()
+    assert x.grad[:, 1:3].abs().sum() > 0 and x.grad[:, [0, 3]].abs().sum() == 0
+
+
+def test_obstacle_experiment_arms(trained: gmd.TrainedGMD) -> None:
+    arms = gs.obstacle_experiment(trained, GOALS, gs.obstacles_between(GOALS), [10.0],
+                                  seed=0, stop=0)
+    assert [a.label for a in arms] == ["unguided", "goal, s=10", "goal + obstacle, s=10",
+                                       "goal + obstacle + p2p, s=10"]
+    for arm in arms:
+        assert arm.samples.shape == (3, 4, FRAMES) and arm.goal_error.shape == (3,)
+        assert 0.0 <= arm.collision_rate <= 1.0 and arm.jerk > 0
+    p2p = arms[-1]
+    # the straight line imputed up to t = 0 ends on the goal and goes through the obstacle
+    assert p2p.goal_error.max() < 1e-4 and p2p.collision_rate == 1.0
+
+
+def test_recorded_steps_show_where_guidance_acts(trained: gmd.TrainedGMD) -> None:
+    sweep = gs.sweep_strengths(trained, GOALS, [0.0, 10.0], seed=0, stop=4, record_steps=True)
+    steps = trained.num_timesteps
+    assert sweep.timesteps.tolist() == list(range(steps - 1, -1, -1))
+    assert sweep.shift_size.shape == (steps, 2) and sweep.state_size.shape == (steps, 2)
+    assert np.all(sweep.shift_size[:, 0] == 0)            # strength 0 never shifts
+    assert np.all(sweep.shift_size[sweep.timesteps < 4, 1] == 0)   # nor below the stop step
+    # active from t = T−1 down to the stop (x̂0 may be clamped everywhere at t = T−1: no gradient)
+    active = (sweep.timesteps >= 4) & (sweep.timesteps < steps - 1)
+    assert np.all(sweep.shift_size[active, 1] > 0)

@@ -1,0 +1,103 @@
+"""The command line: clear errors for bad input, and the list of claims."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from repro.run.cli import main
+
+
+def test_list_prints_every_claim(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    assert "GMD-A1" in out and "EMG-9" in out
+
+
+def test_reproduce_unknown_target_is_named(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["reproduce", "--quick", "--only", "XYZ-1"]) == 2
+    assert "unknown notebook or claim ID 'XYZ-1'" in capsys.readouterr().err
+
+
+def test_reproduce_bad_parameter_syntax() -> None:
+    with pytest.raises(SystemExit):
+        main(["reproduce", "--quick", "-p", "no_equals_sign"])
+
+
+def test_validate_dataset_missing_folder(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["validate-dataset", str(tmp_path / "absent")]) == 1
+    assert "dataset folder not found" in capsys.readouterr().out
+
+
+def test_validate_dataset_names_missing_parts(tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "new_joint_vecs").mkdir()
+    assert main(["validate-dataset", str(tmp_path)]) == 1
+    out = capsys.readouterr().out
+    assert "texts" in out and "Mean.npy" in out and "train.txt" in out
+
+
+def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    from conftest import make_context
+
+    from repro.claims.ledger import record_claim
+    from repro.infra.storage import read_json
+
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path))
+    monkeypatch.setenv("REPRO_BUILD_DIR", str(tmp_path))
+    assert main(["report"]) == 2  # nothing recorded yet
+    record_claim(make_context(tmp_path, quick=False), "GMD-A1",
+                 {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
+    assert main(["report", "--note", "assembled by hand"]) == 0
+    text = (tmp_path / "report" / "REPORT.md").read_text()
+    assert "**discrepancy in the paper**" in text and "assembled by hand" in text
+    claims = tmp_path / "report" / "claims.json"
+    claims.write_text(claims.read_text().replace('"run_seconds": {}',
+                                                 '"run_seconds": {"01_x0_vs_eps": 230.5}'))
+    assert main(["report", "--note", "again"]) == 0          # run times of the last run kept
+    assert "| 01_x0_vs_eps | 230.5 |" in (tmp_path / "report" / "REPORT.md").read_text()
+    assert read_json(claims)["run_seconds"] == {"01_x0_vs_eps": 230.5}
+    assert read_json(claims)["slowest_seconds"] == {"01_x0_vs_eps": 230.5}
+    monkeypatch.setenv("REPRO_BUILD_DIR", str(tmp_path / "quick"))
+    record_claim(make_context(tmp_path / "quick"), "GMD-A1",
+                 {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
+    assert main(["report", "--quick", "--snapshot"]) == 2  # a quick run is never a result
+    assert (tmp_path / "quick" / "report" / "REPORT.md").is_file()
+
+
+def test_reproduce_rejects_zero_threads(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["reproduce", "--quick", "--only", "00", "--threads", "0"]) == 2
+    assert "--threads must be at least 1" in capsys.readouterr().err
+
+
+def test_bench_warm_cache_is_checked_and_rows_of_earlier_benches_stay(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from repro.infra.storage import read_json
+    from repro.run import bench
+
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
+    assert main(["bench", "--no-quick", "--warm-cache", str(tmp_path / "absent")]) == 2
+    err = capsys.readouterr().err
+    assert "--warm-cache" in err and "absent: not a directory" in err
+    timed: list[dict[str, str] | None] = []
+
+    def fake_timed(command: list[str], env: dict[str, str] | None = None) -> tuple[float, int]:
+        timed.append(env)
+        return 3.0, 0
+
+    monkeypatch.setattr(bench, "_timed", fake_timed)
+    (tmp_path / "cache").mkdir()
+    out = tmp_path / "build" / "bench" / "bench.json"
+    out.parent.mkdir(parents=True)
+    out.write_text('{"rows": {"make_test_cold_cache": {"seconds": 176.0, "budget": 300, '
+                   '"exit_code": 0}}}')
+    assert bench.run_bench(quick=False, warm_cache=tmp_path / "cache") == 0
+    rows = read_json(out)["rows"]
+    assert rows["make_test_cold_cache"]["seconds"] == 176.0         # kept from the earlier bench
+    assert rows["reproduce_full_warm"]["seconds"] == 3.0
+    assert rows["reproduce_full_warm"]["cache"] == str((tmp_path / "cache").resolve())
+    assert timed == [{"REPRO_CACHE_DIR": str((tmp_path / "cache").resolve())}]
