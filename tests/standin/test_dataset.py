@@ -95,3 +95,12 @@ def test_ensure_dataset_generates_once_then_reuses(tmp_path, monkeypatch) -> Non
     (first / d.DATASET_MARKER).unlink()                        # an interrupted generation
     assert d.ensure_dataset(config) == first
     assert (first / "new_joint_vecs" / "000000.npy").stat().st_mtime_ns != stamp
+
+
+def test_read_clip_gives_back_what_was_written(dataset) -> None:
+    assert d.clip_ids(dataset) == [f"{i:06d}" for i in range(14)]
+    clip = d.read_clip(dataset, "000003")
+    assert np.array_equal(clip.joints, np.load(dataset / "new_joints" / "000003.npy"))
+    assert clip.labels == storage.read_json(dataset / "labels" / "000003.json")
+    lines = (dataset / "texts" / "000003.txt").read_text().splitlines()
+    assert clip.captions == tuple(line.split("#")[0] for line in lines) and len(lines) == 3

@@ -1,5 +1,5 @@
 """Stand-in datasets in HumanML3D's folder layout: the writer, the cached dataset of a
-:class:`DatasetConfig`, and the committed ``data_stubs/`` set.
+:class:`DatasetConfig`, the committed ``data_stubs/`` set, and one clip read back.
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ from repro.standin.generator import (
     sample_clip_spec,
 )
 
-__all__ = ["DATASET_MARKER", "SPLITS", "DatasetConfig", "ensure_dataset", "regenerate_stubs",
-           "write_dataset"]
+__all__ = ["DATASET_MARKER", "SPLITS", "DatasetConfig", "StoredClip", "clip_ids", "ensure_dataset",
+           "read_clip", "regenerate_stubs", "write_dataset"]
 
 SPLITS = ("train", "val", "test")
 #: written last by :func:`write_dataset`: its presence means the folder is complete.
@@ -206,6 +206,34 @@ def ensure_dataset(config: DatasetConfig | None = None) -> Path:
                   concept_pool=config.concept_pool)
     return out
 
+
+
+@dataclass(frozen=True)
+class StoredClip:
+    """One clip of a HumanML3D-layout folder: ``new_joints`` (T, 22, 3), its labels
+    (``labels/ID.json``, empty where the folder has none, as real HumanML3D) and captions."""
+
+    clip_id: str
+    joints: np.ndarray
+    labels: dict[str, Any]
+    captions: tuple[str, ...]
+
+
+def clip_ids(root: str | Path) -> list[str]:
+    """The IDs of every clip with ``new_joints`` in ``root``, sorted."""
+    return sorted(p.stem for p in (Path(root) / "new_joints").glob("*.npy"))
+
+
+def read_clip(root: str | Path, clip_id: str) -> StoredClip:
+    """Read clip ``clip_id`` of ``root``: joints, labels if present, and the caption part of
+    each ``texts/ID.txt`` line (``caption#tokens#start#end``)."""
+    root = Path(root)
+    labels_file = root / "labels" / f"{clip_id}.json"
+    labels = storage.read_json(labels_file) if labels_file.exists() else {}
+    text = (root / "texts" / f"{clip_id}.txt").read_text()
+    captions = tuple(line.split("#")[0] for line in text.splitlines())
+    return StoredClip(clip_id=clip_id, joints=np.load(root / "new_joints" / f"{clip_id}.npy"),
+                      labels=labels, captions=captions)
 
 #: the committed stand-in set: the first seed (counting from 0) whose 44 clips include every
 #: concept at least once and stay under 5 MB.
