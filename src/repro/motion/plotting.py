@@ -137,6 +137,7 @@ def feature_statistics(mean: np.ndarray, std: np.ndarray, *, label: str = "stand
     axes[0].legend(fontsize=8)
     return fig
 
+
 def save_figure(fig: plt.Figure, path: str | os.PathLike) -> Path:
     """Save a figure atomically as PNG (the report copies it) and return the path."""
     path = Path(path)

@@ -44,7 +44,9 @@ from repro.standin.primitives import (
 __all__ = ["BODY_PARTS", "CONCEPTS", "Concept", "can_be_simultaneous", "check_concept",
            "check_simultaneous"]
 
+#: what a concept can own; simultaneous concepts own disjoint sets of them.
 BODY_PARTS = ("root", "legs", "torso", "left_arm", "right_arm")
+
 
 @dataclass(frozen=True)
 class Concept:

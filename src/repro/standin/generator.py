@@ -58,6 +58,7 @@ COMPOSITIONS = ("single", "simultaneous", "sequential")
 #: how many concepts a clip of each composition holds
 _CONCEPT_COUNTS = {"single": (1,), "simultaneous": (2, 3), "sequential": (2,)}
 
+
 # ---------------------------------------------------------------------------- clip specs
 
 @dataclass(frozen=True)

@@ -36,6 +36,9 @@ from repro.standin.primitives import ease, smoothstep
 
 __all__ = ["locomotion", "sample_circle", "sample_run", "sample_turn", "sample_walk"]
 
+
+# -------------------------------------------------------------------------------- the gait
+
 def _integrate(rate: np.ndarray, dt: float, zero_index: int) -> np.ndarray:
     """Trapezoid cumulative integral along axis 0, shifted to be 0 at ``zero_index``."""
     steps = 0.5 * (rate[1:] + rate[:-1]) * dt

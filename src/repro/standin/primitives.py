@@ -68,6 +68,8 @@ def _keyframes(t: np.ndarray, times: Sequence[float], values: np.ndarray) -> np.
     return values[k] + w * (values[k + 1] - values[k])
 
 
+# ---------------------------------------------------------------------- standing and placing
+
 def _rest_arms(n: int) -> np.ndarray:
     arms = np.empty((n, 2, 2, 3))
     for side in (0, 1):
