@@ -17,7 +17,7 @@ from repro.energymogen import energy as em_energy
 from repro.energymogen import pipeline as em
 from repro.energymogen import studies as em_studies
 from repro.models.latent_denoiser import LatentDenoiser
-from repro.standin.generator import can_be_simultaneous
+from repro.standin.concepts import can_be_simultaneous
 
 torch.set_num_threads(1)
 

@@ -9,7 +9,7 @@ import torch
 from repro.core.diffusion import Guidance
 from repro.gmd import guidance_schedule as gs
 from repro.gmd import library as gmd
-from repro.standin.generator import write_dataset
+from repro.standin.dataset import write_dataset
 
 torch.set_num_threads(1)
 FRAMES = 16

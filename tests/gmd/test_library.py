@@ -12,7 +12,7 @@ from repro.core import training
 from repro.gmd import library as gmd
 from repro.motion.features import features_to_joints, relative_to_absolute_root
 from repro.motion.humanml3d import MotionDataset
-from repro.standin.generator import write_dataset
+from repro.standin.dataset import write_dataset
 
 torch.set_num_threads(1)
 FRAMES = 16

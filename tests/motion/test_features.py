@@ -1,4 +1,4 @@
-"""Conformance of ``repro.features`` with real HumanML3D data, and its own invariants.
+"""Conformance of ``repro.motion.features`` with real HumanML3D data, and its own invariants.
 
 What the real sample (``humanml3d_sample/``, clip 012314) shows, measured:
 
@@ -93,6 +93,18 @@ def test_recomputed_features_match_real_block(sample, recomputed, name: str) -> 
     assert error.max() <= all_tol, f"{name}: {error.max():.3e}"
     assert error[EXACT_FRAMES].max() <= exact_tol, f"{name}: {error[EXACT_FRAMES].max():.3e}"
 
+
+
+@pytest.mark.real_sample
+def test_conformance_summarises_the_same_errors(sample) -> None:
+    result = F.conformance(sample["features"], sample["joints"])
+    assert result.exact_frames == EXACT_FRAMES.stop          # t + 80 + 1 < 170
+    assert result.joint_error <= 1e-5
+    assert set(result.block_errors) == set(F.FEATURE_BLOCKS)
+    for name, (every, exact) in result.block_errors.items():
+        all_tol, exact_tol = TOLERANCE[name]
+        assert every <= all_tol and exact <= exact_tol, name
+    assert result.block_errors["rot_6d"][0] > 1e-3             # frames ≥ 89 do drift
 
 @pytest.mark.real_sample
 def test_recomputed_shapes_and_canonical_joints(sample, recomputed) -> None:

@@ -199,6 +199,17 @@ def test_statistics_block_averaged() -> None:
     assert np.all(constant == 1.0)
 
 
+
+def test_block_averaged_std_is_each_blocks_mean() -> None:
+    std = np.random.default_rng(1).uniform(0.5, 2.0, 263).astype(np.float32)
+    std[F.FEATURE_BLOCKS["foot_contact"]] = 0.0
+    kept = std.copy()
+    out = D.block_averaged_std(std)
+    assert out.dtype == np.float64 and np.array_equal(std, kept)       # input untouched
+    for name, block in F.FEATURE_BLOCKS.items():
+        expected = 1.0 if name == "foot_contact" else std[block].astype(np.float64).mean()
+        assert np.all(out[block] == expected), name
+
 @pytest.mark.real_sample
 def test_real_std_is_block_averaged() -> None:
     root = humanml3d_sample_dir()

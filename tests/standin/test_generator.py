@@ -1,31 +1,27 @@
-"""The procedural stand-in generator: determinism, physical consistency, layout on disk."""
+"""Stand-in clips: determinism, physical consistency, composition, bad specifications."""
 
 from __future__ import annotations
-
-import re
 
 import numpy as np
 import pytest
 
-from repro.motion.features import FEATURE_BLOCKS, FEATURE_DIM
 from repro.motion.skeleton import BONE_LENGTHS, bone_lengths
 from repro.standin import generator as g
+from repro.standin.captions import humanml3d_text_line
+from repro.standin.concepts import CONCEPTS
 
-UPOS = {"NOUN", "VERB", "ADJ", "ADV", "ADP", "DET", "PRON", "CCONJ", "SCONJ", "NUM", "PART",
-        "INTJ"}
-TEXT_LINE = re.compile(r"^([^#]+)#((?:[a-z]+/[A-Z]+ ?)+)#0\.0#0\.0$")
 LOCOMOTION = ("walk_forward", "walk_backward", "walk_left", "walk_right", "run", "turn_left",
               "turn_right", "walk_circle")
 
 
 def single(name: str, duration: float | None = None, **params: object) -> g.ClipSpec:
-    duration = duration or max(g.MIN_DURATION, g.CONCEPTS[name].min_duration) + 1.0
+    duration = duration or max(g.MIN_DURATION, CONCEPTS[name].min_duration) + 1.0
     return g.ClipSpec((name,), "single", duration, params)
 
 
 @pytest.fixture(scope="module")
 def singles() -> dict[str, g.Clip]:
-    names = list(g.CONCEPTS)
+    names = list(CONCEPTS)
     clips = g.generate_clips([single(n) for n in names], list(range(len(names))))
     return dict(zip(names, clips, strict=True))
 
@@ -124,7 +120,7 @@ def test_three_simultaneous_concepts_each_own_their_parts_and_all_are_captioned(
     assert len(clip.captions) == 3
     for caption in clip.captions:
         assert "squat" in caption and "left" in caption and "right" in caption
-        g.humanml3d_text_line(caption)                         # every word is in the lexicon
+        humanml3d_text_line(caption)                         # every word is in the lexicon
 
 
 def test_sequential_clips_record_segments_and_blend_smoothly() -> None:
@@ -137,29 +133,6 @@ def test_sequential_clips_record_segments_and_blend_smoothly() -> None:
     assert clip.labels["transitions"] == [40]
     step = np.linalg.norm(np.diff(clip.joints, axis=0), axis=-1).max(axis=-1)
     assert step[35:45].max() < 0.1                           # < 2 m/s for every joint
-
-
-def test_captions_are_humanml3d_text_lines() -> None:
-    rng = np.random.default_rng(4)
-    specs = [g.sample_clip_spec(rng) for _ in range(40)]
-    for clip in g.generate_clips(specs, list(range(40))):
-        lines = clip.text_lines()
-        assert len(lines) == 3 and len(set(clip.captions)) == 3
-        for line in lines:
-            match = TEXT_LINE.match(line)
-            assert match, line
-            assert {token.split("/")[1] for token in match.group(2).split()} <= UPOS
-
-
-def test_pos_rules() -> None:
-    tags = dict(g.tag_caption("a person waves the left hand"))
-    assert tags["left"] == "ADJ" and tags["wave"] == "VERB" and tags["person"] == "NOUN"
-    assert g.tag_caption("turns to the left")[-1] == ("left", "NOUN")
-    assert g.tag_caption("someone turns left")[-1] == ("left", "ADV")
-    assert g.tag_caption("takes several steps")[-1] == ("step", "NOUN")
-    assert g.tag_caption("a man steps back")[2] == ("step", "VERB")
-    with pytest.raises(ValueError, match="'moonwalks' .* not in the lexicon"):
-        g.tag_caption("a person moonwalks")
 
 
 @pytest.mark.parametrize(("make", "message"), [
@@ -185,86 +158,3 @@ def test_unknown_parameter_overrides_are_rejected() -> None:
         g.generate_clip(g.ClipSpec(("jump",), params={"jump": {"wings": 2}}), 0)
     with pytest.raises(ValueError, match="unknown spec.params"):
         g.generate_clip(g.ClipSpec(("jump",), params={"run": {}}), 0)
-
-
-@pytest.fixture(scope="module")
-def dataset(tmp_path_factory: pytest.TempPathFactory):
-    out = tmp_path_factory.mktemp("stand_in")
-    return g.write_dataset(out, n_clips=14, seed=9)
-
-
-def test_write_dataset_layout(dataset) -> None:
-    ids = sorted(p.stem for p in (dataset / "new_joint_vecs").glob("*.npy"))
-    assert ids == [f"{i:06d}" for i in range(14)]
-    for clip_id in ids:
-        features = np.load(dataset / "new_joint_vecs" / f"{clip_id}.npy")
-        joints = np.load(dataset / "new_joints" / f"{clip_id}.npy")
-        assert features.dtype == joints.dtype == np.float32
-        assert features.shape[1] == FEATURE_DIM and joints.shape[1:] == (22, 3)
-        assert len(features) == len(joints) and 40 <= len(features) < 200
-        lines = (dataset / "texts" / f"{clip_id}.txt").read_text().splitlines()
-        assert len(lines) == 3 and all(TEXT_LINE.match(line) for line in lines)
-        labels = g.storage.read_json(dataset / "labels" / f"{clip_id}.json")
-        assert labels["id"] == clip_id and labels["n_frames"] == len(features) + 1
-        assert {"concepts", "composition", "segments", "body_parts", "params"} <= set(labels)
-    mean, std = np.load(dataset / "Mean.npy"), np.load(dataset / "Std.npy")
-    assert mean.shape == std.shape == (FEATURE_DIM,) and std.dtype == np.float32
-    for block in FEATURE_BLOCKS.values():
-        assert np.ptp(std[block]) == 0 and std[block][0] > 0     # one value per block
-    assert (dataset / g.DATASET_MARKER).exists()
-
-
-def test_splits_are_disjoint_and_cover_every_id(dataset) -> None:
-    splits = {name: (dataset / f"{name}.txt").read_text().split() for name in g.SPLITS}
-    every = [i for ids in splits.values() for i in ids]
-    assert len(every) == len(set(every)) == 14
-    assert len(splits["train"]) == round(0.8 * 14)
-
-
-def test_write_dataset_is_deterministic(dataset, tmp_path) -> None:
-    again = g.write_dataset(tmp_path / "again", n_clips=14, seed=9)
-    for path in sorted(dataset.rglob("*")):
-        if path.is_file():
-            assert (again / path.relative_to(dataset)).read_bytes() == path.read_bytes(), path
-
-
-def test_held_out_pairs_go_to_test(tmp_path) -> None:
-    out = g.write_dataset(tmp_path, n_clips=12, seed=1, compositions={"simultaneous": 1.0},
-                          concept_pool=("walk_forward", "jump", "wave_right"),
-                          held_out_pairs=[("walk_forward", "wave_right")])
-    test = set((out / "test.txt").read_text().split())
-    held = 0
-    for path in (out / "labels").glob("*.json"):
-        labels = g.storage.read_json(path)
-        pair = set(labels["concepts"]) == {"walk_forward", "wave_right"}
-        assert labels["held_out"] == pair
-        held += pair
-        if pair:
-            assert path.stem in test
-    assert held > 0
-
-
-@pytest.mark.parametrize(("kwargs", "message"), [
-    ({"n_clips": 0}, "n_clips must be a positive integer"),
-    ({"split_fractions": (0.5, 0.1, 0.1)}, "summing to 1"),
-    ({"compositions": {"parallel": 1.0}}, "unknown composition 'parallel'"),
-    ({"held_out_pairs": [("jump", "hover")]}, "unknown concept 'hover'"),
-])
-def test_write_dataset_rejects_bad_options(tmp_path, kwargs, message) -> None:
-    options = {"n_clips": 3, "seed": 0, **kwargs}
-    with pytest.raises(ValueError, match=message):
-        g.write_dataset(tmp_path, **options)
-
-
-def test_ensure_dataset_generates_once_then_reuses(tmp_path, monkeypatch) -> None:
-    monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path))
-    config = g.DatasetConfig(n_clips=5, seed=2)
-    first = g.ensure_dataset(config)
-    assert first.parent == tmp_path / "datasets" and (first / g.DATASET_MARKER).exists()
-    stamp = (first / "new_joint_vecs" / "000000.npy").stat().st_mtime_ns
-    assert g.ensure_dataset(config) == first
-    assert (first / "new_joint_vecs" / "000000.npy").stat().st_mtime_ns == stamp
-    assert g.ensure_dataset(g.DatasetConfig(n_clips=5, seed=3)) != first
-    (first / g.DATASET_MARKER).unlink()                        # an interrupted generation
-    assert g.ensure_dataset(config) == first
-    assert (first / "new_joint_vecs" / "000000.npy").stat().st_mtime_ns != stamp

@@ -9,6 +9,7 @@ from repro.infra.paths import data_stubs_dir
 from repro.motion.features import joints_to_features
 from repro.standin import generator as g
 from repro.standin import oracles as o
+from repro.standin.concepts import CONCEPTS
 
 CLIPS_PER_CONCEPT = 5
 
@@ -23,7 +24,7 @@ def singles() -> list[g.Clip]:
     """5 clips per concept: random durations, parameters, headings and start positions."""
     rng = np.random.default_rng(123)
     specs = [g.sample_clip_spec(rng, allow_compositions=False, concept_pool=[name])
-             for name in g.CONCEPTS for _ in range(CLIPS_PER_CONCEPT)]
+             for name in CONCEPTS for _ in range(CLIPS_PER_CONCEPT)]
     return g.generate_clips(specs, list(range(len(specs))))
 
 
@@ -41,12 +42,12 @@ def _with_nan(joints: np.ndarray) -> np.ndarray:
 
 
 def test_concept_names_match_the_generator() -> None:
-    assert set(o.CONCEPT_NAMES) == set(g.CONCEPTS)
+    assert set(o.CONCEPT_NAMES) == set(CONCEPTS)
 
 
 def test_every_single_concept_is_detected_alone(singles: list[g.Clip]) -> None:
     report = o.oracle_agreement(singles)
-    assert report["n_units"] == len(g.CONCEPTS) * CLIPS_PER_CONCEPT
+    assert report["n_units"] == len(CONCEPTS) * CLIPS_PER_CONCEPT
     for name, stats in report["per_concept"].items():
         assert stats["support"] == CLIPS_PER_CONCEPT
         assert stats["recall"] == 1.0, (name, report["confusions"])

@@ -54,7 +54,9 @@ from repro.infra import cache
 from repro.models.latent_denoiser import LatentDenoiser, train_latent_denoiser
 from repro.models.vae import array_fingerprint
 from repro.motion.features import FPS
-from repro.standin.generator import ClipSpec, can_be_simultaneous, sample_captions
+from repro.standin.captions import sample_captions
+from repro.standin.concepts import can_be_simultaneous
+from repro.standin.generator import ClipSpec
 
 __all__ = [
     "COMPML_FRACTION", "ROWS", "ComposedSet", "Rows", "augmentation_study", "caption_rows",

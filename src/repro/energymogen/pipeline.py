@@ -51,13 +51,9 @@ from repro.models.latent_denoiser import LatentDenoiser, train_latent_denoiser
 from repro.models.vae import MotionVAE, VAETrainConfig, array_fingerprint, load_or_train_vae
 from repro.motion.features import FPS, features_to_joints, joints_to_features
 from repro.motion.humanml3d import compute_statistics
-from repro.standin.generator import (
-    CONCEPTS,
-    GENERATOR_VERSION,
-    SUBJECTS,
-    ClipSpec,
-    generate_clip,
-)
+from repro.standin.captions import SUBJECTS
+from repro.standin.concepts import CONCEPTS
+from repro.standin.generator import GENERATOR_VERSION, ClipSpec, generate_clip
 from repro.standin.text import TextEncoder, Vocabulary, tokenize
 
 __all__ = [

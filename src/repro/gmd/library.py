@@ -212,7 +212,7 @@ class DataConfig:
         """The folder: ``data_dir``, or the stand-in set (generated on first use, cached)."""
         if self.data_dir is not None:
             return Path(self.data_dir)
-        from repro.standin.generator import DatasetConfig, ensure_dataset
+        from repro.standin.dataset import DatasetConfig, ensure_dataset
 
         return ensure_dataset(DatasetConfig(n_clips=self.stand_in_clips,
                                             seed=self.stand_in_seed))

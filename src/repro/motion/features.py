@@ -17,6 +17,7 @@ arcsin(q_y) of the frame-to-frame facing quaternion, and the recovered facing qu
 from __future__ import annotations
 
 from collections import OrderedDict
+from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -354,3 +355,38 @@ def split_blocks(features: np.ndarray | torch.Tensor) -> dict[str, np.ndarray | 
     if features.shape[-1] != FEATURE_DIM:
         raise ValueError(f"features must end in {FEATURE_DIM} values, got {tuple(features.shape)}")
     return {name: features[..., block] for name, block in FEATURE_BLOCKS.items()}
+
+
+@dataclass(frozen=True)
+class Conformance:
+    """Our feature code against one real HumanML3D clip (:func:`conformance`)."""
+
+    #: max |features_to_joints(features) − new_joints| (m)
+    joint_error: float
+    #: frames 0 … exact_frames − 1 have their whole facing-smoothing window inside new_joints
+    exact_frames: int
+    #: block → (max |joints_to_features(new_joints) − features| on all frames, on the exact ones)
+    block_errors: dict[str, tuple[float, float]]
+
+
+def conformance(features: np.ndarray, joints: np.ndarray) -> Conformance:
+    """Compare our feature code with a real clip's ``new_joint_vecs`` (T, 263) and
+    ``new_joints`` (T, 22, 3): joints recovered from the features against ``new_joints``, and
+    features recomputed from ``new_joints`` against the features, block by block.
+
+    HumanML3D smooths the facing over ±radius frames (``gaussian_filter1d``, σ =
+    :data:`FACING_SMOOTHING_SIGMA`, radius int(4σ + 0.5) = 80) of the raw clip, one frame
+    longer than ``new_joints``; a frame t whose window and next frame stay inside
+    ``new_joints`` (t + radius + 1 < T) is reproducible exactly, later ones are not.
+    """
+    features, joints = np.asarray(features), np.asarray(joints)
+    joint_error = float(np.abs(features_to_joints(features) - joints).max())
+    recomputed, _ = joints_to_features(joints)
+    radius = int(4.0 * FACING_SMOOTHING_SIGMA + 0.5)
+    exact = max(0, len(joints) - 1 - radius)
+    n = len(recomputed)
+    errors = {}
+    for name, block in FEATURE_BLOCKS.items():
+        diff = np.abs(recomputed[:, block] - features[:n, block])
+        errors[name] = (float(diff.max()), float(diff[:exact].max()) if exact else float("nan"))
+    return Conformance(joint_error=joint_error, exact_frames=exact, block_errors=errors)

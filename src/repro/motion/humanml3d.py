@@ -136,16 +136,28 @@ def _check_statistics(mean: np.ndarray, std: np.ndarray, source: str) -> None:
                          "are not")
 
 
+def block_averaged_std(std: np.ndarray) -> np.ndarray:
+    """Each feature block's per-dimension std replaced by the block's mean, float64 (263,).
+
+    HumanML3D's ``mean_variance`` / ``cal_mean_variance`` convention (REFERENCE.md:
+    "Std.npy is averaged within each block"); HumanML3D also divides the root and
+    foot-contact blocks by ``feat_bias`` = 5, we do not. A block whose std is 0 (a constant
+    feature) gets 1, so normalising never divides by 0.
+    """
+    out = np.asarray(std, dtype=np.float64).copy()
+    for block in FEATURE_BLOCKS.values():
+        value = out[block].mean()
+        out[block] = value if value > 0 else 1.0
+    return out
+
+
 def compute_statistics(motions: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Mean and std (263,) float32 over all frames, the std averaged within each feature block
-    as HumanML3D's ``cal_mean_variance`` does; a constant block gets std 1."""
+    (:func:`block_averaged_std`)."""
     if not motions:
         raise ValueError("no motions to compute statistics from")
     frames = np.concatenate([np.asarray(m, dtype=np.float64) for m in motions], axis=0)
-    mean, std = frames.mean(axis=0), frames.std(axis=0)
-    for block in FEATURE_BLOCKS.values():
-        value = std[block].mean()
-        std[block] = value if value > 0 else 1.0
+    mean, std = frames.mean(axis=0), block_averaged_std(frames.std(axis=0))
     return mean.astype(np.float32), std.astype(np.float32)
 
 

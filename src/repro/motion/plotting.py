@@ -1,4 +1,5 @@
-"""Pictures of motion: skeleton filmstrips, top-down root trajectories, short GIFs.
+"""Pictures of motion: skeleton filmstrips, top-down root trajectories, short GIFs, and
+per-feature statistics.
 
 Joints are (T, 22, 3) with Y up (HumanML3D); the side view plots x (right) against y (up),
 the top-down view x against z (the body faces +Z at frame 0).
@@ -17,6 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 
+from repro.motion.features import FEATURE_BLOCKS  # noqa: E402
 from repro.motion.skeleton import KINEMATIC_CHAINS  # noqa: E402
 
 CHAIN_COLOURS = ("tab:red", "tab:blue", "black", "tab:orange", "tab:green")
@@ -111,6 +113,29 @@ def animate(joints: np.ndarray, path: str | os.PathLike, *, fps: int = 20,
     os.replace(tmp, path)
     plt.close(fig)
     return path
+
+
+def feature_statistics(mean: np.ndarray, std: np.ndarray, *, label: str = "stand-in",
+                       reference: tuple[np.ndarray, np.ndarray] | None = None,
+                       reference_label: str = "HumanML3D") -> plt.Figure:
+    """Per-feature mean (top) and std (bottom) of the 263 features, the feature blocks
+    (``features.FEATURE_BLOCKS``) marked and named; ``reference`` (mean, std) drawn beside."""
+    fig, axes = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
+    axes[0].plot(mean, label=label, lw=1)
+    axes[1].plot(std, label=label, lw=1)
+    if reference is not None:
+        axes[0].plot(reference[0], label=reference_label, lw=1, alpha=0.7)
+        axes[1].plot(reference[1], label=reference_label, lw=1, alpha=0.7)
+    for name, block in FEATURE_BLOCKS.items():
+        for ax in axes:
+            ax.axvline(block.start, color="grey", lw=0.5)
+        axes[1].text((block.start + block.stop) / 2, axes[1].get_ylim()[1] * 0.9, name,
+                     fontsize=6, ha="center")
+    axes[0].set_ylabel("mean")
+    axes[1].set_ylabel("std")
+    axes[1].set_xlabel("feature index")
+    axes[0].legend(fontsize=8)
+    return fig
 
 
 def save_figure(fig: plt.Figure, path: str | os.PathLike) -> Path:

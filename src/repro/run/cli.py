@@ -115,7 +115,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _cmd_stubs(_: argparse.Namespace) -> int:
-    from repro.standin.generator import regenerate_stubs
+    from repro.standin.dataset import regenerate_stubs
 
     print(regenerate_stubs())
     return 0

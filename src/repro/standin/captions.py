@@ -1,0 +1,137 @@
+"""Captions of stand-in clips: templates filled with each concept's phrases, and the
+rule-based part-of-speech tags HumanML3D's text files carry (``caption#lemma/POS ...#0.0#0.0``).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from repro.standin.concepts import CONCEPTS
+
+if TYPE_CHECKING:
+    from repro.standin.generator import ClipSpec
+
+__all__ = ["SUBJECTS", "humanml3d_text_line", "sample_captions", "tag_caption"]
+
+SUBJECTS = ("a person", "someone", "a man", "a woman", "the person", "a human")
+_TEMPLATES = {
+    "single": ("{S} {A}.",),
+    "simultaneous": ("{S} {A} while {b}.", "{S} {A} and {B} at the same time.",
+                     "while {b}, {S} {A}.", "{S} {B} while {a}."),
+    "sequential": ("{S} {A}, then {B}.", "{S} {A} and then {B}.", "first {S} {A}, then {B}.",
+                   "{S} {A} before {b}.", "after {a}, {S} {B}."),
+}
+#: three simultaneous concepts (MTT-style sets of three)
+_TEMPLATES_THREE = ("{S} {A} while {b} and {c}.", "{S} {A}, {B} and {C} at the same time.",
+                    "while {b} and {c}, {S} {A}.")
+
+#: lemma → (third person singular, gerund)
+_VERBS = {
+    "walk": ("walks", "walking"), "take": ("takes", "taking"), "stroll": ("strolls", "strolling"),
+    "step": ("steps", "stepping"), "sidestep": ("sidesteps", "sidestepping"),
+    "shuffle": ("shuffles", "shuffling"), "run": ("runs", "running"), "jog": ("jogs", "jogging"),
+    "sprint": ("sprints", "sprinting"), "turn": ("turns", "turning"),
+    "pivot": ("pivots", "pivoting"), "circle": ("circles", "circling"),
+    "jump": ("jumps", "jumping"), "hop": ("hops", "hopping"), "squat": ("squats", "squatting"),
+    "stand": ("stands", "standing"), "do": ("does", "doing"), "bend": ("bends", "bending"),
+    "kick": ("kicks", "kicking"), "wave": ("waves", "waving"), "raise": ("raises", "raising"),
+    "lift": ("lifts", "lifting"), "put": ("puts", "putting"), "clap": ("claps", "clapping"),
+    "applaud": ("applauds", "applauding"), "punch": ("punches", "punching"),
+    "throw": ("throws", "throwing"), "jab": ("jabs", "jabbing"),
+}
+_NOUNS = {"person": "person", "man": "man", "woman": "woman", "human": "human",
+          "step": "step", "steps": "step", "circle": "circle", "air": "air", "squat": "squat",
+          "knees": "knee", "leg": "leg", "foot": "foot", "hand": "hand", "hands": "hand",
+          "arm": "arm", "arms": "arm", "head": "head", "fist": "fist", "punches": "punch",
+          "kick": "kick", "time": "time", "times": "time", "place": "place"}
+_FIXED = {
+    **{w: "DET" for w in ("a", "the", "both")},
+    **{w: "ADJ" for w in ("several", "few", "small", "same")},
+    **{w: "ADV" for w in ("forward", "backward", "backwards", "straight", "ahead", "quickly",
+                          "slowly", "sideways", "around", "up", "down", "back", "high", "then",
+                          "first", "afterwards")},
+    **{w: "ADP" for w in ("to", "with", "in", "into", "above", "at", "after", "before")},
+    "someone": "PRON", "while": "SCONJ", "and": "CCONJ", "hello": "INTJ",
+}
+_BODY_NOUNS = {"hand", "leg", "foot", "arm", "fist"}
+
+
+def _verb_lemmas() -> dict[str, str]:
+    lemmas = {}
+    for lemma, forms in _VERBS.items():
+        for form in (lemma, *forms):
+            lemmas[form] = lemma
+    return lemmas
+
+
+_VERB_FORMS = _verb_lemmas()
+
+
+def tag_caption(caption: str) -> list[tuple[str, str]]:
+    """(lemma, universal POS) for each word of a caption, as HumanML3D's text files store
+    them (spaCy there; here a rule-based tagger over the generator's closed lexicon).
+
+    Rules: a word that is both noun and verb ("steps", "circle", "punches") is a NOUN after
+    a determiner, adjective or verb and a VERB otherwise; "left"/"right" are ADJ before a
+    body-part noun, NOUN after "the", ADV otherwise. Unknown words raise ``ValueError``.
+    """
+    words = re.findall(r"[a-z]+", caption.lower())
+    tagged: list[tuple[str, str]] = []
+    for i, word in enumerate(words):
+        previous = tagged[-1][1] if tagged else None
+        following = words[i + 1] if i + 1 < len(words) else None
+        if word in ("left", "right"):
+            if following is not None and _NOUNS.get(following) in _BODY_NOUNS:
+                pos = "ADJ"
+            elif tagged and tagged[-1][0] == "the":
+                pos = "NOUN"
+            else:
+                pos = "ADV"
+            tagged.append((word, pos))
+        elif word in _NOUNS and word in _VERB_FORMS:
+            noun = previous in ("DET", "ADJ", "NUM", "VERB")
+            tagged.append((_NOUNS[word], "NOUN") if noun else (_VERB_FORMS[word], "VERB"))
+        elif word in _VERB_FORMS:
+            tagged.append((_VERB_FORMS[word], "VERB"))
+        elif word in _NOUNS:
+            tagged.append((_NOUNS[word], "NOUN"))
+        elif word in _FIXED:
+            tagged.append((word, _FIXED[word]))
+        else:
+            raise ValueError(f"word {word!r} of caption {caption!r} is not in the lexicon")
+    return tagged
+
+
+def humanml3d_text_line(caption: str, start: float = 0.0, end: float = 0.0) -> str:
+    """``caption#lemma/POS lemma/POS ...#start#end`` (seconds; 0.0#0.0 = the whole clip)."""
+    tokens = " ".join(f"{lemma}/{pos}" for lemma, pos in tag_caption(caption))
+    return f"{caption}#{tokens}#{float(start)}#{float(end)}"
+
+
+def sample_captions(spec: ClipSpec, rng: np.random.Generator, count: int = 3) -> list[str]:
+    """Up to ``count`` different captions of ``spec``, drawn with ``rng``: a template of the
+    composition ("{S} {A} while {b}.", "{S} {A}, then {B}.", ...) filled with a subject and
+    one paraphrase (third person or gerund) per concept. Every generated clip gets 3."""
+    phrases = [CONCEPTS[name].phrases for name in spec.concepts]
+    templates = _TEMPLATES_THREE if len(phrases) == 3 else _TEMPLATES[spec.composition]
+    found: list[str] = []
+    for _ in range(50 * count):
+        template = templates[int(rng.integers(len(templates)))]
+        subject = SUBJECTS[int(rng.integers(len(SUBJECTS)))]
+        chosen = [p[int(rng.integers(len(p)))] for p in phrases]
+        fill = {"S": subject, "A": chosen[0][0], "a": chosen[0][1]}
+        if len(chosen) > 1:
+            fill.update(B=chosen[1][0], b=chosen[1][1])
+        if len(chosen) > 2:
+            fill.update(C=chosen[2][0], c=chosen[2][1])
+        caption = template.format(**fill)
+        if caption not in found:
+            found.append(caption)
+        if len(found) == count:
+            break
+    return found
+
+
