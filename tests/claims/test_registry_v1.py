@@ -1,5 +1,5 @@
-"""The registry and its rules: every claim is registered once, and each rule can reach the
-verdicts its text promises (constructed measurements, not experiment results)."""
+"""Registry version 1, frozen: its rules still reach the verdicts their text promises
+(constructed measurements, not experiment results). The ledger decides v1 beside v2."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 from conftest import make_context
 
 from repro.claims.ledger import load_sidecars, record_claim
-from repro.claims.registry import CLAIMS, get_claim
-from repro.claims.verdicts import (
+from repro.claims.registry_v1 import CLAIMS, get_claim
+from repro.claims.verdicts_v1 import (
     NOT_REPRODUCED,
     PAPER_DISCREPANCY,
     PARTIAL,
@@ -106,4 +106,5 @@ def test_record_claim_writes_sidecar_and_checks_names(tmp_path: Path,
     assert decision.verdict == PAPER_DISCREPANCY
     assert sidecars["GMD-A1"]["mode"] == "quick"
     assert sidecars["GMD-A1"]["verdict"] == PAPER_DISCREPANCY
+    assert sidecars["GMD-A1"]["v1"]["verdict"] == PAPER_DISCREPANCY
     assert not list(tmp_path.glob("claims/.*.tmp"))
