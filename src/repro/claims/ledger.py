@@ -19,7 +19,7 @@ from typing import Any
 
 from repro.claims import registry_v1
 from repro.claims.registry import REGISTRY_VERSION, get_claim, interval_summary
-from repro.claims.verdicts import PARTIAL, REPRODUCED, Decision, apply_controls
+from repro.claims.verdicts import PARTIAL, REPRODUCED, Decision, apply_controls, parts_in_words
 from repro.infra import paths
 from repro.infra.context import RunContext
 from repro.infra.storage import read_json, write_json
@@ -143,6 +143,21 @@ def load_sidecars(directory: str | os.PathLike | None = None) -> dict[str, dict[
     if not folder.is_dir():
         return {}
     return {p.stem: read_json(p) for p in sorted(folder.glob("*.json"))}
+
+
+def part_outcomes(sidecar: dict[str, Any], *, reasons: bool = True) -> str:
+    """A sidecar's per-part outcomes in words, for anything but "reproduced" ("" for a
+    reproduced claim and for a version 1 sidecar, which has no parts)."""
+    if sidecar.get("verdict") == REPRODUCED or not sidecar.get("parts"):
+        return ""
+    return parts_in_words(sidecar["parts"], reasons=reasons)
+
+
+def v1_verdict(sidecar: dict[str, Any]) -> str:
+    """The version 1 verdict beside a v2 sidecar's (a v1 sidecar's own verdict)."""
+    if "v1" in sidecar:
+        return sidecar["v1"]["verdict"]
+    return sidecar.get("verdict", "")
 
 
 def verdict_markdown(ctx: RunContext, claim_id: str, decision: Decision) -> str:
