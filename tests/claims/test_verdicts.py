@@ -101,7 +101,7 @@ def test_non_inferiority_tests_against_minus_delta() -> None:
 
 def test_holm_applies_across_parts() -> None:
     # each part alone passes at 0.025; with three parts Holm needs p ≤ 0.025/3 for the first
-    x = [0.9, 1.6, 1.3, 2.9]  # one-sided p ≈ 0.012
+    x = [0.9, 1.6, 1.3, 2.9]  # one-sided p ≈ 0.015
     assert stats.ttest_1samp(x, 0, alternative="greater").pvalue < 0.025
     parts = [_part("a"), _part("b"), _part("c")]
     results = decide_parts(parts, {"x": x})
@@ -170,3 +170,11 @@ def test_null_rate_of_a_single_part_is_alpha() -> None:
     hits = sum(decide_parts([_part()], {"x": rng.standard_normal(3).tolist()})[0].outcome
                == SUPPORTED for _ in range(2000))
     assert 0.013 < hits / 2000 < 0.038  # one-sided α = 0.025
+
+
+def test_a_part_below_resolution_does_not_loosen_holm_for_the_others() -> None:
+    x = [0.9, 1.6, 1.3, 2.9]  # one-sided p ≈ 0.015: passes alone, not as the first of two
+    tied = Part(name="tied", text="", needs=("y",), smallest_effect_reason="", resolution=0.5,
+                compare=lambda m: [Comparison("", list(m["y"]), 1.0)])
+    results = decide_parts([_part("a"), tied], {"x": x, "y": [0.5, 0.5, 0.5, 0.5]})
+    assert [r.outcome for r in results] == [INCONCLUSIVE, BELOW_RESOLUTION]

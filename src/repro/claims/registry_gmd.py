@@ -58,10 +58,13 @@ def _gmd_a1(m: Measured) -> Decision:
 def _gmd_a2(m: Measured) -> Decision:
     checks = {"x0_share_peaks_near_t0": m["cosine_x0_share_argmax_fraction"] <= 0.1,
               "eps_share_peaks_near_T": m["cosine_eps_share_argmax_fraction"] >= 0.9}
-    held = sum(checks.values())
-    verdict = REPRODUCED if held == 2 else PARTIAL if held == 1 else NOT_REPRODUCED
-    return exact_decision(verdict, f"{held} of the 2 peaks where the paper says (cosine "
-                          "schedule)", checks)
+    if all(checks.values()):
+        return exact_decision(REPRODUCED, "x0 share peaks in the first 10 % of steps and ε share "
+                              "in the last 10 % (cosine schedule)", checks)
+    if any(checks.values()):
+        return exact_decision(PARTIAL, "only one of the two peaks is where the paper says",
+                              checks)
+    return exact_decision(NOT_REPRODUCED, "neither share peaks where the paper says", checks)
 
 
 def _gmd_b1(m: Measured) -> Decision:

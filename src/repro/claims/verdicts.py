@@ -227,8 +227,13 @@ def decide_parts(parts: Sequence[Part], measured: Measured) -> list[PartResult]:
         null = -c.smallest_effect if part.kind == "non-inferiority" else 0.0
         return one_sided_p(c.differences, null, alternative)
 
-    support_p = [max(p_of(p, c, "greater") for c in cs) for p, cs in testable]
-    contra_p = [min(1.0, len(cs) * min(p_of(p, c, "less") for c in cs)) for p, cs in testable]
+    # a part with a comparison below resolution can be neither supported nor contradicted;
+    # it enters Holm's family with p = 1 so that it cannot loosen the other parts' thresholds
+    resolved = [not any(_below(c, p) for c in cs) for p, cs in testable]
+    support_p = [max(p_of(p, c, "greater") for c in cs) if ok else 1.0
+                 for (p, cs), ok in zip(testable, resolved, strict=True)]
+    contra_p = [min(1.0, len(cs) * min(p_of(p, c, "less") for c in cs)) if ok else 1.0
+                for (p, cs), ok in zip(testable, resolved, strict=True)]
     supported, contradicted = holm(support_p), holm(contra_p)
     results, index = [], 0
     for entry in evaluated:
