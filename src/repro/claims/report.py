@@ -102,7 +102,7 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
                   f"*{sidecar['statement']}* ({sidecar['paper']}, {sidecar['section']})", "",
                   f"- Rule (registry v{version}, fixed before the run): {sidecar['rule']}",
                   f"- Why: {sidecar['reason']}"]
-        if part_outcomes(sidecar):
+        if part_outcomes(sidecar) and part_outcomes(sidecar) not in sidecar["reason"]:
             lines.append(f"- Parts: {part_outcomes(sidecar)}")
         if "v1" in sidecar:
             lines.append(f"- Registry v1 verdict on the same measurements: "
