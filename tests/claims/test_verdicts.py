@@ -178,3 +178,12 @@ def test_a_part_below_resolution_does_not_loosen_holm_for_the_others() -> None:
                 compare=lambda m: [Comparison("", list(m["y"]), 1.0)])
     results = decide_parts([_part("a"), tied], {"x": x, "y": [0.5, 0.5, 0.5, 0.5]})
     assert [r.outcome for r in results] == [INCONCLUSIVE, BELOW_RESOLUTION]
+
+
+def test_a_tie_does_not_hide_a_better_option() -> None:
+    rows = {"claimed": [80.0, 78.0, 76.0], "tied": [80.0, 78.0, 76.0],
+            "better": [90.0, 88.5, 86.0]}
+    part = Part(name="best", text="", needs=("r",), smallest_effect_reason="",
+                compare=lambda m: best_option("claimed", m["r"], lower_is_better=False,
+                                              fraction=0.035), resolution=100 / 64)
+    assert decide_parts([part], {"r": rows})[0].outcome == CONTRADICTED

@@ -227,13 +227,16 @@ def decide_parts(parts: Sequence[Part], measured: Measured) -> list[PartResult]:
         null = -c.smallest_effect if part.kind == "non-inferiority" else 0.0
         return one_sided_p(c.differences, null, alternative)
 
-    # a part with a comparison below resolution can be neither supported nor contradicted;
-    # it enters Holm's family with p = 1 so that it cannot loosen the other parts' thresholds
-    resolved = [not any(_below(c, p) for c in cs) for p, cs in testable]
-    support_p = [max(p_of(p, c, "greater") for c in cs) if ok else 1.0
-                 for (p, cs), ok in zip(testable, resolved, strict=True)]
-    contra_p = [min(1.0, len(cs) * min(p_of(p, c, "less") for c in cs)) if ok else 1.0
-                for (p, cs), ok in zip(testable, resolved, strict=True)]
+    # a part with a comparison below resolution cannot be supported: it enters Holm's family
+    # with p = 1, so it cannot loosen the other parts' thresholds; the comparisons it does
+    # resolve can still contradict it (Bonferroni over them)
+    support_p, contra_p = [], []
+    for part, comparisons in testable:
+        resolved = [c for c in comparisons if not _below(c, part)]
+        support_p.append(max(p_of(part, c, "greater") for c in comparisons)
+                         if len(resolved) == len(comparisons) else 1.0)
+        contra_p.append(min(1.0, len(resolved) * min(p_of(part, c, "less") for c in resolved))
+                        if resolved else 1.0)
     supported, contradicted = holm(support_p), holm(contra_p)
     results, index = [], 0
     for entry in evaluated:
@@ -281,8 +284,8 @@ def _outcome(part: Part, comparisons: list[Comparison], supported: bool, contrad
                                      for c in comparisons):
         return PartResult(part.name, ABSENT, "90 % interval inside ± the smallest effect of "
                           "interest (TOST)", numbers)
-    return PartResult(part.name, INCONCLUSIVE, "the interval includes 0 and reaches beyond ± "
-                      "the smallest effect of interest", numbers)
+    return PartResult(part.name, INCONCLUSIVE, f"neither on the paper's side after Holm (p = "
+                      f"{p_support:.2g}) nor inside ± the smallest effect of interest", numbers)
 
 
 def combine(results: Sequence[PartResult], parts: Sequence[Part] | None = None) -> str:
