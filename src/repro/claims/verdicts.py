@@ -282,8 +282,9 @@ def _outcome(part: Part, comparisons: list[Comparison], supported: bool, contrad
         return PartResult(part.name, INCONCLUSIVE, f"power: {power_note}", numbers)
     if part.kind == "effect" and all(equivalent(c.differences, c.smallest_effect)
                                      for c in comparisons):
-        return PartResult(part.name, ABSENT, "90 % interval inside ± the smallest effect of "
-                          "interest (TOST)", numbers)
+        deltas = ", ".join(f"{c.smallest_effect:.3g}" for c in comparisons)
+        return PartResult(part.name, ABSENT, f"no effect of the registered size: the 90 % "
+                          f"interval lies inside ±δ = {deltas} (TOST)", numbers)
     return PartResult(part.name, INCONCLUSIVE, f"neither on the paper's side after Holm (p = "
                       f"{p_support:.2g}) nor inside ± the smallest effect of interest", numbers)
 
