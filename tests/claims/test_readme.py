@@ -24,3 +24,15 @@ def test_update_replaces_only_the_marked_table(tmp_path: Path) -> None:
     text = readme.read_text(encoding="utf-8")
     assert "| old |" not in text and "| GMD-A1 | reproduced | `01_x0_vs_eps` |" in text
     assert text.startswith("intro\n<!-- claims-table:start x -->\n") and text.endswith("outro\n")
+
+
+def test_version_2_rows_show_parts_for_anything_but_reproduced() -> None:
+    rows = [{"id": "EMG-8", "verdict": "inconclusive", "notebook": "08_composed_augmentation",
+             "registry_version": "2", "v1_verdict": "not reproduced",
+             "parts_short": "r_precision_improves: below resolution; fid_improves: absent"},
+            {"id": "GMD-A2", "verdict": "reproduced", "notebook": "01_x0_vs_eps",
+             "registry_version": "2", "v1_verdict": "reproduced", "parts_short": ""}]
+    table = readme_claims_table(rows)
+    assert ("| EMG-8 | inconclusive — r_precision_improves: below resolution; fid_improves: "
+            "absent (v1: not reproduced) | `08_composed_augmentation` |") in table
+    assert "| GMD-A2 | reproduced | `01_x0_vs_eps` |" in table

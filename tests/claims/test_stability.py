@@ -8,7 +8,12 @@ import pytest
 from conftest import make_context
 
 from repro.claims.ledger import record_claim
-from repro.claims.stability import compare_runs, flatten_measurements, load_full_sidecars
+from repro.claims.stability import (
+    compare_runs,
+    flatten_measurements,
+    load_full_sidecars,
+    stability_markdown,
+)
 from repro.run.cli import main
 
 
@@ -57,3 +62,17 @@ def test_quick_runs_and_missing_runs_are_refused(tmp_path: Path,
 def test_nested_measurements_are_compared_per_row() -> None:
     assert flatten_measurements({"r3": {"a": [1.0, 2.0], "b": {"c": 3.0}}, "x": 4.0}) == {
         "r3[a]": [1.0, 2.0], "r3[b][c]": 3.0, "x": 4.0}
+
+
+def test_not_reproduced_claims_show_their_parts(tmp_path: Path) -> None:
+    a3 = {"goal_error_x0": [0.5, 0.6, 0.55], "goal_error_eps": [0.1, 0.12, 0.11],
+          "guided_change_survival_eps": [0.9, 0.95, 0.92],
+          "guided_change_survival_x0": [0.95, 0.99, 0.97]}
+    for label in ("a", "b"):
+        record_claim(make_context(tmp_path / label, quick=False), "GMD-A3", a3, seeds=[0, 1, 2])
+    rows = compare_runs({"a": load_full_sidecars(tmp_path / "a"),
+                         "b": load_full_sidecars(tmp_path / "b")})
+    text = stability_markdown(rows, ["a", "b"])
+    assert rows[0].verdicts["a"] != "reproduced"
+    assert "eps_reaches_goal_better: supported" in text
+    assert "eps_keeps_more_guided_change:" in rows[0].parts["b"]

@@ -82,4 +82,6 @@ def test_study_feeds_the_rule(tiny) -> None:
     measured = {"r_precision_top3_augmented": t2m["augmented"]["r_precision_top3"],
                 "r_precision_top3_baseline": t2m["control"]["r_precision_top3"],
                 "fid_augmented": t2m["augmented"]["fid"], "fid_baseline": t2m["control"]["fid"]}
-    assert get_claim("EMG-8").decide(measured).verdict
+    decision = get_claim("EMG-8").decide(measured)  # every part fed, none "not recorded"
+    assert [(p.name, "not recorded" in p.reason) for p in decision.parts] == [
+        (p.name, False) for p in get_claim("EMG-8").parts]

@@ -93,6 +93,8 @@ def test_study_feeds_the_rule(tiny) -> None:
     measured = {"reconstruction_error": {n: v["mpjpe"] for n, v in
                                          results["reconstruction"].items()},
                 "generation_fid": {n: v["fid"] for n, v in results["generation"].items()}}
-    assert get_claim("EMG-7").decide(measured).verdict
+    decision = get_claim("EMG-7").decide(measured)  # every part fed, none "not recorded"
+    assert [(p.name, "not recorded" in p.reason) for p in decision.parts] == [
+        (p.name, False) for p in get_claim("EMG-7").parts]
     table = lc.table8_markdown(results, counts=(1, 5, 7))
     assert "[0.188]" in table and "real motion" in table and table.count("\n") == 8

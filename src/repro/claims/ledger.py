@@ -1,8 +1,11 @@
 """The claims ledger: a notebook records a claim with one call.
 
-``record_claim`` checks that every measurement the rule needs is there, applies the rule from
-the registry (written before the run), and writes ``build/claims/<ID>.json`` atomically. The
-sidecar says whether the run was ``quick`` (a test of the code, never a result) or ``full``.
+``record_claim`` checks that every measurement the rules need is there, applies the rule of
+registry version 2 and the frozen rule of version 1 to the same measurements, decides the
+notebook's controls with the same version 2 rule, and writes ``build/claims/<ID>.json``
+atomically. The sidecar carries ``registry_version``, the v2 verdict with its per-part
+outcomes, the v1 verdict beside it, and each control's outcome (or "missing"); it says
+whether the run was ``quick`` (a test of the code, never a result) or ``full``.
 """
 
 from __future__ import annotations
@@ -14,13 +17,17 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from repro.claims.registry import get_claim, interval_summary
-from repro.claims.verdicts import Decision
+from repro.claims import registry_v1
+from repro.claims.registry import REGISTRY_VERSION, get_claim, interval_summary
+from repro.claims.verdicts import PARTIAL, REPRODUCED, Decision, apply_controls, parts_in_words
 from repro.infra import paths
 from repro.infra.context import RunContext
 from repro.infra.storage import read_json, write_json
 
 MODES = ("quick", "full")
+CONTROLS = ("positive", "null")
+_EXPECTED = {"positive": f"{REPRODUCED} (the registered effect planted)",
+             "null": f"neither {REPRODUCED} nor partially (no effect planted)"}
 
 
 def _git_commit() -> str | None:
@@ -32,40 +39,88 @@ def _git_commit() -> str | None:
     return out.stdout.strip() or None
 
 
+def _control_record(claim_id: str, kind: str, measured: Mapping[str, Any] | None,
+                    ) -> tuple[dict[str, Any], Decision | None]:
+    """A control decided by the claim's own v2 rule, as the sidecar stores it."""
+    if measured is None:
+        return {"status": "missing", "expected": _EXPECTED[kind]}, None
+    decision = get_claim(claim_id).decide(measured)
+    passed = (decision.verdict == REPRODUCED if kind == "positive"
+              else decision.verdict not in (REPRODUCED, PARTIAL))
+    return {"status": "passed" if passed else "failed", "expected": _EXPECTED[kind],
+            "verdict": decision.verdict, "reason": decision.reason,
+            "parts": [p.as_dict() for p in decision.parts], "measured": dict(measured)}, decision
+
+
+def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
+                 controls: Mapping[str, Mapping[str, Any]] | None = None,
+                 quality_gates: Mapping[str, bool] | None = None,
+                 ) -> tuple[Decision, dict[str, Any], Decision]:
+    """(v2 decision after controls and gates, the controls as stored, the v1 decision)."""
+    claim = get_claim(claim_id)
+    missing = sorted(set(claim.measurements) - set(measured))
+    if missing:
+        raise ValueError(f"{claim_id}: the rule needs measurements {missing}; got "
+                         f"{sorted(measured)}")
+    unknown = sorted(set(controls or {}) - set(CONTROLS))
+    if unknown:
+        raise ValueError(f"{claim_id}: controls are {CONTROLS}; got {unknown}")
+    stored, decided = {}, {}
+    for kind in CONTROLS:
+        stored[kind], decided[kind] = _control_record(claim_id, kind, (controls or {}).get(kind))
+    v1 = registry_v1.get_claim(claim_id).decide(measured)
+    decision = apply_controls(claim.decide(measured), decided, quality_gates)
+    decision.v1_verdict = v1.verdict
+    return decision, stored, v1
+
+
 def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
-                 seeds: Sequence[int], figures: Sequence[str | os.PathLike] = (),
-                 notes: str = "", headline: str = "",
+                 seeds: Sequence[int], controls: Mapping[str, Mapping[str, Any]] | None = None,
+                 quality_gates: Mapping[str, bool] | None = None,
+                 figures: Sequence[str | os.PathLike] = (), notes: str = "", headline: str = "",
                  extra: Mapping[str, Any] | None = None) -> Decision:
-    """Apply the registered rule of ``claim_id`` to ``measured`` and write its sidecar.
+    """Apply the registered rules of ``claim_id`` to ``measured`` and write its sidecar.
 
     Args:
         ctx: the run (its mode, run ID and claims folder); a quick run's verdict is recorded
             but never reported as a result.
         claim_id: an ID from the registry (unknown IDs raise ValueError listing the known ones).
-        measured: every measurement the rule names (missing ones raise ValueError).
+        measured: every measurement the rules name (missing ones raise ValueError; a
+            measurement only version 2 reads makes its part inconclusive instead).
         seeds: the seeds behind per-seed lists.
+        controls: ``{"positive": measured, "null": measured}`` from the notebook's control
+            experiments (the registered effect planted / no effect), decided by the same
+            rule: a positive control that is not reproduced or a null control that comes out
+            reproduced or partially makes the claim inconclusive. Missing controls are
+            recorded as missing, not an error.
+        quality_gates: gate name → passed, for the models behind the measurements; a failed
+            gate makes the claim inconclusive.
         figures: paths of the figures that show the claim.
         notes: what the notebook chose where the paper is silent, caveats.
         headline: one line of our key numbers for the report's table (default: derived).
         extra: further numbers to keep beside the rule's inputs (tables, paper rows).
     """
     claim = get_claim(claim_id)
-    missing = sorted(set(claim.measurements) - set(measured))
-    if missing:
-        raise ValueError(f"{claim_id}: the rule needs measurements {missing}; got "
-                         f"{sorted(measured)}")
-    decision = claim.decide(measured)
+    decision, stored_controls, v1 = decide_claim(claim_id, measured, controls=controls,
+                                                 quality_gates=quality_gates)
     sidecar = {
         "id": claim.id,
+        "registry_version": REGISTRY_VERSION,
         "paper": claim.paper,
         "section": claim.section,
         "statement": claim.statement,
         "paper_value": claim.paper_value,
         "notebook": claim.notebook,
         "rule": claim.rule,
+        "power_note": claim.power_note,
         "verdict": decision.verdict,
         "reason": decision.reason,
         "checks": decision.checks,
+        "parts": [p.as_dict() for p in decision.parts],
+        "controls": stored_controls,
+        "quality_gates": dict(quality_gates or {}),
+        "v1": {"registry_version": 1, "verdict": v1.verdict, "reason": v1.reason,
+               "checks": v1.checks, "rule": registry_v1.get_claim(claim_id).rule},
         "measured": dict(measured),
         "summary": interval_summary(dict(measured)),
         "extra": dict(extra or {}),
@@ -90,9 +145,29 @@ def load_sidecars(directory: str | os.PathLike | None = None) -> dict[str, dict[
     return {p.stem: read_json(p) for p in sorted(folder.glob("*.json"))}
 
 
+def part_outcomes(sidecar: dict[str, Any], *, reasons: bool = True) -> str:
+    """A sidecar's per-part outcomes in words, for anything but "reproduced" ("" for a
+    reproduced claim and for a version 1 sidecar, which has no parts)."""
+    if sidecar.get("verdict") == REPRODUCED or not sidecar.get("parts"):
+        return ""
+    return parts_in_words(sidecar["parts"], reasons=reasons)
+
+
+def v1_verdict(sidecar: dict[str, Any]) -> str:
+    """The version 1 verdict beside a v2 sidecar's (a v1 sidecar's own verdict)."""
+    if "v1" in sidecar:
+        return sidecar["v1"]["verdict"]
+    return sidecar.get("verdict", "")
+
+
 def verdict_markdown(ctx: RunContext, claim_id: str, decision: Decision) -> str:
     """A short markdown block for the notebook's verdict cell."""
     claim = get_claim(claim_id)
     mode = " *(quick run: a test of the code, not a result)*" if ctx.quick else ""
-    return (f"**{claim.id} — {decision.verdict}**{mode}\n\n"
-            f"*Rule (fixed before the run):* {claim.rule}\n\n*Why:* {decision.reason}")
+    v1 = f" (registry v1: {decision.v1_verdict})" if decision.v1_verdict else ""
+    lines = [f"**{claim.id} — {decision.verdict}**{v1}{mode}", "",
+             f"*Rule (registry v{REGISTRY_VERSION}, fixed before the run):* {claim.rule}", "",
+             f"*Why:* {decision.reason}"]
+    if claim.power_note:
+        lines += ["", f"*Power:* {claim.power_note}"]
+    return "\n".join(lines)

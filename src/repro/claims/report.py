@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from repro.claims.ledger import load_sidecars
+from repro.claims.ledger import load_sidecars, part_outcomes, v1_verdict
 from repro.claims.registry import CLAIMS
 from repro.infra import paths
 from repro.infra.storage import read_json, write_json, write_text
@@ -46,15 +46,32 @@ def _rows(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, str]]:
     rows = []
     for claim in CLAIMS.values():
         sidecar = sidecars.get(claim.id)
+        row = {"id": claim.id, "statement": claim.statement, "paper": claim.paper_value,
+               "notebook": claim.notebook}
         if sidecar is None:
-            verdict, ours = "not yet tested", ""
+            row.update(verdict="not yet tested", ours="")
         elif sidecar["mode"] == "quick":
-            verdict, ours = "— (quick run: not a result)", headline(sidecar)
+            row.update(verdict="— (quick run: not a result)", ours=headline(sidecar))
         else:
-            verdict, ours = sidecar["verdict"], headline(sidecar)
-        rows.append({"id": claim.id, "statement": claim.statement, "paper": claim.paper_value,
-                     "ours": ours, "verdict": verdict, "notebook": claim.notebook})
+            row.update(verdict=sidecar["verdict"], ours=headline(sidecar),
+                       registry_version=str(sidecar.get("registry_version", 1)),
+                       v1_verdict=v1_verdict(sidecar), parts=part_outcomes(sidecar),
+                       parts_short=part_outcomes(sidecar, reasons=False))
+        rows.append(row)
     return rows
+
+
+def _controls_line(sidecar: dict[str, Any]) -> str:
+    controls = sidecar.get("controls")
+    if not controls:
+        return ""
+    words = []
+    for kind, control in controls.items():
+        if control.get("status") == "missing":
+            words.append(f"{kind}: missing")
+        else:
+            words.append(f"{kind}: {control['status']} ({control.get('verdict')})")
+    return "; ".join(words)
 
 
 def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
@@ -68,21 +85,33 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
              "never the paper's absolute numbers.", ""]
     if provenance:
         lines += [f"**Provenance.** {provenance}", ""]
-    lines += ["| claim | statement | paper | ours | verdict | notebook |",
-             "|---|---|---|---|---|---|"]
+    lines += ["| claim | statement | paper | ours | verdict (registry v2) | v1 verdict | "
+              "notebook |", "|---|---|---|---|---|---|---|"]
     for r in rows:
-        cells = [r["id"], r["statement"], r["paper"], r["ours"], f"**{r['verdict']}**",
-                 r["notebook"]]
+        verdict = f"**{r['verdict']}**" + (f" — {r['parts_short']}" if r.get("parts_short")
+                                           else "")
+        cells = [r["id"], r["statement"], r["paper"], r["ours"], verdict,
+                 r.get("v1_verdict", ""), r["notebook"]]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     if runs:
         lines += ["", "## Notebook run times", "", "| notebook | seconds |", "|---|---|"]
         lines += [f"| {r.name} | {r.seconds:.1f} |" for r in runs]
     for claim_id, sidecar in sidecars.items():
+        version = sidecar.get("registry_version", 1)
         lines += ["", f"## {claim_id} — {sidecar['verdict']} ({sidecar['mode']})", "",
                   f"*{sidecar['statement']}* ({sidecar['paper']}, {sidecar['section']})", "",
-                  f"- Rule (fixed before the run): {sidecar['rule']}",
-                  f"- Why: {sidecar['reason']}",
-                  f"- Seeds: {sidecar['seeds']}; commit {sidecar.get('commit')}"]
+                  f"- Rule (registry v{version}, fixed before the run): {sidecar['rule']}",
+                  f"- Why: {sidecar['reason']}"]
+        if part_outcomes(sidecar) and part_outcomes(sidecar) not in sidecar["reason"]:
+            lines.append(f"- Parts: {part_outcomes(sidecar)}")
+        if "v1" in sidecar:
+            lines.append(f"- Registry v1 verdict on the same measurements: "
+                         f"{sidecar['v1']['verdict']} ({sidecar['v1']['reason']})")
+        if _controls_line(sidecar):
+            lines.append(f"- Controls: {_controls_line(sidecar)}")
+        if sidecar.get("power_note"):
+            lines.append(f"- Power: {sidecar['power_note']}")
+        lines.append(f"- Seeds: {sidecar['seeds']}; commit {sidecar.get('commit')}")
         if sidecar.get("notes"):
             lines.append(f"- Notes: {sidecar['notes']}")
         for name in figure_names.get(claim_id, []):
@@ -99,16 +128,19 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
             "100%}</style>")
     body = [f"<h1>Reproduction report{' (QUICK run: not results)' if quick else ''}</h1>",
             "<table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
-            "<th>verdict</th><th>notebook</th></tr>"]
+            "<th>verdict (registry v2)</th><th>parts</th><th>v1 verdict</th><th>notebook</th>"
+            "</tr>"]
     for r in markdown_rows:
-        body.append("<tr>" + "".join(f"<td>{esc(r[k])}</td>" for k in
-                                     ("id", "statement", "paper", "ours", "verdict", "notebook"))
+        body.append("<tr>" + "".join(f"<td>{esc(r.get(k, ''))}</td>" for k in
+                                     ("id", "statement", "paper", "ours", "verdict", "parts",
+                                      "v1_verdict", "notebook"))
                     + "</tr>")
     body.append("</table>")
     for claim_id, s in sidecars.items():
         body.append(f"<h2>{esc(claim_id)} — {esc(s['verdict'])} ({esc(s['mode'])})</h2>"
                     f"<p><i>{esc(s['statement'])}</i></p><p>Rule: {esc(s['rule'])}</p>"
-                    f"<p>Why: {esc(s['reason'])}</p>")
+                    f"<p>Why: {esc(s['reason'])}</p>"
+                    + (f"<p>Registry v1: {esc(s['v1']['verdict'])}</p>" if "v1" in s else ""))
         body += [f"<img src='figures/{esc(n)}'>" for n in figure_names.get(claim_id, [])]
     return head + "\n".join(body)
 
@@ -189,9 +221,18 @@ README_TABLE_END = "<!-- claims-table:end -->"
 
 
 def readme_claims_table(rows: Sequence[dict[str, str]]) -> str:
-    """The README's verdict table: claim, verdict, notebook (one row per registry claim)."""
+    """The README's verdict table: claim, verdict, notebook (one row per registry claim).
+    Rows of registry version 2 add, for anything but "reproduced", each part's outcome and
+    the v1 verdict; rows of a version 1 snapshot (no parts) read as they always did."""
     lines = ["| claim | verdict (stand-in data, tiny models) | notebook |", "|---|---|---|"]
-    lines += [f"| {r['id']} | {r['verdict']} | `{r['notebook']}` |" for r in rows]
+    for r in rows:
+        verdict = r["verdict"]
+        if r.get("parts_short"):
+            verdict += f" — {r['parts_short']}"
+        if r.get("registry_version", "1") != "1" and r.get("v1_verdict") not in (None, "",
+                                                                                r["verdict"]):
+            verdict += f" (v1: {r['v1_verdict']})"
+        lines.append(f"| {r['id']} | {verdict} | `{r['notebook']}` |")
     return "\n".join(lines)
 
 

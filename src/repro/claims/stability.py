@@ -3,21 +3,22 @@
 ``python -m repro reproduce --seed 3`` (into another build root) gives every notebook a disjoint
 list of seeds (``seeds_for``: base, base + 1, ...), so the trained models, the test items and
 the sampling noise all change. This module puts the recorded sidecars of such runs side by
-side: which verdicts changed, and how far each of the rule's measurements moved (the mean over
-a run's seeds, per run). Only full runs are compared: a quick run is a test of the code.
+side: which verdicts changed (for anything but "reproduced", with each part's outcome), and how
+far each of the rule's measurements moved (the mean over a run's seeds, per run). Only full
+runs are compared: a quick run is a test of the code.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from repro.claims.ledger import load_sidecars
+from repro.claims.ledger import load_sidecars, part_outcomes
 from repro.claims.registry import CLAIMS
 from repro.infra.storage import write_text
 
@@ -30,6 +31,7 @@ class StabilityRow:
     verdicts: dict[str, str]
     seeds: dict[str, list[int]]
     means: dict[str, dict[str, float | None]]      # measurement → run → mean over seeds
+    parts: dict[str, str] = field(default_factory=dict)  # run → part outcomes (not reproduced)
 
     @property
     def stable(self) -> bool:
@@ -91,7 +93,8 @@ def compare_runs(runs: Mapping[str, Mapping[str, dict[str, Any]]]) -> list[Stabi
         keys = list(next(iter(measured.values())))
         means = {key: {label: _mean(values.get(key)) for label, values in measured.items()}
                  for key in keys}
-        rows.append(StabilityRow(claim_id, verdicts, seeds, means))
+        parts = {label: part_outcomes(s[claim_id], reasons=False) for label, s in runs.items()}
+        rows.append(StabilityRow(claim_id, verdicts, seeds, means, parts))
     return rows
 
 
@@ -121,7 +124,9 @@ def stability_markdown(rows: list[StabilityRow], labels: list[str],
     lines += ["| claim | " + " | ".join(labels) + " | same verdict |",
               "|---|" + "---|" * len(labels) + "---|"]
     for r in rows:
-        lines.append(f"| {r.claim_id} | " + " | ".join(r.verdicts[label] for label in labels)
+        cells = [r.verdicts[label] + (f" — {r.parts[label]}" if r.parts.get(label) else "")
+                 for label in labels]
+        lines.append(f"| {r.claim_id} | " + " | ".join(cells)
                      + f" | {'yes' if r.stable else '**no**'} |")
     for r in rows:
         lines += ["", f"## {r.claim_id}{'' if r.stable else ' — verdict changed'}", "",

@@ -1,0 +1,144 @@
+"""A registered claim (registry version 2) and the helpers its entries are written with.
+
+An entry reads as a table row: keyword arguments, the rule's text beside the parts that
+implement it. Claims whose verdict rests on measured effects list ``parts`` (decided by
+``repro.claims.verdicts.decide_effects``) and an ``example`` generator; exact checks of
+printed formulas give ``exact_rule`` instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from repro.claims.verdicts import Comparison, Decision, Part, decide_effects
+
+Measured = Mapping[str, Any]
+Path = str | tuple[str, ...]
+Example = Callable[[np.random.Generator, float, int], dict[str, Any]]
+
+REGISTRY_VERSION = 2
+SEEDS = "per-seed list"
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One claim: where it is, what it says, the rule, and the measurements the rule reads.
+
+    ``measurements``: names every notebook records today (the ledger requires them);
+    ``new_measurements``: names version 2 reads that the notebooks do not record yet (a part
+    that needs one comes out inconclusive, "measurement X not recorded");
+    ``affordable_seeds``: the seeds a full run uses (``power_note`` names the parts that need
+    more: they can only come out supported or inconclusive); ``example(rng, scale, n)``: a
+    measurement dict shaped like the notebook's, with every part's effect at ``scale`` × its
+    smallest effect of interest (0: no effect)."""
+
+    id: str
+    paper: str
+    section: str
+    statement: str
+    paper_value: str
+    notebook: str
+    rule: str
+    measurements: dict[str, str]
+    parts: tuple[Part, ...] = ()
+    exact_rule: Callable[[Measured], Decision] | None = None
+    new_measurements: dict[str, str] = field(default_factory=dict)
+    affordable_seeds: int = 1
+    example: Example | None = None
+
+    def decide(self, measured: Measured) -> Decision:
+        if self.exact_rule is not None:
+            return self.exact_rule(measured)
+        return decide_effects(self.parts, measured)
+
+    @property
+    def rests_on_effects(self) -> bool:
+        return bool(self.parts)
+
+    @property
+    def power_note(self) -> str:
+        """Where the full run's seeds are fewer than the power calculation asks for."""
+        short = [f"{p.name} needs {p.seeds}{'+' if p.seeds >= 1000 else ''}"
+                 for p in self.parts if p.seeds > self.affordable_seeds]
+        if not short:
+            return ""
+        return (f"the full run affords {self.affordable_seeds} seeds; {', '.join(short)} for 80 % "
+                "power at its smallest effect of interest: those parts can only come out "
+                "supported or inconclusive")
+
+    @property
+    def seeds_required(self) -> int:
+        return max((p.seeds for p in self.parts), default=1)
+
+    def null_example(self, rng: np.random.Generator) -> dict[str, Any]:
+        """Measurements with no effect in any part, with the seeds a full run affords."""
+        return self._example(rng, 0.0, max(self.affordable_seeds, 3))
+
+    def planted_example(self, rng: np.random.Generator) -> dict[str, Any]:
+        """Measurements with every part's registered effect planted, with the registered
+        seeds (at least five)."""
+        return self._example(rng, 1.0, max(self.seeds_required, self.affordable_seeds, 5))
+
+    def _example(self, rng: np.random.Generator, scale: float, n: int) -> dict[str, Any]:
+        if self.example is None:
+            raise ValueError(f"{self.id} rests on exact checks, not on measured effects: it "
+                             "has no examples")
+        return self.example(rng, scale, n)
+
+
+def value(measured: Measured, path: Path) -> Any:
+    """``measured[path]``, or ``measured[a][b]`` for a path ``(a, b)`` (KeyError if absent)."""
+    if isinstance(path, str):
+        return measured[path]
+    out: Any = measured
+    for key in path:
+        out = out[key]
+    return out
+
+
+def mean_of(measured: Measured, path: Path) -> float:
+    values = [v for v in np.atleast_1d(value(measured, path)) if v is not None]
+    return float(np.mean(np.asarray(values, dtype=np.float64)))
+
+
+def paired(a: Sequence[Any], b: Sequence[Any]) -> list[float]:
+    """a − b seed by seed; seeds where either is None (an undefined value) are left out."""
+    if len(a) != len(b):
+        raise ValueError(f"paired values need the same seeds: {len(a)} vs {len(b)} values")
+    return [float(x) - float(y) for x, y in zip(a, b, strict=True)
+            if x is not None and y is not None]
+
+
+def difference_part(*, name: str, text: str, minuend: Path, subtrahend: Path,
+                    smallest_effect: float, relative_to: Path | None, reason: str,
+                    seeds: int, resolution: float = 0.0,
+                    resolution_reason: str = "continuous measurement",
+                    kind: str = "effect", minuend_factor: float = 1.0) -> Part:
+    """A part testing ``minuend_factor``·m[minuend] − m[subtrahend] > 0 over seeds, with
+    δ = ``smallest_effect`` × |mean(m[relative_to])| (or δ = ``smallest_effect`` when
+    ``relative_to`` is None)."""
+
+    def compare(m: Measured) -> list[Comparison]:
+        a = [None if v is None else minuend_factor * float(v) for v in value(m, minuend)]
+        delta = smallest_effect * (abs(mean_of(m, relative_to)) if relative_to else 1.0)
+        return [Comparison("", paired(a, value(m, subtrahend)), delta)]
+
+    needs = tuple(sorted({p if isinstance(p, str) else p[0] for p in (minuend, subtrahend)}))
+    return Part(name=name, text=text, needs=needs, compare=compare,
+                smallest_effect_reason=reason, resolution=resolution,
+                resolution_reason=resolution_reason, seeds=seeds,
+                kind=kind)  # type: ignore[arg-type]
+
+
+def arm(rng: np.random.Generator, level: float, spread: float, n: int) -> list[float]:
+    """n per-seed values around ``level`` (an example's arm)."""
+    return (level + spread * rng.standard_normal(n)).tolist()
+
+
+def quantise(values: Sequence[float], step: float) -> list[float]:
+    """Values rounded to multiples of ``step`` (a measurement counted over a test set)."""
+    return [round(v / step) * step for v in values]

@@ -1,0 +1,61 @@
+"""How many seeds a part needs: the power of the one-sided paired t-test the verdicts use.
+
+With n seeds and per-seed differences of spread σ, the statistic of "mean > 0" follows a
+noncentral t with n − 1 degrees of freedom and noncentrality δ√n/σ when the true effect is
+δ; the power is P(T > t_{1−α, n−1}) (scipy's ``nct``). A part of a claim with k parts is
+tested at α/k here: Holm's first step, so the number holds for the part Holm tests first and
+is conservative for the others. The registered ``seeds`` of every part is
+``seeds_for_power`` at its smallest effect of interest on the spread of the v1 full run in
+``results/claims.json`` (tests/claims/test_power.py recomputes them).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from repro.claims.verdicts import ALPHA, POWER, Part
+
+MAX_SEEDS = 1000
+
+
+def power_of(n: int, effect: float, spread: float, alpha: float = ALPHA) -> float:
+    """Power of the one-sided one-sample t-test with ``n`` seeds at true mean ``effect``."""
+    if n < 2:
+        return 0.0
+    if spread == 0.0:
+        return 1.0 if effect > 0 else 0.0
+    critical = stats.t.ppf(1 - alpha, n - 1)
+    return float(stats.nct.sf(critical, n - 1, effect / spread * math.sqrt(n)))
+
+
+def seeds_for_power(effect: float, spread: float, *, alpha: float = ALPHA,
+                    power: float = POWER) -> int:
+    """The fewest seeds (≥ 2) with ``power`` at ``effect``; ``MAX_SEEDS`` if none up to it."""
+    for n in range(2, MAX_SEEDS + 1):
+        if power_of(n, effect, spread, alpha) >= power:
+            return n
+    return MAX_SEEDS
+
+
+def part_seeds(part: Part, measured: Mapping[str, Any], parts_in_claim: int) -> int:
+    """The seeds ``part`` needs, from the spread of its differences in ``measured`` (a v1
+    full run) at its smallest effect of interest there: the largest over its comparisons.
+    Non-inferiority parts need the power to reject "worse by δ" at a true difference of 0,
+    which is the same calculation."""
+    needed = 2
+    for comparison in part.compare(measured):
+        values = np.asarray(comparison.differences, dtype=np.float64)
+        spread = float(values.std(ddof=1)) if values.size > 1 else 0.0
+        needed = max(needed, seeds_for_power(comparison.smallest_effect, spread,
+                                             alpha=ALPHA / parts_in_claim))
+    return needed
+
+
+def claim_seeds(parts: Sequence[Part], measured: Mapping[str, Any]) -> dict[str, int]:
+    """``part_seeds`` for every part of a claim."""
+    return {p.name: part_seeds(p, measured, len(parts)) for p in parts}

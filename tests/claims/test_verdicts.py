@@ -1,0 +1,189 @@
+"""Outcomes and verdicts of registry version 2: the tests behind each outcome, Holm, TOST,
+exact ties, the per-claim combination and controls (constructed inputs)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from repro.claims.verdicts import (
+    ABSENT,
+    BELOW_RESOLUTION,
+    CONTRADICTED,
+    INCONCLUSIVE,
+    NOT_REPRODUCED,
+    PARTIAL,
+    REPRODUCED,
+    SUPPORTED,
+    VERDICTS,
+    Comparison,
+    Decision,
+    Part,
+    PartResult,
+    apply_controls,
+    best_option,
+    combine,
+    decide_effects,
+    decide_parts,
+    equivalent,
+    holm,
+    one_sided_p,
+)
+
+
+def _part(name: str = "p", *, delta: float = 1.0, seeds: int = 2, resolution: float = 0.0,
+          kind: str = "effect") -> Part:
+    return Part(name=name, text="x > 0", needs=("x",),
+                compare=lambda m: [Comparison("", list(m["x"]), delta)],
+                smallest_effect_reason="test", resolution=resolution, seeds=seeds,
+                kind=kind)  # type: ignore[arg-type]
+
+
+def test_verdicts_list_all_five() -> None:
+    assert set(VERDICTS) == {REPRODUCED, PARTIAL, NOT_REPRODUCED, INCONCLUSIVE,
+                             "discrepancy in the paper"}
+    with pytest.raises(ValueError, match="unknown verdict"):
+        Decision("maybe", "")
+
+
+def test_one_sided_p_is_scipy_ttest_and_handles_no_spread() -> None:
+    values = [0.3, 1.2, 0.8, 0.5]
+    assert one_sided_p(values, 0.0, "greater") == pytest.approx(
+        stats.ttest_1samp(values, 0.0, alternative="greater").pvalue)
+    assert one_sided_p([2.0, 2.0, 2.0], 0.0, "greater") == 0.0
+    assert one_sided_p([2.0, 2.0, 2.0], 0.0, "less") == 1.0
+    assert one_sided_p([5.0], 0.0, "greater") == 1.0  # one seed supports nothing
+
+
+def test_equivalence_is_tost_at_five_percent_per_side() -> None:
+    values = [0.05, -0.02, 0.01, 0.03, -0.01]
+    low = stats.ttest_1samp(values, -0.1, alternative="greater").pvalue
+    high = stats.ttest_1samp(values, 0.1, alternative="less").pvalue
+    assert equivalent(values, 0.1) == (max(low, high) < 0.05)
+    assert equivalent(values, 0.1)
+    assert not equivalent(values, 0.01)
+
+
+def test_holm_steps_down() -> None:
+    assert holm([0.01, 0.04, 0.03], alpha=0.05) == [True, False, False]
+    assert holm([0.01, 0.02, 0.03], alpha=0.05) == [True, True, True]
+    assert holm([0.2, 0.001], alpha=0.05) == [False, True]
+
+
+def test_each_outcome_is_reachable() -> None:
+    def outcome(x: list[float], **kw: float) -> str:
+        return decide_parts([_part(**kw)], {"x": x})[0].outcome  # type: ignore[arg-type]
+
+    assert outcome([2.0, 2.2, 1.9]) == SUPPORTED
+    assert outcome([-2.0, -2.2, -1.9]) == CONTRADICTED
+    assert outcome([-2.0, -2.2, -1.9], seeds=10) == INCONCLUSIVE  # underpowered: not a refutation
+    assert outcome([0.01, -0.02, 0.0, 0.01, -0.01]) == ABSENT
+    assert outcome([0.01, -0.02, 0.0, 0.01, -0.01], seeds=10) == INCONCLUSIVE
+    assert outcome([3.0, -2.0, 0.5]) == INCONCLUSIVE
+    assert outcome([-1 / 256] * 3, resolution=1 / 256) == BELOW_RESOLUTION
+    assert outcome([0.0, 0.0, 0.0]) == BELOW_RESOLUTION  # identical arms, continuous measure
+    assert outcome([1.0]) == INCONCLUSIVE
+
+
+def test_missing_measurement_is_inconclusive_not_an_error() -> None:
+    result = decide_parts([_part()], {})[0]
+    assert result.outcome == INCONCLUSIVE and "x not recorded" in result.reason
+
+
+def test_non_inferiority_tests_against_minus_delta() -> None:
+    # quantised ties pass "not worse by δ"; a clear loss contradicts it
+    assert decide_parts([_part(kind="non-inferiority", delta=0.05, resolution=0.01)],
+                        {"x": [0.0, 0.0, 0.01, -0.01, 0.0]})[0].outcome == SUPPORTED
+    assert decide_parts([_part(kind="non-inferiority", delta=0.05)],
+                        {"x": [-0.3, -0.31, -0.29]})[0].outcome == CONTRADICTED
+
+
+def test_holm_applies_across_parts() -> None:
+    # each part alone passes at 0.025; with three parts Holm needs p ≤ 0.025/3 for the first
+    x = [0.9, 1.6, 1.3, 2.9]  # one-sided p ≈ 0.015
+    assert stats.ttest_1samp(x, 0, alternative="greater").pvalue < 0.025
+    parts = [_part("a"), _part("b"), _part("c")]
+    results = decide_parts(parts, {"x": x})
+    assert {r.outcome for r in results} != {SUPPORTED}
+    assert decide_parts([_part("a")], {"x": x})[0].outcome == SUPPORTED
+
+
+def test_best_option_exact_tie_is_below_resolution() -> None:
+    rows = {"claimed": [82.8, 78.1, 76.6], "tied": [82.8, 78.1, 76.6], "worse": [70.0, 66.0, 71.0]}
+    comparisons = best_option("claimed", rows, lower_is_better=False, fraction=0.035)
+    assert [c.label for c in comparisons] == ["vs tied", "vs worse"]
+    assert comparisons[0].differences == [0.0, 0.0, 0.0]
+    part = Part(name="best", text="", needs=("r",), smallest_effect_reason="",
+                compare=lambda m: best_option("claimed", m["r"], lower_is_better=False,
+                                              fraction=0.035), resolution=100 / 64)
+    result = decide_parts([part], {"r": rows})[0]
+    assert result.outcome == BELOW_RESOLUTION and "vs tied" in result.reason
+    clear = dict(rows, tied=[70.0, 66.0, 71.0])
+    assert decide_parts([part], {"r": clear})[0].outcome == SUPPORTED
+    with pytest.raises(ValueError, match="not measured"):
+        best_option("absent", rows, lower_is_better=True, fraction=0.1)
+
+
+@pytest.mark.parametrize(("outcomes", "verdict"), [
+    ((SUPPORTED, SUPPORTED), REPRODUCED),
+    ((SUPPORTED, INCONCLUSIVE), PARTIAL),
+    ((SUPPORTED, CONTRADICTED), PARTIAL),
+    ((ABSENT, CONTRADICTED), NOT_REPRODUCED),
+    ((ABSENT, ABSENT), NOT_REPRODUCED),
+    ((CONTRADICTED, INCONCLUSIVE), INCONCLUSIVE),
+    ((BELOW_RESOLUTION, ABSENT), INCONCLUSIVE),
+])
+def test_combine(outcomes: tuple[str, str], verdict: str) -> None:
+    assert combine([PartResult(f"p{i}", o, "") for i, o in enumerate(outcomes)]) == verdict
+
+
+def test_a_non_inferiority_part_alone_never_makes_a_claim_partial() -> None:
+    parts = [_part("effect"), _part("tie", kind="non-inferiority")]
+    results = [PartResult("effect", ABSENT, ""), PartResult("tie", SUPPORTED, "")]
+    assert combine(results, parts) == NOT_REPRODUCED
+    results[0] = PartResult("effect", INCONCLUSIVE, "")
+    assert combine(results, parts) == INCONCLUSIVE
+
+
+def test_inconclusive_reason_names_the_part_and_why() -> None:
+    decision = decide_effects([_part("a"), _part("b", seeds=50)],
+                              {"x": [1.5, -1.4, 0.3]})
+    assert decision.verdict == INCONCLUSIVE
+    assert "b: inconclusive (power: 3 seeds of the 50" in decision.reason
+    assert decision.checks == {"a": INCONCLUSIVE, "b": INCONCLUSIVE}
+
+
+def test_controls_and_gates_make_a_claim_inconclusive() -> None:
+    good = Decision(REPRODUCED, "fine")
+    assert apply_controls(good, {"positive": good, "null": None}) is good
+    failed = apply_controls(good, {"positive": Decision(INCONCLUSIVE, ""), "null": None})
+    assert failed.verdict == INCONCLUSIVE and "cannot see an effect" in failed.reason
+    fired = apply_controls(good, {"positive": None, "null": Decision(PARTIAL, "")})
+    assert fired.verdict == INCONCLUSIVE and "null control fired" in fired.reason
+    gated = apply_controls(good, {}, {"denoiser_fid_below_1": False})
+    assert gated.verdict == INCONCLUSIVE and "denoiser_fid_below_1" in gated.reason
+
+
+def test_null_rate_of_a_single_part_is_alpha() -> None:
+    rng = np.random.default_rng(12345)
+    hits = sum(decide_parts([_part()], {"x": rng.standard_normal(3).tolist()})[0].outcome
+               == SUPPORTED for _ in range(2000))
+    assert 0.013 < hits / 2000 < 0.038  # one-sided α = 0.025
+
+
+def test_a_part_below_resolution_does_not_loosen_holm_for_the_others() -> None:
+    x = [0.9, 1.6, 1.3, 2.9]  # one-sided p ≈ 0.015: passes alone, not as the first of two
+    tied = Part(name="tied", text="", needs=("y",), smallest_effect_reason="", resolution=0.5,
+                compare=lambda m: [Comparison("", list(m["y"]), 1.0)])
+    results = decide_parts([_part("a"), tied], {"x": x, "y": [0.5, 0.5, 0.5, 0.5]})
+    assert [r.outcome for r in results] == [INCONCLUSIVE, BELOW_RESOLUTION]
+
+
+def test_a_tie_does_not_hide_a_better_option() -> None:
+    rows = {"claimed": [80.0, 78.0, 76.0], "tied": [80.0, 78.0, 76.0],
+            "better": [90.0, 88.5, 86.0]}
+    part = Part(name="best", text="", needs=("r",), smallest_effect_reason="",
+                compare=lambda m: best_option("claimed", m["r"], lower_is_better=False,
+                                              fraction=0.035), resolution=100 / 64)
+    assert decide_parts([part], {"r": rows})[0].outcome == CONTRADICTED
