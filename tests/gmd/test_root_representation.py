@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 import torch
 
-from repro.gmd import library as gmd
 from repro.gmd import root_representation as R
+from repro.gmd.models import GMDModelSpec, TrainedGMD
+from repro.gmd.windows import DataConfig, FeatureSpace
 from repro.motion.features import FEATURE_DIM, relative_to_absolute_root
 
 
@@ -90,8 +91,8 @@ def _task(n: int = 3, frames: int = 16) -> R.LocationTask:
                           frames - 1)
 
 
-def _space(representation: str) -> gmd.FeatureSpace:
-    return gmd.FeatureSpace("trajectory", representation, np.array([0.1, 0.2, -0.3, 0.9]),
+def _space(representation: str) -> FeatureSpace:
+    return FeatureSpace("trajectory", representation, np.array([0.1, 0.2, -0.3, 0.9]),
                             np.array([0.5, 2.0, 1.5, 0.1]))
 
 
@@ -156,9 +157,9 @@ def test_impute_locations_with_untrained_models() -> None:
     models = {}
     for rep, long in (("abs", "absolute"), ("rel", "relative")):
         spec = settings.trajectory_spec(rep, 0)
-        spec = spec.replace(diffusion_steps=10, data=gmd.DataConfig(frames=16,
+        spec = spec.replace(diffusion_steps=10, data=DataConfig(frames=16,
                                                                    representation=long))
-        models[rep] = gmd.TrainedGMD(spec.build_model().eval(), spec.diffusion(),
+        models[rep] = TrainedGMD(spec.build_model().eval(), spec.diffusion(),
                                      _space(long), spec)
     runs = R.impute_locations(models, task, seed=0)
     assert set(runs) == set(R.METHODS)
@@ -172,7 +173,7 @@ def test_settings_full_mode_uses_the_library_default_trajectory_model() -> None:
     full = R.Settings.for_mode(quick=False)
     assert full.seeds >= 3
     spec = full.trajectory_spec("abs", 0)
-    assert spec == gmd.GMDModelSpec(task="trajectory", prediction="epsilon", seed=0)
+    assert spec == GMDModelSpec(task="trajectory", prediction="epsilon", seed=0)
     motion = full.motion_spec("rel", 1)
     assert motion.text_conditioned and motion.prediction == "x0"
     assert motion.data.representation == "relative"

@@ -25,17 +25,9 @@ import torch
 from torch import Tensor, nn
 
 from repro.gmd.emphasis import EmphasisProjection
-from repro.gmd.library import (
-    DataConfig,
-    FeatureSpace,
-    GMDModelSpec,
-    MotionWindows,
-    TrainedGMD,
-    default_stop_step,
-    load_or_train_gmd,
-    sample,
-    trajectory_loss_weights,
-)
+from repro.gmd.guidance import default_stop_step, sample
+from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd, trajectory_loss_weights
+from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows
 from repro.infra import cache
 from repro.motion.features import FEATURE_DIM, FPS
 from repro.motion.quaternion import qinv, qrot, quat_about_y

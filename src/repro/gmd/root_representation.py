@@ -36,7 +36,10 @@ from torch import Tensor
 from repro.core.diffusion import Guidance, Imputation
 from repro.core.stats import t_interval
 from repro.core.tables import interval_text, markdown_table
-from repro.gmd import library as gmd
+from repro.gmd.guidance import GMD_GUIDANCE_STRENGTH, sample
+from repro.gmd.measurements import jitter_of
+from repro.gmd.models import GMDModelSpec, TrainedGMD
+from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows
 from repro.infra.storage import read_json
 from repro.models.evaluator import Evaluator, evaluate_generated
 from repro.motion.features import (
@@ -342,7 +345,7 @@ class LocationTask:
         return int(self.targets.shape[0])
 
 
-def location_task(test_windows: gmd.MotionWindows, n: int, *, seed: int) -> LocationTask:
+def location_task(test_windows: MotionWindows, n: int, *, seed: int) -> LocationTask:
     """n waypoint/goal pairs from n test windows drawn with ``seed``: the waypoint frame is
     the middle frame (frames/2 − 1), the goal frame the last."""
     frames = test_windows.frames
@@ -357,7 +360,7 @@ def location_task(test_windows: gmd.MotionWindows, n: int, *, seed: int) -> Loca
     return LocationTask(targets.astype(np.float32), waypoint, frames - 1)
 
 
-def location_loss(space: gmd.FeatureSpace, task: LocationTask) -> Callable[[Tensor], Tensor]:
+def location_loss(space: FeatureSpace, task: LocationTask) -> Callable[[Tensor], Tensor]:
     """G(x̂0) = Σ_{i ∈ {waypoint, goal}} ‖p_xz(i) − target_i‖₁ (m) per sample: GMD's L1 goal
     function on the un-normalised root of x̂0, summed over the two target frames."""
     frames = list(task.frames)
@@ -370,18 +373,18 @@ def location_loss(space: gmd.FeatureSpace, task: LocationTask) -> Callable[[Tens
     return goal
 
 
-def location_errors(space: gmd.FeatureSpace, x: Tensor, task: LocationTask) -> np.ndarray:
+def location_errors(space: FeatureSpace, x: Tensor, task: LocationTask) -> np.ndarray:
     """Euclidean distance (m) of the root x/z to each target, (n, 2): waypoint, goal."""
     with torch.no_grad():
         position = space.root_xz(x.detach())[:, list(task.frames)].cpu().numpy()
     return np.linalg.norm(position - task.targets, axis=-1)
 
 
-def _normalised(space: gmd.FeatureSpace, channel: int, values: np.ndarray) -> np.ndarray:
+def _normalised(space: FeatureSpace, channel: int, values: np.ndarray) -> np.ndarray:
     return (values - space.mean[channel]) / space.std[channel]
 
 
-def abs_location_imputation(space: gmd.FeatureSpace, task: LocationTask,
+def abs_location_imputation(space: FeatureSpace, task: LocationTask,
                             frames: int) -> Imputation:
     """abs: the root x/z entries (channels 1, 2) at the two target frames *are* the targets —
     replace them (GMD's ε-model imputation: x_{t−1} ← q_sample(target, t−1) on the mask)."""
@@ -411,7 +414,7 @@ def straight_line_velocities(task: LocationTask, frames: int) -> np.ndarray:
     return velocity
 
 
-def rel_velocity_replacement(space: gmd.FeatureSpace, task: LocationTask,
+def rel_velocity_replacement(space: FeatureSpace, task: LocationTask,
                              frames: int) -> Imputation:
     """rel: there is no entry holding p_i. A replacement that guarantees p_i must fix every
     entry p_i depends on — ω_s and v_s for all s < i — so here channels 0–2 of *every* frame
@@ -436,7 +439,7 @@ class ImputationRun:
     method: str
     samples: Tensor
     location_error: np.ndarray        # (n, 2) m: waypoint, goal
-    root_acceleration: float          # m/s², mean over frames (gmd.jitter_of, root)
+    root_acceleration: float          # m/s², mean over frames (jitter_of, root)
     path_change: float                # m, mean ‖p_t − p_t(unguided, same seed)‖ over all t
     path_change_off_target: float     # m, the same over frames ≥ 3 away from both targets
 
@@ -452,8 +455,8 @@ class ImputationRun:
                 "path_change_off_target": self.path_change_off_target}
 
 
-def impute_locations(models: dict[str, gmd.TrainedGMD], task: LocationTask, *, seed: int,
-                     strength: float = gmd.GMD_GUIDANCE_STRENGTH) -> dict[str, ImputationRun]:
+def impute_locations(models: dict[str, TrainedGMD], task: LocationTask, *, seed: int,
+                     strength: float = GMD_GUIDANCE_STRENGTH) -> dict[str, ImputationRun]:
     """Every method of :data:`METHODS` from the same seed (same x_T and per-step noise), with
     GMD's stop step (guidance and imputation act while t ≥ 2 % of T).
 
@@ -479,7 +482,7 @@ def impute_locations(models: dict[str, gmd.TrainedGMD], task: LocationTask, *, s
                          trained.space, task, frames)}}
         unguided_path = None
         for method, hook in hooks.items():
-            x = gmd.sample(trained, task.n, seed=seed, **hook)
+            x = sample(trained, task.n, seed=seed, **hook)
             with torch.no_grad():
                 path = trained.space.root_xz(x).cpu().numpy()
             if unguided_path is None:
@@ -490,7 +493,7 @@ def impute_locations(models: dict[str, gmd.TrainedGMD], task: LocationTask, *, s
                 away[max(frame - 2, 0):frame + 3] = False
             runs[method] = ImputationRun(
                 method, x.cpu(), location_errors(trained.space, x, task),
-                float(gmd.jitter_of(trained, x, part="root").acceleration),
+                float(jitter_of(trained, x, part="root").acceleration),
                 float(change.mean()), float(change[:, away].mean()))
     return runs
 
@@ -556,7 +559,7 @@ def _window_labels(root: Path, window_id: str, frames: int) -> set[str]:
     return window_concepts(read_json(path), offset + int(start), frames)
 
 
-def evaluation_set(test_windows: gmd.MotionWindows, n: int, *, seed: int) -> EvaluationSet:
+def evaluation_set(test_windows: MotionWindows, n: int, *, seed: int) -> EvaluationSet:
     """n relative-root test windows drawn with ``seed`` (in window order), one caption each."""
     if test_windows.config.representation != "relative":
         raise ValueError("the evaluation set is built from relative-root test windows")
@@ -572,7 +575,7 @@ def evaluation_set(test_windows: gmd.MotionWindows, n: int, *, seed: int) -> Eva
     return EvaluationSet(ids, captions, features.astype(np.float32), truth)
 
 
-def generate_for_captions(trained: gmd.TrainedGMD, captions: Sequence[str], *, seed: int,
+def generate_for_captions(trained: TrainedGMD, captions: Sequence[str], *, seed: int,
                           batch_size: int = 128) -> np.ndarray:
     """One sample per caption, returned as relative-root features (n, frames, 263) (an abs
     model's samples are converted with ``absolute_to_relative_root``). Batch k uses the
@@ -580,7 +583,7 @@ def generate_for_captions(trained: gmd.TrainedGMD, captions: Sequence[str], *, s
     out = []
     for k, start in enumerate(range(0, len(captions), batch_size)):
         chunk = list(captions[start:start + batch_size])
-        x = gmd.sample(trained, len(chunk), seed=10_000 * seed + k, text=chunk)
+        x = sample(trained, len(chunk), seed=10_000 * seed + k, text=chunk)
         with torch.no_grad():
             out.append(trained.space.relative_features(x).cpu().numpy())
     return np.concatenate(out).astype(np.float32)
@@ -670,22 +673,22 @@ class Settings:
                    trajectory_steps=1000, motion_steps=MOTION_STEPS, sensitivity_clips=64,
                    targets=64, evaluation_windows=256, evaluator_steps=500)
 
-    def data(self, representation: str, data_dir: str | None = None) -> gmd.DataConfig:
+    def data(self, representation: str, data_dir: str | None = None) -> DataConfig:
         """48-frame windows in ``representation`` ("rel"/"abs" or gmd's long names)."""
         long = {"rel": "relative", "abs": "absolute"}.get(representation, representation)
-        return gmd.DataConfig(data_dir=data_dir, stand_in_clips=self.stand_in_clips,
+        return DataConfig(data_dir=data_dir, stand_in_clips=self.stand_in_clips,
                               stride=self.stride, representation=long)
 
     def trajectory_spec(self, representation: str, seed: int,
-                        data_dir: str | None = None) -> gmd.GMDModelSpec:
-        return gmd.GMDModelSpec(task="trajectory", prediction="epsilon",
+                        data_dir: str | None = None) -> GMDModelSpec:
+        return GMDModelSpec(task="trajectory", prediction="epsilon",
                                 data=self.data(representation, data_dir), seed=seed,
                                 diffusion_steps=self.diffusion_steps,
                                 train_steps=self.trajectory_steps)
 
     def motion_spec(self, representation: str, seed: int,
-                    data_dir: str | None = None) -> gmd.GMDModelSpec:
-        return gmd.GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
+                    data_dir: str | None = None) -> GMDModelSpec:
+        return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
                                 data=self.data(representation, data_dir), seed=seed,
                                 diffusion_steps=self.diffusion_steps,
                                 train_steps=self.motion_steps)
@@ -814,7 +817,7 @@ def plot_sensitivity(result: SensitivityResult, clip: np.ndarray,
     return fig
 
 
-def plot_imputation(models: dict[str, gmd.TrainedGMD], runs: dict[str, ImputationRun],
+def plot_imputation(models: dict[str, TrainedGMD], runs: dict[str, ImputationRun],
                     task: LocationTask, samples: int = 4) -> Figure:
     """Top-down root paths of a few samples of every method, the targets marked."""
     import matplotlib.pyplot as plt
