@@ -1,0 +1,198 @@
+"""The figures of the GMD notebooks (01, 02, 03, 06): measured values in, a matplotlib Figure out.
+
+Each function draws what a notebook measured (nothing is computed here that a verdict reads);
+the notebook saves the figure with ``repro.motion.plotting.save_figure``.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import torch
+
+from repro.gmd.models import TrainedGMD
+from repro.gmd.root_representation import (
+    METHODS,
+    ROOT_PARAMETERS,
+    ImputationRun,
+    LocationTask,
+    SensitivityResult,
+    SensitivitySetup,
+    global_root_xz,
+    root_jacobian,
+)
+from repro.gmd.table_b1 import PAPER_TABLE_B1, TABLE_METRICS
+from repro.gmd.windows import short_label
+from repro.motion.features import relative_to_absolute_root
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+
+# ----------------------------------------------------------- notebook 02: root representation
+
+def plot_representations(clip: np.ndarray, setup: SensitivitySetup, title: str) -> Figure:
+    """One clip in both representations (root channels over time) and its top-down path
+    after the early-frame perturbation of :class:`SensitivitySetup`, rel vs abs."""
+    import matplotlib.pyplot as plt
+
+    rel = np.asarray(clip, dtype=np.float64)[: setup.window]
+    absolute = relative_to_absolute_root(rel)
+    frames = np.arange(len(rel))
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
+    axes[0].plot(frames, rel[:, 0], label="ω (half-angle/frame)")
+    axes[0].plot(frames, rel[:, 1], label="v_x (m/frame)")
+    axes[0].plot(frames, rel[:, 2], label="v_z (m/frame)")
+    axes[0].set_title("rel: root entries 0–2", fontsize=9)
+    axes[1].plot(frames, absolute[:, 0], label="a (half-angle)")
+    axes[1].plot(frames, absolute[:, 1], label="x (m)")
+    axes[1].plot(frames, absolute[:, 2], label="z (m)")
+    axes[1].set_title("abs: root entries 0–2", fontsize=9)
+    for ax in axes[:2]:
+        ax.axvline(setup.early_frame, color="grey", ls=":", lw=1)
+        ax.set_xlabel("frame")
+        ax.legend(fontsize=7)
+    delta = np.asarray(setup.deltas()["both"])
+    path = global_root_xz(torch.from_numpy(rel), "relative").numpy()
+    moved_rel = rel.copy()
+    moved_rel[setup.early_frame, ROOT_PARAMETERS] += delta
+    moved_abs = absolute.copy()
+    moved_abs[setup.early_frame, ROOT_PARAMETERS] += delta
+    path_rel = global_root_xz(torch.from_numpy(moved_rel), "relative").numpy()
+    path_abs = global_root_xz(torch.from_numpy(moved_abs), "absolute").numpy()
+    ax = axes[2]
+    ax.plot(path[:, 0], path[:, 1], "k-", lw=2, label="original")
+    ax.plot(path_rel[:, 0], path_rel[:, 1], "-", color="tab:red", label="perturbed, rel")
+    ax.plot(path_abs[:, 0], path_abs[:, 1], "--", color="tab:blue", label="perturbed, abs")
+    ax.plot(*path[setup.early_frame], "o", color="grey", ms=5, label=f"frame {setup.early_frame}")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(fontsize=7)
+    ax.set_title("top-down root path", fontsize=9)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def plot_sensitivity(result: SensitivityResult, clip: np.ndarray,
+                     real: SensitivityResult | None = None) -> Figure:
+    """(a) mean displacement against the frame gap, rel (rotation, linear, both) and abs;
+    (b, c) ‖∂p_t/∂(root entries of frame s)‖_F for one clip, rel and abs."""
+    import matplotlib.pyplot as plt
+
+    setup = result.setup
+    gaps = setup.gaps
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+    ax = axes[0]
+    styles = {"rotation": ("tab:orange", "-"), "linear": ("tab:green", "-"),
+              "both": ("tab:red", "-")}
+    for name, (colour, style) in styles.items():
+        ax.plot(gaps, result.displacement["relative"][name].mean(axis=0), style, color=colour,
+                label=f"rel, {name}")
+    ax.plot(gaps, result.displacement["absolute"]["both"].mean(axis=0), "o--", color="tab:blue",
+            ms=3, label="abs, both")
+    if real is not None:
+        ax.plot(gaps, real.displacement["relative"]["both"][0], ":", color="black",
+                label="rel, both (real clip 012314)")
+    ax.axvspan(setup.late_gaps[0], setup.late_gaps[-1], color="grey", alpha=0.15,
+               label="late frames")
+    ax.set_xlabel(f"frame gap t − {setup.early_frame}")
+    ax.set_ylabel("root displacement (m)")
+    ax.set_title(f"δω = {setup.delta_rotation}, δv = {setup.delta_linear} at frame "
+                 f"{setup.early_frame} (mean of {len(result.clip_ids)} clips)", fontsize=9)
+    ax.legend(fontsize=7)
+    rel = np.asarray(clip, dtype=np.float64)[: setup.window]
+    for ax, rep, x in ((axes[1], "relative", rel),
+                       (axes[2], "absolute", relative_to_absolute_root(rel))):
+        jacobian = np.linalg.norm(root_jacobian(x, rep), axis=(1, 3))
+        image = ax.imshow(jacobian, origin="lower", cmap="magma", aspect="auto")
+        fig.colorbar(image, ax=ax, fraction=0.046)
+        ax.set_xlabel("perturbed frame s")
+        ax.set_ylabel("position frame t")
+        ax.grid(False)
+        ax.set_title(f"{short_label(rep)}: ‖∂p_t / ∂(entries 0–2 of frame s)‖_F", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def plot_imputation(models: dict[str, TrainedGMD], runs: dict[str, ImputationRun],
+                    task: LocationTask, samples: int = 4) -> Figure:
+    """Top-down root paths of a few samples of every method, the targets marked."""
+    import matplotlib.pyplot as plt
+
+    by_short_label = {short_label(rep): rep for rep in models}
+    fig, axes = plt.subplots(2, 3, figsize=(13, 8.5))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, method in zip(axes.ravel(), METHODS, strict=True):
+        trained = models[by_short_label[method.split("_")[0]]]
+        with torch.no_grad():
+            paths = trained.space.root_xz(runs[method].samples[:samples]).numpy()
+        for k, path in enumerate(paths):
+            colour = colours[k % len(colours)]
+            ax.plot(path[:, 0], path[:, 1], "-", color=colour, lw=1.3)
+            ax.plot(*path[task.waypoint_frame], "o", color=colour, ms=4)
+            ax.plot(*path[-1], ">", color=colour, ms=5)
+            for target, marker in zip(task.targets[k], ("x", "*"), strict=True):
+                ax.plot(*target, marker, color=colour, ms=10, mew=2)
+        error = runs[method].mean_error
+        ax.set_title(f"{method.replace('_', ' ')}: error {error:.3f} m", fontsize=9)
+        ax.set_aspect("equal", adjustable="datalim")
+    for ax in axes[-1]:
+        ax.set_xlabel("x (m)")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("z (m)")
+    fig.suptitle(f"waypoint (×, frame {task.waypoint_frame}) and goal (*, last frame); "
+                 "dots/arrows: where the samples are at those frames", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def plot_method_errors(per_seed: dict[str, list[float]], ylabel: str, title: str) -> Figure:
+    """Per-method bars (mean over seeds) with every seed's value as a dot."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 3.6))
+    names = list(per_seed)
+    for i, name in enumerate(names):
+        values = np.asarray(per_seed[name])
+        ax.bar(i, values.mean(), color="tab:blue" if name.startswith("abs") else "tab:red",
+               alpha=0.6)
+        ax.plot(np.full(len(values), i), values, "k.", ms=6)
+    ax.set_xticks(range(len(names)), [n.replace("_", "\n") for n in names], fontsize=8)
+    ax.set_ylabel(ylabel)
+    ax.set_yscale("log")
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def plot_table_b1(real: dict[str, float], rows: dict[str, list[dict[str, float]]]) -> Figure:
+    """Table B.1 as panels (FID, R@3, Diversity, concept recall): per-seed dots, mean bars,
+    the stand-in real row as a dashed line; the paper's Ours rel → abs values in each title
+    (HumanML3D, its own evaluator: for the direction only)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 4, figsize=(14, 3.8))
+    labels = {"fid": "FID ↓", "r_precision_top3": "R-precision top-3 ↑",
+              "diversity": "Diversity →", "concept_recall": "concept recall ↑"}
+    paper_index = {"fid": 0, "r_precision_top3": 1, "diversity": 2}
+    for ax, metric in zip(axes, TABLE_METRICS, strict=True):
+        for i, (rep, colour) in enumerate((("relative", "tab:red"), ("absolute", "tab:blue"))):
+            values = np.asarray([r[metric] for r in rows[rep]])
+            ax.bar(i, values.mean(), color=colour, alpha=0.6, label=f"ours {short_label(rep)}")
+            ax.plot(np.full(len(values), i), values, "k.", ms=6)
+        ax.axhline(real[metric], color="black", ls="--", lw=1, label="real (stand-in)")
+        title = labels[metric]
+        if metric in paper_index:
+            k = paper_index[metric]
+            title += (f"\npaper Ours: rel {PAPER_TABLE_B1['Ours (rel)'][k]:g} → abs "
+                      f"{PAPER_TABLE_B1['Ours (abs)'][k]:g} (real {PAPER_TABLE_B1['Real'][k]:g})")
+        else:
+            title += "\n(not in the paper)"
+        ax.set_xticks([0, 1], ["rel", "abs"])
+        ax.set_title(title, fontsize=9)
+    axes[0].legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    return fig
