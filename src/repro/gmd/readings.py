@@ -73,7 +73,8 @@ def reading_b2(per_method: dict[str, list[dict[str, float]]], *, seeds: Sequence
         "locations with {abs_imp} m against {rel_g} m for guiding a rel model (abs closer on "
         "{k} of {n} seeds). Imputation acts only while t ≥ the stop step, so the last free "
         "steps can still move the root (waypoint {wp:.3f} m, goal {goal:.3f} m). abs "
-        "imputation's root acceleration is {acc:.2f}× the unguided samples'{jumps}. The rel velocity replacement reaches the targets to {rvr} m only "
+        "imputation's root acceleration is {acc:.2f}× the unguided samples'{jumps}. The rel "
+        "velocity replacement reaches the targets to {rvr} m only "
         "by dictating the whole path — straight legs, no turning, one of the infinitely many "
         "velocity sets that satisfy the constraint. The abs guidance control ends "
         "{absg} m from the targets against {absu} m unguided{control}",
