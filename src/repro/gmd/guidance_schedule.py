@@ -29,13 +29,15 @@ from torch import Tensor
 from repro.core.diffusion import Guidance, Imputation
 from repro.gmd.guidance import goal_error, goal_reaching_loss, sample
 from repro.gmd.measurements import jitter_of
-from repro.gmd.models import TrainedGMD
+from repro.gmd.models import GMDModelSpec, TrainedGMD
 from repro.gmd.windows import FeatureSpace
+from repro.gmd.x0_vs_eps import Settings as ModelSettings
 
 __all__ = [
     "GMD_NUM_TIMESTEPS",
     "ObstacleArm",
     "ObstacleSet",
+    "Settings",
     "StrengthSweep",
     "goal_keypoint_imputation",
     "model_stop_step",
@@ -362,3 +364,52 @@ def obstacle_experiment(trained: TrainedGMD, targets_xz: np.ndarray,
     return [ObstacleArm(label, s, w, p2p, samples[g], error[g], depth[g],
                         float(jitter_of(trained.space, samples[g]).jerk))
             for g, (label, s, w, p2p) in enumerate(plan)]
+
+
+# ---------------------------------------------------------------------------------------------
+# Notebook 06's settings
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Every grid and size of notebook 06, fixed before any verdict was seen.
+
+    The trajectory ε model is notebook 01's (``x0_vs_eps.Settings``: same spec, so the cached
+    weights are shared). ``strengths`` draw the curve, ``rule_strengths`` are the claimed range
+    the rule reads; ``gmd_stops`` are GMD's stop steps (of T = 1000) mapped to the model's T by
+    :func:`model_stop_step`; the stop sweep runs at ``stop_sweep_strengths``. Quick mode
+    shrinks the model and the goal counts (a test of the code, never a result).
+    """
+
+    quick: bool
+    seeds: int
+    goals: int
+    obstacle_goals: int
+    model: ModelSettings
+    strengths: tuple[int, ...] = (0, 1, 3, 10, 30, 100, 150, 200, 300, 1000)
+    rule_strengths: tuple[int, ...] = (100, 150, 200)
+    #: GMD's s, at which the rule compares the stop steps.
+    gmd_strength: int = 100
+    gmd_stops: tuple[int, ...] = (0, 20, 50, 200)
+    #: GMD's stop step t = 20 (of 1000).
+    gmd_stop: int = 20
+    stop_sweep_strengths: tuple[int, ...] = (3, 100)
+    obstacle_weight: float = 1.0
+    #: goals whose guided paths the example figures draw.
+    goals_shown: int = 6
+
+    @classmethod
+    def for_mode(cls, quick: bool, *, seeds: int = 3) -> Settings:
+        model = ModelSettings.for_mode(quick, seeds=seeds)
+        if quick:
+            return cls(quick=True, seeds=seeds, goals=4, obstacle_goals=4, model=model)
+        return cls(quick=False, seeds=seeds, goals=32, obstacle_goals=16, model=model)
+
+    def spec(self, data_dir: str | None = None) -> GMDModelSpec:
+        """Notebook 01's trajectory ε model (seed 0; ``replace(seed=…)`` per seed)."""
+        return self.model.spec("trajectory", "epsilon", self.model.data(data_dir))
+
+    def stops(self) -> dict[int, int]:
+        """{GMD stop step: the model's stop step} for ``gmd_stops``."""
+        return {g: model_stop_step(g, self.model.diffusion_steps) for g in self.gmd_stops}
