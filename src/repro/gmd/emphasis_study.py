@@ -49,7 +49,8 @@ TRAIN_STEPS = 1000
 __all__ = [
     "IMPUTED_FEATURES", "METHODS", "TRAIN_STEPS", "ImputedX0", "ProjectedFeatureSpace",
     "Settings", "Targets", "Variant", "coherence", "draw_targets", "from_normalised",
-    "load_or_train_variant", "measure_imputed", "measure_text_to_motion", "project_windows",
+    "ProjectionSettings", "load_or_train_variant", "measure_imputed", "measure_text_to_motion",
+    "project_windows",
     "Results", "TABLE_B1_VARIANTS", "root_velocity_disagreement", "run_experiment",
     "sample_with_trajectory", "text_metrics", "to_normalised",
     "trajectory_error", "window_evaluator",
@@ -433,3 +434,25 @@ def run_experiment(settings: Settings, base: GMDModelSpec, train: MotionWindows,
                 f"skating {measured['foot_skating']:.3f} m/s")
     return Results(list(seeds), variants, imputed, text, truth, samples, first_targets,
                    seconds, models)
+
+
+@dataclass(frozen=True)
+class ProjectionSettings:
+    """The sample sizes of notebook 03's projection checks (GMD-C1…C3), fixed before the run:
+    N(0, 1) vectors per simulated point, frame pairs for the distance ratios and frames for
+    the inverse's round trip (per matrix), and the κ scan (matrix seeds, frames per seed).
+    Quick mode shrinks them (a test of the code, never a result)."""
+
+    simulation_samples: int
+    distance_pairs: int
+    inverse_frames: int
+    kappa_scan_seeds: int
+    kappa_scan_frames: int
+
+    @classmethod
+    def for_mode(cls, quick: bool) -> ProjectionSettings:
+        if quick:
+            return cls(simulation_samples=2000, distance_pairs=2000, inverse_frames=1000,
+                       kappa_scan_seeds=5, kappa_scan_frames=500)
+        return cls(simulation_samples=10000, distance_pairs=10000, inverse_frames=5000,
+                   kappa_scan_seeds=20, kappa_scan_frames=1000)

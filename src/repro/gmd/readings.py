@@ -13,7 +13,7 @@ import numpy as np
 
 from repro.core.tables import interval_text, render
 
-__all__ = ["reading_a3", "reading_b1", "reading_b2", "reading_b3", "reading_clamp"]
+__all__ = ["reading_a3", "reading_b1", "reading_b2", "reading_b3", "reading_c4", "reading_clamp"]
 
 
 def _either(condition: bool, when_true: str, when_false: str) -> str:
@@ -178,3 +178,72 @@ def reading_clamp(errors: dict[str, list[float]], *, bound: float, unguided_eps:
             "in ours.",
             "Which model reaches the goals better depends on the clamp bound here, so the "
             "goal-error half of the verdict hinges on our one free choice of bound."))
+
+
+# ----------------------------------------------------------------------------- notebook 03
+
+def reading_c4(*, skating: dict[str, dict[str, list[float]]], data_skating: float,
+               final_losses: dict[str, float], train_steps: int, kappas: dict[int, float],
+               emphasis_skating_c10: Sequence[float]) -> str:
+    """GMD-C4: what the budget buys and how far the conditioning of P goes with skating.
+    ``skating[method][str(value)]``: per-seed foot skating (``Results.per_value``);
+    ``final_losses``: the first seed's final training loss per variant; ``kappas``: κ(P) at
+    c = 10 per seed, ``emphasis_skating_c10`` the Emphasis c = 10 models' skating per seed."""
+    def span(method: str) -> tuple[float, float]:
+        values = [v for per_seed in skating[method].values() for v in per_seed]
+        return min(values), max(values)
+
+    values = list(skating["emphasis"])
+    gaps = {v: float(np.mean(skating["loss_scaling"][v]) - np.mean(skating["emphasis"][v]))
+            for v in values}
+    worse_everywhere = all(gap < 0 for gap in gaps.values())
+    better_everywhere = all(gap > 0 for gap in gaps.values())
+    first, last = values[0], values[-1]
+    shrinks = abs(gaps[last]) < abs(gaps[first])
+    loss_lo, loss_hi = span("loss_scaling")
+    emph_lo, emph_hi = span("emphasis")
+    seeds = list(kappas)
+    worst = max(seeds, key=kappas.get)
+    worst_skating = emphasis_skating_c10[seeds.index(worst)]
+    others = [s for i, s in enumerate(emphasis_skating_c10) if seeds[i] != worst]
+    if worse_everywhere:
+        direction = "Emphasis skates more than loss scaling at every matched value on average"
+    elif better_everywhere:
+        direction = "Emphasis skates less than loss scaling at every matched value on average"
+    else:
+        direction = "neither method skates less at every matched value"
+    kappa_sentence = "" if not others else render(
+        " In this run the seed with the largest κ at c = 10 is seed {s} (κ = {k:.3g}, against "
+        "{k_min:.3g} for the smallest); its Emphasis c = 10 model skates {sk:.3g} m/s against "
+        "{o_lo:.3g}–{o_hi:.3g} m/s for the other seeds'.",
+        s=worst, k=kappas[worst], k_min=min(kappas.values()), sk=worst_skating,
+        o_lo=min(others), o_hi=max(others))
+    return render(
+        "### Reading the GMD-C4 numbers\n\n"
+        "Two things dominate these tiny models, and both should be kept in mind before reading "
+        "the verdict as evidence about GMD:\n\n"
+        "1. **Training budget.** Each model sees {steps} × 64 windows; the filmstrips show "
+        "what that buys. In this run the first seed's models ended with a training loss of "
+        "{l_lo:.2f}–{l_hi:.2f} (the data's variance is 1). Loss-scaling samples skate "
+        "{a_lo:.2g}–{a_hi:.2g} m/s and Emphasis samples {b_lo:.2g}–{b_hi:.2g} m/s, against "
+        "{data:.2g} m/s in the data; {direction} (loss scaling − Emphasis: {g_first:+.2g} m/s "
+        "at v = {v_first}, {g_last:+.2g} m/s at v = {v_last}; the gap {trend} as the value "
+        "grows). Both kinds of model are far from GMD's, so this is evidence about small, "
+        "short-trained models, not about GMD's.\n"
+        "2. **Conditioning of the Emphasis matrix.** A square N(0, 1) matrix has a few tiny "
+        "singular values (GMD-C2; here κ(P) at c = 10 is {k_all} over the seeds). A "
+        "unit-variance signal along the data direction v_i reaches the projected space scaled "
+        "by σ_i, so (a) the projected MSE "
+        "weighs errors along v_i by σ_i² and (b) the diffusion noise hides v_i until "
+        "σ_i² ᾱ_t/(1 − ᾱ_t) ≥ 1. The cell below counts the data directions that stay below "
+        "SNR 1 even at the last sampling step (`emphasis.drowned_directions`): the sampler "
+        "never observes them, and the model has to infer them from the rest; the "
+        "un-projection P⁻¹ (gain up to 1/σ_min) turns its errors along them into broken "
+        "bodies. κ varies a lot between draws (the table below puts κ and skating per seed "
+        "side by side).{kappa} An orthogonal matrix (√263·Q) has no tiny singular values — "
+        "and GMD's paper does not mention this trade-off.",
+        steps=train_steps, l_lo=min(final_losses.values()), l_hi=max(final_losses.values()),
+        a_lo=loss_lo, a_hi=loss_hi, b_lo=emph_lo, b_hi=emph_hi, data=data_skating,
+        direction=direction, g_first=gaps[first], v_first=first, g_last=gaps[last],
+        v_last=last, trend=_either(shrinks, "shrinks", "does not shrink"),
+        kappa=kappa_sentence, k_all=", ".join(f"{k:.3g}" for k in kappas.values()))
