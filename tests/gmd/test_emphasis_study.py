@@ -113,3 +113,11 @@ def test_variants_follow_gmds_configs() -> None:
     assert emphasis.label == "Emphasis c=5"
     with pytest.raises(ValueError):
         Variant("both", 2)  # type: ignore[arg-type]
+
+
+def test_projection_settings_shrink_in_quick_mode() -> None:
+    from repro.gmd.emphasis_study import ProjectionSettings
+
+    quick, full = ProjectionSettings.for_mode(True), ProjectionSettings.for_mode(False)
+    assert full.simulation_samples == 10000 and full.kappa_scan_seeds == 20
+    assert all(getattr(quick, f) < getattr(full, f) for f in vars(full))

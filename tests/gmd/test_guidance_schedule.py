@@ -145,3 +145,16 @@ def test_recorded_steps_show_where_guidance_acts(trained: TrainedGMD) -> None:
     # active from t = T−1 down to the stop (x̂0 may be clamped everywhere at t = T−1: no gradient)
     active = (sweep.timesteps >= 4) & (sweep.timesteps < steps - 1)
     assert np.all(sweep.shift_size[active, 1] > 0)
+
+
+def test_settings_share_notebook_01s_trajectory_model() -> None:
+    from repro.gmd.x0_vs_eps import Settings as ModelSettings
+
+    for quick in (True, False):
+        settings = gs.Settings.for_mode(quick)
+        model = ModelSettings.for_mode(quick)
+        assert settings.spec() == model.spec("trajectory", "epsilon", model.data(None))
+    full = gs.Settings.for_mode(False)
+    assert full.stops() == {0: 0, 20: 2, 50: 5, 200: 20}
+    assert set(full.rule_strengths) <= set(full.strengths) and 0 in full.strengths
+    assert gs.Settings.for_mode(True).stops() == {0: 0, 20: 0, 50: 1, 200: 4}

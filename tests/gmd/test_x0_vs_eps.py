@@ -85,3 +85,19 @@ def test_exact_x0_and_eps_models_are_guided_identically(small_spec) -> None:
     assert torch.allclose(x0.guided, eps.guided, atol=1e-3)
     assert x0.error_guided.mean() < 0.25 * x0.error_unguided.mean()
     assert x0.survival == pytest.approx(eps.survival, abs=1e-3)
+
+
+def test_settings_build_the_specs_notebook_01_always_trained() -> None:
+    from repro.gmd.x0_vs_eps import Settings
+
+    quick = Settings.for_mode(True)
+    data = quick.data(None)
+    assert data == DataConfig(stand_in_clips=120, frames=24)
+    assert quick.spec("motion", "x0", data, seed=1) == GMDModelSpec(
+        task="motion", prediction="x0", data=data, train_steps=20, batch_size=32,
+        diffusion_steps=20, seed=1)
+    full = Settings.for_mode(False)
+    assert full.spec("trajectory", "epsilon", full.data(None)) == GMDModelSpec()
+    assert Settings.for_mode(False, train_steps=50).train_steps == 50
+    assert full.data("/some/folder") == DataConfig(data_dir="/some/folder", frames=48)
+    assert quick.evaluator_config("id").steps == 30 and full.evaluator_config("id").steps == 500
