@@ -249,12 +249,16 @@ class Settings:
     values: tuple[int, ...] = (1, 2, 5, 10)
 
     @classmethod
-    def for_mode(cls, quick: bool) -> Settings:
+    def for_mode(cls, quick: bool, *, train_steps: int | None = None) -> Settings:
+        """The mode's settings; ``train_steps`` (None: the mode's default) overrides the
+        training steps of every model (outside the notebook's budget)."""
         if quick:
             return cls(quick=True, seeds=1, stand_in_clips=200, stride=8, diffusion_steps=20,
-                       train_steps=10, samples=32, evaluator_steps=50)
+                       train_steps=10 if train_steps is None else int(train_steps), samples=32,
+                       evaluator_steps=50)
         return cls(quick=False, seeds=3, stand_in_clips=2000, stride=24, diffusion_steps=50,
-                   train_steps=TRAIN_STEPS, samples=64, evaluator_steps=500)
+                   train_steps=TRAIN_STEPS if train_steps is None else int(train_steps),
+                   samples=64, evaluator_steps=500)
 
     def data(self, data_dir: str | None = None,
              representation: str = "absolute") -> DataConfig:

@@ -141,9 +141,9 @@ def reading_a3(*, stop: int, num_timesteps: int) -> str:
     """How to read GMD-A3's survival (no result stated: where the measurement starts)."""
     return render(
         "**Reading GMD-A3.** The registered survival starts at the stop step (t = {stop} of "
-        "{T}, GMD's 20 of 1000 at the same fraction of T). Whatever an x0 model undoes while "
-        "the guidance is still on but shrinking with Σ_t — the rise of its x̂0 goal error "
-        "*before* the dashed line in the right panel — is outside that measurement; the "
+        "{T}: GMD's 20 of 1000 at the same fraction of T, rounded). Whatever an x0 model "
+        "undoes while the guidance is still on but shrinking with Σ_t — the rise of its x̂0 "
+        "goal error *before* the dashed line in the right panel — is outside that measurement; the "
         "printed \"share of the best guided gain kept\" covers it (not part of the rule). If "
         "the ε model's guided error is above its unguided one, its guidance did not work at "
         "all in our setting, so there was no guided gain for it to keep: see the control "

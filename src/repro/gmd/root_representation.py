@@ -40,6 +40,7 @@ from repro.gmd.guidance import GMD_GUIDANCE_STRENGTH, sample
 from repro.gmd.measurements import jitter_of
 from repro.gmd.models import GMDModelSpec, TrainedGMD
 from repro.gmd.windows import REPRESENTATIONS, DataConfig, FeatureSpace, MotionWindows, short_label
+from repro.models.evaluator import EvaluatorConfig
 from repro.motion.features import (
     absolute_features_to_joints,
     absolute_to_relative_root,
@@ -523,6 +524,10 @@ class Settings:
         """48-frame windows in ``representation`` (one of ``REPRESENTATIONS``)."""
         return DataConfig(data_dir=data_dir, stand_in_clips=self.stand_in_clips,
                           stride=self.stride, representation=representation)
+
+    def evaluator_config(self) -> EvaluatorConfig:
+        """The package's evaluator with ``evaluator_steps`` (full mode: its default, 500)."""
+        return EvaluatorConfig(steps=self.evaluator_steps)
 
     def trajectory_spec(self, representation: str, seed: int,
                         data_dir: str | None = None) -> GMDModelSpec:
