@@ -1,9 +1,10 @@
 """Tiny GMD motion models with trajectory loss scaling or the Emphasis projection (GMD C.1).
 
-A thin layer over ``repro.gmd`` (which has no projection hook): the Emphasis models train on
-projected windows y = x P (``emphasis.EmphasisProjection``, channels-first) and sample in that
-space; their :class:`ProjectedFeatureSpace` un-projects before un-normalising, so every
-``gmd`` measurement (joints, root, foot skating, jitter) works on them unchanged.
+A thin layer over ``repro.gmd.models`` and ``guidance`` (which have no projection hook): the
+Emphasis models train on projected windows y = x P (``emphasis.EmphasisProjection``,
+channels-first) and sample in that space; their :class:`ProjectedFeatureSpace` un-projects
+before un-normalising, so every ``gmd`` measurement (joints, root, foot skating, jitter) works
+on them unchanged.
 
 Trajectory imputation follows GMD's x0-model path for the projected model
 (``gaussian_diffusion.p_sample_loop``, ``impute_at = 'x0'``): at every step with t ≥ stop the
@@ -183,7 +184,7 @@ def sample_with_trajectory(trained: TrainedGMD, target: Tensor, *, seed: int,
                            stop: int | None = None) -> Tensor:
     """Samples (B, 263, T) in model space whose root ``features`` are imputed from ``target``
     (B, 263, T) z-normalised, un-projected windows (only those channels are read). x0 models
-    only. ``stop`` defaults to GMD's 2 % of T (``gmd.default_stop_step``)."""
+    only. ``stop`` defaults to GMD's 2 % of T (``guidance.default_stop_step``)."""
     if trained.diffusion.prediction != "x0":
         raise ValueError("x̂0 imputation needs an x0-predicting model")
     mask = torch.zeros_like(target, dtype=torch.bool)

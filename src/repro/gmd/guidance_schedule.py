@@ -6,7 +6,7 @@ on x̂0, μ̃ = μ − s·Σ_t·∇_{x_t}G(x̂0), with s = 100 ("performs well w
 improvement in the motion coherence". For obstacle avoidance it drops point-to-point
 imputation, which could lead through an obstacle.
 
-This module adds what notebook 06 needs on top of ``repro.gmd`` (whose sampler and goal
+This module adds what notebook 06 needs on top of ``repro.gmd.guidance`` (whose sampler and goal
 functions it reuses unchanged):
 
 - ``model_stop_step``: GMD's stop step mapped to a model with fewer steps (same fraction of T);

@@ -80,7 +80,7 @@ __all__ = [
 
 #: the root entries a perturbation touches: [0] rotation (ω or a), [1:3] linear (v or p).
 ROOT_PARAMETERS = slice(0, 3)
-#: training steps of the GMD-B3 motion models (full mode): the library's default step count.
+#: training steps of the GMD-B3 motion models (full mode): ``GMDModelSpec``'s default step count.
 #: A probe model (relative root, seed 99 — not a verdict seed; no verdict was computed) had a
 #: training loss of 1.58 → 0.81 (step 500) → 0.55 (1000) → 0.47 (1500): still falling at 1000,
 #: but 1500 would cost another ~50 % of the notebook's largest item; 1000 is the compromise.
@@ -490,10 +490,10 @@ def impute_locations(models: dict[str, TrainedGMD], task: LocationTask, *, seed:
 class Settings:
     """Every size and step count of notebook 02, fixed before any verdict was seen.
 
-    Full mode: GMD-B2 uses the library's default tiny trajectory model (``GMDModelSpec()``:
+    Full mode: GMD-B2 uses the default tiny trajectory model (``GMDModelSpec()``:
     ε prediction, UNet1D base 16 × (1, 2, 4), T = 100 cosine, 1000 steps × batch 64, lr 1e-3,
     48-frame windows) so the absolute-root models are the ones the other GMD notebooks
-    train (shared through ``repro.cache``); GMD-B3 a text-conditioned x0 motion model of the
+    train (shared through ``repro.infra.cache``); GMD-B3 a text-conditioned x0 motion model of the
     same size (GMD's motion model predicts x0) for ``motion_steps``. Quick mode shrinks
     everything (a test of the code, never a result).
     """

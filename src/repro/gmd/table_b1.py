@@ -172,7 +172,7 @@ def ground_truth_row(evaluator: Evaluator, evaluation: EvaluationSet,
 
 
 def summarise_rows(per_seed: Sequence[dict[str, float]]) -> dict[str, dict[str, float]]:
-    """Per metric: mean and Student-t 95 % interval over seeds (``verdicts.t_interval``)."""
+    """Per metric: mean and Student-t 95 % interval over seeds (``core.stats.t_interval``)."""
     names = per_seed[0].keys()
     return {name: t_interval([row[name] for row in per_seed]).as_dict() for name in names}
 

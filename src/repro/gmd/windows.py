@@ -289,7 +289,7 @@ def load_windows(config: DataConfig, split: str = "train", *,
     ``statistics`` (mean, std) of the *training* windows must be passed for any other split
     (e.g. ``load_windows(cfg, "test", statistics=(train.mean, train.std))``); when None they
     are computed here — mean and block-averaged std over all frames of these windows
-    (``data.compute_statistics``, HumanML3D's convention).
+    (``humanml3d.compute_statistics``, HumanML3D's convention).
     """
     root = config.dataset_root()
     dataset = MotionDataset(root, split, normalise=False, representation="relative")

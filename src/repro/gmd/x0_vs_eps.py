@@ -159,7 +159,7 @@ def goal_reaching_experiment(trained: TrainedGMD, targets_xz: np.ndarray, *, see
 class Settings:
     """Every size and step count of notebook 01, fixed before any verdict was seen.
 
-    Full mode: 48-frame windows (stride 24) of the 2000-clip stand-in set, the library's tiny
+    Full mode: 48-frame windows (stride 24) of the 2000-clip stand-in set, the default tiny
     UNet1D for x0 and ε on both tasks, T = 100 cosine, 1000 steps × batch 64; 32 goals and
     256 generated windows per seed; the package's evaluator with its default size. Quick mode
     shrinks everything (a test of the code, never a result). ``train_steps`` may be overridden
