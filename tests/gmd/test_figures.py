@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from repro.gmd import emphasis_figures, figures  # noqa: E402
+from repro.gmd import figures  # noqa: E402
 from repro.gmd.coefficients import (  # noqa: E402
     coefficient_shares,
     peak_fraction,
@@ -59,17 +59,3 @@ def test_guidance_schedule_figures() -> None:
     stops = {0: 0, 20: 2}
     table = {"arm": {0: [1.0, 2.0], 20: [1.5, 2.5]}}
     assert len(figures.plot_stop_sweep(table, table, stops, seeds).axes) == 3
-
-
-def test_emphasis_figures() -> None:
-    grid = np.array([1.0, 2.0, 10.0])
-    share = grid**2 / (grid**2 + 1)
-    fig = emphasis_figures.plot_relative_importance(grid, share, {0: share}, share, share,
-                                                    c_star=9.3, importance_at_10=0.54,
-                                                    simulation_error=1e-3)
-    assert len(fig.axes) == 1
-    spread = np.ones(263)
-    fig = emphasis_figures.plot_unit_variance(grid, 260 + 3 * grid**2,
-                                              1 / np.sqrt(260 + 3 * grid**2),
-                                              1 / (260 + 3 * grid**2), spread, spread, spread)
-    assert len(fig.axes) == 3

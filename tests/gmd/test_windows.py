@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 import torch
 
 from repro.gmd.windows import DataConfig, load_windows
@@ -62,3 +63,13 @@ def test_stand_in_data_is_generated_when_no_folder_is_given(small_config, cache:
     config = DataConfig(stand_in_clips=8, stand_in_seed=1, frames=FRAMES, stride=8)
     windows = load_windows(config)
     assert str(windows.root).startswith(str(cache)) and len(windows) > 0
+
+
+def test_short_labels_derive_from_the_one_definition() -> None:
+    from repro.gmd.windows import REPRESENTATIONS, short_label
+    from repro.motion import humanml3d
+
+    assert REPRESENTATIONS is humanml3d.REPRESENTATIONS
+    assert [short_label(r) for r in REPRESENTATIONS] == ["rel", "abs"]
+    with pytest.raises(ValueError, match="representation"):
+        short_label("rel")
