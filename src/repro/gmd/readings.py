@@ -47,7 +47,9 @@ def reading_b1(*, round_trip_error: float, joints_error: float, summary: dict,
         "linearly. A rotation change turns the rest of the path about the perturbed frame's "
         "position: its displacement goes from {rot1:.4f} m at gap 1 to {rotL:.4f} m at gap "
         "{gap}. With all three entries perturbed the displacement grows ×{growth:.2f} from "
-        "gap 1 to gap {gap} on the stand-in mean{real}. The first-order (Jacobian) prediction "
+        "gap 1 to gap {gap} on the stand-in mean{real}. The Jacobian maps show the structure "
+        "(exact, whatever the clip): rel is lower-triangular, every frame depending on all "
+        "earlier ones; abs is the identity on the diagonal. The first-order (Jacobian) prediction "
         "of a rotation change is off by {errors}, relatively. On a clip that stands still "
         "the rotation term vanishes: compounding needs travel.",
         trip=round_trip_error, joints=joints_error, lin1=linear["gap_1"], linL=linear[last],
