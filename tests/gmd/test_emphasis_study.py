@@ -7,7 +7,6 @@ import pytest
 import torch
 from torch import nn
 
-from repro.gmd import library as gmd
 from repro.gmd.emphasis import EmphasisProjection
 from repro.gmd.emphasis_study import (
     ImputedX0,
@@ -19,22 +18,24 @@ from repro.gmd.emphasis_study import (
     root_velocity_disagreement,
     trajectory_error,
 )
+from repro.gmd.models import GMDModelSpec
+from repro.gmd.windows import DataConfig, MotionWindows, load_windows
 from repro.infra.paths import data_stubs_dir
 
 
 @pytest.fixture(scope="module")
-def windows() -> gmd.MotionWindows:
-    config = gmd.DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=32)
-    return gmd.load_windows(config)
+def windows() -> MotionWindows:
+    config = DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=32)
+    return load_windows(config)
 
 
-def _projected_space(windows: gmd.MotionWindows, c: float = 10.0) -> ProjectedFeatureSpace:
+def _projected_space(windows: MotionWindows, c: float = 10.0) -> ProjectedFeatureSpace:
     space = windows.space("motion")
     return ProjectedFeatureSpace(space.task, space.representation, space.mean, space.std,
                                  EmphasisProjection(c=c, seed=3))
 
 
-def test_projected_space_recovers_the_same_motion(windows: gmd.MotionWindows) -> None:
+def test_projected_space_recovers_the_same_motion(windows: MotionWindows) -> None:
     plain = windows.space("motion")
     projected = _projected_space(windows)
     x = windows.x[:4].double()
@@ -46,7 +47,7 @@ def test_projected_space_recovers_the_same_motion(windows: gmd.MotionWindows) ->
     torch.testing.assert_close(projected.joints(y), plain.joints(x), rtol=1e-9, atol=1e-9)
 
 
-def test_project_windows_changes_data_and_fingerprint(windows: gmd.MotionWindows) -> None:
+def test_project_windows_changes_data_and_fingerprint(windows: MotionWindows) -> None:
     projection = EmphasisProjection(c=5.0, seed=1)
     projected = project_windows(windows, projection)
     assert projected.fingerprint != windows.fingerprint
@@ -65,7 +66,7 @@ class _Constant(nn.Module):
         return self.value.expand_as(x_t).clone()
 
 
-def test_imputed_x0_overwrites_root_in_unprojected_space(windows: gmd.MotionWindows) -> None:
+def test_imputed_x0_overwrites_root_in_unprojected_space(windows: MotionWindows) -> None:
     space = _projected_space(windows)
     x = windows.x[:2].double()
     prediction = space.projection.project_channels_first(torch.zeros_like(x))
@@ -80,7 +81,7 @@ def test_imputed_x0_overwrites_root_in_unprojected_space(windows: gmd.MotionWind
     torch.testing.assert_close(untouched, prediction)
 
 
-def test_root_velocity_disagreement_is_zero_on_data(windows: gmd.MotionWindows) -> None:
+def test_root_velocity_disagreement_is_zero_on_data(windows: MotionWindows) -> None:
     features = windows.features()
     assert root_velocity_disagreement(features).max() < 1e-4
     shifted = features.clone()
@@ -88,7 +89,7 @@ def test_root_velocity_disagreement_is_zero_on_data(windows: gmd.MotionWindows) 
     assert root_velocity_disagreement(shifted).max() > 0.2
 
 
-def test_coherence_and_trajectory_error_of_ground_truth(windows: gmd.MotionWindows) -> None:
+def test_coherence_and_trajectory_error_of_ground_truth(windows: MotionWindows) -> None:
     targets = draw_targets(windows, 8, seed=0)
     space = windows.space("motion")
     measured = coherence(space, targets.x)
@@ -100,7 +101,7 @@ def test_coherence_and_trajectory_error_of_ground_truth(windows: gmd.MotionWindo
 
 
 def test_variants_follow_gmds_configs() -> None:
-    base = gmd.GMDModelSpec(task="motion", prediction="x0")
+    base = GMDModelSpec(task="motion", prediction="x0")
     loss = Variant("loss_scaling", 10).spec(base, seed=4)
     assert loss.seed == 4 and loss.feature_weights[:5] == (100.0, 100.0, 100.0, 100.0, 1.0)
     assert Variant("loss_scaling", 1).spec(base, seed=4).feature_weights is None
@@ -112,3 +113,11 @@ def test_variants_follow_gmds_configs() -> None:
     assert emphasis.label == "Emphasis c=5"
     with pytest.raises(ValueError):
         Variant("both", 2)  # type: ignore[arg-type]
+
+
+def test_projection_settings_shrink_in_quick_mode() -> None:
+    from repro.gmd.emphasis_study import ProjectionSettings
+
+    quick, full = ProjectionSettings.for_mode(True), ProjectionSettings.for_mode(False)
+    assert full.simulation_samples == 10000 and full.kappa_scan_seeds == 20
+    assert all(getattr(quick, f) < getattr(full, f) for f in vars(full))

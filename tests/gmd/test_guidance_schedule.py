@@ -8,7 +8,9 @@ import torch
 
 from repro.core.diffusion import Guidance
 from repro.gmd import guidance_schedule as gs
-from repro.gmd import library as gmd
+from repro.gmd.guidance import goal_reaching_loss, sample
+from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd
+from repro.gmd.windows import DataConfig
 from repro.standin.dataset import write_dataset
 
 torch.set_num_threads(1)
@@ -16,16 +18,16 @@ FRAMES = 16
 
 
 @pytest.fixture(scope="module")
-def trained(tmp_path_factory: pytest.TempPathFactory) -> gmd.TrainedGMD:
+def trained(tmp_path_factory: pytest.TempPathFactory) -> TrainedGMD:
     root = write_dataset(tmp_path_factory.mktemp("stand_in"), n_clips=10, seed=3)
     cache = tmp_path_factory.mktemp("cache")
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("REPRO_CACHE_DIR", str(cache))
-        spec = gmd.GMDModelSpec(task="trajectory", prediction="epsilon",
-                                data=gmd.DataConfig(data_dir=str(root), frames=FRAMES, stride=8),
+        spec = GMDModelSpec(task="trajectory", prediction="epsilon",
+                                data=DataConfig(data_dir=str(root), frames=FRAMES, stride=8),
                                 base_channels=8, channel_mults=(1, 2), diffusion_steps=20,
                                 train_steps=3, batch_size=8)
-        return gmd.load_or_train_gmd(spec)
+        return load_or_train_gmd(spec)
 
 
 GOALS = np.array([[0.5, 1.5], [-1.0, 2.0], [0.0, 0.8]], dtype=np.float32)
@@ -44,27 +46,27 @@ def test_strength_key_is_str_of_the_number() -> None:
         "0", "100", "150", "0.5", "1000"]
 
 
-def test_per_sample_strength_equals_separate_strengths(trained: gmd.TrainedGMD) -> None:
+def test_per_sample_strength_equals_separate_strengths(trained: TrainedGMD) -> None:
     # a batch of two identical starts: row b under weights (s1, s2) must equal row b of a run
     # where the whole batch has strength s_b (same shape, so the same per-step noise)
     targets = GOALS[:2]
-    goal = gmd.goal_reaching_loss(trained.space, targets)
+    goal = goal_reaching_loss(trained.space, targets)
     noise = gs.shared_start_noise(trained, 2, 1, seed=5)
-    weighted = gmd.sample(trained, 2, seed=5, noise=noise,
+    weighted = sample(trained, 2, seed=5, noise=noise,
                           guidance=gs.weighted_guidance(goal, [3.0, 30.0]), stop_guidance_at=1)
     for row, strength in enumerate((3.0, 30.0)):
-        alone = gmd.sample(trained, 2, seed=5, noise=noise,
+        alone = sample(trained, 2, seed=5, noise=noise,
                            guidance=Guidance(goal, strength=strength), stop_guidance_at=1)
         torch.testing.assert_close(weighted[row], alone[row], rtol=1e-4, atol=1e-4)
 
 
-def test_shared_start_noise_repeats_per_group(trained: gmd.TrainedGMD) -> None:
+def test_shared_start_noise_repeats_per_group(trained: TrainedGMD) -> None:
     x = gs.shared_start_noise(trained, 3, 4, seed=1)
     assert x.shape == (12, 4, FRAMES)
     assert torch.equal(x[:3], x[9:]) and not torch.equal(x[0], x[1])
 
 
-def test_sweep_groups_pair_across_stop_steps(trained: gmd.TrainedGMD) -> None:
+def test_sweep_groups_pair_across_stop_steps(trained: TrainedGMD) -> None:
     a = gs.sweep_strengths(trained, GOALS, [0.0, 10.0], seed=2, stop=0)
     b = gs.sweep_strengths(trained, GOALS, [0.0, 10.0], seed=2, stop=5)
     assert a.samples.shape == (2, 3, 4, FRAMES) and a.goal_error.shape == (2, 3)
@@ -77,14 +79,14 @@ def test_sweep_groups_pair_across_stop_steps(trained: gmd.TrainedGMD) -> None:
         a.index(7.0)
 
 
-def test_goal_keypoint_imputation_to_the_end_lands_on_the_goal(trained: gmd.TrainedGMD) -> None:
+def test_goal_keypoint_imputation_to_the_end_lands_on_the_goal(trained: TrainedGMD) -> None:
     sweep = gs.sweep_strengths(trained, GOALS, [0.0], seed=0, stop=0, impute_goal=True)
     assert sweep.goal_error.max() < 1e-4
     stopped = gs.sweep_strengths(trained, GOALS, [0.0], seed=0, stop=3, impute_goal=True)
     assert stopped.goal_error.max() > 1e-4  # the last three steps are free
 
 
-def test_point_to_point_imputation_is_the_straight_line(trained: gmd.TrainedGMD) -> None:
+def test_point_to_point_imputation_is_the_straight_line(trained: TrainedGMD) -> None:
     imputation = gs.point_to_point_imputation(trained, GOALS, active=[True, False, True])
     assert imputation.mask[1].sum() == 0 and imputation.mask[0, 1:3].all()
     assert not imputation.mask[0, [0, 3]].any()
@@ -107,7 +109,7 @@ def test_obstacles_block_the_line_but_not_the_ends() -> None:
         gs.ObstacleSet(np.zeros((2, 2)), np.zeros(3))
 
 
-def test_penetration_and_cost_of_a_straight_path(trained: gmd.TrainedGMD) -> None:
+def test_penetration_and_cost_of_a_straight_path(trained: TrainedGMD) -> None:
     line = gs.point_to_point_imputation(trained, GOALS).target
     obstacles = gs.obstacles_between(GOALS)
     depth = gs.penetration_depth(trained.space, line, obstacles)
@@ -120,7 +122,7 @@ def test_penetration_and_cost_of_a_straight_path(trained: gmd.TrainedGMD) -> Non
     assert x.grad[:, 1:3].abs().sum() > 0 and x.grad[:, [0, 3]].abs().sum() == 0
 
 
-def test_obstacle_experiment_arms(trained: gmd.TrainedGMD) -> None:
+def test_obstacle_experiment_arms(trained: TrainedGMD) -> None:
     arms = gs.obstacle_experiment(trained, GOALS, gs.obstacles_between(GOALS), [10.0],
                                   seed=0, stop=0)
     assert [a.label for a in arms] == ["unguided", "goal, s=10", "goal + obstacle, s=10",
@@ -133,7 +135,7 @@ def test_obstacle_experiment_arms(trained: gmd.TrainedGMD) -> None:
     assert p2p.goal_error.max() < 1e-4 and p2p.collision_rate == 1.0
 
 
-def test_recorded_steps_show_where_guidance_acts(trained: gmd.TrainedGMD) -> None:
+def test_recorded_steps_show_where_guidance_acts(trained: TrainedGMD) -> None:
     sweep = gs.sweep_strengths(trained, GOALS, [0.0, 10.0], seed=0, stop=4, record_steps=True)
     steps = trained.num_timesteps
     assert sweep.timesteps.tolist() == list(range(steps - 1, -1, -1))
@@ -143,3 +145,16 @@ def test_recorded_steps_show_where_guidance_acts(trained: gmd.TrainedGMD) -> Non
     # active from t = T−1 down to the stop (x̂0 may be clamped everywhere at t = T−1: no gradient)
     active = (sweep.timesteps >= 4) & (sweep.timesteps < steps - 1)
     assert np.all(sweep.shift_size[active, 1] > 0)
+
+
+def test_settings_share_notebook_01s_trajectory_model() -> None:
+    from repro.gmd.x0_vs_eps import Settings as ModelSettings
+
+    for quick in (True, False):
+        settings = gs.Settings.for_mode(quick)
+        model = ModelSettings.for_mode(quick)
+        assert settings.spec() == model.spec("trajectory", "epsilon", model.data(None))
+    full = gs.Settings.for_mode(False)
+    assert full.stops() == {0: 0, 20: 2, 50: 5, 200: 20}
+    assert set(full.rule_strengths) <= set(full.strengths) and 0 in full.strengths
+    assert gs.Settings.for_mode(True).stops() == {0: 0, 20: 0, 50: 1, 200: 4}

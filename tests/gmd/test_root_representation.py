@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 import torch
 
-from repro.gmd import library as gmd
 from repro.gmd import root_representation as R
+from repro.gmd.models import GMDModelSpec, TrainedGMD
+from repro.gmd.windows import DataConfig, FeatureSpace
 from repro.motion.features import FEATURE_DIM, relative_to_absolute_root
 
 
@@ -32,8 +33,8 @@ def test_round_trip_is_exact_in_float64() -> None:
 
 def test_root_jacobian_structure() -> None:
     clip = _clip(20)
-    rel = R.root_jacobian(clip, "rel")
-    absolute = R.root_jacobian(relative_to_absolute_root(clip), "abs")
+    rel = R.root_jacobian(clip, "relative")
+    absolute = R.root_jacobian(relative_to_absolute_root(clip), "absolute")
     assert rel.shape == absolute.shape == (20, 2, 20, 3)
     # rel: p_t depends only on frames s < t (lower triangular) and on all of them
     for t in range(20):
@@ -49,12 +50,12 @@ def test_root_jacobian_structure() -> None:
 
 def test_linear_velocity_shift_is_constant_and_rotation_grows() -> None:
     clip = _clip(50)
-    linear = R.perturbation_displacement(clip, "rel", 5, (0.0, 0.01, 0.0))
+    linear = R.perturbation_displacement(clip, "relative", 5, (0.0, 0.01, 0.0))
     assert np.all(linear[:6] == 0)
     np.testing.assert_allclose(linear[6:], 0.01, atol=1e-12)
-    rotation = R.perturbation_displacement(clip, "rel", 5, (0.01, 0.0, 0.0))
+    rotation = R.perturbation_displacement(clip, "relative", 5, (0.01, 0.0, 0.0))
     # the path after frame 5 turns by 2δ about p_5: displacement = 2 sin(δ) ‖p_t − p_5‖
-    path = R.global_root_xz(torch.from_numpy(clip), "rel").numpy()
+    path = R.global_root_xz(torch.from_numpy(clip), "relative").numpy()
     expected = 2 * np.sin(0.01) * np.linalg.norm(path - path[5], axis=-1)
     np.testing.assert_allclose(rotation[6:], expected[6:], atol=1e-12)
     assert rotation[-1] > 10 * rotation[7]
@@ -67,8 +68,8 @@ def test_sensitivity_study_measurements() -> None:
     assert m["abs_late_displacement"] == 0.0
     assert m["rel_late_displacement"] > 0.01
     assert m["rel_sensitivity_growth"] > 1.0
-    assert result.displacement["abs"]["both"].shape == (3, 37)
-    np.testing.assert_allclose(result.displacement["abs"]["both"][:, 0], np.hypot(0.01, 0.01))
+    assert result.displacement["absolute"]["both"].shape == (3, 37)
+    np.testing.assert_allclose(result.displacement["absolute"]["both"][:, 0], np.hypot(0.01, 0.01))
     assert list(setup.late_gaps) == list(range(27, 37))
 
 
@@ -90,8 +91,8 @@ def _task(n: int = 3, frames: int = 16) -> R.LocationTask:
                           frames - 1)
 
 
-def _space(representation: str) -> gmd.FeatureSpace:
-    return gmd.FeatureSpace("trajectory", representation, np.array([0.1, 0.2, -0.3, 0.9]),
+def _space(representation: str) -> FeatureSpace:
+    return FeatureSpace("trajectory", representation, np.array([0.1, 0.2, -0.3, 0.9]),
                             np.array([0.5, 2.0, 1.5, 0.1]))
 
 
@@ -127,26 +128,6 @@ def test_location_loss_is_l1_over_both_frames() -> None:
 
 # ------------------------------------------------------------------------------ GMD-B3 helpers
 
-def test_window_concepts() -> None:
-    sequential = {"composition": "sequential", "concepts": ["clap", "walk_forward"],
-                  "segments": [{"concept": "clap", "start": 0, "end": 46},
-                               {"concept": "walk_forward", "start": 46, "end": 90}]}
-    assert R.window_concepts(sequential, 0, 48) == {"clap"}
-    assert R.window_concepts(sequential, 22, 48) == {"walk_forward", "clap"}
-    assert R.window_concepts(sequential, 24, 48) == {"walk_forward"}
-    assert R.window_concepts(sequential, 42, 48) == {"walk_forward"}
-    single = {"composition": "simultaneous", "concepts": ["wave_left", "walk_forward"]}
-    assert R.window_concepts(single, 30, 48) == {"wave_left", "walk_forward"}
-
-
-def test_paper_table_matches_the_registry() -> None:
-    from repro.claims.registry import get_claim
-
-    value = get_claim("GMD-B3").paper_value
-    for row in ("Ours (rel)", "Ours (abs)"):
-        for number in R.PAPER_TABLE_B1[row]:
-            assert f"{number:g}" in value
-
 
 def test_impute_locations_with_untrained_models() -> None:
     """Untrained UNets output 0; with T = 10 the stop step is 0, so both replacements act
@@ -154,12 +135,12 @@ def test_impute_locations_with_untrained_models() -> None:
     settings = R.Settings.for_mode(quick=True)
     task = _task(2, 16)
     models = {}
-    for rep, long in (("abs", "absolute"), ("rel", "relative")):
+    for rep in ("absolute", "relative"):
         spec = settings.trajectory_spec(rep, 0)
-        spec = spec.replace(diffusion_steps=10, data=gmd.DataConfig(frames=16,
-                                                                   representation=long))
-        models[rep] = gmd.TrainedGMD(spec.build_model().eval(), spec.diffusion(),
-                                     _space(long), spec)
+        spec = spec.replace(diffusion_steps=10, data=DataConfig(frames=16,
+                                                                   representation=rep))
+        models[rep] = TrainedGMD(spec.build_model().eval(), spec.diffusion(),
+                                     _space(rep), spec)
     runs = R.impute_locations(models, task, seed=0)
     assert set(runs) == set(R.METHODS)
     assert runs["abs_imputation"].mean_error < 1e-4
@@ -171,8 +152,8 @@ def test_impute_locations_with_untrained_models() -> None:
 def test_settings_full_mode_uses_the_library_default_trajectory_model() -> None:
     full = R.Settings.for_mode(quick=False)
     assert full.seeds >= 3
-    spec = full.trajectory_spec("abs", 0)
-    assert spec == gmd.GMDModelSpec(task="trajectory", prediction="epsilon", seed=0)
-    motion = full.motion_spec("rel", 1)
+    spec = full.trajectory_spec("absolute", 0)
+    assert spec == GMDModelSpec(task="trajectory", prediction="epsilon", seed=0)
+    motion = full.motion_spec("relative", 1)
     assert motion.text_conditioned and motion.prediction == "x0"
     assert motion.data.representation == "relative"

@@ -1,9 +1,10 @@
 """Tiny GMD motion models with trajectory loss scaling or the Emphasis projection (GMD C.1).
 
-A thin layer over ``repro.gmd`` (which has no projection hook): the Emphasis models train on
-projected windows y = x P (``emphasis.EmphasisProjection``, channels-first) and sample in that
-space; their :class:`ProjectedFeatureSpace` un-projects before un-normalising, so every
-``gmd`` measurement (joints, root, foot skating, jitter) works on them unchanged.
+A thin layer over ``repro.gmd.models`` and ``guidance`` (which have no projection hook): the
+Emphasis models train on projected windows y = x P (``emphasis.EmphasisProjection``,
+channels-first) and sample in that space; their :class:`ProjectedFeatureSpace` un-projects
+before un-normalising, so every ``gmd`` measurement (joints, root, foot skating, jitter) works
+on them unchanged.
 
 Trajectory imputation follows GMD's x0-model path for the projected model
 (``gaussian_diffusion.p_sample_loop``, ``impute_at = 'x0'``): at every step with t ≥ stop the
@@ -25,17 +26,9 @@ import torch
 from torch import Tensor, nn
 
 from repro.gmd.emphasis import EmphasisProjection
-from repro.gmd.library import (
-    DataConfig,
-    FeatureSpace,
-    GMDModelSpec,
-    MotionWindows,
-    TrainedGMD,
-    default_stop_step,
-    load_or_train_gmd,
-    sample,
-    trajectory_loss_weights,
-)
+from repro.gmd.guidance import default_stop_step, sample
+from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd, trajectory_loss_weights
+from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows
 from repro.infra import cache
 from repro.motion.features import FEATURE_DIM, FPS
 from repro.motion.quaternion import qinv, qrot, quat_about_y
@@ -57,7 +50,8 @@ TRAIN_STEPS = 1000
 __all__ = [
     "IMPUTED_FEATURES", "METHODS", "TRAIN_STEPS", "ImputedX0", "ProjectedFeatureSpace",
     "Settings", "Targets", "Variant", "coherence", "draw_targets", "from_normalised",
-    "load_or_train_variant", "measure_imputed", "measure_text_to_motion", "project_windows",
+    "ProjectionSettings", "load_or_train_variant", "measure_imputed", "measure_text_to_motion",
+    "project_windows",
     "Results", "TABLE_B1_VARIANTS", "root_velocity_disagreement", "run_experiment",
     "sample_with_trajectory", "text_metrics", "to_normalised",
     "trajectory_error", "window_evaluator",
@@ -190,7 +184,7 @@ def sample_with_trajectory(trained: TrainedGMD, target: Tensor, *, seed: int,
                            stop: int | None = None) -> Tensor:
     """Samples (B, 263, T) in model space whose root ``features`` are imputed from ``target``
     (B, 263, T) z-normalised, un-projected windows (only those channels are read). x0 models
-    only. ``stop`` defaults to GMD's 2 % of T (``gmd.default_stop_step``)."""
+    only. ``stop`` defaults to GMD's 2 % of T (``guidance.default_stop_step``)."""
     if trained.diffusion.prediction != "x0":
         raise ValueError("x̂0 imputation needs an x0-predicting model")
     mask = torch.zeros_like(target, dtype=torch.bool)
@@ -256,12 +250,16 @@ class Settings:
     values: tuple[int, ...] = (1, 2, 5, 10)
 
     @classmethod
-    def for_mode(cls, quick: bool) -> Settings:
+    def for_mode(cls, quick: bool, *, train_steps: int | None = None) -> Settings:
+        """The mode's settings; ``train_steps`` (None: the mode's default) overrides the
+        training steps of every model (outside the notebook's budget)."""
         if quick:
             return cls(quick=True, seeds=1, stand_in_clips=200, stride=8, diffusion_steps=20,
-                       train_steps=10, samples=32, evaluator_steps=50)
+                       train_steps=10 if train_steps is None else int(train_steps), samples=32,
+                       evaluator_steps=50)
         return cls(quick=False, seeds=3, stand_in_clips=2000, stride=24, diffusion_steps=50,
-                   train_steps=TRAIN_STEPS, samples=64, evaluator_steps=500)
+                   train_steps=TRAIN_STEPS if train_steps is None else int(train_steps),
+                   samples=64, evaluator_steps=500)
 
     def data(self, data_dir: str | None = None,
              representation: str = "absolute") -> DataConfig:
@@ -441,3 +439,25 @@ def run_experiment(settings: Settings, base: GMDModelSpec, train: MotionWindows,
                 f"skating {measured['foot_skating']:.3f} m/s")
     return Results(list(seeds), variants, imputed, text, truth, samples, first_targets,
                    seconds, models)
+
+
+@dataclass(frozen=True)
+class ProjectionSettings:
+    """The sample sizes of notebook 03's projection checks (GMD-C1…C3), fixed before the run:
+    N(0, 1) vectors per simulated point, frame pairs for the distance ratios and frames for
+    the inverse's round trip (per matrix), and the κ scan (matrix seeds, frames per seed).
+    Quick mode shrinks them (a test of the code, never a result)."""
+
+    simulation_samples: int
+    distance_pairs: int
+    inverse_frames: int
+    kappa_scan_seeds: int
+    kappa_scan_frames: int
+
+    @classmethod
+    def for_mode(cls, quick: bool) -> ProjectionSettings:
+        if quick:
+            return cls(simulation_samples=2000, distance_pairs=2000, inverse_frames=1000,
+                       kappa_scan_seeds=5, kappa_scan_frames=500)
+        return cls(simulation_samples=10000, distance_pairs=10000, inverse_frames=5000,
+                   kappa_scan_seeds=20, kappa_scan_frames=1000)

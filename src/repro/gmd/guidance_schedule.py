@@ -6,7 +6,7 @@ on x̂0, μ̃ = μ − s·Σ_t·∇_{x_t}G(x̂0), with s = 100 ("performs well w
 improvement in the motion coherence". For obstacle avoidance it drops point-to-point
 imputation, which could lead through an obstacle.
 
-This module adds what notebook 06 needs on top of ``repro.gmd`` (whose sampler and goal
+This module adds what notebook 06 needs on top of ``repro.gmd.guidance`` (whose sampler and goal
 functions it reuses unchanged):
 
 - ``model_stop_step``: GMD's stop step mapped to a model with fewer steps (same fraction of T);
@@ -27,12 +27,17 @@ import torch
 from torch import Tensor
 
 from repro.core.diffusion import Guidance, Imputation
-from repro.gmd import library as gmd
+from repro.gmd.guidance import goal_error, goal_reaching_loss, sample
+from repro.gmd.measurements import jitter_of
+from repro.gmd.models import GMDModelSpec, TrainedGMD
+from repro.gmd.windows import FeatureSpace
+from repro.gmd.x0_vs_eps import Settings as ModelSettings
 
 __all__ = [
     "GMD_NUM_TIMESTEPS",
     "ObstacleArm",
     "ObstacleSet",
+    "Settings",
     "StrengthSweep",
     "goal_keypoint_imputation",
     "model_stop_step",
@@ -86,7 +91,7 @@ def weighted_guidance(goal_fn: Callable[[Tensor], Tensor], strengths: Tensor | S
     return Guidance(goal, strength=1.0)
 
 
-def shared_start_noise(trained: gmd.TrainedGMD, n: int, groups: int, *, seed: int) -> Tensor:
+def shared_start_noise(trained: TrainedGMD, n: int, groups: int, *, seed: int) -> Tensor:
     """x_T (groups·n, C, frames): n draws (generator seeded with ``seed``) repeated for each of
     ``groups`` groups, so every strength starts sample i from the same x_T."""
     generator = torch.Generator().manual_seed(int(seed))
@@ -95,21 +100,21 @@ def shared_start_noise(trained: gmd.TrainedGMD, n: int, groups: int, *, seed: in
     return x_t.repeat(groups, 1, 1).to(trained.device)
 
 
-def _check_absolute(space: gmd.FeatureSpace) -> None:
+def _check_absolute(space: FeatureSpace) -> None:
     if space.task != "trajectory" or space.representation != "absolute":
         raise ValueError("location imputation needs the absolute-root trajectory model "
                          f"(got {space.task}, {space.representation}); in the relative "
                          "representation a location is not a feature (GMD appendix B)")
 
 
-def _normalised_xz(space: gmd.FeatureSpace, xz: np.ndarray) -> np.ndarray:
+def _normalised_xz(space: FeatureSpace, xz: np.ndarray) -> np.ndarray:
     """World x/z (..., 2) in metres → the model's normalised channels 1 and 2."""
     mean = np.asarray(space.mean, dtype=np.float32)[[X_CHANNEL, Z_CHANNEL]]
     std = np.asarray(space.std, dtype=np.float32)[[X_CHANNEL, Z_CHANNEL]]
     return (np.asarray(xz, dtype=np.float32) - mean) / std
 
 
-def goal_keypoint_imputation(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
+def goal_keypoint_imputation(trained: TrainedGMD, targets_xz: np.ndarray,
                              active: Sequence[bool] | np.ndarray | None = None,
                              frame: int = -1) -> Imputation:
     """Impute the goal (B, 2) as the root x/z of frame ``frame`` (GMD's key-location
@@ -128,7 +133,7 @@ def goal_keypoint_imputation(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
     return Imputation(mask, target)
 
 
-def point_to_point_imputation(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
+def point_to_point_imputation(trained: TrainedGMD, targets_xz: np.ndarray,
                               active: Sequence[bool] | np.ndarray | None = None) -> Imputation:
     """Impute the straight line from the start (origin) to the goal at the last frame, evenly
     spaced over all frames, as root x/z (GMD's point-to-point trajectory imputation)."""
@@ -155,7 +160,7 @@ class StrengthSweep:
 
     ``samples`` (G, n, C, frames) in model space; ``goal_error`` (G, n) in metres;
     ``jerk``/``acceleration`` (G,) the mean root jerk (m/s³) / acceleration (m/s²) of each
-    group (``gmd.jitter_of``); ``imputed`` whether the goal keypoint was also imputed.
+    group (``jitter_of``); ``imputed`` whether the goal keypoint was also imputed.
     With ``record_steps``: ``timesteps`` (S,) T−1 … 0, ``shift_size`` (S, G) the mean
     |guidance shift| −s·Σ_t·∇G per entry of each group, ``state_size`` (S, G) the largest
     |x_t| of each group (both in model units, at the input of each step).
@@ -187,12 +192,12 @@ class StrengthSweep:
         return float(self.jerk[self.index(strength)])
 
 
-def sweep_strengths(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
+def sweep_strengths(trained: TrainedGMD, targets_xz: np.ndarray,
                     strengths: Sequence[float], *, seed: int, stop: int,
                     impute_goal: bool = False, frame: int = -1,
                     record_steps: bool = False) -> StrengthSweep:
     """Sample the goals (n, 2) once per strength in one batch, with GMD's goal guidance
-    (``gmd.goal_reaching_loss``: ½‖root_xz(x̂0)[frame] − goal‖₁) and, if ``impute_goal``,
+    (``goal_reaching_loss``: ½‖root_xz(x̂0)[frame] − goal‖₁) and, if ``impute_goal``,
     the goal keypoint imputed too; both act while t ≥ ``stop`` (model steps).
 
     Same x_T for every strength (``shared_start_noise``); the per-step noise comes from
@@ -207,17 +212,17 @@ def sweep_strengths(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
     n, groups = len(targets), len(values)
     all_targets = np.tile(targets, (groups, 1))
     per_sample = np.repeat(values, n)
-    guidance = weighted_guidance(gmd.goal_reaching_loss(trained.space, all_targets, frame),
+    guidance = weighted_guidance(goal_reaching_loss(trained.space, all_targets, frame),
                                  per_sample)
     imputation = goal_keypoint_imputation(trained, all_targets, frame=frame) if impute_goal \
         else None
-    out = gmd.sample(trained, n * groups, seed=seed, guidance=guidance, imputation=imputation,
+    out = sample(trained, n * groups, seed=seed, guidance=guidance, imputation=imputation,
                      stop_guidance_at=stop, return_trajectory=record_steps,
                      noise=shared_start_noise(trained, n, groups, seed=seed))
     x = (out[0] if record_steps else out).cpu()
-    error = gmd.goal_error(trained.space, x, all_targets, frame).reshape(groups, n)
+    error = goal_error(trained.space, x, all_targets, frame).reshape(groups, n)
     samples = x.reshape(groups, n, *x.shape[1:])
-    jitters = [gmd.jitter_of(trained.space, samples[g]) for g in range(groups)]
+    jitters = [jitter_of(trained.space, samples[g]) for g in range(groups)]
     sweep = StrengthSweep(values, int(stop), targets, samples, error,
                           np.array([j.jerk for j in jitters]),
                           np.array([j.acceleration for j in jitters]), impute_goal)
@@ -266,7 +271,7 @@ def obstacles_between(targets_xz: np.ndarray, *, position: float = 0.5,
     return ObstacleSet((position * targets).astype(np.float32), radii)
 
 
-def _signed_clearance(space: gmd.FeatureSpace, x: Tensor, obstacles: ObstacleSet) -> Tensor:
+def _signed_clearance(space: FeatureSpace, x: Tensor, obstacles: ObstacleSet) -> Tensor:
     """‖p_xz(t) − c‖ − r (B, T): negative inside the sample's obstacle."""
     position = space.root_xz(x)                                            # (B, T, 2)
     centres = torch.as_tensor(obstacles.centres, dtype=position.dtype, device=position.device)
@@ -276,9 +281,9 @@ def _signed_clearance(space: gmd.FeatureSpace, x: Tensor, obstacles: ObstacleSet
     return (position - centres[:, None, :]).norm(dim=-1) - radii[:, None]
 
 
-def obstacle_cost(space: gmd.FeatureSpace, obstacles: ObstacleSet) -> Callable[[Tensor], Tensor]:
+def obstacle_cost(space: FeatureSpace, obstacles: ObstacleSet) -> Callable[[Tensor], Tensor]:
     """G_obs(x̂0) = Σ_t max(0, r − ‖p_xz(t) − c‖) per sample (m): the penetration of the root
-    path into its own obstacle, summed over frames (the hinge of ``gmd.obstacle_loss``, one
+    path into its own obstacle, summed over frames (the hinge of ``obstacle_loss``, one
     obstacle per sample)."""
 
     def cost(pred_x0: Tensor) -> Tensor:
@@ -287,7 +292,7 @@ def obstacle_cost(space: gmd.FeatureSpace, obstacles: ObstacleSet) -> Callable[[
     return cost
 
 
-def penetration_depth(space: gmd.FeatureSpace, x: Tensor, obstacles: ObstacleSet) -> np.ndarray:
+def penetration_depth(space: FeatureSpace, x: Tensor, obstacles: ObstacleSet) -> np.ndarray:
     """The deepest point of each root path inside its obstacle, max_t max(0, r − ‖p − c‖)
     (B,) in metres; > 0 means a collision."""
     with torch.no_grad():
@@ -314,7 +319,7 @@ class ObstacleArm:
         return float(np.mean(self.penetration > 0.0))
 
 
-def obstacle_experiment(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
+def obstacle_experiment(trained: TrainedGMD, targets_xz: np.ndarray,
                         obstacles: ObstacleSet, strengths: Sequence[float], *, seed: int,
                         stop: int, obstacle_weight: float = 1.0,
                         frame: int = -1) -> list[ObstacleArm]:
@@ -341,7 +346,7 @@ def obstacle_experiment(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
     all_obstacles = obstacles.tile(groups)
     strength = torch.as_tensor(np.repeat([p[1] for p in plan], n), dtype=torch.float32)
     weight = torch.as_tensor(np.repeat([p[2] for p in plan], n), dtype=torch.float32)
-    goal = gmd.goal_reaching_loss(trained.space, all_targets, frame)
+    goal = goal_reaching_loss(trained.space, all_targets, frame)
     avoid = obstacle_cost(trained.space, all_obstacles)
 
     def combined(pred_x0: Tensor) -> Tensor:
@@ -350,12 +355,61 @@ def obstacle_experiment(trained: gmd.TrainedGMD, targets_xz: np.ndarray,
 
     imputation = point_to_point_imputation(trained, all_targets,
                                            active=np.repeat([p[3] for p in plan], n))
-    x = gmd.sample(trained, n * groups, seed=seed, guidance=weighted_guidance(combined, strength),
+    x = sample(trained, n * groups, seed=seed, guidance=weighted_guidance(combined, strength),
                    imputation=imputation, stop_guidance_at=stop,
                    noise=shared_start_noise(trained, n, groups, seed=seed)).cpu()
-    error = gmd.goal_error(trained.space, x, all_targets, frame).reshape(groups, n)
+    error = goal_error(trained.space, x, all_targets, frame).reshape(groups, n)
     depth = penetration_depth(trained.space, x, all_obstacles).reshape(groups, n)
     samples = x.reshape(groups, n, *x.shape[1:])
     return [ObstacleArm(label, s, w, p2p, samples[g], error[g], depth[g],
-                        float(gmd.jitter_of(trained.space, samples[g]).jerk))
+                        float(jitter_of(trained.space, samples[g]).jerk))
             for g, (label, s, w, p2p) in enumerate(plan)]
+
+
+# ---------------------------------------------------------------------------------------------
+# Notebook 06's settings
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Every grid and size of notebook 06, fixed before any verdict was seen.
+
+    The trajectory ε model is notebook 01's (``x0_vs_eps.Settings``: same spec, so the cached
+    weights are shared). ``strengths`` draw the curve, ``rule_strengths`` are the claimed range
+    the rule reads; ``gmd_stops`` are GMD's stop steps (of T = 1000) mapped to the model's T by
+    :func:`model_stop_step`; the stop sweep runs at ``stop_sweep_strengths``. Quick mode
+    shrinks the model and the goal counts (a test of the code, never a result).
+    """
+
+    quick: bool
+    seeds: int
+    goals: int
+    obstacle_goals: int
+    model: ModelSettings
+    strengths: tuple[int, ...] = (0, 1, 3, 10, 30, 100, 150, 200, 300, 1000)
+    rule_strengths: tuple[int, ...] = (100, 150, 200)
+    #: GMD's s, at which the rule compares the stop steps.
+    gmd_strength: int = 100
+    gmd_stops: tuple[int, ...] = (0, 20, 50, 200)
+    #: GMD's stop step t = 20 (of 1000).
+    gmd_stop: int = 20
+    stop_sweep_strengths: tuple[int, ...] = (3, 100)
+    obstacle_weight: float = 1.0
+    #: goals whose guided paths the example figures draw.
+    goals_shown: int = 6
+
+    @classmethod
+    def for_mode(cls, quick: bool, *, seeds: int = 3) -> Settings:
+        model = ModelSettings.for_mode(quick, seeds=seeds)
+        if quick:
+            return cls(quick=True, seeds=seeds, goals=4, obstacle_goals=4, model=model)
+        return cls(quick=False, seeds=seeds, goals=32, obstacle_goals=16, model=model)
+
+    def spec(self, data_dir: str | None = None) -> GMDModelSpec:
+        """Notebook 01's trajectory ε model (seed 0; ``replace(seed=…)`` per seed)."""
+        return self.model.spec("trajectory", "epsilon", self.model.data(data_dir))
+
+    def stops(self) -> dict[int, int]:
+        """{GMD stop step: the model's stop step} for ``gmd_stops``."""
+        return {g: model_stop_step(g, self.model.diffusion_steps) for g in self.gmd_stops}

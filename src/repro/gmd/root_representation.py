@@ -16,10 +16,12 @@ So in rel every p_t depends on all earlier ω_s and v_s, non-linearly through R(
 the step i → i+1 is taken in the facing frame of i+1), a change δv at frame i
 shifts every later frame by δv. In abs p_t depends on g_t alone.
 
-This module holds the logic of ``notebooks/02_root_representation.ipynb``, on top of the shared
-tiny-GMD library ``repro.gmd``: the exact round trip and the sensitivity study (GMD-B1),
-location imputation with both representations (GMD-B2), Table B.1 on stand-in data (GMD-B3),
-the notebook's fixed settings (:class:`Settings`) and its figures.
+This module holds the logic of ``notebooks/02_root_representation.ipynb``, on top of the tiny-GMD
+modules of ``repro.gmd``: the exact round trip and the sensitivity study (GMD-B1),
+location imputation with both representations (GMD-B2) and the notebook's fixed settings
+(:class:`Settings`). Table B.1 (GMD-B3) is ``repro.gmd.table_b1``; the figures are in
+``repro.gmd.figures``. Representations are named as ``motion.humanml3d.REPRESENTATIONS``
+("relative", "absolute"); "rel"/"abs" (``windows.short_label``) only name measurements.
 """
 
 from __future__ import annotations
@@ -34,11 +36,11 @@ import torch
 from torch import Tensor
 
 from repro.core.diffusion import Guidance, Imputation
-from repro.core.stats import t_interval
-from repro.core.tables import interval_text, markdown_table
-from repro.gmd import library as gmd
-from repro.infra.storage import read_json
-from repro.models.evaluator import Evaluator, evaluate_generated
+from repro.gmd.guidance import GMD_GUIDANCE_STRENGTH, sample
+from repro.gmd.measurements import jitter_of
+from repro.gmd.models import GMDModelSpec, TrainedGMD
+from repro.gmd.windows import REPRESENTATIONS, DataConfig, FeatureSpace, MotionWindows, short_label
+from repro.models.evaluator import EvaluatorConfig
 from repro.motion.features import (
     absolute_features_to_joints,
     absolute_to_relative_root,
@@ -48,13 +50,12 @@ from repro.motion.features import (
 )
 
 if TYPE_CHECKING:
-    from matplotlib.figure import Figure
+    pass
 
 __all__ = [
     "METHODS",
-    "PAPER_TABLE_B1",
-    "REPRESENTATIONS",
-    "EvaluationSet",
+    "MOTION_STEPS",
+    "ROOT_PARAMETERS",
     "ImputationRun",
     "LocationTask",
     "RoundTrip",
@@ -62,11 +63,7 @@ __all__ = [
     "SensitivitySetup",
     "Settings",
     "abs_location_imputation",
-    "concept_recall",
-    "evaluation_set",
-    "generate_for_captions",
     "global_root_xz",
-    "ground_truth_row",
     "impute_locations",
     "linearisation_error",
     "load_clips",
@@ -74,26 +71,16 @@ __all__ = [
     "location_loss",
     "location_task",
     "perturbation_displacement",
-    "plot_imputation",
-    "plot_method_errors",
-    "plot_representations",
-    "plot_sensitivity",
-    "plot_table_b1",
     "rel_velocity_replacement",
     "root_jacobian",
     "round_trip",
     "sensitivity_study",
     "straight_line_velocities",
-    "summarise_rows",
-    "table_b1_markdown",
-    "table_row",
-    "window_concepts",
 ]
 
-REPRESENTATIONS = ("rel", "abs")
 #: the root entries a perturbation touches: [0] rotation (ω or a), [1:3] linear (v or p).
 ROOT_PARAMETERS = slice(0, 3)
-#: training steps of the GMD-B3 motion models (full mode): the library's default step count.
+#: training steps of the GMD-B3 motion models (full mode): ``GMDModelSpec``'s default step count.
 #: A probe model (relative root, seed 99 — not a verdict seed; no verdict was computed) had a
 #: training loss of 1.58 → 0.81 (step 500) → 0.55 (1000) → 0.47 (1500): still falling at 1000,
 #: but 1500 would cost another ~50 % of the notebook's largest item; 1000 is the compromise.
@@ -147,10 +134,11 @@ def round_trip(features: np.ndarray) -> RoundTrip:
 # ------------------------------------------------------------------------------ sensitivity
 
 def global_root_xz(features: Tensor, representation: str) -> Tensor:
-    """Global root x/z (..., T, 2): accumulated (rel, ``recover_root``) or read (abs)."""
-    if representation == "rel":
+    """Global root x/z (..., T, 2): accumulated ("relative", ``recover_root``) or read
+    ("absolute")."""
+    if representation == "relative":
         return recover_root(features)[1][..., [0, 2]]
-    if representation == "abs":
+    if representation == "absolute":
         return features[..., 1:3]
     raise ValueError(f"representation must be one of {REPRESENTATIONS}, got {representation!r}")
 
@@ -244,7 +232,7 @@ class SensitivityResult:
         index = self.setup.late_gaps
         return float(self.displacement[representation][perturbation][:, index].mean())
 
-    def growth(self, representation: str = "rel", perturbation: str = "both") -> float:
+    def growth(self, representation: str = "relative", perturbation: str = "both") -> float:
         """Mean displacement at the largest gap / at gap 1 (over clips); ``inf`` when nothing
         moves at gap 1 but something does later, ``nan`` when nothing moves at all."""
         curve = self.displacement[representation][perturbation].mean(axis=0)
@@ -254,9 +242,9 @@ class SensitivityResult:
 
     def measurements(self) -> dict[str, float]:
         """Exactly the names GMD-B1's rule reads (besides ``round_trip_max_error``)."""
-        return {"rel_late_displacement": self.late_mean("rel"),
-                "abs_late_displacement": self.late_mean("abs"),
-                "rel_sensitivity_growth": self.growth("rel")}
+        return {"rel_late_displacement": self.late_mean("relative"),
+                "abs_late_displacement": self.late_mean("absolute"),
+                "rel_sensitivity_growth": self.growth("relative")}
 
     def summary(self) -> dict[str, object]:
         """Every curve's mean at the smallest, a middle and the largest gap, and the setup."""
@@ -265,10 +253,10 @@ class SensitivityResult:
             for name, values in curves.items():
                 mean = values.mean(axis=0)
                 middle = len(mean) // 2
-                out[f"{rep}_{name}"] = {"gap_0": float(mean[0]), "gap_1": float(mean[1]),
-                                        f"gap_{middle}": float(mean[middle]),
-                                        f"gap_{len(mean) - 1}": float(mean[-1]),
-                                        "late_mean": self.late_mean(rep, name)}
+                out[f"{short_label(rep)}_{name}"] = {
+                    "gap_0": float(mean[0]), "gap_1": float(mean[1]),
+                    f"gap_{middle}": float(mean[middle]), f"gap_{len(mean) - 1}": float(mean[-1]),
+                    "late_mean": self.late_mean(rep, name)}
         return out
 
 
@@ -286,12 +274,12 @@ def sensitivity_study(clips: Sequence[np.ndarray], setup: SensitivitySetup,
         for rep in REPRESENTATIONS:
             rows = []
             for clip in clips:
-                x = clip if rep == "rel" else relative_to_absolute_root(clip)
+                x = clip if rep == "relative" else relative_to_absolute_root(clip)
                 rows.append(perturbation_displacement(x, rep, setup.early_frame, delta)[later])
             displacement[rep][name] = np.stack(rows)
     lengths = []
     for clip in clips:
-        p = global_root_xz(torch.from_numpy(clip), "rel").numpy()[setup.early_frame:]
+        p = global_root_xz(torch.from_numpy(clip), "relative").numpy()[setup.early_frame:]
         lengths.append(float(np.linalg.norm(np.diff(p, axis=0), axis=-1).sum()))
     return SensitivityResult(setup, ids, displacement, np.asarray(lengths))
 
@@ -301,13 +289,13 @@ def linearisation_error(features: np.ndarray, frame: int, deltas: Sequence[float
     the relative error of the first-order (Jacobian) prediction of the displaced path.
     Zero for abs (linear: p_t = g_t), and for rel's linear velocities (p is linear in v)."""
     x = np.asarray(features, dtype=np.float64)
-    jacobian = root_jacobian(x, "rel")[:, :, frame, 0]           # (T, 2)
+    jacobian = root_jacobian(x, "relative")[:, :, frame, 0]           # (T, 2)
     errors = []
     for delta in deltas:
-        base = global_root_xz(torch.from_numpy(x), "rel").numpy()
+        base = global_root_xz(torch.from_numpy(x), "relative").numpy()
         moved = x.copy()
         moved[frame, 0] += delta
-        exact = global_root_xz(torch.from_numpy(moved), "rel").numpy() - base
+        exact = global_root_xz(torch.from_numpy(moved), "relative").numpy() - base
         linear = jacobian * delta
         errors.append(np.linalg.norm(exact - linear, axis=-1).max()
                       / max(np.linalg.norm(linear, axis=-1).max(), 1e-300))
@@ -342,7 +330,7 @@ class LocationTask:
         return int(self.targets.shape[0])
 
 
-def location_task(test_windows: gmd.MotionWindows, n: int, *, seed: int) -> LocationTask:
+def location_task(test_windows: MotionWindows, n: int, *, seed: int) -> LocationTask:
     """n waypoint/goal pairs from n test windows drawn with ``seed``: the waypoint frame is
     the middle frame (frames/2 − 1), the goal frame the last."""
     frames = test_windows.frames
@@ -357,7 +345,7 @@ def location_task(test_windows: gmd.MotionWindows, n: int, *, seed: int) -> Loca
     return LocationTask(targets.astype(np.float32), waypoint, frames - 1)
 
 
-def location_loss(space: gmd.FeatureSpace, task: LocationTask) -> Callable[[Tensor], Tensor]:
+def location_loss(space: FeatureSpace, task: LocationTask) -> Callable[[Tensor], Tensor]:
     """G(x̂0) = Σ_{i ∈ {waypoint, goal}} ‖p_xz(i) − target_i‖₁ (m) per sample: GMD's L1 goal
     function on the un-normalised root of x̂0, summed over the two target frames."""
     frames = list(task.frames)
@@ -370,18 +358,18 @@ def location_loss(space: gmd.FeatureSpace, task: LocationTask) -> Callable[[Tens
     return goal
 
 
-def location_errors(space: gmd.FeatureSpace, x: Tensor, task: LocationTask) -> np.ndarray:
+def location_errors(space: FeatureSpace, x: Tensor, task: LocationTask) -> np.ndarray:
     """Euclidean distance (m) of the root x/z to each target, (n, 2): waypoint, goal."""
     with torch.no_grad():
         position = space.root_xz(x.detach())[:, list(task.frames)].cpu().numpy()
     return np.linalg.norm(position - task.targets, axis=-1)
 
 
-def _normalised(space: gmd.FeatureSpace, channel: int, values: np.ndarray) -> np.ndarray:
+def _normalised(space: FeatureSpace, channel: int, values: np.ndarray) -> np.ndarray:
     return (values - space.mean[channel]) / space.std[channel]
 
 
-def abs_location_imputation(space: gmd.FeatureSpace, task: LocationTask,
+def abs_location_imputation(space: FeatureSpace, task: LocationTask,
                             frames: int) -> Imputation:
     """abs: the root x/z entries (channels 1, 2) at the two target frames *are* the targets —
     replace them (GMD's ε-model imputation: x_{t−1} ← q_sample(target, t−1) on the mask)."""
@@ -411,7 +399,7 @@ def straight_line_velocities(task: LocationTask, frames: int) -> np.ndarray:
     return velocity
 
 
-def rel_velocity_replacement(space: gmd.FeatureSpace, task: LocationTask,
+def rel_velocity_replacement(space: FeatureSpace, task: LocationTask,
                              frames: int) -> Imputation:
     """rel: there is no entry holding p_i. A replacement that guarantees p_i must fix every
     entry p_i depends on — ω_s and v_s for all s < i — so here channels 0–2 of *every* frame
@@ -436,7 +424,7 @@ class ImputationRun:
     method: str
     samples: Tensor
     location_error: np.ndarray        # (n, 2) m: waypoint, goal
-    root_acceleration: float          # m/s², mean over frames (gmd.jitter_of, root)
+    root_acceleration: float          # m/s², mean over frames (jitter_of, root)
     path_change: float                # m, mean ‖p_t − p_t(unguided, same seed)‖ over all t
     path_change_off_target: float     # m, the same over frames ≥ 3 away from both targets
 
@@ -452,20 +440,21 @@ class ImputationRun:
                 "path_change_off_target": self.path_change_off_target}
 
 
-def impute_locations(models: dict[str, gmd.TrainedGMD], task: LocationTask, *, seed: int,
-                     strength: float = gmd.GMD_GUIDANCE_STRENGTH) -> dict[str, ImputationRun]:
+def impute_locations(models: dict[str, TrainedGMD], task: LocationTask, *, seed: int,
+                     strength: float = GMD_GUIDANCE_STRENGTH) -> dict[str, ImputationRun]:
     """Every method of :data:`METHODS` from the same seed (same x_T and per-step noise), with
     GMD's stop step (guidance and imputation act while t ≥ 2 % of T).
 
-    ``models``: {"abs": absolute-root trajectory model, "rel": relative-root one}.
+    ``models``: {"absolute": absolute-root trajectory model, "relative": relative-root one};
+    a method's name starts with the short label of its model's representation.
     abs_imputation: :func:`abs_location_imputation`; *_guidance: :func:`location_loss` with
     strength s (GMD: 100); rel_velocity_replacement: :func:`rel_velocity_replacement`.
     """
     runs: dict[str, ImputationRun] = {}
-    for rep in ("abs", "rel"):
+    for rep in ("absolute", "relative"):
         trained = models[rep]
         frames = trained.spec.data.frames
-        if rep == "abs":
+        if rep == "absolute":
             hooks = {"abs_unguided": {},
                      "abs_imputation": {"imputation": abs_location_imputation(
                          trained.space, task, frames)},
@@ -479,7 +468,7 @@ def impute_locations(models: dict[str, gmd.TrainedGMD], task: LocationTask, *, s
                          trained.space, task, frames)}}
         unguided_path = None
         for method, hook in hooks.items():
-            x = gmd.sample(trained, task.n, seed=seed, **hook)
+            x = sample(trained, task.n, seed=seed, **hook)
             with torch.no_grad():
                 path = trained.space.root_xz(x).cpu().numpy()
             if unguided_path is None:
@@ -490,148 +479,9 @@ def impute_locations(models: dict[str, gmd.TrainedGMD], task: LocationTask, *, s
                 away[max(frame - 2, 0):frame + 3] = False
             runs[method] = ImputationRun(
                 method, x.cpu(), location_errors(trained.space, x, task),
-                float(gmd.jitter_of(trained, x, part="root").acceleration),
+                float(jitter_of(trained, x, part="root").acceleration),
                 float(change.mean()), float(change[:, away].mean()))
     return runs
-
-
-# ---------------------------------------------------------------------- GMD-B3: Table B.1
-
-#: Table B.1 of the GMD appendix (HumanML3D): FID ↓, R-precision top-3 ↑, Diversity →.
-PAPER_TABLE_B1: dict[str, tuple[float, float, float]] = {
-    "Real": (0.002, 0.797, 9.503),
-    "MDM (rel)": (0.556, 0.608, 9.446),
-    "MDM (abs)": (0.894, 0.638, 8.819),
-    "Ours (rel)": (0.305, 0.666, 9.861),
-    "Ours (abs)": (0.212, 0.670, 9.440),
-    "Ours xproj": (0.235, 0.652, 9.726),
-}
-
-
-@dataclass
-class EvaluationSet:
-    """The captions a Table B.1 run generates for, and the ground truth they came with.
-
-    ``features`` (n, frames, 263) are the test windows' relative-root features (what the
-    evaluator reads); ``captions`` one caption per window, drawn with the set's seed;
-    ``truth`` the labelled concepts of each window (:func:`window_concepts`).
-    """
-
-    ids: list[str]
-    captions: list[str]
-    features: np.ndarray
-    truth: list[set[str]]
-
-    def __len__(self) -> int:
-        return len(self.ids)
-
-    @property
-    def lengths(self) -> np.ndarray:
-        return np.full(len(self.ids), self.features.shape[1], dtype=np.int64)
-
-
-def window_concepts(labels: dict, start: int, frames: int) -> set[str]:
-    """Concepts labelled in clip frames [start, start + frames): every concept of a single or
-    simultaneous clip; for a sequential clip the segments overlapping the window by at least
-    half its length."""
-    if labels.get("composition") == "sequential":
-        found = set()
-        for segment in labels["segments"]:
-            overlap = min(segment["end"], start + frames) - max(segment["start"], start)
-            if overlap >= frames // 2:
-                found.add(segment["concept"])
-        return found
-    return set(labels.get("concepts", []))
-
-
-def _window_labels(root: Path, window_id: str, frames: int) -> set[str]:
-    clip, start = window_id.rsplit(":", 1)
-    offset = 0
-    if "@" in clip:                       # a sub-range item "<clip>@a-b"
-        clip, span = clip.split("@")
-        offset = int(span.split("-")[0])
-    path = root / "labels" / f"{clip}.json"
-    if not path.is_file():
-        return set()
-    return window_concepts(read_json(path), offset + int(start), frames)
-
-
-def evaluation_set(test_windows: gmd.MotionWindows, n: int, *, seed: int) -> EvaluationSet:
-    """n relative-root test windows drawn with ``seed`` (in window order), one caption each."""
-    if test_windows.config.representation != "relative":
-        raise ValueError("the evaluation set is built from relative-root test windows")
-    n = min(n, len(test_windows))
-    rng = np.random.default_rng(seed)
-    picks = np.sort(rng.choice(len(test_windows), n, replace=False))
-    captions = [test_windows.captions[i][rng.integers(len(test_windows.captions[i]))]
-                for i in picks]
-    with torch.no_grad():
-        features = test_windows.features()[torch.from_numpy(picks)].numpy()
-    ids = [test_windows.ids[i] for i in picks]
-    truth = [_window_labels(test_windows.root, i, test_windows.frames) for i in ids]
-    return EvaluationSet(ids, captions, features.astype(np.float32), truth)
-
-
-def generate_for_captions(trained: gmd.TrainedGMD, captions: Sequence[str], *, seed: int,
-                          batch_size: int = 128) -> np.ndarray:
-    """One sample per caption, returned as relative-root features (n, frames, 263) (an abs
-    model's samples are converted with ``absolute_to_relative_root``). Batch k uses the
-    sampling seed 10 000·seed + k, so models sampled with one seed share their noise."""
-    out = []
-    for k, start in enumerate(range(0, len(captions), batch_size)):
-        chunk = list(captions[start:start + batch_size])
-        x = gmd.sample(trained, len(chunk), seed=10_000 * seed + k, text=chunk)
-        with torch.no_grad():
-            out.append(trained.space.relative_features(x).cpu().numpy())
-    return np.concatenate(out).astype(np.float32)
-
-
-def concept_recall(features: np.ndarray, truth: Sequence[set[str]]) -> float:
-    """Fraction of (window, labelled concept) pairs the concept oracles find in the joints
-    recovered from relative-root ``features`` (n, frames, 263) (``oracles.detect_concepts``)."""
-    from repro.standin.oracles import detect_concepts
-
-    joints = features_to_joints(np.asarray(features, dtype=np.float64))
-    hits = total = 0
-    for clip, concepts in zip(joints, truth, strict=True):
-        if not concepts:
-            continue
-        detected = detect_concepts(clip)
-        hits += len(concepts & detected)
-        total += len(concepts)
-    return hits / total if total else float("nan")
-
-
-def table_row(evaluator: Evaluator, generated: np.ndarray, evaluation: EvaluationSet, *,
-              seed: int) -> dict[str, float]:
-    """FID (generated vs the evaluation set's ground truth), R-precision top-3, Diversity
-    (``evaluator.evaluate_generated``) and the concept-oracle recall of one generated set."""
-    result = evaluate_generated(evaluator, generated, evaluation.lengths, evaluation.captions,
-                                evaluation.features, evaluation.lengths, seed=seed)
-    return {"fid": result["fid"], "r_precision_top3": result["r_precision_top3"],
-            "diversity": result["diversity"],
-            "concept_recall": concept_recall(generated, evaluation.truth)}
-
-
-def ground_truth_row(evaluator: Evaluator, evaluation: EvaluationSet,
-                     train_features: np.ndarray, *, seed: int) -> dict[str, float]:
-    """The "Real" row: FID of the evaluation set against as many training windows (drawn with
-    ``seed``), R-precision top-3 and Diversity of the evaluation set with its own captions,
-    and the concept oracles' recall on it (their ceiling on these windows)."""
-    rng = np.random.default_rng(seed)
-    picks = rng.choice(len(train_features), len(evaluation), replace=False)
-    train = np.asarray(train_features)[np.sort(picks)]
-    result = evaluate_generated(evaluator, evaluation.features, evaluation.lengths,
-                                evaluation.captions, train, evaluation.lengths, seed=seed)
-    return {"fid": result["fid"], "r_precision_top3": result["r_precision_top3"],
-            "diversity": result["diversity"],
-            "concept_recall": concept_recall(evaluation.features, evaluation.truth)}
-
-
-def summarise_rows(per_seed: Sequence[dict[str, float]]) -> dict[str, dict[str, float]]:
-    """Per metric: mean and Student-t 95 % interval over seeds (``verdicts.t_interval``)."""
-    names = per_seed[0].keys()
-    return {name: t_interval([row[name] for row in per_seed]).as_dict() for name in names}
 
 
 # ------------------------------------------------------------------ the notebook's settings
@@ -640,10 +490,10 @@ def summarise_rows(per_seed: Sequence[dict[str, float]]) -> dict[str, dict[str, 
 class Settings:
     """Every size and step count of notebook 02, fixed before any verdict was seen.
 
-    Full mode: GMD-B2 uses the library's default tiny trajectory model (``GMDModelSpec()``:
+    Full mode: GMD-B2 uses the default tiny trajectory model (``GMDModelSpec()``:
     ε prediction, UNet1D base 16 × (1, 2, 4), T = 100 cosine, 1000 steps × batch 64, lr 1e-3,
     48-frame windows) so the absolute-root models are the ones the other GMD notebooks
-    train (shared through ``repro.cache``); GMD-B3 a text-conditioned x0 motion model of the
+    train (shared through ``repro.infra.cache``); GMD-B3 a text-conditioned x0 motion model of the
     same size (GMD's motion model predicts x0) for ``motion_steps``. Quick mode shrinks
     everything (a test of the code, never a result).
     """
@@ -670,22 +520,25 @@ class Settings:
                    trajectory_steps=1000, motion_steps=MOTION_STEPS, sensitivity_clips=64,
                    targets=64, evaluation_windows=256, evaluator_steps=500)
 
-    def data(self, representation: str, data_dir: str | None = None) -> gmd.DataConfig:
-        """48-frame windows in ``representation`` ("rel"/"abs" or gmd's long names)."""
-        long = {"rel": "relative", "abs": "absolute"}.get(representation, representation)
-        return gmd.DataConfig(data_dir=data_dir, stand_in_clips=self.stand_in_clips,
-                              stride=self.stride, representation=long)
+    def data(self, representation: str, data_dir: str | None = None) -> DataConfig:
+        """48-frame windows in ``representation`` (one of ``REPRESENTATIONS``)."""
+        return DataConfig(data_dir=data_dir, stand_in_clips=self.stand_in_clips,
+                          stride=self.stride, representation=representation)
+
+    def evaluator_config(self) -> EvaluatorConfig:
+        """The package's evaluator with ``evaluator_steps`` (full mode: its default, 500)."""
+        return EvaluatorConfig(steps=self.evaluator_steps)
 
     def trajectory_spec(self, representation: str, seed: int,
-                        data_dir: str | None = None) -> gmd.GMDModelSpec:
-        return gmd.GMDModelSpec(task="trajectory", prediction="epsilon",
+                        data_dir: str | None = None) -> GMDModelSpec:
+        return GMDModelSpec(task="trajectory", prediction="epsilon",
                                 data=self.data(representation, data_dir), seed=seed,
                                 diffusion_steps=self.diffusion_steps,
                                 train_steps=self.trajectory_steps)
 
     def motion_spec(self, representation: str, seed: int,
-                    data_dir: str | None = None) -> gmd.GMDModelSpec:
-        return gmd.GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
+                    data_dir: str | None = None) -> GMDModelSpec:
+        return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
                                 data=self.data(representation, data_dir), seed=seed,
                                 diffusion_steps=self.diffusion_steps,
                                 train_steps=self.motion_steps)
@@ -707,188 +560,3 @@ def load_clips(root: Path, split: str, *, min_frames: int, n: int) -> tuple[list
         if len(clips) == n:
             break
     return ids, clips
-
-
-# ---------------------------------------------------------------------------- tables, figures
-
-
-
-TABLE_METRICS = ("fid", "r_precision_top3", "diversity", "concept_recall")
-
-
-def table_b1_markdown(real: dict[str, float], rows: dict[str, list[dict[str, float]]]) -> str:
-    """Our Table B.1 (mean ± 95 % t half-width over seeds) with the paper's rows beside it."""
-    header = ["row", "FID ↓", "R-precision top-3 ↑", "Diversity →", "concept recall ↑",
-              "seeds"]
-    body: list[list[object]] = [["Real (stand-in test vs train)"]
-                                + [real[m] for m in TABLE_METRICS] + ["–"]]
-    for name, label in (("rel", "tiny GMD (rel)"), ("abs", "tiny GMD (abs)")):
-        body.append([label] + [interval_text([r[m] for r in rows[name]], decimals=3)
-                               for m in TABLE_METRICS] + [len(rows[name])])
-    for name, (fid, r3, div) in PAPER_TABLE_B1.items():
-        body.append([f"paper: {name}", fid, r3, div, "–", "–"])
-    return markdown_table(header, body)
-
-
-def plot_representations(clip: np.ndarray, setup: SensitivitySetup, title: str) -> Figure:
-    """One clip in both representations (root channels over time) and its top-down path
-    after the early-frame perturbation of :class:`SensitivitySetup`, rel vs abs."""
-    import matplotlib.pyplot as plt
-
-    rel = np.asarray(clip, dtype=np.float64)[: setup.window]
-    absolute = relative_to_absolute_root(rel)
-    frames = np.arange(len(rel))
-    fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
-    axes[0].plot(frames, rel[:, 0], label="ω (half-angle/frame)")
-    axes[0].plot(frames, rel[:, 1], label="v_x (m/frame)")
-    axes[0].plot(frames, rel[:, 2], label="v_z (m/frame)")
-    axes[0].set_title("rel: root entries 0–2", fontsize=9)
-    axes[1].plot(frames, absolute[:, 0], label="a (half-angle)")
-    axes[1].plot(frames, absolute[:, 1], label="x (m)")
-    axes[1].plot(frames, absolute[:, 2], label="z (m)")
-    axes[1].set_title("abs: root entries 0–2", fontsize=9)
-    for ax in axes[:2]:
-        ax.axvline(setup.early_frame, color="grey", ls=":", lw=1)
-        ax.set_xlabel("frame")
-        ax.legend(fontsize=7)
-    delta = np.asarray(setup.deltas()["both"])
-    path = global_root_xz(torch.from_numpy(rel), "rel").numpy()
-    moved_rel = rel.copy()
-    moved_rel[setup.early_frame, ROOT_PARAMETERS] += delta
-    moved_abs = absolute.copy()
-    moved_abs[setup.early_frame, ROOT_PARAMETERS] += delta
-    path_rel = global_root_xz(torch.from_numpy(moved_rel), "rel").numpy()
-    path_abs = global_root_xz(torch.from_numpy(moved_abs), "abs").numpy()
-    ax = axes[2]
-    ax.plot(path[:, 0], path[:, 1], "k-", lw=2, label="original")
-    ax.plot(path_rel[:, 0], path_rel[:, 1], "-", color="tab:red", label="perturbed, rel")
-    ax.plot(path_abs[:, 0], path_abs[:, 1], "--", color="tab:blue", label="perturbed, abs")
-    ax.plot(*path[setup.early_frame], "o", color="grey", ms=5, label=f"frame {setup.early_frame}")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("z (m)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.legend(fontsize=7)
-    ax.set_title("top-down root path", fontsize=9)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    return fig
-
-
-def plot_sensitivity(result: SensitivityResult, clip: np.ndarray,
-                     real: SensitivityResult | None = None) -> Figure:
-    """(a) mean displacement against the frame gap, rel (rotation, linear, both) and abs;
-    (b, c) ‖∂p_t/∂(root entries of frame s)‖_F for one clip, rel and abs."""
-    import matplotlib.pyplot as plt
-
-    setup = result.setup
-    gaps = setup.gaps
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
-    ax = axes[0]
-    styles = {"rotation": ("tab:orange", "-"), "linear": ("tab:green", "-"),
-              "both": ("tab:red", "-")}
-    for name, (colour, style) in styles.items():
-        ax.plot(gaps, result.displacement["rel"][name].mean(axis=0), style, color=colour,
-                label=f"rel, {name}")
-    ax.plot(gaps, result.displacement["abs"]["both"].mean(axis=0), "o--", color="tab:blue",
-            ms=3, label="abs, both")
-    if real is not None:
-        ax.plot(gaps, real.displacement["rel"]["both"][0], ":", color="black",
-                label="rel, both (real clip 012314)")
-    ax.axvspan(setup.late_gaps[0], setup.late_gaps[-1], color="grey", alpha=0.15,
-               label="late frames")
-    ax.set_xlabel(f"frame gap t − {setup.early_frame}")
-    ax.set_ylabel("root displacement (m)")
-    ax.set_title(f"δω = {setup.delta_rotation}, δv = {setup.delta_linear} at frame "
-                 f"{setup.early_frame} (mean of {len(result.clip_ids)} clips)", fontsize=9)
-    ax.legend(fontsize=7)
-    rel = np.asarray(clip, dtype=np.float64)[: setup.window]
-    for ax, rep, x in ((axes[1], "rel", rel), (axes[2], "abs", relative_to_absolute_root(rel))):
-        jacobian = np.linalg.norm(root_jacobian(x, rep), axis=(1, 3))
-        image = ax.imshow(jacobian, origin="lower", cmap="magma", aspect="auto")
-        fig.colorbar(image, ax=ax, fraction=0.046)
-        ax.set_xlabel("perturbed frame s")
-        ax.set_ylabel("position frame t")
-        ax.grid(False)
-        ax.set_title(f"{rep}: ‖∂p_t / ∂(entries 0–2 of frame s)‖_F", fontsize=9)
-    fig.tight_layout()
-    return fig
-
-
-def plot_imputation(models: dict[str, gmd.TrainedGMD], runs: dict[str, ImputationRun],
-                    task: LocationTask, samples: int = 4) -> Figure:
-    """Top-down root paths of a few samples of every method, the targets marked."""
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 3, figsize=(13, 8.5))
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for ax, method in zip(axes.ravel(), METHODS, strict=True):
-        trained = models[method.split("_")[0]]
-        with torch.no_grad():
-            paths = trained.space.root_xz(runs[method].samples[:samples]).numpy()
-        for k, path in enumerate(paths):
-            colour = colours[k % len(colours)]
-            ax.plot(path[:, 0], path[:, 1], "-", color=colour, lw=1.3)
-            ax.plot(*path[task.waypoint_frame], "o", color=colour, ms=4)
-            ax.plot(*path[-1], ">", color=colour, ms=5)
-            for target, marker in zip(task.targets[k], ("x", "*"), strict=True):
-                ax.plot(*target, marker, color=colour, ms=10, mew=2)
-        error = runs[method].mean_error
-        ax.set_title(f"{method.replace('_', ' ')}: error {error:.3f} m", fontsize=9)
-        ax.set_aspect("equal", adjustable="datalim")
-    for ax in axes[-1]:
-        ax.set_xlabel("x (m)")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("z (m)")
-    fig.suptitle(f"waypoint (×, frame {task.waypoint_frame}) and goal (*, last frame); "
-                 "dots/arrows: where the samples are at those frames", fontsize=10)
-    fig.tight_layout()
-    return fig
-
-
-def plot_method_errors(per_seed: dict[str, list[float]], ylabel: str, title: str) -> Figure:
-    """Per-method bars (mean over seeds) with every seed's value as a dot."""
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 3.6))
-    names = list(per_seed)
-    for i, name in enumerate(names):
-        values = np.asarray(per_seed[name])
-        ax.bar(i, values.mean(), color="tab:blue" if name.startswith("abs") else "tab:red",
-               alpha=0.6)
-        ax.plot(np.full(len(values), i), values, "k.", ms=6)
-    ax.set_xticks(range(len(names)), [n.replace("_", "\n") for n in names], fontsize=8)
-    ax.set_ylabel(ylabel)
-    ax.set_yscale("log")
-    ax.set_title(title, fontsize=9)
-    fig.tight_layout()
-    return fig
-
-
-def plot_table_b1(real: dict[str, float], rows: dict[str, list[dict[str, float]]]) -> Figure:
-    """Table B.1 as panels (FID, R@3, Diversity, concept recall): per-seed dots, mean bars,
-    the stand-in real row as a dashed line; the paper's Ours rel → abs values in each title
-    (HumanML3D, its own evaluator: for the direction only)."""
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 4, figsize=(14, 3.8))
-    labels = {"fid": "FID ↓", "r_precision_top3": "R-precision top-3 ↑",
-              "diversity": "Diversity →", "concept_recall": "concept recall ↑"}
-    paper_index = {"fid": 0, "r_precision_top3": 1, "diversity": 2}
-    for ax, metric in zip(axes, TABLE_METRICS, strict=True):
-        for i, (rep, colour) in enumerate((("rel", "tab:red"), ("abs", "tab:blue"))):
-            values = np.asarray([r[metric] for r in rows[rep]])
-            ax.bar(i, values.mean(), color=colour, alpha=0.6, label=f"ours {rep}")
-            ax.plot(np.full(len(values), i), values, "k.", ms=6)
-        ax.axhline(real[metric], color="black", ls="--", lw=1, label="real (stand-in)")
-        title = labels[metric]
-        if metric in paper_index:
-            k = paper_index[metric]
-            title += (f"\npaper Ours: rel {PAPER_TABLE_B1['Ours (rel)'][k]:g} → abs "
-                      f"{PAPER_TABLE_B1['Ours (abs)'][k]:g} (real {PAPER_TABLE_B1['Real'][k]:g})")
-        else:
-            title += "\n(not in the paper)"
-        ax.set_xticks([0, 1], ["rel", "abs"])
-        ax.set_title(title, fontsize=9)
-    axes[0].legend(fontsize=7, loc="lower left")
-    fig.tight_layout()
-    return fig

@@ -1,0 +1,146 @@
+"""Tiny GMD's guided sampling and goal functions (GMD appendix F; REFERENCE.md "Guidance").
+
+GMD's goal functions G act on the un-normalised x̂0 — L1 (p = 1), averaged over the target
+entries as GMD does — and enter sampling through ``diffusion.Guidance``
+(μ̃ = μ − s·Σ_t·∇_{x_t} G(x̂0)); guidance (and imputation) stop at t = 20 of T = 1000,
+scaled here to the same fraction of a model's T (``default_stop_step``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from repro.core.diffusion import Guidance, Imputation, SampleTrajectory
+from repro.gmd.models import TrainedGMD
+from repro.gmd.windows import FeatureSpace
+
+__all__ = [
+    "GMD_GUIDANCE_STRENGTH",
+    "GMD_STOP_FRACTION",
+    "default_stop_step",
+    "goal_error",
+    "goal_guidance",
+    "goal_reaching_loss",
+    "obstacle_loss",
+    "sample",
+    "waypoint_loss",
+]
+
+#: GMD stops guidance at t = 20 of T = 1000 (appendix F): 2 % of the steps.
+GMD_STOP_FRACTION = 20 / 1000
+#: GMD's guidance strength s (appendix F; REFERENCE.md "Guidance").
+GMD_GUIDANCE_STRENGTH = 100.0
+
+
+def default_stop_step(num_timesteps: int) -> int:
+    """GMD's stop step t = 20 of T = 1000 (guidance acts while t ≥ 20), scaled to T."""
+    return int(round(GMD_STOP_FRACTION * num_timesteps))
+
+
+def sample(trained: TrainedGMD, n: int, *, seed: int, guidance: Guidance | None = None,
+           imputation: Imputation | None = None, stop_guidance_at: int | None = None,
+           return_trajectory: bool = False, trajectory_timesteps: Sequence[int] | None = None,
+           text: str | Sequence[str] | None = None, noise: Tensor | None = None,
+           clip_x0: float | None | Literal["auto"] = "auto",
+           ) -> Tensor | tuple[Tensor, SampleTrajectory]:
+    """n samples (n, C, frames) in model space by ancestral sampling (``p_sample_loop``).
+
+    The same ``seed`` gives the same x_T and the same per-step noise whatever the guidance
+    (guidance draws nothing), so guided and unguided runs with one seed are paired.
+    ``stop_guidance_at`` defaults to GMD's 2 % of T (``default_stop_step``). ``text``: one
+    caption or n (text-conditioned models only).
+
+    ``clip_x0`` "auto": an ε model's x̂0 is clamped to ±``trained.x0_bound`` (the largest
+    |value| of its training windows), as GMD clamps its ε trajectory model's x̂0 (to ±6 in
+    its normalisation; an x0 model is not clamped). Without it an ε model diverges at the
+    first step of the cosine schedule, where x̂0 = (x_T − √(1−ᾱ) ε̂)/√ᾱ multiplies the error
+    of ε̂ by 1/√ᾱ_{T−1} (≈ 2000 at T = 100). A number clamps any model, None never.
+    """
+    if n < 1:
+        raise ValueError(f"n must be >= 1, got {n}")
+    shape = (n, trained.space.channels, trained.spec.data.frames)
+    kwargs: dict[str, Any] = {}
+    if text is not None:
+        kwargs["cond"] = trained.text_condition(text, n)
+    elif trained.vocabulary is not None:
+        kwargs["force_unconditional"] = True
+    stop = default_stop_step(trained.num_timesteps) if stop_guidance_at is None else int(
+        stop_guidance_at)
+    if clip_x0 == "auto":
+        clip_x0 = trained.x0_bound if trained.spec.prediction == "epsilon" else None
+    return trained.diffusion.p_sample_loop(
+        trained.model, shape, model_kwargs=kwargs, seed=seed, guidance=guidance,
+        imputation=imputation, stop_guidance_at=stop, clip_x0=clip_x0, device=trained.device,
+        noise=noise, return_trajectory=return_trajectory,
+        trajectory_timesteps=trajectory_timesteps)
+
+
+def _targets(target_xz: Tensor | np.ndarray | Sequence[float], like: Tensor) -> Tensor:
+    target = torch.as_tensor(np.asarray(target_xz, dtype=np.float32), device=like.device,
+                             dtype=like.dtype)
+    if target.shape[-1] != 2 or target.dim() > 2:
+        raise ValueError(f"targets must be (2,) or (B, 2) world x/z, got {tuple(target.shape)}")
+    return target if target.dim() == 2 else target[None]
+
+
+def goal_reaching_loss(space: FeatureSpace, target_xz: Tensor | np.ndarray | Sequence[float],
+                       frame: int = -1) -> Callable[[Tensor], Tensor]:
+    """G(x̂0) = ½‖p_xz(frame) − target‖₁ (m) per sample: GMD's goal reaching, L1 (p = 1) on the
+    un-normalised root of x̂0 (model space (B, C, T)), averaged over the target's two
+    coordinates as GMD normalises by the number of target entries. ``target_xz`` (2,) or
+    (B, 2)."""
+
+    def goal(pred_x0: Tensor) -> Tensor:
+        position = space.root_xz(pred_x0)[:, frame]
+        return (position - _targets(target_xz, position)).abs().mean(dim=-1)
+
+    return goal
+
+
+def waypoint_loss(space: FeatureSpace, target_xz: Tensor | np.ndarray | Sequence[float],
+                  frame: int) -> Callable[[Tensor], Tensor]:
+    """G(x̂0) = ½‖p_xz(frame) − target‖₁: reach a location at frame ``frame`` (GMD's keyframe
+    locations)."""
+    return goal_reaching_loss(space, target_xz, frame)
+
+
+def obstacle_loss(space: FeatureSpace, centres_xz: np.ndarray | Sequence[Sequence[float]],
+                  radii: np.ndarray | Sequence[float]) -> Callable[[Tensor], Tensor]:
+    """G(x̂0) = Σ_t Σ_k max(0, r_k − ‖p_xz(t) − c_k‖): penetration depth of the root path into
+    circular obstacles (our cost; GMD's obstacle avoidance uses a comparable hinge)."""
+    centres = np.asarray(centres_xz, dtype=np.float32).reshape(-1, 2)
+    radius = np.asarray(radii, dtype=np.float32).reshape(-1)
+    if len(radius) != len(centres):
+        raise ValueError(f"{len(centres)} centres but {len(radius)} radii")
+
+    def goal(pred_x0: Tensor) -> Tensor:
+        position = space.root_xz(pred_x0)                                # (B, T, 2)
+        c = torch.as_tensor(centres, dtype=position.dtype, device=position.device)
+        r = torch.as_tensor(radius, dtype=position.dtype, device=position.device)
+        distance = (position[:, :, None, :] - c).norm(dim=-1)            # (B, T, K)
+        return torch.relu(r - distance).sum(dim=(1, 2))
+
+    return goal
+
+
+def goal_guidance(trained: TrainedGMD, target_xz: Tensor | np.ndarray | Sequence[float], *,
+                  frame: int = -1, strength: float = GMD_GUIDANCE_STRENGTH) -> Guidance:
+    """Classifier guidance toward ``target_xz`` at ``frame`` (default the last): μ̃ = μ −
+    s·Σ_t·∇_{x_t}½‖p_xz(x̂0) − target‖₁ (GMD, s = 100)."""
+    return Guidance(goal_reaching_loss(trained.space, target_xz, frame), strength=strength)
+
+
+
+def goal_error(trained: TrainedGMD | FeatureSpace, x: Tensor,
+               target_xz: Tensor | np.ndarray | Sequence[float], frame: int = -1) -> np.ndarray:
+    """Euclidean distance (m) between the root x/z at ``frame`` and the target, per sample."""
+    space = trained.space if isinstance(trained, TrainedGMD) else trained
+    with torch.no_grad():
+        position = space.root_xz(x.detach())[:, frame]
+        return (position - _targets(target_xz, position)).norm(dim=-1).cpu().numpy()
+

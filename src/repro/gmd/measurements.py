@@ -1,0 +1,58 @@
+"""Motion quality of tiny-GMD samples: jitter, foot skating, evaluator inputs (``core.metrics``)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from repro.core import metrics
+from repro.gmd.models import TrainedGMD
+from repro.gmd.windows import FeatureSpace
+from repro.motion.features import FPS
+from repro.motion.skeleton import NUM_JOINTS
+
+__all__ = ["evaluator_inputs", "foot_skating_of", "jitter_of"]
+
+
+def _root_as_joints(root: np.ndarray) -> np.ndarray:
+    # metrics.jitter averages over 22 joints: 22 copies of the root give the root's own value
+    return np.repeat(root[:, :, None, :], NUM_JOINTS, axis=2)
+
+
+def jitter_of(trained: TrainedGMD | FeatureSpace, x: Tensor,
+              part: Literal["auto", "joints", "root"] = "auto") -> metrics.Jitter:
+    """Mean acceleration (m/s²) and jerk (m/s³) of samples (B, C, T) (``metrics.jitter``):
+    of all recovered joints for the motion task, of the root path for the trajectory task
+    (``part`` forces one; a trajectory sample has only a root)."""
+    space = trained.space if isinstance(trained, TrainedGMD) else trained
+    if part == "auto":
+        part = "joints" if space.task == "motion" else "root"
+    with torch.no_grad():
+        if part == "joints":
+            points = space.joints(x.detach()).cpu().double().numpy()
+        else:
+            points = _root_as_joints(space.root_positions(x.detach()).cpu().double().numpy())
+    return metrics.jitter(points, fps=FPS)
+
+
+def foot_skating_of(trained: TrainedGMD | FeatureSpace, x: Tensor) -> float:
+    """Mean horizontal foot speed in contact (m/s, ``metrics.foot_skating``), motion task."""
+    space = trained.space if isinstance(trained, TrainedGMD) else trained
+    with torch.no_grad():
+        joints = space.joints(x.detach()).cpu().double().numpy()
+    return metrics.foot_skating(joints, fps=FPS)
+
+
+
+def evaluator_inputs(space: TrainedGMD | FeatureSpace,
+                     x: Tensor) -> tuple[np.ndarray, list[int]]:
+    """(features (B, T, 263) float32 in HumanML3D's relative representation, lengths) of
+    motion-task samples, as ``evaluator.Evaluator.embed_motions`` takes them."""
+    space = space.space if isinstance(space, TrainedGMD) else space
+    with torch.no_grad():
+        features = space.relative_features(x.detach().cpu()).numpy().astype(np.float32)
+    return features, [features.shape[1]] * features.shape[0]
+

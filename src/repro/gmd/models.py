@@ -1,0 +1,289 @@
+"""Tiny GMD's models: specs, text conditioning, cached (and multiprocess) training.
+
+GMD (appendix D–F; REFERENCE.md "GMD") trains a *trajectory* DPM on the 4 root features
+(angle, x, z, y) and a *motion* DPM on all 263, both 1D UNets with AdaGN. Here
+``GMDModelSpec`` → ``load_or_train_gmd``: a ``models.unet.UNet1D`` trained by
+``training.train_diffusion``, cached by ``cache.load_or_train`` under a hash of the spec *and*
+a fingerprint of the training windows (so a real-data run never loads stand-in weights).
+Everything is scaled down to run on 2 CPU cores.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from repro.core.diffusion import GaussianDiffusion
+from repro.core.training import TrainConfig, train_diffusion
+from repro.gmd.coefficients import schedule_diffusion
+from repro.gmd.windows import (
+    CHANNELS,
+    DataConfig,
+    FeatureSpace,
+    MotionWindows,
+    Task,
+    check_task,
+    load_windows,
+)
+from repro.infra import cache, paths
+from repro.infra.storage import read_json
+from repro.models.unet import UNet1D
+from repro.motion.features import FEATURE_DIM, TRAJECTORY_FEATURES
+from repro.standin.text import Vocabulary, tokenize
+
+__all__ = [
+    "GMDModelSpec",
+    "TrainedGMD",
+    "bag_of_words",
+    "describe",
+    "is_cached",
+    "load_or_train_gmd",
+    "load_or_train_many",
+    "model_cache_config",
+    "parameter_count",
+    "trajectory_loss_weights",
+]
+
+_CACHE_VERSION = 1
+
+
+def bag_of_words(vocabulary: Vocabulary, captions: Sequence[str | Sequence[str]]) -> Tensor:
+    """Text condition (B, V): word counts of each caption over the vocabulary, divided by the
+    caption's number of words; a list of captions for one item gives their mean."""
+    rows = []
+    for item in captions:
+        options = [item] if isinstance(item, str) else list(item)
+        vector = np.zeros(len(vocabulary), dtype=np.float32)
+        for caption in options:
+            words = tokenize(caption)
+            for word in words:
+                vector[vocabulary.id(word)] += 1.0 / max(len(words), 1) / len(options)
+        rows.append(vector)
+    return torch.from_numpy(np.stack(rows))
+
+
+def trajectory_loss_weights(k: float, channels: int = FEATURE_DIM) -> list[float]:
+    """GMD's trajectory loss scaling (appendix C.1, Eq. 5): weight k² on features 0:4."""
+    weights = [1.0] * channels
+    for i in range(TRAJECTORY_FEATURES.start, min(TRAJECTORY_FEATURES.stop, channels)):
+        weights[i] = float(k) ** 2
+    return weights
+
+
+
+@dataclass(frozen=True)
+class GMDModelSpec:
+    """Everything that decides a trained tiny GMD model (with the data fingerprint: its key).
+
+    ``task`` "trajectory" (4 channels) or "motion" (263); ``prediction`` "x0" or "epsilon";
+    ``data`` the windows; the UNet is ``UNet1D(C, base_channels, channel_mults)``; the
+    diffusion has ``diffusion_steps`` steps of the ``schedule``; AdamW (``lr``,
+    ``weight_decay``), gradient clip 1, EMA ``ema_decay`` with warm-up (``training``).
+    ``feature_weights`` (C,) weigh the squared error per channel (GMD's loss scaling k²,
+    ``trajectory_loss_weights``). ``text_conditioned`` adds a bag-of-words caption condition
+    (dropped with probability ``cond_dropout`` for classifier-free use).
+    """
+
+    task: Task = "trajectory"
+    prediction: Literal["x0", "epsilon"] = "epsilon"
+    data: DataConfig = field(default_factory=DataConfig)
+    base_channels: int = 16
+    channel_mults: tuple[float, ...] = (1, 2, 4)
+    diffusion_steps: int = 100
+    schedule: Literal["cosine", "linear"] = "cosine"
+    train_steps: int = 1000
+    batch_size: int = 64
+    lr: float = 1e-3
+    weight_decay: float = 0.01
+    ema_decay: float = 0.9999
+    seed: int = 0
+    feature_weights: tuple[float, ...] | None = None
+    text_conditioned: bool = False
+    cond_dropout: float = 0.1
+
+    def __post_init__(self) -> None:
+        check_task(self.task)
+        if self.prediction not in ("x0", "epsilon"):
+            raise ValueError(f"prediction must be 'x0' or 'epsilon', got {self.prediction!r}")
+        if self.schedule not in ("cosine", "linear"):
+            raise ValueError(f"schedule must be 'cosine' or 'linear', got {self.schedule!r}")
+        object.__setattr__(self, "channel_mults", tuple(float(m) for m in self.channel_mults))
+        if self.feature_weights is not None:
+            weights = tuple(float(w) for w in self.feature_weights)
+            if len(weights) != CHANNELS[self.task]:
+                raise ValueError(f"feature_weights needs {CHANNELS[self.task]} values for the "
+                                 f"{self.task} task, got {len(weights)}")
+            object.__setattr__(self, "feature_weights", weights)
+        if self.data.frames % 2 ** (len(self.channel_mults) - 1):
+            raise ValueError(f"frames = {self.data.frames} must be divisible by "
+                             f"2**(len(channel_mults) - 1) = {2 ** (len(self.channel_mults) - 1)}")
+
+    @property
+    def channels(self) -> int:
+        return CHANNELS[self.task]
+
+    def replace(self, **changes: Any) -> GMDModelSpec:
+        """A copy with some fields changed (``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+    def as_dict(self) -> dict[str, Any]:
+        config = dataclasses.asdict(self)
+        config["data"] = self.data.as_dict()
+        if not self.text_conditioned:
+            config.pop("cond_dropout")
+        return config
+
+    def diffusion(self) -> GaussianDiffusion:
+        return schedule_diffusion(self.schedule, self.diffusion_steps, self.prediction)
+
+    def build_model(self, cond_dim: int | None = None) -> UNet1D:
+        return UNet1D(self.channels, self.base_channels, self.channel_mults, cond_dim=cond_dim)
+
+    def train_config(self, device: str | torch.device = "cpu") -> TrainConfig:
+        return TrainConfig(steps=self.train_steps, batch_size=self.batch_size, lr=self.lr,
+                           weight_decay=self.weight_decay, ema_decay=self.ema_decay,
+                           seed=self.seed,
+                           feature_weights=None if self.feature_weights is None
+                           else list(self.feature_weights),
+                           cond_dropout=self.cond_dropout if self.text_conditioned else 0.0,
+                           device=str(device))
+
+
+@dataclass
+class TrainedGMD:
+    """A trained model (the EMA weights, eval mode), its diffusion and its feature space."""
+
+    model: UNet1D
+    diffusion: GaussianDiffusion
+    space: FeatureSpace
+    spec: GMDModelSpec
+    vocabulary: Vocabulary | None = None
+    metrics: dict[str, Any] = field(default_factory=dict)
+    cache_key: str = ""
+    #: max |x| over the training windows' model channels: the default clamp on x̂0 in sampling
+    x0_bound: float | None = None
+
+    @property
+    def device(self) -> torch.device:
+        return next(self.model.parameters()).device
+
+    @property
+    def num_timesteps(self) -> int:
+        return self.diffusion.num_timesteps
+
+    def text_condition(self, text: str | Sequence[str], n: int) -> Tensor:
+        """Bag-of-words conditions (n, V) for one caption or n captions."""
+        if self.vocabulary is None:
+            raise ValueError("this model is not text-conditioned")
+        captions = [text] * n if isinstance(text, str) else list(text)
+        if len(captions) != n:
+            raise ValueError(f"need 1 or {n} captions, got {len(captions)}")
+        return bag_of_words(self.vocabulary, captions).to(self.device)
+
+
+def model_cache_config(spec: GMDModelSpec, data: MotionWindows) -> dict[str, Any]:
+    """What a trained model's cache key covers: the spec and the training windows' content."""
+    return {"spec": spec.as_dict(), "data_fingerprint": data.fingerprint,
+            "version": _CACHE_VERSION}
+
+
+def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
+                      device: str | torch.device = "cpu", retrain: bool = False,
+                      progress: bool = False) -> TrainedGMD:
+    """The trained model of ``spec`` from the cache (kind ``gmd_<task>``), trained on a miss.
+
+    ``data`` are the training windows of ``spec.data`` (loaded when None; pass them to avoid
+    reloading). Deterministic given ``spec.seed``; the same code runs on ``device="cuda"``.
+    """
+    if data is None:
+        data = load_windows(spec.data)
+    if data.config != spec.data or data.split != "train":
+        raise ValueError(f"data are the {data.split!r} windows of {data.config}, but the spec "
+                         f"trains on the 'train' windows of {spec.data}")
+    device = torch.device(device)
+    vocabulary = data.vocabulary if spec.text_conditioned else None
+    cond_dim = len(vocabulary) if vocabulary is not None else None
+    config = model_cache_config(spec, data)
+    kind = f"gmd_{spec.task}"
+    diffusion = spec.diffusion()
+
+    def train(model: torch.nn.Module) -> tuple[torch.nn.Module, dict[str, Any]]:
+        x = data.channels(spec.task).contiguous()
+        cond = bag_of_words(vocabulary, data.captions) if vocabulary is not None else None
+        result = train_diffusion(model, diffusion, x, spec.train_config(device), cond=cond,
+                                 progress=progress)
+        return result.for_cache()
+
+    model = cache.load_or_train(kind, config, lambda: spec.build_model(cond_dim), train,
+                                device=device, retrain=retrain)
+    stored = cache.cached_artifact_dir(kind, config) / "metrics.json"
+    train_metrics = read_json(stored) if stored.exists() else {}
+    bound = float(data.channels(spec.task).abs().max())
+    return TrainedGMD(model.requires_grad_(False), diffusion, data.space(spec.task), spec,
+                      vocabulary, train_metrics, cache.config_hash(config), bound)
+
+
+def is_cached(spec: GMDModelSpec, data: MotionWindows) -> bool:
+    """Whether ``load_or_train_gmd(spec, data)`` would load instead of train."""
+    config = model_cache_config(spec, data)
+    return (paths.cache_dir() / f"gmd_{spec.task}" / cache.config_hash(config)
+            / "model.pt").is_file()
+
+
+_WORKER_DATA: dict[DataConfig, MotionWindows] = {}
+
+
+def _train_in_worker(spec: GMDModelSpec, fingerprint: str) -> str:
+    torch.set_num_threads(1)
+    data = _WORKER_DATA.get(spec.data)
+    if data is None:
+        data = _WORKER_DATA.setdefault(spec.data, load_windows(spec.data))
+    if data.fingerprint != fingerprint:
+        raise ValueError(f"a worker loaded different windows for {spec.data} (fingerprint "
+                         f"{data.fingerprint} ≠ {fingerprint}): train these in-process")
+    return load_or_train_gmd(spec, data).cache_key
+
+
+def load_or_train_many(specs: Sequence[GMDModelSpec], data: MotionWindows, *,
+                       device: str | torch.device = "cpu", workers: int | None = None,
+                       ) -> list[TrainedGMD]:
+    """``load_or_train_gmd`` for several specs on the same windows; the models not yet cached
+    are trained in ``workers`` processes with one torch thread each (default: as many as
+    this process's torch threads; small models use two cores better as two processes than as
+    two threads of one). Every model is then loaded from the cache, in ``specs`` order.
+    ``data`` must be ``load_windows(spec.data)`` for every spec (checked by fingerprint).
+    Workers are spawned: a script calling this needs the ``if __name__ == "__main__":`` guard
+    (a notebook does not)."""
+    if any(spec.data != data.config for spec in specs):
+        raise ValueError("load_or_train_many needs specs that all train on data.config")
+    workers = torch.get_num_threads() if workers is None else int(workers)
+    missing = [spec for spec in dict.fromkeys(specs) if not is_cached(spec, data)]
+    if workers > 1 and len(missing) > 1 and torch.device(device).type == "cpu":
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(min(workers, len(missing)), mp_context=context) as pool:
+            list(pool.map(_train_in_worker, missing, [data.fingerprint] * len(missing)))
+    return [load_or_train_gmd(spec, data, device=device) for spec in specs]
+
+
+
+def describe(spec: GMDModelSpec) -> str:
+    """A one-line summary of a spec for notes and figure titles."""
+    mults = ",".join(f"{m:g}" for m in spec.channel_mults)
+    return (f"{spec.task}/{spec.prediction} UNet1D(base {spec.base_channels}, mults [{mults}]), "
+            f"T={spec.diffusion_steps} {spec.schedule}, {spec.train_steps} steps × batch "
+            f"{spec.batch_size}, lr {spec.lr:g}, {spec.data.frames} frames "
+            f"({spec.data.representation} root)")
+
+
+def parameter_count(trained: TrainedGMD) -> int:
+    """The number of trainable parameters of the model."""
+    return sum(p.numel() for p in trained.model.parameters())

@@ -1,0 +1,78 @@
+"""The rendered reading paragraphs: numbers come from the values, and so do the sentences whose
+truth depends on them."""
+
+from __future__ import annotations
+
+from repro.gmd import readings
+
+CLAMPS = ("ours: ±max|x|", "GMD's constant: ±6", "no clamp")
+
+
+def _clamp(ours: float, gmds: float, x0: float) -> str:
+    errors = dict(zip(CLAMPS, ([ours], [gmds], [1e5]), strict=True))
+    return readings.reading_clamp(errors, bound=11.3, unguided_eps=3.0, guided_x0=x0,
+                                  seeds=[0])
+
+
+def test_clamp_reading_follows_the_numbers() -> None:
+    text = _clamp(5.8, 2.5, 0.8)
+    assert "±11.3" in text and "5.8 m against 3 m unguided" in text
+    assert "makes the ε model *worse*" in text and "±6 it helps the ε model" in text
+    assert "does not hinge" in text
+    text = _clamp(2.0, 0.5, 0.8)   # the x0 model is not better under GMD's bound
+    assert "hinges on our one free choice" in text and "does not hinge" not in text
+    assert "worse" not in text
+
+
+def _runs(abs_guidance: float) -> dict[str, list[dict[str, float]]]:
+    row = {"location_error": 1.0, "waypoint_error": 1.0, "goal_error": 1.0,
+           "root_acceleration": 2.0, "path_change": 0.0, "path_change_off_target": 0.0}
+    methods = {"abs_unguided": 5.0, "abs_imputation": 0.2, "abs_guidance": abs_guidance,
+               "rel_unguided": 3.0, "rel_guidance": 1.5, "rel_velocity_replacement": 0.01}
+    return {m: [{**row, "location_error": v}, {**row, "location_error": v * 1.1}]
+            for m, v in methods.items()}
+
+
+def test_b2_reading_picks_the_control_sentence() -> None:
+    worse = readings.reading_b2(_runs(8.0), seeds=[0, 1])
+    assert "guidance made it worse" in worse and "abs closer on 2 of 2 seeds" in worse
+    helped = readings.reading_b2(_runs(1.0), seeds=[0, 1])
+    assert "guidance helped the abs model too" in helped and "made it worse" not in helped
+
+
+def _skating(loss: list[float], emphasis: list[float]) -> dict[str, dict[str, list[float]]]:
+    values = ("1", "2", "5", "10")
+    return {"loss_scaling": {v: [x] for v, x in zip(values, loss, strict=True)},
+            "emphasis": {v: [x] for v, x in zip(values, emphasis, strict=True)}}
+
+
+def test_c4_reading_states_the_direction_measured() -> None:
+    kwargs = dict(data_skating=0.05, final_losses={"a": 0.4, "b": 0.5}, train_steps=1000,
+                  kappas={0: 1e3, 1: 5e4}, emphasis_skating_c10=[2.0, 30.0])
+    worse = readings.reading_c4(skating=_skating([1, 1, 1, 1], [6, 4, 3, 2]), **kwargs)
+    assert "Emphasis skates more than loss scaling at every matched value" in worse
+    assert "the gap shrinks" in worse and "seed 1 (κ = 5e+04" in worse
+    better = readings.reading_c4(skating=_skating([6, 4, 3, 2], [1, 1, 1, 1]), **kwargs)
+    assert "Emphasis skates less" in better
+    mixed = readings.reading_c4(skating=_skating([1, 4, 1, 1], [2, 1, 3, 5]), **kwargs)
+    assert "neither method" in mixed and "does not shrink" in mixed
+
+
+def test_b3_reading_names_the_lower_fid() -> None:
+    row = {"fid": 1.0, "r_precision_top3": 0.2, "diversity": 1.0, "concept_recall": 0.1}
+    rows = {"relative": [{**row, "fid": 2.0}], "absolute": [row]}
+    real = {"diversity": 1.3, "r_precision_top3": 0.9, "concept_recall": 0.8}
+    text = readings.reading_b3(rows, real, paper_fid=(0.305, 0.212))
+    assert "lower mean: abs" in text and "30% of its rel value" in text
+    rows = {"relative": [row], "absolute": [{**row, "fid": 2.0}]}
+    assert "lower mean: rel" in readings.reading_b3(rows, real, paper_fid=(0.305, 0.212))
+
+
+def test_b1_reading_checks_that_the_linear_curve_is_flat() -> None:
+    summary = {"rel_linear": {"gap_1": 0.0141, "gap_54": 0.0141},
+               "rel_rotation": {"gap_1": 0.001, "gap_54": 0.03}}
+    kwargs = dict(round_trip_error=1e-15, joints_error=0.0, late_gap=54, growth=3.0,
+                  real_growth=None, linearisation=[0.01, 0.5], deltas=[0.01, 0.5])
+    assert "(the same shift)" in readings.reading_b1(summary=summary, **kwargs)
+    summary["rel_linear"]["gap_54"] = 0.02
+    assert "(not constant)" in readings.reading_b1(summary=summary, **kwargs)
