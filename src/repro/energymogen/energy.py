@@ -9,7 +9,8 @@
   :func:`map_similarity`; one conjunction or negation case: :func:`energy_map_case`).
 - **EMG-9** (Eq. 12) — FID against the Gaussian closed form (:func:`fid_formula_errors`).
 
-The pipeline checked here (data, models, sampling) is ``repro.energymogen``.
+The pipeline checked here (models, sampling) is ``repro.energymogen.pipeline``, its data
+``repro.energymogen.data``.
 """
 
 from __future__ import annotations
@@ -27,16 +28,9 @@ from torch import Tensor, nn
 from repro.core import metrics
 from repro.core.diffusion import GaussianDiffusion
 from repro.energymogen.compose import Condition, make_composed_eps_fn
-from repro.energymogen.pipeline import (
-    ARM_CONCEPTS,
-    HELD_OUT_PAIRS,
-    LOWER_CONCEPTS,
-    NEGATION_CASES,
-    EnergyMoGenPipeline,
-    Sampler,
-    concept_text,
-    pair_caption,
-)
+from repro.energymogen.config import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPTS, NEGATION_CASES
+from repro.energymogen.data import concept_text, pair_caption
+from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler
 from repro.models.latent_denoiser import LatentDenoiser
 
 __all__ = [
