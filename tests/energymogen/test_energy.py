@@ -97,3 +97,17 @@ def test_energy_map_case_on_the_tiny_pipeline(tiny_pipeline: EnergyMoGenPipeline
                                      timesteps=(100,), samples=4, upsample=2, sigma=1.0)
     assert case["smooth"]["composed"].shape == (8, 8)
     assert -1.0 <= case["similarity_to_multi"] <= 1.0
+
+
+def test_energy_view_study_on_the_tiny_pipeline(tiny_pipeline: EnergyMoGenPipeline) -> None:
+    out = em_energy.energy_view_study(tiny_pipeline, 0, samples=2, linearity_timesteps=(100,),
+                                      jacobian_timesteps=(100, 900))
+    assert out["langevin"]["max_abs_error"] < 1e-8          # an identity, trained or not
+    assert len(out["linearity"]) == 1
+    assert out["sum_error"] == out["linearity"][0]["max_abs_error"]
+    assert out["sum_error"] < 1e-8 * max(1.0, out["linearity"][0]["max_energy"])
+    assert set(out["asymmetry"]) == {"trained, text", "trained, ∅", "random init, text"}
+    assert all(v.shape == (2, 2) for v in out["asymmetry"].values())
+    pooled = np.concatenate([out["asymmetry"]["trained, text"].ravel(),
+                             out["asymmetry"]["trained, ∅"].ravel()])
+    assert out["jacobian_median"] == pytest.approx(float(np.median(pooled)))
