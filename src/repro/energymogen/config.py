@@ -70,7 +70,6 @@ NEGATION_CASES: tuple[tuple[tuple[str, str], str], ...] = (
 )
 
 
-
 @dataclass(frozen=True)
 class PipelineConfig:
     """Everything that decides the data and the trained models (the cache keys).

@@ -95,7 +95,6 @@ def load_or_build_text_to_motion_test(config: PipelineConfig,
         return test
 
 
-
 def oracle_accuracy(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> float:
     """Mean over clips of the fraction of the clip's concepts that ``oracles.detect_concepts``
     finds in its joints (B, T, 22, 3); clips may hold different numbers of concepts."""
@@ -103,7 +102,6 @@ def oracle_accuracy(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> fl
         raise ValueError(f"{len(joints)} motions for {len(concepts)} concept lists")
     return float(np.mean([np.mean([name in found for name in names]) for names, found in
                           zip(concepts, map(detect_concepts, joints), strict=True)]))
-
 
 
 def generation_metrics(variant: EnergyMoGenPipeline, test: TextToMotionTest,

@@ -69,6 +69,10 @@ def scaled_linear_betas(num_timesteps: int = 1000, beta_start: float = 0.00085,
     return np.linspace(beta_start ** 0.5, beta_end ** 0.5, num_timesteps) ** 2
 
 
+# ----------------------------------------------------------------------------------------------
+# The pipeline and its sampling
+# ----------------------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class Sampler:
@@ -199,7 +203,6 @@ class EnergyMoGenPipeline:
                            batch=len(items))
 
 
-
 # ----------------------------------------------------------------------------------------------
 # Building (train or load)
 # ----------------------------------------------------------------------------------------------
@@ -279,7 +282,6 @@ def train_vae_stage(data: StandInData, config: PipelineConfig, train_seed: int,
     mu = encode_latents(vae, data, data.train_features, device)
     scale = float(1.0 / mu.std())
     return VAEStage(vae, scale, (mu * scale).cpu(), time.perf_counter() - start)
-
 
 
 @dataclass(frozen=True)

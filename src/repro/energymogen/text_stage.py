@@ -60,7 +60,6 @@ def _train_text_encoder(model: _LatentTextModel, vocab: Vocabulary, captions: li
     return model.eval(), {"losses": losses}
 
 
-
 @dataclass(frozen=True)
 class TextStage:
     """The frozen text encoder (stand-in for CLIP) and its vocabulary."""
