@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
 import torch
 
+from repro.energymogen.config import PipelineConfig
+from repro.energymogen.pipeline import EnergyMoGenPipeline, load_pipeline
 from repro.infra import paths
 from repro.infra.context import RunContext
 
@@ -24,3 +26,35 @@ def make_context(build_dir: str | Path, *, quick: bool = True, seed: int = 0,
 def run_context() -> Callable[..., RunContext]:
     """``run_context(build_dir, quick=..., seed=..., run_id=...)`` → a :class:`RunContext`."""
     return make_context
+
+
+# --- tiny EnergyMoGen configurations (seconds to train: tests of the code, never results) ---
+
+#: the tiny pipeline every EnergyMoGen test trains (its cache keys are pinned in
+#: tests/energymogen/test_pipeline.py)
+TINY_PIPELINE = PipelineConfig(n_train_clips=24, test_clips_per_pair=2, vae_steps=2,
+                               text_steps=2, denoiser_steps=2, evaluator_steps=2, ddim_steps=2,
+                               items_per_pair=4)
+#: EMG-8's tiny pipeline: 6 pretraining steps, so that fine-tuning (a third of them) takes 2
+TINY_AUGMENTATION_PIPELINE = PipelineConfig(n_train_clips=24, test_clips_per_pair=2,
+                                            vae_steps=2, text_steps=2, denoiser_steps=6,
+                                            evaluator_steps=2, ddim_steps=2, items_per_pair=4)
+
+
+@pytest.fixture(scope="module")
+def emg_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """A test module's own cache folder (``REPRO_CACHE_DIR`` while the module runs, one
+    torch thread), so no EnergyMoGen test reads or writes build/cache."""
+    directory = tmp_path_factory.mktemp("emg_cache")
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("REPRO_CACHE_DIR", str(directory))
+        yield directory
+    torch.set_num_threads(threads)
+
+
+@pytest.fixture(scope="module")
+def tiny_pipeline(emg_cache: Path) -> EnergyMoGenPipeline:
+    """The pipeline of :data:`TINY_PIPELINE` (seconds to train), once per test module."""
+    return load_pipeline(TINY_PIPELINE, log=None)

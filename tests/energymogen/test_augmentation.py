@@ -1,28 +1,25 @@
-"""EMG-8 helpers (repro.augmentation): the composed set, training rows, fine-tuning from the
+"""EMG-8 (repro.energymogen.augmentation): the composed set, training rows, fine-tuning from the
 pretrained denoiser without touching it, and a tiny end-to-end study."""
 
 from __future__ import annotations
 
 import pytest
 import torch
+from conftest import TINY_AUGMENTATION_PIPELINE as TINY
 
 from repro.claims.registry import get_claim
 from repro.energymogen import augmentation as ag
-from repro.energymogen import latent_count as lc
-from repro.energymogen import pipeline as em
-
-torch.set_num_threads(1)
-
-TINY = em.PipelineConfig(n_train_clips=24, test_clips_per_pair=2, vae_steps=2, text_steps=2,
-                         denoiser_steps=6, evaluator_steps=2, ddim_steps=2, items_per_pair=4)
+from repro.energymogen.config import FRAMES, HELD_OUT_PAIRS, PipelineConfig
+from repro.energymogen.harness import TextToMotionTest, load_or_build_text_to_motion_test
+from repro.energymogen.pipeline import EnergyMoGenPipeline, load_pipeline
 
 
 def test_pairs_sizes_and_schedule() -> None:
     pairs = ag.composable_pairs()
-    assert len(pairs) == 35 and {frozenset(p) for p in em.HELD_OUT_PAIRS} <= set(
+    assert len(pairs) == 35 and {frozenset(p) for p in HELD_OUT_PAIRS} <= set(
         map(frozenset, pairs))
-    assert ag.composed_set_size(em.PipelineConfig()) == 342
-    config = ag.finetune_config(em.PipelineConfig(), seed=3)
+    assert ag.composed_set_size(PipelineConfig()) == 342
+    config = ag.finetune_config(PipelineConfig(), seed=3)
     assert (config.steps, config.lr, config.seed) == (833, 2.5e-4, 3)
     assert config.batch_size == 128 and config.cond_dropout == 0.1
 
@@ -37,18 +34,14 @@ def test_concatenate_rows_pads_tokens() -> None:
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory: pytest.TempPathFactory):
-    cache = tmp_path_factory.mktemp("cache")
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("REPRO_CACHE_DIR", str(cache))
-        pipe = em.load_pipeline(TINY, log=None)
-        yield pipe, lc.load_or_build_text_to_motion_test(TINY, 32)
+def tiny(emg_cache: object) -> tuple[EnergyMoGenPipeline, TextToMotionTest]:
+    return load_pipeline(TINY, log=None), load_or_build_text_to_motion_test(TINY, 32)
 
 
 def test_composed_set_and_rows(tiny) -> None:
     pipe, _ = tiny
     composed = ag.compose_set(pipe, 6, seed=0)
-    assert len(composed) == 6 and composed.features.shape == (6, em.FRAMES, 263)
+    assert len(composed) == 6 and composed.features.shape == (6, FRAMES, 263)
     assert composed.presence().shape == (6, 2)
     assert ag.compose_set(pipe, 6, seed=0).texts == composed.texts
     words = {w.strip(".,") for t in composed.texts for w in t.lower().split()}

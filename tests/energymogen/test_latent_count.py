@@ -1,20 +1,17 @@
-"""EMG-7 helpers (repro.latent_count): the held-out test set, models with N latent vectors
-trained exactly as the pipeline's, MPJPE, the Table 8 layout, and a tiny end-to-end study."""
+"""EMG-7 (repro.energymogen.latent_count): models with N latent vectors trained exactly as the
+pipeline's, MPJPE, the Table 8 layout, and a tiny end-to-end study."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import torch
+from conftest import TINY_PIPELINE as TINY
 
 from repro.claims.registry import get_claim
 from repro.energymogen import latent_count as lc
-from repro.energymogen import pipeline as em
-
-torch.set_num_threads(1)
-
-TINY = em.PipelineConfig(n_train_clips=24, test_clips_per_pair=2, vae_steps=2, text_steps=2,
-                         denoiser_steps=2, evaluator_steps=2, ddim_steps=2, items_per_pair=4)
+from repro.energymogen.harness import TextToMotionTest, load_or_build_text_to_motion_test
+from repro.energymogen.pipeline import EnergyMoGenPipeline
 
 
 def test_paper_table8_is_the_registry_value() -> None:
@@ -36,39 +33,13 @@ def test_mpjpe_of_a_lifted_body() -> None:
     assert lc.mpjpe(features, lifted) == pytest.approx(0.1, abs=1e-6)
 
 
-def test_oracle_accuracy_takes_ragged_concept_lists() -> None:
-    joints = np.zeros((2, 40, 22, 3), np.float32)
-    assert lc.oracle_accuracy(joints, [("jump",), ("walk_forward", "clap")]) == 0.0
-    with pytest.raises(ValueError, match="2 motions for 1"):
-        lc.oracle_accuracy(joints, [("jump",)])
-
-
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory: pytest.TempPathFactory):
-    cache = tmp_path_factory.mktemp("cache")
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("REPRO_CACHE_DIR", str(cache))
-        pipe = em.load_pipeline(TINY, log=None)
-        test = lc.load_or_build_text_to_motion_test(TINY, 40)
-        again = lc.load_or_build_text_to_motion_test(TINY, 40)
-        yield pipe, test, again
-
-
-def test_text_to_motion_test_is_held_out_and_in_distribution(tiny) -> None:
-    pipe, test, again = tiny
-    assert test.features.shape == (40, em.FRAMES, 263) and len(test.captions) == 40
-    assert np.array_equal(test.features, again.features) and test.captions == again.captions
-    trained = {frozenset(p) for p in em.trained_pairs()}
-    for names in test.concepts:
-        assert len(names) == 1 or frozenset(names) in trained
-    assert {len(c) for c in test.concepts} == {1, 2}
-    for clip in pipe.data.train_features:       # no training clip is a test clip
-        assert not np.any(np.all(np.isclose(test.features, clip[None]), axis=(1, 2)))
-    assert test.texts(0) == test.texts(0) and test.texts(0) != test.texts(1)
+def tiny(tiny_pipeline: EnergyMoGenPipeline) -> tuple[EnergyMoGenPipeline, TextToMotionTest]:
+    return tiny_pipeline, load_or_build_text_to_motion_test(TINY, 40)
 
 
 def test_variant_is_trained_as_the_pipeline(tiny) -> None:
-    pipe, _, _ = tiny
+    pipe, _ = tiny
     assert lc.load_or_train_variant(pipe, TINY.latent_count, TINY.data_seed) is pipe
     same = lc._train_variant(pipe, pipe.config, pipe.config.data_seed, 1, None)
     for a, b in zip(same.vae.parameters(), pipe.vae.parameters(), strict=True):
@@ -82,7 +53,7 @@ def test_variant_is_trained_as_the_pipeline(tiny) -> None:
 
 
 def test_study_feeds_the_rule(tiny) -> None:
-    pipe, test, _ = tiny
+    pipe, test = tiny
     results = lc.latent_count_study(pipe, test, (1, 5, 7), [0])
     for part in ("reconstruction", "generation"):
         assert set(results[part]) == {"1", "5", "7"}
@@ -98,3 +69,16 @@ def test_study_feeds_the_rule(tiny) -> None:
         (p.name, False) for p in get_claim("EMG-7").parts]
     table = lc.table8_markdown(results, counts=(1, 5, 7))
     assert "[0.188]" in table and "real motion" in table and table.count("\n") == 8
+
+
+def test_example_reconstructions_take_each_variant(tiny) -> None:
+    pipe, test = tiny
+    index, reconstructions = lc.example_reconstructions(pipe, test, (1, 5), 0)
+    assert len(test.concepts[index]) == 2
+    assert all(len(c) == 1 for c in test.concepts[:index])
+    assert [n for n, _, _ in reconstructions] == [1, 5]
+    clip = test.features[index:index + 1]
+    recon = pipe.decode(pipe.encode_motion(clip))
+    n5, joints5, error5 = reconstructions[1]
+    assert error5 == pytest.approx(lc.mpjpe(recon, clip))
+    assert np.allclose(joints5, pipe.joints(recon)[0])

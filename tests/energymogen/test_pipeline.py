@@ -1,51 +1,159 @@
-"""The EnergyMoGen pipeline (repro.energymogen) and what is measured on it
-(repro.energymogen_studies, repro.energymogen_energy): data split, paper tables, the EMG-1
-identities on toy fields with known answers, energy maps, the FID check, and a tiny end-to-end
-run."""
+"""The EnergyMoGen pipeline (repro.energymogen.pipeline): samplers, the noise schedule, every
+stage cached, and training seeds (issue #6) — the stage functions keep the cache keys of the
+default pipeline byte-identical to those ``load_pipeline`` built before it took a
+``train_seed`` (so existing caches stay valid), the quick and full notebooks' cache entries
+keep their pinned keys, and a training seed changes the VAE and the denoiser only."""
 
 from __future__ import annotations
 
+import json
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, get_args
 
 import numpy as np
 import pytest
 import torch
+from conftest import TINY_PIPELINE as TINY
 
-from repro.claims.registry import get_claim
-from repro.core.diffusion import GaussianDiffusion
-from repro.energymogen import energy as em_energy
+from repro.core.training import TrainConfig
+from repro.energymogen import latent_count as lc
 from repro.energymogen import pipeline as em
-from repro.energymogen import studies as em_studies
-from repro.models.latent_denoiser import LatentDenoiser
-from repro.standin.concepts import can_be_simultaneous
+from repro.energymogen.compose import MODES
+from repro.energymogen.config import PipelineConfig, pipeline_config
+from repro.energymogen.data import load_or_build_data
+from repro.infra import cache, paths
+from repro.models import vae as vae_module
+from repro.models.vae import VAETrainConfig, array_fingerprint, load_or_train_vae
+from repro.standin.text import Vocabulary
 
-torch.set_num_threads(1)
+TRAINED_KINDS = ("motion_vae", "emg_text_encoder", "emg_latent_denoiser", "evaluator")
 
-TINY = em.PipelineConfig(n_train_clips=24, test_clips_per_pair=2, vae_steps=2, text_steps=2,
-                         denoiser_steps=2, evaluator_steps=2, ddim_steps=2, items_per_pair=4)
+#: sha256[:16] of each key with its data fingerprints replaced by "<fingerprint>", recorded
+#: from ``load_pipeline`` (and ``latent_count._train_variant`` for seed 1) *before* the stage
+#: functions existed: model sizes, training configs, seeds and formats must stay as they were.
+TINY_STRUCTURE = {
+    0: {"motion_vae": "b58ce7876b306d20", "emg_text_encoder": "a96b2ec63ab24b34",
+        "emg_latent_denoiser": "12cfbac03317eecb", "evaluator": "c9801f870ef8a1e9"},
+    1: {"motion_vae": "1934f9e81145ca9f", "emg_text_encoder": "a96b2ec63ab24b34",
+        "emg_latent_denoiser": "134cae56e2f7af8c", "evaluator": "c9801f870ef8a1e9"},
+}
+#: the entries under build/cache that the quick and full notebooks use (recorded before the
+#: change): the default pipeline (train seed 0), and for the full configuration the N = 5
+#: models of training seeds 1 and 2 that notebook 07 trained (notebooks 04/05 reuse them).
+BUILD_CACHE = {
+    ("quick", 0): {"motion_vae": "97428cc5042b6a1d", "emg_text_encoder": "ef319294ef89a6d7",
+                   "emg_latent_denoiser": "4179c092c74e0b13", "evaluator": "2dffcf3001e930e1"},
+    ("full", 0): {"motion_vae": "ff191e559f9a1a15", "emg_text_encoder": "91948f4ba241c395",
+                  "emg_latent_denoiser": "d1bd07bf701d1d04", "evaluator": "84585cd0d9627136"},
+    ("full", 1): {"motion_vae": "3d823447cc0d98bd", "emg_text_encoder": "91948f4ba241c395",
+                  "emg_latent_denoiser": "149ee26c7c942f2e", "evaluator": "84585cd0d9627136"},
+    ("full", 2): {"motion_vae": "94d2101cd6766177", "emg_text_encoder": "91948f4ba241c395",
+                  "emg_latent_denoiser": "a5666f8df81663da", "evaluator": "84585cd0d9627136"},
+}
+
+#: the full configuration's keys with every model left untrained (:func:`_untrained_load`),
+#: recorded from the code before the split of the pipeline module (commit a9534a6): the VAE's
+#: and the evaluator's keys depend on the data alone, so their hashes are BUILD_CACHE's own;
+#: the text encoder's and the denoiser's hold fingerprints of trained outputs, so their
+#: structure (``_structure_hash``) is pinned.
+FULL_UNTRAINED_STRUCTURE = {
+    0: {"emg_text_encoder": "dc94fcc96da1192f", "emg_latent_denoiser": "78663f68c657f88d"},
+    1: {"emg_text_encoder": "dc94fcc96da1192f", "emg_latent_denoiser": "6cb0673e5bd8cbd2"},
+    2: {"emg_text_encoder": "dc94fcc96da1192f", "emg_latent_denoiser": "93b9647fa6a6fa01"},
+}
 
 
-# --- design of the stand-in test ----------------------------------------------------------
+def _structure_hash(key: dict[str, Any]) -> str:
+    return cache.config_hash({k: "<fingerprint>" if k in ("data", "latents") else v
+                              for k, v in key.items()})
 
 
-def test_held_out_pairs_are_composable_and_never_trained() -> None:
-    held = {frozenset(p) for p in em.HELD_OUT_PAIRS}
-    assert len(held) == len(em.HELD_OUT_PAIRS) == 10
-    assert all(can_be_simultaneous(*p) for p in em.HELD_OUT_PAIRS)
-    assert not held & {frozenset(p) for p in em.trained_pairs()}
-    for pair, negated in em.NEGATION_CASES:
-        assert frozenset(pair) not in held and negated in pair
+class KeySpy:
+    """Records every (kind, key) that reaches ``repro.cache`` (through ``_artifact_dir``, which
+    every cache entry goes through before anything is written); ``forbid_misses`` raises on an
+    entry without ``model.pt`` before a directory is made."""
+
+    def __init__(self, forbid_misses: bool = False) -> None:
+        self.keys: dict[str, dict[str, Any]] = {}
+        self.forbid_misses = forbid_misses
+        self._original = cache._artifact_dir
+
+    def __call__(self, kind: str, config: dict[str, Any]) -> Path:
+        directory = self._original(kind, config)
+        if kind in TRAINED_KINDS:
+            self.keys[kind] = json.loads(cache.canonical_json(config))
+            if self.forbid_misses and not (directory / "model.pt").exists():
+                raise LookupError(f"cache miss: {kind}/{directory.name}")
+        return directory
+
+    def hashes(self) -> dict[str, str]:
+        return {kind: cache.config_hash(key) for kind, key in self.keys.items()}
 
 
-def test_paper_tables_have_the_registry_rows() -> None:
-    assert len(em_studies.PAPER_TABLE7) == 12 and len(em_studies.PAPER_TABLE9) == 6
-    for key in ("1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"):
-        assert key in em_studies.PAPER_TABLE7
-    for key in ("0.0,0.0", "0.1,0.2", "0.001,0.002"):
-        assert key in em_studies.PAPER_TABLE9
-    assert all(abs(sum(lam) - 1) < 1e-9 for lam in em_studies.TABLE7_LAMBDAS)
-    assert em_studies.PAPER_TABLE9["0.001,0.002"]["r_precision_top3"] == 26.3
-    assert set(get_claim("EMG-5").measurements) == {"r_precision_top3", "transition_distance"}
+@pytest.fixture(scope="module")
+def base(tiny_pipeline: em.EnergyMoGenPipeline) -> em.EnergyMoGenPipeline:
+    return tiny_pipeline
+
+
+def _spied_load(monkeypatch: pytest.MonkeyPatch, config: PipelineConfig,
+                train_seed: int | None = None, forbid_misses: bool = False
+                ) -> tuple[em.EnergyMoGenPipeline, KeySpy]:
+    spy = KeySpy(forbid_misses)
+    monkeypatch.setattr(cache, "_artifact_dir", spy)
+    pipe = em.load_pipeline(config, log=None, train_seed=train_seed)
+    monkeypatch.undo()
+    return pipe, spy
+
+
+def _keys_as_before(config: PipelineConfig,
+                    pipe: em.EnergyMoGenPipeline) -> dict[str, dict[str, Any]]:
+    """The keys as ``load_pipeline`` built them before the stage functions (its code, copied
+    verbatim; the text tokens from ``pipe``'s encoder, whose own key is checked first)."""
+    data = load_or_build_data(config)
+    lengths = np.full(len(data.train_features), data.frames)
+    model_kwargs = {"latent_count": config.latent_count, "latent_dim": config.latent_dim,
+                    "width": config.vae_width, "layers": config.vae_layers, "heads": 4,
+                    "max_frames": config.frames, "dropout": 0.0}
+    vae_config = VAETrainConfig(steps=config.vae_steps, batch_size=config.vae_batch,
+                                lr=config.vae_lr, seed=config.data_seed)
+    motions = data.normalise(data.train_features)
+    vae_key = {"model": model_kwargs, "train": vae_config.to_config(),
+               "data": array_fingerprint(np.asarray(motions, dtype=np.float32),
+                                         np.asarray(lengths, dtype=np.int64)),
+               "format": vae_module._FORMAT_VERSION}
+    vae = load_or_train_vae(motions, lengths, model_kwargs=model_kwargs,
+                            config=vae_config).eval()
+    with torch.no_grad():
+        x = torch.from_numpy(data.normalise(data.train_features))
+        mu = torch.cat([vae.encode(x[i:i + 256], [data.frames] * len(x[i:i + 256]))[0]
+                        for i in range(0, len(x), 256)])
+    scale = float(1.0 / mu.std())
+    latents = (mu * scale).cpu()
+    vocab = Vocabulary.build([c for caps in data.train_captions for c in caps])
+    text_key = {"vocab": list(vocab.tokens), "latents": array_fingerprint(latents),
+                "dim": config.text_dim, "steps": config.text_steps, "lr": config.text_lr,
+                "max_len": config.max_text_len, "seed": config.data_seed, "format": 1}
+    rows = [(i, c) for i, caps in enumerate(data.train_captions) for c in caps]
+    ids, text_lengths = vocab.encode_batch([c for _, c in rows], config.max_text_len)
+    with torch.no_grad():
+        tokens, mask = pipe.text_encoder.tokens(torch.from_numpy(ids), text_lengths)
+    width = int(mask.sum(1).max())
+    tokens, mask = tokens[:, :width].contiguous(), mask[:, :width].contiguous()
+    row_latents = latents[[i for i, _ in rows]]
+    train_config = TrainConfig(steps=config.denoiser_steps, batch_size=config.denoiser_batch,
+                               lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
+                               seed=config.data_seed)
+    denoiser_key = {"model": em.denoiser_kwargs(config), "train": train_config.to_config(),
+                    "schedule": "scaled_linear(0.00085, 0.012)", "T": config.num_timesteps,
+                    "data": array_fingerprint(row_latents, tokens, mask), "format": 1}
+    return {kind: json.loads(cache.canonical_json(key)) for kind, key in
+            (("motion_vae", vae_key), ("emg_text_encoder", text_key),
+             ("emg_latent_denoiser", denoiser_key))}
+
+
+def test_sampler_modes_are_the_composition_modes_and_unconditional() -> None:
+    assert get_args(em.SamplerMode) == ("unconditional", *MODES)
 
 
 def test_sampler_canonical_form() -> None:
@@ -62,178 +170,126 @@ def test_scaled_linear_betas() -> None:
         em.scaled_linear_betas(1000, 0.02, 0.01)
 
 
-# --- EMG-1 ---------------------------------------------------------------------------------
+def test_every_stage_is_cached(base: em.EnergyMoGenPipeline, emg_cache: Path) -> None:
+    again = em.load_pipeline(TINY, log=None)
+    for part in ("vae", "text_encoder", "denoiser"):
+        for a, b in zip(getattr(base, part).parameters(), getattr(again, part).parameters(),
+                        strict=True):
+            assert torch.equal(a, b)
+    assert np.array_equal(base.reference_embeddings, again.reference_embeddings)
+    assert {p.name for p in emg_cache.iterdir()} >= {"emg_data", *TRAINED_KINDS}
 
 
-def test_sampler_steps_are_langevin_steps() -> None:
-    diffusion = GaussianDiffusion(em.scaled_linear_betas(100))
-    z = torch.randn(3, 2, 4, generator=torch.Generator().manual_seed(0))
-    errors = em_energy.langevin_step_errors(diffusion,
-                                            lambda x, t: torch.tanh(x) + 0.1 * t[:, None, None],
-                                            z, timesteps=range(100), ddim_steps=10)
-    assert errors["max_abs_error"] < 1e-10 and errors["ddim_max_abs_error"] < 1e-10
-    assert 0 < errors["ddpm_eps_coefficient_min"] < errors["ddpm_eps_coefficient_max"] < 1
+def test_default_cache_keys_are_byte_identical_to_before(
+        base: em.EnergyMoGenPipeline, monkeypatch: pytest.MonkeyPatch) -> None:
+    for train_seed in (None, TINY.data_seed):
+        pipe, spy = _spied_load(monkeypatch, TINY, train_seed)
+        before = _keys_as_before(TINY, pipe)
+        for kind, key in before.items():
+            assert cache.canonical_json(spy.keys[kind]) == cache.canonical_json(key), kind
+        assert {k: _structure_hash(v) for k, v in spy.keys.items()} == TINY_STRUCTURE[0]
+        assert pipe.train_seed == TINY.data_seed
 
 
-def test_jacobian_asymmetry_of_known_fields() -> None:
-    gen = torch.Generator().manual_seed(1)
-    a = torch.randn(6, 6, generator=gen, dtype=torch.float64)
-    sym = a + a.T
-    z = torch.randn(4, 2, 3, generator=gen, dtype=torch.float64)
-    gradient_field = em_energy.jacobian_asymmetry(
-        lambda x: (x.reshape(-1, 6) @ sym + x.reshape(-1, 6) ** 3).reshape(x.shape), z)
-    assert np.all(gradient_field < 1e-12)
-    linear = em_energy.jacobian_asymmetry(lambda x: (x.reshape(-1, 6) @ a.T).reshape(x.shape), z)
-    assert linear == pytest.approx(float((a - a.T).norm() / a.norm()), rel=1e-10)
+def test_a_training_seed_has_the_keys_of_the_latent_count_variant(
+        base: em.EnergyMoGenPipeline, monkeypatch: pytest.MonkeyPatch) -> None:
+    pipe, spy = _spied_load(monkeypatch, TINY, 1)
+    assert {k: _structure_hash(v) for k, v in spy.keys.items()} == TINY_STRUCTURE[1]
+    variant_spy = KeySpy()
+    monkeypatch.setattr(cache, "_artifact_dir", variant_spy)
+    lc._train_variant(base, base.config, 1, 1, None)
+    monkeypatch.undo()
+    for kind in ("motion_vae", "emg_latent_denoiser"):
+        assert variant_spy.keys[kind] == spy.keys[kind]
 
 
-def test_line_integral_energy_of_a_quadratic() -> None:
-    gen = torch.Generator().manual_seed(2)
-    a = torch.randn(5, 5, generator=gen, dtype=torch.float64)
-    s = a @ a.T
-    z = torch.randn(3, 5, generator=gen, dtype=torch.float64)
-    energy = em_energy.line_integral_energy(lambda x: x @ s, z)
-    assert torch.allclose(energy, 0.5 * ((z @ s) * z).sum(1), atol=1e-12)
-
-
-def test_energy_of_eq7_is_the_weighted_sum_of_energies() -> None:
-    torch.manual_seed(0)
-    model = LatentDenoiser(4, 3, 4, width=16, layers=2, heads=2).eval()
-    conds = [(torch.randn(1, 2, 4), torch.ones(1, 2, dtype=torch.bool)) for _ in range(2)]
-    z = torch.randn(2, 3, 4)
-    out = em_energy.energy_linearity_error(model, z, 10, conds, [2.5, -1.0], nodes=8)
-    assert out["max_abs_error"] < 1e-9 * max(1.0, out["max_energy"])
-    assert out["gradient_relative_error"] > 1e-6      # a random network is not conservative
-
-
-# --- EMG-6 and EMG-9 -----------------------------------------------------------------------
-
-
-def test_latent_plane_and_maps() -> None:
-    gen = torch.Generator().manual_seed(3)
-    latents = torch.randn(20, 3, 4, generator=gen)
-    plane = em_energy.latent_plane(latents)
-    u, v, grid = plane.grid(5)
-    assert grid.shape == (25, 3, 4) and len(u) == len(v) == 5
-    assert np.all(np.abs(plane.scores) <= np.array(plane.extent) + 1e-6)
-    smooth = em_energy.smooth_energy_map(np.arange(25.0).reshape(5, 5), upsample=2, sigma=1.0)
-    assert smooth.shape == (10, 10)
-    assert em_energy.map_similarity(smooth, 2 * smooth + 1) == pytest.approx(1.0)
-
-
-def test_energy_landscape_combines_linearly() -> None:
-    torch.manual_seed(0)
-    model = LatentDenoiser(4, 3, 4, width=16, layers=2, heads=2).eval()
-    diffusion = GaussianDiffusion(em.scaled_linear_betas(50))
-    cond = (torch.randn(1, 2, 4), torch.ones(1, 2, dtype=torch.bool))
-    latents = torch.randn(6, 3, 4)
-    maps = em_energy.energy_landscape(model, diffusion, latents, {"∅": None, "c": cond},
-                                      {"c": {"c": 1.0}, "same": {"∅": 0.0, "c": 1.0},
-                                       "uncond": {"∅": 1.0}},
-                                      timesteps=(5, 25), n_noise=2, seed=0, chunk=4)
-    assert maps["c"].shape == (6,)
-    assert np.allclose(maps["c"], maps["same"])
-    assert not np.allclose(maps["c"], maps["uncond"])
-
-
-def test_fid_formula_check() -> None:
-    out = em_energy.fid_formula_errors(seed=0, dim=8, draws=5)
-    assert out["fid_vs_closed_form_relative_error"] < 1e-6
-    assert out["printed_vs_closed_form_relative_error"] > 1e-3
-
-
-# --- end to end ----------------------------------------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def tiny_pipeline(tmp_path_factory: pytest.TempPathFactory) -> em.EnergyMoGenPipeline:
-    cache = tmp_path_factory.mktemp("cache")
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("REPRO_CACHE_DIR", str(cache))
-        pipe = em.load_pipeline(TINY, log=None)
-        again = em.load_pipeline(TINY, log=None)          # every stage from the cache
-    for a, b in zip(pipe.denoiser.parameters(), again.denoiser.parameters(), strict=True):
-        assert torch.equal(a, b)
-    assert (Path(cache) / "emg_data").is_dir()
-    return pipe
-
-
-def test_data_holds_out_pairs(tiny_pipeline: em.EnergyMoGenPipeline) -> None:
-    data = tiny_pipeline.data
-    held = {frozenset(p) for p in em.HELD_OUT_PAIRS}
-    assert all(frozenset(c) not in held for c in data.train_concepts)
-    assert data.train_features.shape == (24, em.FRAMES, 263)
-    assert data.test_joints.shape == (20, em.FRAMES, 22, 3)
-    words = {w for caps in data.train_captions for c in caps for w in c.lower().split()}
-    assert all(w.strip(".,") in tiny_pipeline.vocab for w in words)
-    tokens, mask = tiny_pipeline.encode(["a person waves the left hand.", "someone claps."])
-    assert tokens.shape[:2] == mask.shape and mask.sum(1).tolist() == [6, 2]
-
-
-def test_items_sampling_and_metrics(tiny_pipeline: em.EnergyMoGenPipeline) -> None:
-    pipe = tiny_pipeline
-    items = em.composition_items(pipe.data, seed=0, per_pair=4)
-    assert len(items) == 40 and len(items.concept_texts) == 2
-    assert em.composition_items(pipe.data, 0, 4).multi_texts == items.multi_texts
-    rows = {"0.1,0.7,0.2": em.Sampler("sef"), "0.0,0.0,1.0": em.Sampler("sef", (0.0, 0.0, 1.0)),
-            "0.0,0.0": em.Sampler("single"),
-            "0.1,0.2": em.Sampler("single", gammas=(0.1, 0.2))}
-    results = em_studies.run_rows(pipe, rows, seeds=[0])
-    assert results["0.0,0.0"] == results["0.0,0.0,1.0"]    # one sampler, sampled once
-    assert set(results["real"]) >= {"r_precision_top3", "transition_distance", "fid",
-                                    "oracle_accuracy"}
-    assert results["real"]["both_present"][0] > 0.9       # the oracles see the ground truth
-    table = em_studies.markdown_table(results, [("SEF", "0.1,0.7,0.2")], em_studies.PAPER_TABLE7)
-    assert "[28.0]" in table
-    assert em_studies.agd_relative_change(pipe, items.multi_texts[:4], (0.1, 0.2)) > 0.0
-    assert em_studies.agd_relative_change(pipe, items.multi_texts[:4], (0.0, 0.0)) == 0.0
-
-
-def test_sets_of_three_concepts(tiny_pipeline: em.EnergyMoGenPipeline, tmp_path: Path,
-                                monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_quick_pipeline_built_from_nothing_has_the_pinned_keys(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The quick notebooks' models, trained from an empty cache (seconds), are the entries
+    pinned in BUILD_CACHE: same keys, same data, same training, bit for bit."""
     monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path))
-    pipe = tiny_pipeline
-    assert len(em.THREE_CONCEPT_SETS) == len(em.LOWER_CONCEPTS)
-    pool = em.load_or_build_test_pool(pipe.config, "threes")
-    assert pool.features.shape == (2 * len(em.THREE_CONCEPT_SETS), em.FRAMES, 263)
-    again = em.load_or_build_test_pool(pipe.config, "threes")           # from the cache
-    assert np.array_equal(again.joints, pool.joints) and again.captions == pool.captions
-    assert all(" and " in c for caps in pool.captions for c in caps)
-    items = em.composition_items(pipe.data, 0, 5, pool)
-    assert len(items) == 35 and len(items.concept_texts) == 3
-    assert {c for c in items.concepts} == set(em.THREE_CONCEPT_SETS)
-    mixed = em.CompositionPool(np.concatenate([pool.features, pipe.data.test_features]),
-                               np.concatenate([pool.joints, pipe.data.test_joints]),
-                               pool.captions + pipe.data.test_captions,
-                               pool.concepts + pipe.data.test_concepts)
-    with pytest.raises(ValueError, match="one concept count"):
-        em.composition_items(pipe.data, 0, 5, mixed)
-    results = em_studies.run_rows(pipe, {"SEF": em.Sampler("sef")}, [0], test_set="threes")
-    assert results["real"]["both_present"][0] > 0.9       # all three seen on the ground truth
-    assert "oracle_accuracy_concept_3" in results["SEF"]
-    assert results["SEF"]["fid"][0] != pytest.approx(
-        em_studies.run_rows(pipe, {"SEF": em.Sampler("sef")}, [0])["SEF"]["fid"][0])
-    control = em.load_or_build_test_pool(pipe.config, "threes_as_pairs")
-    assert {c for c in control.concepts} == set(em.THREES_AS_PAIRS)
-    assert em.load_or_build_test_pool(pipe.config, "pairs").concepts == pipe.data.test_concepts
-    with pytest.raises(ValueError, match="unknown test set 'fours'"):
-        em.load_or_build_test_pool(pipe.config, "fours")
+    _, spy = _spied_load(monkeypatch, pipeline_config(True), 0)
+    assert spy.hashes() == BUILD_CACHE[("quick", 0)]
 
 
-def test_oracle_counts_both_arms_waving_as_each_arm_only_for_sets_naming_both() -> None:
-    joints = em.build_composition_pool([("squat", "wave_both")], 1, 0, 7).joints
-    three = em_studies.oracle_presence(joints, [("squat", "wave_left", "wave_right")])
-    assert three.tolist() == [[True, True, True]]
-    one_arm = em_studies.oracle_presence(joints, [("squat", "wave_left")])
-    assert one_arm.tolist() == [[True, False]]             # one arm named: the oracle's call
+def _untrained_load(monkeypatch: pytest.MonkeyPatch, config: PipelineConfig,
+                    train_seed: int) -> dict[str, dict[str, Any]]:
+    """The keys ``load_pipeline`` asks the cache for, every model left as built (untrained):
+    the full configuration's keys without minutes of training."""
+    keys: dict[str, dict[str, Any]] = {}
+
+    def untrained(kind: str, config: dict[str, Any], build_model: Callable[[], torch.nn.Module],
+                  train: object, device: str | torch.device = "cpu",
+                  retrain: bool = False) -> torch.nn.Module:
+        keys[kind] = json.loads(cache.canonical_json(config))
+        return build_model().to(device)
+
+    monkeypatch.setattr(vae_module, "load_or_train", untrained)
+    monkeypatch.setattr(cache, "load_or_train", untrained)
+    em.load_pipeline(config, log=None, train_seed=train_seed)
+    monkeypatch.undo()
+    return keys
 
 
-def test_studies_run(tiny_pipeline: em.EnergyMoGenPipeline) -> None:
-    study = em_studies.composition_study(tiny_pipeline, seeds=[0], per_case=2)
-    for mode in ("latent", "semantic"):
-        assert set(study[mode]) == set(get_claim("EMG-2").measurements)
-        assert all(len(v) == 1 for v in study[mode].values())
-    case = em_energy.energy_map_case(tiny_pipeline, "negation", 0, seed=0, grid=4, n_noise=1,
-                                     timesteps=(100,), samples=4, upsample=2, sigma=1.0)
-    assert case["smooth"]["composed"].shape == (8, 8)
-    assert -1.0 <= case["similarity_to_multi"] <= 1.0
+@pytest.mark.parametrize("train_seed", sorted(FULL_UNTRAINED_STRUCTURE))
+def test_the_full_pipeline_keys_are_the_pinned_ones(train_seed: int, emg_cache: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """The full notebooks' keys: the VAE's and the evaluator's exactly BUILD_CACHE's (they
+    depend on the data alone), the text encoder's and the denoiser's structure as recorded."""
+    keys = _untrained_load(monkeypatch, pipeline_config(False), train_seed)
+    expected = BUILD_CACHE[("full", train_seed)]
+    for kind in ("motion_vae", "evaluator"):
+        assert cache.config_hash(keys[kind]) == expected[kind], kind
+    assert {kind: _structure_hash(keys[kind]) for kind in FULL_UNTRAINED_STRUCTURE[train_seed]
+            } == FULL_UNTRAINED_STRUCTURE[train_seed]
+
+
+@pytest.mark.parametrize("train_seed", sorted(s for mode, s in BUILD_CACHE if mode == "full"))
+def test_trained_full_entries_under_build_cache_are_still_hit(
+        train_seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where a clone holds the full notebooks' trained models (minutes of training, never
+    built by a test), loading them trains nothing: every pinned key is hit."""
+    monkeypatch.delenv("REPRO_CACHE_DIR", raising=False)
+    expected = BUILD_CACHE[("full", train_seed)]
+    if not all((paths.cache_dir() / kind / h / "model.pt").exists()
+               for kind, h in expected.items()):
+        pytest.skip(f"build/cache holds no full models of training seed {train_seed}")
+    _, spy = _spied_load(monkeypatch, pipeline_config(False), train_seed, forbid_misses=True)
+    assert spy.hashes() == expected
+
+
+def test_a_training_seed_changes_the_vae_and_denoiser_only(
+        base: em.EnergyMoGenPipeline) -> None:
+    other = em.load_pipeline(TINY, log=None, train_seed=1)
+    assert other.train_seed == 1 and set(other.timings) == set(base.timings)
+    for a, b in zip(other.text_encoder.parameters(), base.text_encoder.parameters(),
+                    strict=True):
+        assert torch.equal(a, b)
+    assert other.vocab.tokens == base.vocab.tokens
+    assert np.array_equal(other.reference_embeddings, base.reference_embeddings)
+    assert not all(torch.equal(a, b) for a, b in zip(other.vae.parameters(),
+                                                     base.vae.parameters(), strict=True))
+    assert not all(torch.equal(a, b) for a, b in zip(other.denoiser.parameters(),
+                                                     base.denoiser.parameters(), strict=True))
+    retrained = em.retrain_pipeline(base, 1)
+    assert retrained.train_seed == 1 and retrained.data is base.data
+    for part in ("vae", "denoiser"):
+        for a, b in zip(getattr(retrained, part).parameters(),
+                        getattr(other, part).parameters(), strict=True):
+            assert torch.equal(a, b)
+    assert retrained.latent_scale == pytest.approx(other.latent_scale)
+    with pytest.raises(ValueError, match="data"):
+        em.retrain_pipeline(base, 1, config=PipelineConfig(n_train_clips=30))
+
+
+def test_seed_pipelines_map_seeds_to_training_seeds(base: em.EnergyMoGenPipeline) -> None:
+    assert em.train_seed_for(TINY, 0) == TINY.data_seed
+    assert em.train_seed_for(TINY, 2) == TINY.data_seed + 2
+    pipes = em.SeedPipelines(base, log=None)
+    assert pipes(0) is base and em.pipeline_for(base, 1) is base
+    first = pipes(1)
+    assert first.train_seed == 1 and pipes(1) is first and em.pipeline_for(pipes, 1) is first
+    with pytest.raises(ValueError, match=">= 0"):
+        pipes(-1)
+    with pytest.raises(ValueError, match="default"):
+        em.SeedPipelines(first)

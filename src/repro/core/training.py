@@ -19,6 +19,7 @@ with ``"x"`` and optional ``"cond"`` and ``"mask"``. Models are called as
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import sys
@@ -33,7 +34,8 @@ from torch import Tensor, nn
 from repro.core.diffusion import GaussianDiffusion, UniformSampler
 from repro.infra.cache import load_or_train
 
-__all__ = ["TrainConfig", "TrainResult", "ema_decay_at", "load_or_train", "train_diffusion"]
+__all__ = ["TrainConfig", "TrainResult", "ema_decay_at", "load_or_train", "torch_threads",
+           "train_diffusion"]
 
 
 @dataclass
@@ -231,3 +233,20 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
     seconds = time.perf_counter() - start
     model.eval()
     return TrainResult(model=model, ema_model=ema_model, losses=losses, seconds=seconds)
+
+
+@contextlib.contextmanager
+def torch_threads(threads: int | None) -> Iterator[None]:
+    """Run the block with ``torch.set_num_threads(threads)`` (None: unchanged), then restore.
+
+    Speed only, never a result: the EnergyMoGen notebooks 07/08 use 1 (with widths of 64 a
+    second thread gains little, and on cores shared with other processes we measured 2
+    threads 10–30× *slower*, spin-waits).
+    """
+    previous = torch.get_num_threads()
+    if threads is not None:
+        torch.set_num_threads(int(threads))
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)

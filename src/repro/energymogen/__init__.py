@@ -1,4 +1,13 @@
 """EnergyMoGen (layer 5): its composition operators, pipeline, experiments and figures. Never
 imports repro.gmd.
 
+Modules, each importing only those above it in this list (and lower layers):
+``compose`` (Eq. 3–4, 7–10 on ε) · ``config`` (the concept pool, held-out pairs,
+``PipelineConfig``) · ``data`` (stand-in data, composition and negation test items) ·
+``text_stage`` (the frozen text encoder, the stand-in for CLIP) · ``pipeline`` (the trained
+pipeline, its stages and sampling) · ``harness`` (the text-to-motion test set and generation
+metrics shared by EMG-7 and EMG-8) · ``energy`` (EMG-1, 6, 9) · ``studies`` (EMG-2, 3, 4, 5)
+· ``latent_count`` (EMG-7) · ``augmentation`` (EMG-8) · ``settings`` (quick/full settings per
+notebook) · ``figures`` (the notebooks' figures).
+
 Layers: docs/DESIGN.md."""

@@ -7,7 +7,7 @@ on the HumanML3D test set (Table 1). On the stand-in data:
 
 - **composed set** (:func:`compose_set`, a CompML stand-in): each item a random composable
   pair of stand-in concepts (a locomotion/leg concept and an arm concept, all 35 pairs —
-  the 10 held-out pairs of ``energymogen.HELD_OUT_PAIRS`` included, as the paper's random
+  the 10 held-out pairs of ``config.HELD_OUT_PAIRS`` included, as the paper's random
   texts are mostly combinations HumanML3D lacks); one text per concept; composed with SEF
   (Eq. 10, λ = (0.1, 0.7, 0.2), the paper's best) on the pipeline's pretrained N = 5 models;
   decoded to motion and captioned with the generator's joined text ("… while …"). Size:
@@ -22,10 +22,10 @@ on the HumanML3D test set (Table 1). On the stand-in data:
   *augmented*: rows of the training clips + the composed set; *control*: the same steps on
   the training rows alone (so "more training" is not mistaken for "composed data helps").
 - **measurements**: text-to-motion on the held-out in-distribution test set
-  (``latent_count.TextToMotionTest``, the HumanML3D-test stand-in): R-precision, FID,
+  (``harness.TextToMotionTest``, the HumanML3D-test stand-in): R-precision, FID,
   MM-Dist, Diversity, oracle accuracy; and on the held-out composed texts (the joined texts
-  of the held-out pairs, ``energymogen.composition_items``): oracle accuracy and both-present
-  rate, R@3 and FID as ``energymogen_studies.composition_metrics``.
+  of the held-out pairs, ``data.composition_items``): oracle accuracy and both-present
+  rate, R@3 and FID as ``studies.composition_metrics``.
 
 A seed s redraws the composed set (pairs, texts, noise), seeds fine-tuning (batches,
 timesteps, noise, text dropout) and the evaluation noise and captions; the pretrained models
@@ -46,9 +46,11 @@ from torch import Tensor, nn
 
 from repro.core.stats import paired_difference
 from repro.core.tables import interval_text
-from repro.core.training import TrainConfig
-from repro.energymogen import pipeline as em
-from repro.energymogen.latent_count import TextToMotionTest, generation_metrics, torch_threads
+from repro.core.training import TrainConfig, torch_threads
+from repro.energymogen.config import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPTS, PipelineConfig
+from repro.energymogen.data import composition_items, concept_text
+from repro.energymogen.harness import TextToMotionTest, generation_metrics
+from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, encode_latents
 from repro.energymogen.studies import composition_metrics, oracle_presence
 from repro.infra import cache
 from repro.models.latent_denoiser import LatentDenoiser, train_latent_denoiser
@@ -75,11 +77,11 @@ _COMPOSE_NOISE = 10 ** 4     # the composed set's noise seed is this + seed (eva
 
 def composable_pairs() -> list[tuple[str, str]]:
     """Every (lower, arm) pair of the pipeline's pool that can be simultaneous (35)."""
-    return [(a, b) for a in em.LOWER_CONCEPTS for b in em.ARM_CONCEPTS
+    return [(a, b) for a in LOWER_CONCEPTS for b in ARM_CONCEPTS
             if can_be_simultaneous(a, b)]
 
 
-def composed_set_size(config: em.PipelineConfig) -> int:
+def composed_set_size(config: PipelineConfig) -> int:
     """round(5000/14616 × training clips): CompML's size relative to HumanML3D's."""
     return max(1, round(COMPML_FRACTION * config.n_train_clips))
 
@@ -109,7 +111,7 @@ class ComposedSet:
         return oracle_presence(self.joints, self.concepts)
 
 
-def compose_set(pipe: em.EnergyMoGenPipeline, size: int, seed: int,
+def compose_set(pipe: EnergyMoGenPipeline, size: int, seed: int,
                 lambdas: tuple[float, float, float] = (0.1, 0.7, 0.2)) -> ComposedSet:
     """The composed set for ``seed``: ``size`` random composable pairs, a random paraphrase
     for each concept and a joined caption (``default_rng([seed, 5005])``), SEF with
@@ -117,10 +119,10 @@ def compose_set(pipe: em.EnergyMoGenPipeline, size: int, seed: int,
     rng = np.random.default_rng([seed, 5005])
     pool = composable_pairs()
     pairs = [pool[int(k)] for k in rng.integers(len(pool), size=size)]
-    texts = [tuple(em.concept_text(name, rng) for name in pair) for pair in pairs]
+    texts = [tuple(concept_text(name, rng) for name in pair) for pair in pairs]
     joined = [joined_caption(pair, pipe.data.frames, rng) for pair in pairs]
     per_concept = tuple(tuple(t[c] for t in texts) for c in range(2))
-    latents = pipe.sample(em.Sampler("sef", lambdas=lambdas), per_concept, joined,
+    latents = pipe.sample(Sampler("sef", lambdas=lambdas), per_concept, joined,
                           _COMPOSE_NOISE + seed, batch=size)
     features = pipe.decode(latents)
     return ComposedSet(tuple(pairs), per_concept, tuple(joined), features,
@@ -144,13 +146,13 @@ class Rows:
         return int(self.latents.shape[0])
 
 
-def caption_rows(pipe: em.EnergyMoGenPipeline, features: np.ndarray,
+def caption_rows(pipe: EnergyMoGenPipeline, features: np.ndarray,
                  captions: Sequence[Sequence[str]]) -> Rows:
     """One row per caption of each motion, as ``load_pipeline`` builds the pretraining rows:
     the motion's scaled VAE mean and the frozen encoder's tokens of the caption."""
     if len(captions) != len(features):
         raise ValueError(f"{len(captions)} caption lists for {len(features)} motions")
-    latents = (em.encode_latents(pipe.vae, pipe.data, features, pipe.device)
+    latents = (encode_latents(pipe.vae, pipe.data, features, pipe.device)
                * pipe.latent_scale).cpu()
     rows = [(i, c) for i, caps in enumerate(captions) for c in caps]
     tokens, mask = pipe.encode([c for _, c in rows])
@@ -170,7 +172,7 @@ def concatenate_rows(*parts: Rows) -> Rows:
                 torch.cat([pad(p.mask) for p in parts]))
 
 
-def finetune_config(config: em.PipelineConfig, seed: int,
+def finetune_config(config: PipelineConfig, seed: int,
                     threads: int | None = 1) -> TrainConfig:
     """Fine-tuning as appendix A's ratios (our reading): steps = round(pretraining steps / 3)
     (100K after 300K), lr = pretraining lr / 2 (5·10⁻⁵ vs 10⁻⁴); batch, EMA 0.999, 10 % text
@@ -180,7 +182,7 @@ def finetune_config(config: em.PipelineConfig, seed: int,
                        ema_decay=0.999, cond_dropout=0.1, seed=seed, num_threads=threads)
 
 
-def load_or_finetune(pipe: em.EnergyMoGenPipeline, rows: Rows,
+def load_or_finetune(pipe: EnergyMoGenPipeline, rows: Rows,
                      train_config: TrainConfig) -> LatentDenoiser:
     """A copy of ``pipe.denoiser`` fine-tuned on ``rows`` (cache kind
     ``emg_finetuned_denoiser``, keyed by the pretrained weights, the rows and the config);
@@ -208,17 +210,17 @@ def load_or_finetune(pipe: em.EnergyMoGenPipeline, rows: Rows,
 # ----------------------------------------------------------------------------------------------
 
 
-def held_out_composed_metrics(variant: em.EnergyMoGenPipeline, seed: int) -> dict[str, float]:
+def held_out_composed_metrics(variant: EnergyMoGenPipeline, seed: int) -> dict[str, float]:
     """Text-to-motion from the joined texts of the held-out pairs (single-text guidance):
-    ``energymogen_studies.composition_metrics`` (oracle accuracy, both-present rate, R@1/R@3
+    ``studies.composition_metrics`` (oracle accuracy, both-present rate, R@1/R@3
     in %, FID against the whole held-out pool, ...)."""
-    items = em.composition_items(variant.data, seed, variant.config.items_per_pair)
-    features = variant.decode(variant.sample(em.Sampler("single"), [], items.multi_texts,
+    items = composition_items(variant.data, seed, variant.config.items_per_pair)
+    features = variant.decode(variant.sample(Sampler("single"), [], items.multi_texts,
                                              seed, batch=len(items)))
     return composition_metrics(variant, features, variant.joints(features), items, seed)
 
 
-def augmentation_study(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
+def augmentation_study(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                        seeds: Sequence[int], *, size: int, threads: int | None = 1,
                        log: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Per seed: compose a set of ``size``, fine-tune control and augmented, measure every
@@ -235,11 +237,11 @@ def augmentation_study(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
     return out
 
 
-def _augment_and_measure(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
+def _augment_and_measure(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                          seeds: Sequence[int], size: int, threads: int | None,
                          log: Callable[[str], None] | None, out: dict[str, Any]) -> None:
     base_rows = caption_rows(pipe, pipe.data.train_features, pipe.data.train_captions)
-    held = {frozenset(p) for p in em.HELD_OUT_PAIRS}
+    held = {frozenset(p) for p in HELD_OUT_PAIRS}
     for seed in seeds:
         start = time.perf_counter()
         composed = compose_set(pipe, size, seed)

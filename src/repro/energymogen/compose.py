@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Literal
+from typing import Literal, get_args
 
 import torch
 from torch import Tensor
@@ -34,6 +34,7 @@ from repro.models.latent_denoiser import CrossAttentionControl, LatentDenoiser
 
 __all__ = [
     "Condition",
+    "MODES",
     "Mode",
     "adaptive_gradient_descent",
     "classifier_free_guidance",
@@ -47,7 +48,10 @@ __all__ = [
 
 #: one text: (tokens (B or 1, L, D), mask (B or 1, L) bool)
 Condition = tuple[Tensor, Tensor]
+#: the composition modes of :func:`make_composed_eps_fn` (``pipeline.SamplerMode`` adds the
+#: unconditional model to them)
 Mode = Literal["single", "latent", "semantic", "sef"]
+MODES: tuple[str, ...] = get_args(Mode)
 
 
 def _check_weights(weights: Sequence[float] | Tensor, n: int, name: str) -> list[float]:
@@ -239,7 +243,7 @@ def make_composed_eps_fn(denoiser: LatentDenoiser, concepts: Sequence[Condition]
     ``gammas`` = (γ_attn, γ_reg) of Eq. 4, applied to every conditional evaluation. The
     denoiser must be in eval mode (dropout would make sampling non-deterministic).
     """
-    if mode not in ("single", "latent", "semantic", "sef"):
+    if mode not in MODES:
         raise ValueError(f"mode must be 'single', 'latent', 'semantic' or 'sef', got {mode!r}")
     if denoiser.training:
         raise ValueError("the denoiser is in training mode; call denoiser.eval() first")

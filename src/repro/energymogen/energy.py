@@ -3,13 +3,14 @@
 - **EMG-1** (Sec. 3.2, Eq. 5–7) — a DDPM or DDIM step is a Langevin step on an energy
   (:func:`langevin_step_errors`); Eq. 7 is a sum of energies (line-integral energies,
   :func:`energy_linearity_error`); is ε_θ a gradient field at all (:func:`jacobian_asymmetry`,
-  :func:`denoiser_jacobian_asymmetry`)?
+  :func:`denoiser_jacobian_asymmetry`)? All three on the pipeline: :func:`energy_view_study`.
 - **EMG-6** (Sec. 5.5, Fig. 5–6) — denoising-loss energy maps on a 2-D slice of latent space
   (:func:`latent_plane`, :func:`energy_landscape`, :func:`smooth_energy_map`,
   :func:`map_similarity`; one conjunction or negation case: :func:`energy_map_case`).
 - **EMG-9** (Eq. 12) — FID against the Gaussian closed form (:func:`fid_formula_errors`).
 
-The pipeline checked here (data, models, sampling) is ``repro.energymogen``.
+The pipeline checked here (models, sampling) is ``repro.energymogen.pipeline``, its data
+``repro.energymogen.data``.
 """
 
 from __future__ import annotations
@@ -27,23 +28,16 @@ from torch import Tensor, nn
 from repro.core import metrics
 from repro.core.diffusion import GaussianDiffusion
 from repro.energymogen.compose import Condition, make_composed_eps_fn
-from repro.energymogen.pipeline import (
-    ARM_CONCEPTS,
-    HELD_OUT_PAIRS,
-    LOWER_CONCEPTS,
-    NEGATION_CASES,
-    EnergyMoGenPipeline,
-    Sampler,
-    concept_text,
-    pair_caption,
-)
+from repro.energymogen.config import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPTS, NEGATION_CASES
+from repro.energymogen.data import composition_items, concept_text, pair_caption
+from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, denoiser_kwargs
 from repro.models.latent_denoiser import LatentDenoiser
 
 __all__ = [
     "LatentPlane", "denoiser_jacobian_asymmetry", "energy_landscape", "energy_linearity_error",
-    "energy_map_case", "fid_formula_errors", "float64_copy", "jacobian_asymmetry",
-    "langevin_step_errors", "latent_plane", "line_integral_energy", "map_similarity",
-    "smooth_energy_map",
+    "energy_map_case", "energy_view_study", "fid_formula_errors", "float64_copy",
+    "jacobian_asymmetry", "langevin_step_errors", "latent_plane", "line_integral_energy",
+    "map_similarity", "smooth_energy_map",
 ]
 
 
@@ -205,6 +199,53 @@ def denoiser_jacobian_asymmetry(denoiser: LatentDenoiser, z_t: Tensor, t: int,
                             mask[b:b + 1].expand(x.shape[0], -1))
         out.append(jacobian_asymmetry(eps, z_t[b:b + 1])[0])
     return np.asarray(out)
+
+
+def energy_view_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
+                      linearity_timesteps: Sequence[int],
+                      jacobian_timesteps: Sequence[int]) -> dict[str, Any]:
+    """EMG-1 on the pipeline: ``samples`` ground-truth latents of the composition items of
+    ``seed`` (``data.composition_items``), noised with noise of ``seed``.
+
+    - ``langevin``: :func:`langevin_step_errors` of the denoiser with the joined text at the
+      mid-timestep latents, every timestep (DDIM with the pipeline's steps);
+    - ``linearity``: :func:`energy_linearity_error` of Eq. 7 with w = (s, s) (s the pipeline's
+      guidance scale) at each of ``linearity_timesteps``; ``sum_error`` the largest;
+    - ``asymmetry``: name → (timesteps, samples) :func:`denoiser_jacobian_asymmetry` at the
+      latents noised to each of ``jacobian_timesteps``, for the trained denoiser with the
+      joined text and with ∅, and a randomly initialised one (``torch.manual_seed(seed)``);
+      ``jacobian_median``: the median of the trained model's, both conditions pooled.
+    """
+    items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
+    z0 = pipe.encode_motion(items.gt_features[:samples])
+    condition = pipe.encode(list(items.multi_texts[:samples]))
+    noise = torch.randn(z0.shape, generator=torch.Generator().manual_seed(seed))
+    steps = pipe.config.num_timesteps
+    z_mid = pipe.diffusion.q_sample(z0, torch.full((samples,), steps // 2, dtype=torch.long),
+                                    noise)
+    langevin = langevin_step_errors(
+        pipe.diffusion, lambda x, t: pipe.denoiser(x, t, *condition), z_mid,
+        timesteps=range(steps), seed=seed, ddim_steps=pipe.config.ddim_steps)
+    concepts = [pipe.encode(list(texts[:samples])) for texts in items.concept_texts]
+    s = pipe.config.guidance_scale
+    linearity = [energy_linearity_error(pipe.denoiser, z_mid, t, concepts, [s, s])
+                 for t in linearity_timesteps]
+    torch.manual_seed(seed)
+    random_init = LatentDenoiser(**denoiser_kwargs(pipe.config)).eval()
+    asymmetry: dict[str, list[np.ndarray]] = {"trained, text": [], "trained, ∅": [],
+                                              "random init, text": []}
+    for t in jacobian_timesteps:
+        z_t = pipe.diffusion.q_sample(z0, torch.full((samples,), t, dtype=torch.long), noise)
+        asymmetry["trained, text"].append(
+            denoiser_jacobian_asymmetry(pipe.denoiser, z_t, t, condition))
+        asymmetry["trained, ∅"].append(denoiser_jacobian_asymmetry(pipe.denoiser, z_t, t, None))
+        asymmetry["random init, text"].append(
+            denoiser_jacobian_asymmetry(random_init, z_t, t, condition))
+    stacked = {name: np.stack(values) for name, values in asymmetry.items()}
+    trained = np.concatenate([stacked["trained, text"].ravel(), stacked["trained, ∅"].ravel()])
+    return {"langevin": langevin, "linearity": linearity,
+            "sum_error": max(x["max_abs_error"] for x in linearity), "asymmetry": stacked,
+            "jacobian_median": float(np.median(trained))}
 
 
 # ----------------------------------------------------------------------------------------------

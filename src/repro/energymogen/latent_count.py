@@ -9,9 +9,10 @@ noise) and the denoiser (initialisation, batches, timesteps, noise, text dropout
 not change with s. For N = 5 and s = the pipeline's ``data_seed`` the models *are* the
 pipeline's (notebooks 04/05), taken from it, not retrained.
 
-Measured on a held-out **text-to-motion test set** (:class:`TextToMotionTest`, the stand-in
-for the HumanML3D test set): clips drawn exactly as the training clips (single concepts and
-the trained pairs, same probabilities) with random keys disjoint from the training ones.
+Measured on the held-out **text-to-motion test set** of ``repro.energymogen.harness``
+(``TextToMotionTest``, the stand-in for the HumanML3D test set): clips drawn exactly as the
+training clips (single concepts and the trained pairs, same probabilities) with random keys
+disjoint from the training ones.
 
 - reconstruction (Table 8 top): decode(μ(x)) of every test clip; our reconstruction error is
   the **MPJPE** — mean per-joint position error in metres between the joints recovered from
@@ -27,9 +28,8 @@ Our choices are in the docstrings ("our choice").
 
 from __future__ import annotations
 
-import contextlib
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -37,18 +37,17 @@ import torch
 
 from repro.core import metrics
 from repro.core.tables import interval_text
-from repro.energymogen import pipeline as em
-from repro.infra import cache, storage
+from repro.core.training import torch_threads
+from repro.energymogen.config import PipelineConfig
+from repro.energymogen.harness import TextToMotionTest, generation_metrics, oracle_accuracy
+from repro.energymogen.pipeline import EnergyMoGenPipeline, retrain_pipeline
 from repro.models.evaluator import evaluate_generated
 from repro.motion.features import features_to_joints
-from repro.standin.oracles import detect_concepts
 
 __all__ = [
-    "LATENT_COUNTS", "PAPER_TABLE8", "PAPER_REAL_MOTION", "TABLE8_COLUMNS", "TextToMotionTest",
-    "build_text_to_motion_test", "generation_metrics",
-    "latent_count_study", "load_or_build_text_to_motion_test", "load_or_train_variant",
-    "mpjpe", "oracle_accuracy", "real_motion_metrics", "reconstruction_metrics", "table8_markdown",
-    "text_to_motion_test_size", "torch_threads",
+    "LATENT_COUNTS", "PAPER_REAL_MOTION", "PAPER_TABLE8", "TABLE8_COLUMNS",
+    "example_reconstructions", "latent_count_study", "load_or_train_variant", "mpjpe",
+    "real_motion_metrics", "reconstruction_metrics", "table8_markdown",
 ]
 
 LATENT_COUNTS = (1, 3, 5, 7)
@@ -69,112 +68,20 @@ PAPER_TABLE8: dict[str, dict[str, dict[str, float]]] = {
 PAPER_REAL_MOTION = dict(zip((k for k, _ in TABLE8_COLUMNS),
                              (0.511, 0.703, 0.797, 0.002, 2.974, 9.503), strict=True))
 
-#: random keys of the test clips start here (training clips use keys 0..n_train−1, the
-#: composition pool 10⁶ + pair): disjoint by construction.
-_TEST_KEY = 2 * 10 ** 6
-
-
-@contextlib.contextmanager
-def torch_threads(threads: int | None) -> Iterator[None]:
-    """Run the block with ``torch.set_num_threads(threads)`` (None: unchanged), then restore.
-
-    Our choice for notebooks 07/08 is 1: with widths of 64 a second thread gains little, and
-    on cores shared with other processes we measured 2 threads 10–30× *slower* (spin-waits).
-    """
-    previous = torch.get_num_threads()
-    if threads is not None:
-        torch.set_num_threads(int(threads))
-    try:
-        yield
-    finally:
-        torch.set_num_threads(previous)
-
-
-# ----------------------------------------------------------------------------------------------
-# The held-out text-to-motion test set
-# ----------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class TextToMotionTest:
-    """Held-out clips of the training distribution: features (M, T, 263) unnormalised, three
-    captions and the concept names of each clip."""
-
-    features: np.ndarray
-    captions: tuple[tuple[str, ...], ...]
-    concepts: tuple[tuple[str, ...], ...]
-
-    def __len__(self) -> int:
-        return int(self.features.shape[0])
-
-    @property
-    def lengths(self) -> np.ndarray:
-        return np.full(len(self), self.features.shape[1])
-
-    def texts(self, seed: int) -> list[str]:
-        """One caption per clip, drawn with ``seed`` (the same for every model of a seed)."""
-        rng = np.random.default_rng([seed, 707])
-        return [c[int(rng.integers(len(c)))] for c in self.captions]
-
-
-def text_to_motion_test_size(quick: bool) -> int:
-    """Our choice: 256 clips (8 R-precision batches of 32; FID of 32-d embeddings from 256
-    samples), 64 in quick runs."""
-    return 64 if quick else 256
-
-
-def build_text_to_motion_test(config: em.PipelineConfig, count: int) -> TextToMotionTest:
-    """``count`` clips drawn as ``energymogen.build_stand_in_data`` draws training clips (a
-    single concept with probability ``single_fraction``, else a trained pair; random heading
-    and start), clip i from ``default_rng([data_seed, 2·10⁶ + i])``."""
-    pool, pairs = em.LOWER_CONCEPTS + em.ARM_CONCEPTS, em.trained_pairs()
-    feats, captions, concepts = [], [], []
-    with torch.inference_mode():
-        for i in range(count):
-            rng = np.random.default_rng([config.data_seed, _TEST_KEY + i])
-            if rng.uniform() < config.single_fraction:
-                names: tuple[str, ...] = (pool[int(rng.integers(len(pool)))],)
-            else:
-                names = pairs[int(rng.integers(len(pairs)))]
-            features, _, caps = em.stand_in_clip(names, config.frames, rng)
-            feats.append(features)
-            captions.append(tuple(caps))
-            concepts.append(names)
-    return TextToMotionTest(np.stack(feats).astype(np.float32), tuple(captions), tuple(concepts))
-
-
-def load_or_build_text_to_motion_test(config: em.PipelineConfig,
-                                      count: int) -> TextToMotionTest:
-    """:func:`build_text_to_motion_test` from ``cache_dir()/emg_t2m_test/<hash>/``."""
-    key = {"data": config.data_dict(), "count": count, "key_offset": _TEST_KEY, "format": 1}
-    directory = cache.cached_artifact_dir("emg_t2m_test", key)
-    with cache.artifact_lock(directory):
-        arrays, meta = directory / "features.npy", directory / "meta.json"
-        if arrays.exists() and meta.exists():
-            text = storage.read_json(meta)
-            return TextToMotionTest(np.load(arrays),
-                                    tuple(tuple(c) for c in text["captions"]),
-                                    tuple(tuple(c) for c in text["concepts"]))
-        test = build_text_to_motion_test(config, count)
-        storage.write_json(meta, {"captions": [list(c) for c in test.captions],
-                                  "concepts": [list(c) for c in test.concepts]})
-        storage.write_npy(arrays, test.features)
-        return test
-
 
 # ----------------------------------------------------------------------------------------------
 # Models with N latent vectors
 # ----------------------------------------------------------------------------------------------
 
 
-def load_or_train_variant(pipe: em.EnergyMoGenPipeline, latent_count: int, seed: int, *,
+def load_or_train_variant(pipe: EnergyMoGenPipeline, latent_count: int, seed: int, *,
                           threads: int | None = 1,
-                          log: Callable[[str], None] | None = None) -> em.EnergyMoGenPipeline:
+                          log: Callable[[str], None] | None = None) -> EnergyMoGenPipeline:
     """The pipeline with a VAE of ``latent_count`` latent vectors and its latent denoiser,
     trained with training seed ``seed`` (cached by full configuration), sharing ``pipe``'s
     data, frozen text encoder, vocabulary, diffusion and evaluator.
 
-    The steps are ``energymogen.load_pipeline``'s (``energymogen.retrain_pipeline``:
+    The steps are ``pipeline.load_pipeline``'s (``pipeline.retrain_pipeline``:
     ``train_vae_stage``, ``train_denoiser_stage``) with training seed ``seed``: VAE on the
     normalised training features; latent scale 1/std of the training means; denoiser rows =
     every caption of every training clip, text tokens from the frozen encoder, 10 % text
@@ -190,13 +97,13 @@ def load_or_train_variant(pipe: em.EnergyMoGenPipeline, latent_count: int, seed:
     return _train_variant(pipe, config, seed, threads, log)
 
 
-def _train_variant(pipe: em.EnergyMoGenPipeline, config: em.PipelineConfig, seed: int,
+def _train_variant(pipe: EnergyMoGenPipeline, config: PipelineConfig, seed: int,
                    threads: int | None, log: Callable[[str], None] | None
-                   ) -> em.EnergyMoGenPipeline:
-    """:func:`load_or_train_variant` without the shortcut: ``energymogen.retrain_pipeline``
+                   ) -> EnergyMoGenPipeline:
+    """:func:`load_or_train_variant` without the shortcut: ``pipeline.retrain_pipeline``
     (``train_vae_stage`` and ``train_denoiser_stage`` with training seed ``seed``; tests check
     that it reproduces the pipeline's own models, i.e. hits the same cache entries)."""
-    variant = em.retrain_pipeline(pipe, seed, config=config, threads=threads)
+    variant = retrain_pipeline(pipe, seed, config=config, threads=threads)
     if log is not None:
         log(f"N={config.latent_count} seed {seed}: VAE {variant.timings['vae']:.1f} s, "
             f"denoiser {variant.timings['denoiser']:.1f} s")
@@ -217,19 +124,10 @@ def mpjpe(features_a: np.ndarray, features_b: np.ndarray) -> float:
     return float((a - b).norm(dim=-1).mean())
 
 
-def oracle_accuracy(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> float:
-    """Mean over clips of the fraction of the clip's concepts that ``oracles.detect_concepts``
-    finds in its joints (B, T, 22, 3); clips may hold different numbers of concepts."""
-    if len(joints) != len(concepts):
-        raise ValueError(f"{len(joints)} motions for {len(concepts)} concept lists")
-    return float(np.mean([np.mean([name in found for name in names]) for names, found in
-                          zip(concepts, map(detect_concepts, joints), strict=True)]))
-
-
-def reconstruction_metrics(variant: em.EnergyMoGenPipeline, test: TextToMotionTest,
+def reconstruction_metrics(variant: EnergyMoGenPipeline, test: TextToMotionTest,
                            seed: int) -> dict[str, float]:
     """Reconstructions decode(μ(x)) of the test clips: MPJPE (m), MSE of normalised features,
-    oracle accuracy (as :func:`generation_metrics`) and the Table 8 columns
+    oracle accuracy (as ``harness.generation_metrics``) and the Table 8 columns
     (``evaluator.evaluate_generated``, captions drawn with ``seed``)."""
     recon = variant.decode(variant.encode_motion(test.features))
     normalised = variant.data.normalise(recon) - variant.data.normalise(test.features)
@@ -240,21 +138,7 @@ def reconstruction_metrics(variant: em.EnergyMoGenPipeline, test: TextToMotionTe
     return out
 
 
-def generation_metrics(variant: em.EnergyMoGenPipeline, test: TextToMotionTest,
-                       seed: int) -> dict[str, float]:
-    """Text-to-motion on the test captions (drawn with ``seed``): single-text guidance with
-    the pipeline's scale, DDIM from ``variant.noise(seed)``, decoded; Table 8 columns plus
-    ``oracle_accuracy``: per clip the fraction of its concepts the oracles find, averaged."""
-    texts = test.texts(seed)
-    features = variant.decode(variant.sample(em.Sampler("single"), [], texts, seed,
-                                             batch=len(texts)))
-    out = evaluate_generated(variant.evaluator, features, test.lengths, texts, test.features,
-                             test.lengths, seed=seed)
-    out["oracle_accuracy"] = oracle_accuracy(variant.joints(features), test.concepts)
-    return out
-
-
-def real_motion_metrics(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
+def real_motion_metrics(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                         seed: int) -> dict[str, float]:
     """The "Real motion" row: the test clips with their captions; FID of as many *training*
     clips against the test clips (the finite-sample floor of FID, our choice)."""
@@ -268,11 +152,28 @@ def real_motion_metrics(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
     return out
 
 
-def latent_count_study(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
+def example_reconstructions(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
+                            counts: Sequence[int], seed: int, *, threads: int | None = 1
+                            ) -> tuple[int, list[tuple[int, np.ndarray, float]]]:
+    """The first two-concept clip of ``test`` reconstructed by the variant of every N in
+    ``counts`` with training seed ``seed`` (:func:`load_or_train_variant`, cached models):
+    (the clip's index, [(N, reconstructed joints (T, 22, 3), MPJPE in m)])."""
+    index = next(i for i, c in enumerate(test.concepts) if len(c) == 2)
+    clip = test.features[index:index + 1]
+    out = []
+    with torch_threads(threads):
+        for n in counts:
+            variant = load_or_train_variant(pipe, n, seed, threads=threads)
+            recon = variant.decode(variant.encode_motion(clip))
+            out.append((int(n), variant.joints(recon)[0], mpjpe(recon, clip)))
+    return index, out
+
+
+def latent_count_study(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                        counts: Sequence[int], seeds: Sequence[int], *, threads: int | None = 1,
                        log: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Every (N, training seed): train or load the variant, measure reconstruction and
-    generation, all with ``threads`` torch threads (:func:`torch_threads`). Returns
+    generation, all with ``threads`` torch threads (``core.training.torch_threads``). Returns
     ``{"reconstruction": {str(N): {metric: per-seed list}},
     "generation": {...}, "real": {metric: per-seed list}, "seconds": {str(N): per-seed
     training seconds (0 when cached)}}``."""
@@ -286,7 +187,7 @@ def latent_count_study(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest,
     return out
 
 
-def _measure_counts(pipe: em.EnergyMoGenPipeline, test: TextToMotionTest, counts: Sequence[int],
+def _measure_counts(pipe: EnergyMoGenPipeline, test: TextToMotionTest, counts: Sequence[int],
                     seeds: Sequence[int], out: dict[str, Any], threads: int | None,
                     log: Callable[[str], None] | None) -> None:
     for seed in seeds:

@@ -5,15 +5,16 @@ used by 08's augmentation study).
   Table 9 (appendix E, the γ of Eq. 4), keyed as the registry spells them (:func:`lambda_key`,
   :func:`gamma_key`).
 - **measurements** — on one batch of composed motion (:func:`composition_metrics`): oracle
-  presence per concept (``repro.oracles``), R@1/R@3, TMR-style M2T/M2M, FID, transition
+  presence per concept (``repro.standin.oracles``), R@1/R@3, TMR-style M2T/M2M, FID, transition
   distance, foot skating, jitter.
 - **studies** over seeds, one pipeline or one trained model per seed
-  (``energymogen.SeedPipelines``): :func:`run_rows` (the rows of Tables 3, 7, 9: EMG-4, EMG-5),
+  (``pipeline.SeedPipelines``): :func:`run_rows` (the rows of Tables 3, 7, 9: EMG-4, EMG-5),
   :func:`composition_study` (EMG-2/3: conjunction and negation, Eq. 7–9, oracle-measured),
   :func:`agd_relative_change` (how far AGD, Eq. 4, moves the text embedding).
 - **reporting** — :func:`markdown_table` (ours beside the paper's values).
 
-The pipeline measured here (data, models, sampling) is ``repro.energymogen``.
+The pipeline measured here (models, sampling) is ``repro.energymogen.pipeline``, its data and
+test items ``repro.energymogen.data``.
 """
 
 from __future__ import annotations
@@ -28,17 +29,14 @@ from torch import Tensor
 
 from repro.core import metrics, tables
 from repro.core.tables import interval_text
-from repro.energymogen.pipeline import (
-    HELD_OUT_PAIRS,
+from repro.energymogen.config import HELD_OUT_PAIRS
+from repro.energymogen.data import (
     CompositionItems,
-    EnergyMoGenPipeline,
-    PipelineSource,
-    Sampler,
     composition_items,
     load_or_build_test_pool,
     negation_items,
-    pipeline_for,
 )
+from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
 from repro.models.latent_denoiser import CrossAttentionControl
 from repro.standin.oracles import detect_concepts
 
@@ -102,7 +100,7 @@ def oracle_presence(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> np
     """(B, n) bool: is the i-th concept of item b among ``oracles.detect_concepts`` of b?
 
     The oracle calls both arms waving ``wave_both`` only; for an item that names the wave of
-    each arm (a set of three, ``energymogen.THREE_CONCEPT_SETS``) a detected ``wave_both``
+    each arm (a set of three, ``config.THREE_CONCEPT_SETS``) a detected ``wave_both``
     is both of them. Items naming one arm's wave are scored as the oracle says.
     """
     if len(joints) != len(concepts):

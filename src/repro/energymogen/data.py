@@ -1,0 +1,336 @@
+"""The stand-in data of the EnergyMoGen pipeline and its composition test items.
+
+- **data** — fixed-length clips (``config.FRAMES`` = 64 frames, 3.2 s) from
+  ``repro.standin.generator``: single concepts and simultaneous pairs (a locomotion/leg concept
+  with an arm concept, the generator's disjoint body parts). The pairs of
+  ``config.HELD_OUT_PAIRS`` never occur in training, so composing them is a real test. Their
+  clips form the composition test pool, in the spirit of MTT (EnergyMoGen G.1): per item the
+  concepts, one text per concept and the single joined text ("... while ...", "... and ... at
+  the same time"), and the ground-truth composed motion (:func:`composition_items`).
+- **negation items** (Eq. 8) on trained pairs (:func:`negation_items`).
+
+Built once per configuration and cached (``repro.infra.cache``: kinds ``emg_data``,
+``emg_test_sets``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from repro.energymogen.config import (
+    ARM_CONCEPTS,
+    EXTRA_TEST_SETS,
+    FRAMES,
+    HELD_OUT_PAIRS,
+    LOWER_CONCEPTS,
+    NEGATION_CASES,
+    RHYTHM_OVERRIDES,
+    PipelineConfig,
+)
+from repro.infra import cache, storage
+from repro.motion.features import FPS, joints_to_features
+from repro.motion.humanml3d import compute_statistics
+from repro.standin.captions import SUBJECTS
+from repro.standin.concepts import CONCEPTS
+from repro.standin.generator import GENERATOR_VERSION, ClipSpec, generate_clip
+
+__all__ = [
+    "CompositionItems", "CompositionPool", "NegationItems", "StandInData",
+    "build_composition_pool", "build_stand_in_data", "composition_items", "concept_text",
+    "load_or_build_data", "load_or_build_test_pool", "negation_items", "pair_caption",
+    "stand_in_clip", "trained_pairs",
+]
+
+
+def _check_pool() -> None:
+    for name in LOWER_CONCEPTS + ARM_CONCEPTS:
+        if name not in CONCEPTS:
+            raise ValueError(f"concept {name!r} is not in repro.standin.concepts.CONCEPTS")
+    for sets, _ in EXTRA_TEST_SETS.values():
+        for names in sets:
+            if not set(names) <= set(LOWER_CONCEPTS + ARM_CONCEPTS):
+                raise ValueError(f"test set {names} is not in the pipeline's concept pool")
+    pairs = {frozenset(p) for p in HELD_OUT_PAIRS}
+    for (pair, negated) in NEGATION_CASES:
+        if frozenset(pair) in pairs or negated not in pair:
+            raise ValueError(f"negation case {pair}/{negated} must be a trained pair holding "
+                             "the negated concept")
+
+
+def trained_pairs() -> list[tuple[str, str]]:
+    """Every (lower, arm) pair except the held-out ones."""
+    held = {frozenset(p) for p in HELD_OUT_PAIRS}
+    return [(a, b) for a in LOWER_CONCEPTS for b in ARM_CONCEPTS if frozenset((a, b)) not in held]
+
+
+def concept_text(name: str, rng: np.random.Generator) -> str:
+    """One caption of a single concept, as the generator writes single clips ("{S} {A}.")."""
+    phrases = CONCEPTS[name].phrases
+    subject = SUBJECTS[int(rng.integers(len(SUBJECTS)))]
+    return f"{subject} {phrases[int(rng.integers(len(phrases)))][0]}."
+
+
+def stand_in_clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generator
+                  ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """One generated clip of ``concepts`` (one: single; two: simultaneous) as the pipeline's
+    data are drawn (random heading and start, :data:`RHYTHM_OVERRIDES`, generator seed from
+    ``rng``): (features (frames, 263), canonical joints (frames, 22, 3), 3 captions)."""
+    params: dict[str, Any] = {"initial_heading": float(rng.uniform(-np.pi, np.pi)),
+                              "start_xz": [float(v) for v in rng.uniform(-1.0, 1.0, 2)]}
+    for name in concepts:
+        if name in RHYTHM_OVERRIDES:
+            params[name] = dict(RHYTHM_OVERRIDES[name])
+    kind = "single" if len(concepts) == 1 else "simultaneous"
+    spec = ClipSpec(concepts, kind, frames / FPS, params)
+    clip = generate_clip(spec, int(rng.integers(2 ** 31)))
+    features, joints = joints_to_features(clip.joints)
+    if features.shape[0] != frames:
+        raise ValueError(f"clip has {features.shape[0]} feature frames, expected {frames}")
+    return features, joints, clip.captions
+
+
+@dataclass(frozen=True)
+class CompositionPool:
+    """Ground-truth composed clips for test items: K clips per composition set, in set order."""
+
+    features: np.ndarray                       # (S·K, T, 263) unnormalised
+    joints: np.ndarray                         # (S·K, T, 22, 3)
+    captions: list[tuple[str, ...]]
+    concepts: list[tuple[str, ...]]
+
+
+def build_composition_pool(sets: Sequence[tuple[str, ...]], per_set: int, data_seed: int,
+                           stream: int, frames: int = FRAMES) -> CompositionPool:
+    """``per_set`` simultaneous clips of every set; clip k of set p is drawn with
+    ``default_rng([data_seed, stream + p, k])`` (:func:`stand_in_clip`)."""
+    feats, joints, captions, concepts = [], [], [], []
+    with torch.inference_mode():
+        for p, names in enumerate(sets):
+            for k in range(per_set):
+                rng = np.random.default_rng([data_seed, stream + p, k])
+                f, j, c = stand_in_clip(tuple(names), frames, rng)
+                feats.append(f)
+                joints.append(j)
+                captions.append(tuple(c))
+                concepts.append(tuple(names))
+    return CompositionPool(np.stack(feats), np.stack(joints), captions, concepts)
+
+
+#: rng stream of the held-out pairs' test pool (:func:`build_composition_pool`)
+_PAIR_STREAM = 10 ** 6
+
+
+@dataclass
+class StandInData:
+    """Training clips (fixed length) and the composition test pool of the held-out pairs.
+
+    ``mean``/``std`` are HumanML3D-style statistics of the training features (std averaged
+    within each feature block, ``repro.motion.humanml3d.compute_statistics``).
+    """
+
+    train_features: np.ndarray                 # (M, T, 263) float32, unnormalised
+    train_captions: list[tuple[str, ...]]
+    train_concepts: list[tuple[str, ...]]
+    test_features: np.ndarray                  # (P·K, T, 263): K clips per held-out pair
+    test_joints: np.ndarray                    # (P·K, T, 22, 3)
+    test_captions: list[tuple[str, ...]]
+    test_concepts: list[tuple[str, ...]]
+    mean: np.ndarray
+    std: np.ndarray
+
+    @property
+    def frames(self) -> int:
+        return int(self.train_features.shape[1])
+
+    def normalise(self, features: np.ndarray) -> np.ndarray:
+        return ((features - self.mean) / self.std).astype(np.float32)
+
+    @property
+    def test_pool(self) -> CompositionPool:
+        """The held-out pairs' ground truth as a :class:`CompositionPool`."""
+        return CompositionPool(self.test_features, self.test_joints, self.test_captions,
+                               self.test_concepts)
+
+
+def build_stand_in_data(config: PipelineConfig) -> StandInData:
+    """Generate the training clips and the test pool (deterministic in ``config``).
+
+    Training clip i: a single concept with probability ``single_fraction`` (uniform over the
+    12 concepts), else a trained pair (uniform); random heading and start. Test pool: for each
+    held-out pair, ``test_clips_per_pair`` simultaneous clips.
+    """
+    _check_pool()
+    pool, pairs = LOWER_CONCEPTS + ARM_CONCEPTS, trained_pairs()
+    feats, captions, concepts = [], [], []
+    with torch.inference_mode():
+        for i in range(config.n_train_clips):
+            rng = np.random.default_rng([config.data_seed, i])
+            if rng.uniform() < config.single_fraction:
+                names: tuple[str, ...] = (pool[int(rng.integers(len(pool)))],)
+            else:
+                names = pairs[int(rng.integers(len(pairs)))]
+            f, _, c = stand_in_clip(names, config.frames, rng)
+            feats.append(f)
+            captions.append(tuple(c))
+            concepts.append(names)
+    test = build_composition_pool(HELD_OUT_PAIRS, config.test_clips_per_pair, config.data_seed,
+                                  _PAIR_STREAM, config.frames)
+    train = np.stack(feats).astype(np.float32)
+    mean, std = compute_statistics(list(train))
+    return StandInData(train, captions, concepts, test.features, test.joints, test.captions,
+                       test.concepts, mean, std)
+
+
+def load_or_build_data(config: PipelineConfig) -> StandInData:
+    """The stand-in data for ``config`` from ``cache_dir()/emg_data/<hash>/`` (built once;
+    notebooks running in parallel wait on the entry's lock)."""
+    key = config.data_dict()
+    directory = cache.cached_artifact_dir("emg_data", key)
+    with cache.artifact_lock(directory):
+        arrays, meta = directory / "arrays.npz", directory / "meta.json"
+        if not (arrays.exists() and meta.exists()):
+            data = build_stand_in_data(config)
+            with storage.atomic_open(arrays, "wb") as handle:
+                np.savez(handle, train_features=data.train_features,
+                         test_features=data.test_features, test_joints=data.test_joints,
+                         mean=data.mean, std=data.std)
+            storage.write_json(meta, {
+                "train_captions": [list(c) for c in data.train_captions],
+                "train_concepts": [list(c) for c in data.train_concepts],
+                "test_captions": [list(c) for c in data.test_captions],
+                "test_concepts": [list(c) for c in data.test_concepts]})
+            return data
+        stored, text = np.load(arrays), storage.read_json(meta)
+        return StandInData(
+            stored["train_features"], [tuple(c) for c in text["train_captions"]],
+            [tuple(c) for c in text["train_concepts"]], stored["test_features"],
+            stored["test_joints"], [tuple(c) for c in text["test_captions"]],
+            [tuple(c) for c in text["test_concepts"]], stored["mean"], stored["std"])
+
+
+def load_or_build_test_pool(config: PipelineConfig, name: str) -> CompositionPool:
+    """The ground-truth pool of test set ``name``: ``"pairs"`` (the held-out pairs, part of
+    the data) or one of :data:`EXTRA_TEST_SETS` (``test_clips_per_pair`` clips per set,
+    cached in ``cache_dir()/emg_test_sets/<hash>/``; a test pool only: the training data and
+    every trained model are unchanged by it)."""
+    if name == "pairs":
+        return load_or_build_data(config).test_pool
+    if name not in EXTRA_TEST_SETS:
+        raise ValueError(f"unknown test set {name!r}; known: pairs, {', '.join(EXTRA_TEST_SETS)}")
+    _check_pool()
+    sets, stream = EXTRA_TEST_SETS[name]
+    key = {"generator_version": GENERATOR_VERSION, "frames": config.frames,
+           "per_set": config.test_clips_per_pair, "seed": config.data_seed,
+           "sets": [list(names) for names in sets], "rhythm": RHYTHM_OVERRIDES,
+           "stream": stream, "format": 1}
+    directory = cache.cached_artifact_dir("emg_test_sets", key)
+    with cache.artifact_lock(directory):
+        arrays, meta = directory / "arrays.npz", directory / "meta.json"
+        if arrays.exists() and meta.exists():
+            stored, text = np.load(arrays), storage.read_json(meta)
+            return CompositionPool(stored["features"], stored["joints"],
+                                   [tuple(c) for c in text["captions"]],
+                                   [tuple(c) for c in text["concepts"]])
+        pool = build_composition_pool(sets, config.test_clips_per_pair, config.data_seed,
+                                      stream, config.frames)
+        with storage.atomic_open(arrays, "wb") as handle:
+            np.savez(handle, features=pool.features, joints=pool.joints)
+        storage.write_json(meta, {"captions": [list(c) for c in pool.captions],
+                                  "concepts": [list(c) for c in pool.concepts]})
+        return pool
+
+
+# ----------------------------------------------------------------------------------------------
+# Test items
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CompositionItems:
+    """An MTT-like composition batch: B items of n concepts each (n = 2: the held-out pairs;
+    n = 3: :data:`THREE_CONCEPT_SETS`).
+
+    ``concept_texts[i]`` is the list of B texts of the i-th concept (the n concept conditions
+    of Eq. 7–9), ``multi_texts`` the joined single text c_{1,n}, ``gt_*`` the ground truth.
+    """
+
+    concepts: tuple[tuple[str, ...], ...]
+    concept_texts: tuple[tuple[str, ...], ...]
+    multi_texts: tuple[str, ...]
+    gt_features: np.ndarray
+    gt_joints: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.multi_texts)
+
+
+def composition_items(data: StandInData, seed: int, per_pair: int,
+                      pool: CompositionPool | None = None) -> CompositionItems:
+    """``per_pair`` items per composition set of ``pool`` (default: the held-out pairs,
+    ``data.test_pool``), drawn with ``seed``: a (clip, caption) of the pool without
+    replacement and a random paraphrase for each concept text."""
+    pool = data.test_pool if pool is None else pool
+    sets = list(dict.fromkeys(tuple(c) for c in pool.concepts))
+    if not sets:
+        raise ValueError("the composition pool is empty")
+    if len({len(names) for names in sets}) != 1:
+        raise ValueError(f"a composition batch needs one concept count, the pool has sets {sets}")
+    rng = np.random.default_rng([seed, 404])
+    concepts, texts, multi, index = [], [], [], []
+    for names in sets:
+        clips = [i for i, c in enumerate(pool.concepts) if tuple(c) == names]
+        options = [(i, j) for i in clips for j in range(len(pool.captions[i]))]
+        take = rng.choice(len(options), min(per_pair, len(options)), replace=False)
+        for k in take:
+            i, j = options[int(k)]
+            concepts.append(names)
+            texts.append(tuple(concept_text(name, rng) for name in names))
+            multi.append(pool.captions[i][j])
+            index.append(i)
+    per_concept = tuple(tuple(t[c] for t in texts) for c in range(len(sets[0])))
+    return CompositionItems(tuple(concepts), per_concept, tuple(multi),
+                            pool.features[index], pool.joints[index])
+
+
+@dataclass(frozen=True)
+class NegationItems:
+    """B negation items: c_i (a trained pair's text, both concepts), c_j (the negated concept's
+    text), the kept concept's own text (the "multi-concept" text of Fig. 5b)."""
+
+    pair_texts: tuple[str, ...]
+    negated_texts: tuple[str, ...]
+    kept_texts: tuple[str, ...]
+    kept: tuple[str, ...]
+    negated: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.pair_texts)
+
+
+def pair_caption(pair: tuple[str, str], rng: np.random.Generator) -> str:
+    """A simultaneous caption of ``pair`` with the generator's own templates, drawn with ``rng``
+    (the first caption of one generated clip, :func:`stand_in_clip`)."""
+    return stand_in_clip(pair, FRAMES, rng)[2][0]
+
+
+def negation_items(seed: int, per_case: int) -> NegationItems:
+    """``per_case`` items for each of :data:`NEGATION_CASES`, paraphrases drawn with ``seed``."""
+    rng = np.random.default_rng([seed, 808])
+    fields: dict[str, list[str]] = {k: [] for k in ("pair", "neg", "kept_text", "kept", "n")}
+    with torch.inference_mode():
+        for pair, negated in NEGATION_CASES:
+            kept = pair[0] if pair[1] == negated else pair[1]
+            for _ in range(per_case):
+                fields["pair"].append(pair_caption(pair, rng))
+                fields["neg"].append(concept_text(negated, rng))
+                fields["kept_text"].append(concept_text(kept, rng))
+                fields["kept"].append(kept)
+                fields["n"].append(negated)
+    return NegationItems(tuple(fields["pair"]), tuple(fields["neg"]), tuple(fields["kept_text"]),
+                         tuple(fields["kept"]), tuple(fields["n"]))
+

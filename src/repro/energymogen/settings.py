@@ -1,0 +1,122 @@
+"""Run settings of the EnergyMoGen notebooks 04, 05, 07 and 08: one frozen dataclass per
+notebook, ``for_mode(quick)`` gives its full or quick settings (fixed before any verdict).
+
+Full mode is the run whose verdicts count; quick mode shrinks everything to a test of the
+code, never a result. Every notebook uses the one pipeline configuration of
+``config.pipeline_config`` (identical configurations share the cache), so the models of
+notebook 04 are those of 05, 07 and 08.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from repro.core.training import TrainConfig
+from repro.energymogen.augmentation import composed_set_size, finetune_config
+from repro.energymogen.config import PipelineConfig, pipeline_config
+from repro.energymogen.latent_count import LATENT_COUNTS
+
+__all__ = ["AugmentationSettings", "EnergyViewSettings", "LatentCountSettings",
+           "SEFAblationSettings"]
+
+#: our choice for notebooks 07/08: one torch thread (speed only, never in a cache key; see
+#: ``core.training.torch_threads``)
+ONE_THREAD = 1
+
+
+@dataclass(frozen=True)
+class EnergyViewSettings:
+    """Notebook 04 (EMG-1, 2, 3, 6, 9).
+
+    ``emg1_samples`` noised test latents for EMG-1's identities; ``negation_items_per_case``
+    items per ``config.NEGATION_CASES`` case (EMG-2/3); the guidance-scale check (full mode
+    only, not recorded) reruns EMG-2/3 at ``scale_check_scales`` on the first
+    ``scale_check_seeds`` seeds with fewer items; EMG-6's maps: a ``map_grid``² grid,
+    ``map_noise_draws`` noise draws, ``map_samples`` generated latents per row (the full
+    values are ``energy.energy_map_case``'s defaults).
+    """
+
+    quick: bool
+    pipeline: PipelineConfig
+    seeds: int
+    emg1_samples: int
+    negation_items_per_case: int
+    scale_check: bool
+    map_grid: int
+    map_noise_draws: int
+    map_samples: int
+    jacobian_timesteps: tuple[int, ...] = (100, 300, 500, 700, 900)
+    linearity_timesteps: tuple[int, ...] = (100, 500, 900)
+    scale_check_scales: tuple[float, ...] = (1.5, 5.0)
+    scale_check_seeds: int = 3
+    scale_check_items_per_pair: int = 4
+    scale_check_items_per_case: int = 8
+
+    @classmethod
+    def for_mode(cls, quick: bool) -> EnergyViewSettings:
+        if quick:
+            return cls(quick=True, pipeline=pipeline_config(True), seeds=1, emg1_samples=3,
+                       negation_items_per_case=6, scale_check=False, map_grid=6,
+                       map_noise_draws=1, map_samples=6)
+        return cls(quick=False, pipeline=pipeline_config(False), seeds=5, emg1_samples=8,
+                   negation_items_per_case=16, scale_check=True, map_grid=16,
+                   map_noise_draws=4, map_samples=16)
+
+
+@dataclass(frozen=True)
+class SEFAblationSettings:
+    """Notebook 05 (EMG-4, EMG-5): the pipeline and the number of seeds."""
+
+    quick: bool
+    pipeline: PipelineConfig
+    seeds: int
+
+    @classmethod
+    def for_mode(cls, quick: bool) -> SEFAblationSettings:
+        return cls(quick=quick, pipeline=pipeline_config(quick), seeds=1 if quick else 3)
+
+
+@dataclass(frozen=True)
+class LatentCountSettings:
+    """Notebook 07 (EMG-7): the N swept, the training seeds, the size of the held-out
+    text-to-motion test set (256 clips: 8 R-precision batches of 32, FID of 32-d embeddings
+    from 256 samples; 64 in quick runs) and the torch threads."""
+
+    quick: bool
+    pipeline: PipelineConfig
+    seeds: int
+    test_clips: int
+    counts: tuple[int, ...] = LATENT_COUNTS
+    threads: int = ONE_THREAD
+
+    @classmethod
+    def for_mode(cls, quick: bool) -> LatentCountSettings:
+        return cls(quick=quick, pipeline=pipeline_config(quick), seeds=1 if quick else 3,
+                   test_clips=64 if quick else 256)
+
+
+@dataclass(frozen=True)
+class AugmentationSettings:
+    """Notebook 08 (EMG-8): seeds, the held-out text-to-motion test set (as notebook 07's),
+    torch threads; the composed set's size and the fine-tuning follow from the pipeline
+    (``augmentation.composed_set_size``, ``augmentation.finetune_config``)."""
+
+    quick: bool
+    pipeline: PipelineConfig
+    seeds: int
+    test_clips: int
+    threads: int = ONE_THREAD
+
+    @classmethod
+    def for_mode(cls, quick: bool) -> AugmentationSettings:
+        return cls(quick=quick, pipeline=pipeline_config(quick), seeds=1 if quick else 3,
+                   test_clips=64 if quick else 256)
+
+    @property
+    def composed_set_size(self) -> int:
+        """CompML's size relative to HumanML3D's, of the pipeline's training clips."""
+        return composed_set_size(self.pipeline)
+
+    def finetune(self, seed: int) -> TrainConfig:
+        """The fine-tuning configuration of ``seed`` (appendix A's ratios)."""
+        return finetune_config(self.pipeline, seed, self.threads)

@@ -1,0 +1,104 @@
+"""The frozen text encoder of the EnergyMoGen pipeline (the stand-in for CLIP ViT-L/14).
+
+A word-embedding + BiGRU encoder (``repro.standin.text.TextEncoder``), pretrained
+contrastively (symmetric InfoNCE, CLIP-style) against linear maps of a VAE's scaled training
+latents and then frozen; never the evaluator's. Cached as kind ``emg_text_encoder``
+(:func:`text_encoder_cache_key`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+from repro.energymogen.config import PipelineConfig
+from repro.energymogen.data import StandInData
+from repro.infra import cache
+from repro.models.evaluator import info_nce
+from repro.models.vae import array_fingerprint
+from repro.standin.text import TextEncoder, Vocabulary, tokenize
+
+__all__ = ["TextStage", "text_encoder_cache_key", "train_text_stage"]
+
+
+class _LatentTextModel(nn.Module):
+    """Text encoder + a linear motion head on the flattened VAE latent, for InfoNCE."""
+
+    def __init__(self, vocab_size: int, text_dim: int, latent_size: int) -> None:
+        super().__init__()
+        self.text = TextEncoder(vocab_size, text_dim, text_dim)
+        self.motion = nn.Linear(latent_size, text_dim)
+
+
+def _train_text_encoder(model: _LatentTextModel, vocab: Vocabulary, captions: list[list[str]],
+                        latents: Tensor, config: PipelineConfig,
+                        seed: int) -> tuple[nn.Module, dict]:
+    """Symmetric InfoNCE between sentence vectors and linear maps of the latents (CLIP-style);
+    identical captions are not negatives. AdamW, batches drawn with ``seed + 17``."""
+    rng = np.random.default_rng(seed + 17)
+    optimiser = torch.optim.AdamW(model.parameters(), lr=config.text_lr, weight_decay=0.01)
+    flat = latents.reshape(latents.shape[0], -1)
+    batch, losses = min(128, flat.shape[0]), []
+    model.train()
+    for _ in range(config.text_steps):
+        idx = rng.choice(flat.shape[0], batch, replace=False)
+        texts = [captions[i][rng.integers(len(captions[i]))] for i in idx]
+        keys = [" ".join(tokenize(t)) for t in texts]
+        same = torch.tensor([[a == b for b in keys] for a in keys])
+        ids, lengths = vocab.encode_batch(texts, config.max_text_len)
+        loss = info_nce(model.text(torch.from_numpy(ids), lengths), model.motion(flat[idx]),
+                        0.1, same)
+        optimiser.zero_grad()
+        loss.backward()
+        optimiser.step()
+        losses.append(loss.item())
+    return model.eval(), {"losses": losses}
+
+
+@dataclass(frozen=True)
+class TextStage:
+    """The frozen text encoder (stand-in for CLIP) and its vocabulary."""
+
+    text_encoder: TextEncoder
+    vocab: Vocabulary
+    seconds: float
+
+
+def text_encoder_cache_key(vocab: Vocabulary, latents: Tensor, config: PipelineConfig,
+                           train_seed: int) -> dict[str, Any]:
+    """The cache key (kind ``emg_text_encoder``) of :func:`train_text_stage`."""
+    return {"vocab": list(vocab.tokens), "latents": array_fingerprint(latents),
+            "dim": config.text_dim, "steps": config.text_steps, "lr": config.text_lr,
+            "max_len": config.max_text_len, "seed": int(train_seed), "format": 1}
+
+
+def train_text_stage(data: StandInData, config: PipelineConfig, latents: Tensor,
+                     train_seed: int) -> TextStage:
+    """The frozen text encoder, trained contrastively (symmetric InfoNCE, CLIP-style) against
+    linear maps of the scaled training ``latents`` of a VAE, seeded with ``train_seed``
+    (cache kind ``emg_text_encoder``, :func:`text_encoder_cache_key`).
+
+    It stands in for the paper's frozen *pretrained* CLIP, so :func:`load_pipeline` always
+    trains it with ``config.data_seed`` against the ``data_seed`` VAE's latents, whatever the
+    training seed of the VAE and denoiser: the text encoder is the same for every training
+    seed, as CLIP is the same for every EnergyMoGen run (our choice)."""
+    start = time.perf_counter()
+    vocab = Vocabulary.build([c for caps in data.train_captions for c in caps])
+    captions = [list(c) for c in data.train_captions]
+
+    def build_text() -> nn.Module:
+        torch.manual_seed(int(train_seed))
+        return _LatentTextModel(len(vocab), config.text_dim, latents[0].numel())
+
+    text_model = cache.load_or_train(
+        "emg_text_encoder", text_encoder_cache_key(vocab, latents, config, train_seed),
+        build_text, lambda m: _train_text_encoder(m, vocab, captions, latents, config,
+                                                   int(train_seed)))
+    return TextStage(text_model.text.eval().requires_grad_(False), vocab,
+                     time.perf_counter() - start)
+

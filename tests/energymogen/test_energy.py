@@ -1,0 +1,113 @@
+"""The energy view (repro.energymogen.energy): EMG-1's identities on toy fields with known
+answers, EMG-6's maps, EMG-9's FID check, and one energy-map case on the tiny pipeline."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from repro.core.diffusion import GaussianDiffusion
+from repro.energymogen import energy as em_energy
+from repro.energymogen.pipeline import EnergyMoGenPipeline, scaled_linear_betas
+from repro.models.latent_denoiser import LatentDenoiser
+
+# --- EMG-1 ---------------------------------------------------------------------------------
+
+
+def test_sampler_steps_are_langevin_steps() -> None:
+    diffusion = GaussianDiffusion(scaled_linear_betas(100))
+    z = torch.randn(3, 2, 4, generator=torch.Generator().manual_seed(0))
+    errors = em_energy.langevin_step_errors(diffusion,
+                                            lambda x, t: torch.tanh(x) + 0.1 * t[:, None, None],
+                                            z, timesteps=range(100), ddim_steps=10)
+    assert errors["max_abs_error"] < 1e-10 and errors["ddim_max_abs_error"] < 1e-10
+    assert 0 < errors["ddpm_eps_coefficient_min"] < errors["ddpm_eps_coefficient_max"] < 1
+
+
+def test_jacobian_asymmetry_of_known_fields() -> None:
+    gen = torch.Generator().manual_seed(1)
+    a = torch.randn(6, 6, generator=gen, dtype=torch.float64)
+    sym = a + a.T
+    z = torch.randn(4, 2, 3, generator=gen, dtype=torch.float64)
+    gradient_field = em_energy.jacobian_asymmetry(
+        lambda x: (x.reshape(-1, 6) @ sym + x.reshape(-1, 6) ** 3).reshape(x.shape), z)
+    assert np.all(gradient_field < 1e-12)
+    linear = em_energy.jacobian_asymmetry(lambda x: (x.reshape(-1, 6) @ a.T).reshape(x.shape), z)
+    assert linear == pytest.approx(float((a - a.T).norm() / a.norm()), rel=1e-10)
+
+
+def test_line_integral_energy_of_a_quadratic() -> None:
+    gen = torch.Generator().manual_seed(2)
+    a = torch.randn(5, 5, generator=gen, dtype=torch.float64)
+    s = a @ a.T
+    z = torch.randn(3, 5, generator=gen, dtype=torch.float64)
+    energy = em_energy.line_integral_energy(lambda x: x @ s, z)
+    assert torch.allclose(energy, 0.5 * ((z @ s) * z).sum(1), atol=1e-12)
+
+
+def test_energy_of_eq7_is_the_weighted_sum_of_energies() -> None:
+    torch.manual_seed(0)
+    model = LatentDenoiser(4, 3, 4, width=16, layers=2, heads=2).eval()
+    conds = [(torch.randn(1, 2, 4), torch.ones(1, 2, dtype=torch.bool)) for _ in range(2)]
+    z = torch.randn(2, 3, 4)
+    out = em_energy.energy_linearity_error(model, z, 10, conds, [2.5, -1.0], nodes=8)
+    assert out["max_abs_error"] < 1e-9 * max(1.0, out["max_energy"])
+    assert out["gradient_relative_error"] > 1e-6      # a random network is not conservative
+
+
+# --- EMG-6 and EMG-9 -----------------------------------------------------------------------
+
+
+def test_latent_plane_and_maps() -> None:
+    gen = torch.Generator().manual_seed(3)
+    latents = torch.randn(20, 3, 4, generator=gen)
+    plane = em_energy.latent_plane(latents)
+    u, v, grid = plane.grid(5)
+    assert grid.shape == (25, 3, 4) and len(u) == len(v) == 5
+    assert np.all(np.abs(plane.scores) <= np.array(plane.extent) + 1e-6)
+    smooth = em_energy.smooth_energy_map(np.arange(25.0).reshape(5, 5), upsample=2, sigma=1.0)
+    assert smooth.shape == (10, 10)
+    assert em_energy.map_similarity(smooth, 2 * smooth + 1) == pytest.approx(1.0)
+
+
+def test_energy_landscape_combines_linearly() -> None:
+    torch.manual_seed(0)
+    model = LatentDenoiser(4, 3, 4, width=16, layers=2, heads=2).eval()
+    diffusion = GaussianDiffusion(scaled_linear_betas(50))
+    cond = (torch.randn(1, 2, 4), torch.ones(1, 2, dtype=torch.bool))
+    latents = torch.randn(6, 3, 4)
+    maps = em_energy.energy_landscape(model, diffusion, latents, {"∅": None, "c": cond},
+                                      {"c": {"c": 1.0}, "same": {"∅": 0.0, "c": 1.0},
+                                       "uncond": {"∅": 1.0}},
+                                      timesteps=(5, 25), n_noise=2, seed=0, chunk=4)
+    assert maps["c"].shape == (6,)
+    assert np.allclose(maps["c"], maps["same"])
+    assert not np.allclose(maps["c"], maps["uncond"])
+
+
+def test_fid_formula_check() -> None:
+    out = em_energy.fid_formula_errors(seed=0, dim=8, draws=5)
+    assert out["fid_vs_closed_form_relative_error"] < 1e-6
+    assert out["printed_vs_closed_form_relative_error"] > 1e-3
+
+
+def test_energy_map_case_on_the_tiny_pipeline(tiny_pipeline: EnergyMoGenPipeline) -> None:
+    case = em_energy.energy_map_case(tiny_pipeline, "negation", 0, seed=0, grid=4, n_noise=1,
+                                     timesteps=(100,), samples=4, upsample=2, sigma=1.0)
+    assert case["smooth"]["composed"].shape == (8, 8)
+    assert -1.0 <= case["similarity_to_multi"] <= 1.0
+
+
+def test_energy_view_study_on_the_tiny_pipeline(tiny_pipeline: EnergyMoGenPipeline) -> None:
+    out = em_energy.energy_view_study(tiny_pipeline, 0, samples=2, linearity_timesteps=(100,),
+                                      jacobian_timesteps=(100, 900))
+    assert out["langevin"]["max_abs_error"] < 1e-8          # an identity, trained or not
+    assert len(out["linearity"]) == 1
+    assert out["sum_error"] == out["linearity"][0]["max_abs_error"]
+    assert out["sum_error"] < 1e-8 * max(1.0, out["linearity"][0]["max_energy"])
+    assert set(out["asymmetry"]) == {"trained, text", "trained, ∅", "random init, text"}
+    assert all(v.shape == (2, 2) for v in out["asymmetry"].values())
+    pooled = np.concatenate([out["asymmetry"]["trained, text"].ravel(),
+                             out["asymmetry"]["trained, ∅"].ravel()])
+    assert out["jacobian_median"] == pytest.approx(float(np.median(pooled)))
