@@ -3,13 +3,13 @@
 Motion encoder: the 263-d features WITHOUT the 4 foot-contact dims, z-normalised with the
 evaluator's own statistics (mean/std over the valid frames of the split it is trained on —
 REFERENCE.md pitfall: not the dataset's Mean.npy/Std.npy), two 1D convolutions, masked mean
-and max pooling over the valid frames, a linear map to D. Text encoder: ``repro.text``.
+and max pooling over the valid frames, a linear map to D. Text encoder: ``repro.standin.text``.
 Training: symmetric InfoNCE (CLIP/TMR) on cosine similarities / temperature, AdamW, fixed
 seed. Off-diagonal pairs whose captions are identical are not used as negatives (TMR filters
 near-duplicate texts the same way). Embeddings are returned L2-normalised (as TMR's), so the
 Euclidean ranking of R-precision is the cosine ranking the model was trained for.
 
-Takes plain arrays; it does not import ``repro.data`` or ``repro.generator``.
+Takes plain arrays; it does not import ``repro.motion.humanml3d`` or ``repro.standin``'s generator.
 """
 
 from __future__ import annotations
@@ -299,7 +299,7 @@ def load_or_train_evaluator(train_motions: np.ndarray, lengths: Sequence[int],
                             captions: Sequence[str | Sequence[str]],
                             config: EvaluatorConfig | None = None, *,
                             retrain: bool = False) -> Evaluator:
-    """The evaluator for this config and data from ``repro.cache`` (kind ``evaluator``),
+    """The evaluator for this config and data from ``repro.infra.cache`` (kind ``evaluator``),
     trained and cached on a miss. The vocabulary and statistics are rebuilt from the data
     (deterministic); the training losses come back from the entry's ``metrics.json``."""
     config = config or EvaluatorConfig()

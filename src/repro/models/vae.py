@@ -332,7 +332,7 @@ def load_or_train_vae(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray
                       *, model_kwargs: dict[str, Any] | None = None,
                       config: VAETrainConfig | None = None, retrain: bool = False,
                       device: str | torch.device = "cpu") -> MotionVAE:
-    """The VAE for these kwargs, training config and data from ``repro.cache`` (kind
+    """The VAE for these kwargs, training config and data from ``repro.infra.cache`` (kind
     ``motion_vae``), trained with ``train_vae`` (model seeded with ``config.seed``) if absent.
     """
     model_kwargs = dict(model_kwargs or {})
