@@ -75,7 +75,12 @@ def _dataset_problem(resolved: str) -> str | None:
     folder = Path(resolved)
     if not folder.is_dir():
         return f"is not a folder ({folder.resolve()} does not exist)"
-    problems = [p for p in validate_dataset(folder) if p.severity == "error"]
+    try:
+        problems = [p for p in validate_dataset(folder) if p.severity == "error"]
+    except Exception as error:  # a file the validator itself cannot read
+        return (f"is not a valid HumanML3D-layout folder: the validator failed with "
+                f"{type(error).__name__}: {error} (python -m repro validate-dataset {folder} "
+                "shows where)")
     if problems:
         return (f"is not a valid HumanML3D-layout folder:\n{format_problems(problems)}\n"
                 f"(python -m repro validate-dataset {folder} shows the same)")
