@@ -251,6 +251,9 @@ def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device:
                     name = pending.pop(0)
                     running[name] = _start(run, name, parameters, threads=threads,
                                            timeout=timeout, kernel=kernel)
+                    slowest = (f"slowest known {known[name]:.0f} s" if name in known
+                               else "no time known yet")
+                    view.log(f"[start] {name} ({slowest})")
                 for name, job in list(running.items()):
                     if job.process.poll() is None:
                         continue

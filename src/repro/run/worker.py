@@ -114,7 +114,9 @@ def _prepare_environment(spec: WorkerSpec, runtime_dir: str) -> None:
     os.environ[kernel_guard.RUNNER_PID] = str(spec.runner_pid)
     os.environ[kernel_guard.PIDS_DIR] = spec.pids_dir
     os.environ["JUPYTER_RUNTIME_DIR"] = runtime_dir  # short, private: IPC socket paths
-    os.environ.setdefault("MPLBACKEND", "Agg")
+    # the kernel's inline backend, so that plt.show() puts each figure into the executed
+    # notebook (its rendered HTML is what a reader of results/ sees); not Agg, which drops them
+    os.environ["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
 
 
 def execute(spec: WorkerSpec) -> dict[str, Any]:
