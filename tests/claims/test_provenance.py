@@ -57,5 +57,7 @@ def test_executed_notebooks_render_to_html_with_their_figures(tmp_path: Path) ->
     assert pages == [tmp_path / "snapshot" / "notebooks" / "01_x0_vs_eps.html"]
     text = pages[0].read_text()
     assert "GMD-A1" in text and "data:image/png;base64," in text
+    assert '<link rel="stylesheet" href="notebook.css">' in text and "<style" not in text
+    assert (tmp_path / "snapshot" / "notebooks" / "notebook.css").stat().st_size > 1000
     section = notebooks_section(pages, tmp_path / "snapshot")
     assert "- [01_x0_vs_eps](notebooks/01_x0_vs_eps.html)" in section

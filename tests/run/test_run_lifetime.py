@@ -68,6 +68,15 @@ def processes_of_run(runner_pid: int) -> list[int]:
     return found
 
 
+def _describe(pid: int) -> str:
+    try:
+        command = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[:4]
+    except OSError:
+        return "gone"
+    return f"{command[:160]} state/ppid/pgrp/session {state}"
+
+
 def _snapshot(*folders: Path) -> dict[str, tuple[int, int]]:
     out = {}
     for folder in folders:
@@ -108,10 +117,11 @@ def hanging_run(tmp_path: Path):
 
 
 def _assert_nothing_left(runner_pid: int, tmp_path: Path) -> None:
-    deadline = time.monotonic() + 10
+    deadline = time.monotonic() + 20  # SIGKILL is immediate; the slack is for a loaded machine
     while processes_of_run(runner_pid) and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert processes_of_run(runner_pid) == [], "processes of the run survived the runner"
+    left = {pid: _describe(pid) for pid in processes_of_run(runner_pid)}
+    assert left == {}, "processes of the run survived the runner"
     kernel, pool_worker, child = map(int, (tmp_path / "beats" / "pids").read_text().split())
     assert [pid for pid in (kernel, pool_worker, child) if lifetime.pid_alive(pid)] == []
     build = tmp_path / "build"

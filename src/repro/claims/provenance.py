@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -59,9 +60,16 @@ def check_runs(sidecars: Mapping[str, Mapping[str, Any]], *, quick: bool, folder
     return f"Run {next(iter(runs))}."
 
 
+SHARED_STYLE = "notebook.css"
+_STYLE_BLOCK = re.compile(r"<style[^>]*>(.*?)</style>", re.S)
+
+
 def render_notebooks(source: Path, target: Path) -> list[Path]:
-    """Every ``source/*.ipynb`` as ``target/<name>.html`` (nbconvert's HTML exporter, images
-    embedded as data URIs so that a page is one file); returns the pages written."""
+    """Every ``source/*.ipynb`` as ``target/<name>.html`` (nbconvert's HTML exporter, lab
+    template, figures embedded as PNG data URIs); returns the pages written.
+
+    The template's style sheet (about 260 kB, the same for every page) is written once to
+    ``target/notebook.css`` and linked, which keeps the snapshot small."""
     import nbformat
     from nbconvert import HTMLExporter
 
@@ -69,11 +77,20 @@ def render_notebooks(source: Path, target: Path) -> list[Path]:
     exporter.embed_images = True
     pages = []
     target.mkdir(parents=True, exist_ok=True)
+    style = ""
     for notebook_path in sorted(Path(source).glob("*.ipynb")):
         notebook = nbformat.read(notebook_path, as_version=4)
         body, _ = exporter.from_notebook_node(
             notebook, resources={"metadata": {"name": notebook_path.stem}})
+        blocks = _STYLE_BLOCK.findall(body)
+        style = style or "\n".join(blocks)
+        if "\n".join(blocks) == style:  # the template's sheet: link it instead
+            body = _STYLE_BLOCK.sub("", body)
+            body = body.replace("</head>", f'<link rel="stylesheet" href="{SHARED_STYLE}">\n'
+                                "</head>", 1)
         pages.append(write_text(target / f"{notebook_path.stem}.html", body))
+    if style:
+        write_text(target / SHARED_STYLE, style)
     return pages
 
 
