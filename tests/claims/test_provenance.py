@@ -9,8 +9,14 @@ from pathlib import Path
 import nbformat
 import pytest
 
-from repro.claims.provenance import (NO_RUN_ID, ReportError, check_runs, notebooks_section,
-                                     render_notebooks, runs_of)
+from repro.claims.provenance import (
+    NO_RUN_ID,
+    ReportError,
+    check_runs,
+    notebooks_section,
+    render_notebooks,
+    runs_of,
+)
 
 
 def _sidecar(run_id: str, mode: str = "full") -> dict:
