@@ -67,3 +67,36 @@ def test_executed_notebooks_render_to_html_with_their_figures(tmp_path: Path) ->
     assert (tmp_path / "snapshot" / "notebooks" / "notebook.css").stat().st_size > 1000
     section = notebooks_section(pages, tmp_path / "snapshot")
     assert "- [01_x0_vs_eps](notebooks/01_x0_vs_eps.html)" in section
+
+
+def test_the_snapshot_holds_the_rendered_notebooks_linked_from_the_report(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("nbconvert")
+    from conftest import make_context
+
+    from repro.claims.ledger import record_claim
+    from repro.claims.report import (
+        README_TABLE_END,
+        README_TABLE_START,
+        write_report,
+        write_snapshot,
+    )
+    from repro.infra import paths
+
+    repo = tmp_path / "repo"
+    repo.mkdir()
+    (repo / "README.md").write_text(f"# r\n\n{README_TABLE_START} -->\n{README_TABLE_END}\n")
+    monkeypatch.setattr(paths, "REPO_ROOT", repo)
+    build = tmp_path / "build"
+    record_claim(make_context(build, quick=False, run_id="run-1"), "GMD-A1",
+                 {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
+    (build / "notebooks").mkdir()
+    nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("# 01")]),
+                   build / "notebooks" / "01_x0_vs_eps.ipynb")
+    write_report(build, quick=False)
+    results = write_snapshot(build)
+    assert results == repo / "results"
+    assert (results / "notebooks" / "01_x0_vs_eps.html").is_file()
+    report = (results / "REPORT.md").read_text()
+    assert "Run run-1." in report
+    assert "- [01_x0_vs_eps](notebooks/01_x0_vs_eps.html)" in report
