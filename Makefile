@@ -5,12 +5,13 @@ PYTHON ?= python3.11
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+LAB    := $(VENV)/.installed-lab
 JOBS   ?= 2
 SEED   ?= 0
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup test unit notebooks-quick reproduce bench lint clean
+.PHONY: help setup test unit notebooks-quick reproduce bench lint check-rendered lab clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*##' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-16s %s\n", $$1, $$2}'
@@ -24,13 +25,20 @@ $(STAMP): requirements.txt requirements-dev.txt pyproject.toml
 	$(PY) -m ipykernel install --sys-prefix --name repro --display-name "repro (.venv)" >/dev/null
 	@touch $(STAMP)
 
-setup: $(STAMP)  ## create or refresh .venv (pip, pinned requirements, kernel "repro")
+$(LAB): $(STAMP) requirements-lab.txt
+	$(PY) -m pip install --quiet -r requirements-lab.txt
+	@touch $(LAB)
+
+setup: $(STAMP) $(LAB)  ## create or refresh .venv (pinned requirements, kernel "repro", JupyterLab)
+
+lab: $(LAB)  ## open the notebooks in JupyterLab
+	$(VENV)/bin/jupyter lab notebooks
 
 unit: $(STAMP)  ## unit tests only (no notebooks)
 	$(PY) -m pytest -q -m "not notebook"
 
 test: $(STAMP)  ## lint + unit tests + every notebook executed with quick parameters
-	$(PY) -m ruff check src tests notebooks
+	$(PY) -m ruff check src tests notebooks scripts
 	$(PY) -m pytest -q
 
 reproduce: $(STAMP)  ## execute every notebook with full parameters; write build/report and refresh results/
@@ -39,8 +47,11 @@ reproduce: $(STAMP)  ## execute every notebook with full parameters; write build
 bench: $(STAMP)  ## measure the time budgets; writes build/bench/bench.json (ARGS="--full", "--warm-cache DIR")
 	$(PY) -m repro bench $(ARGS)
 
+check-rendered: $(STAMP)  ## open results/ and build/report in headless Chromium: figures load, links work
+	$(PY) scripts/check_rendered.py $(ARGS)
+
 lint: $(STAMP)  ## ruff on the library, tests and notebooks
-	$(PY) -m ruff check src tests notebooks
+	$(PY) -m ruff check src tests notebooks scripts
 
 clean:  ## remove build outputs and caches (keeps .venv)
 	rm -rf build .pytest_cache .ruff_cache

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from repro.claims.ledger import load_sidecars, part_outcomes, v1_verdict
+from repro.claims.provenance import check_runs, notebooks_section, render_notebooks
 from repro.claims.registry import CLAIMS
 from repro.infra import paths
 from repro.infra.storage import read_json, write_json, write_text
@@ -184,14 +185,20 @@ def slowest_of(*records: dict[str, float]) -> dict[str, float]:
 
 
 def write_report(build_dir: str | os.PathLike, *, quick: bool,
-                 runs: Sequence[Any] = (), provenance: str = "") -> Path:
+                 runs: Sequence[Any] = (), provenance: str = "",
+                 allow_mixed: bool = False) -> Path:
     """Write ``<build>/report/{REPORT.md, index.html, claims.json, figures/}``; returns the md.
 
     ``runs``: the notebooks just run (name, seconds); the run times of the report being
     replaced are kept for the notebooks not run again (``--only``, or ``report`` alone).
+    Raises :class:`ReportError` (writing nothing) when no claim is recorded, a sidecar is of
+    the other mode, or the claims come from several runs and ``allow_mixed`` is False.
     """
     build_dir = Path(build_dir)
     sidecars = load_sidecars(build_dir / "claims")
+    run_line = check_runs(sidecars, quick=quick, folder=build_dir / "claims",
+                          allow_mixed=allow_mixed)
+    provenance = f"{provenance} {run_line}".strip()
     report_dir = build_dir / "report"
     runs = list({r.name: r for r in [*recorded_runs(report_dir), *runs]}.values())
     slowest = slowest_of(slowest_seconds(report_dir / "claims.json"),
@@ -250,7 +257,8 @@ def update_readme_table(readme: str | os.PathLike, rows: Sequence[dict[str, str]
 
 
 def write_snapshot(build_dir: str | os.PathLike) -> Path:
-    """Replace ``results/`` with the full run's REPORT.md, claims.json and PNG figures, and
+    """Replace ``results/`` with the full run's REPORT.md, claims.json, PNG figures and every
+    executed notebook rendered to ``notebooks/<name>.html`` (linked from REPORT.md), and
     the README's verdict table with the same verdicts. ``slowest_seconds`` keeps the slowest
     wall time of each notebook over the snapshots (``runner.longest_first`` orders by it, so
     a warm run's times do not hide a cold run's)."""
@@ -265,6 +273,9 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     (staging / "figures").mkdir()
     for figure in (report_dir / "figures").glob("*.png"):
         shutil.copy2(figure, staging / "figures" / figure.name)
+    pages = render_notebooks(Path(build_dir) / "notebooks", staging / "notebooks")
+    with open(staging / "REPORT.md", "a", encoding="utf-8") as report:
+        report.write(notebooks_section(pages, staging))
     old = target.with_name(".results.old")
     if old.exists():
         shutil.rmtree(old)

@@ -32,6 +32,7 @@ import torch
 from torch import Tensor, nn
 
 from repro.core.diffusion import GaussianDiffusion, UniformSampler
+from repro.infra import progress as run_progress
 from repro.infra.cache import load_or_train
 
 __all__ = ["TrainConfig", "TrainResult", "ema_decay_at", "load_or_train", "torch_threads",
@@ -226,6 +227,8 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
             bar.update(1)
             if step % 50 == 0:
                 bar.set_postfix(loss=f"{losses[-1]:.4f}")
+            run_progress.report("training diffusion model", step + 1, config.steps,
+                                loss=losses[-1])
     finally:
         bar.close()
         if config.num_threads is not None:

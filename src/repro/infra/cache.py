@@ -1,17 +1,26 @@
 """Cached artefacts keyed by a hash of their full configuration (DESIGN.md "Caches").
 
 Layout: ``cache_dir()/<kind>/<hash>/`` holding ``config.json`` (the canonical config),
-``model.pt`` (a state dict) and ``metrics.json``. ``model.pt`` is written last, so its
-presence means the entry is complete; every file goes through ``storage.atomic_open``.
+``model.pt`` (a state dict), ``metrics.json`` and ``checksums.json`` (sha256 and size of each
+payload file). ``model.pt`` is written before ``checksums.json``; an entry is complete when
+both are there and agree. Every file goes through ``storage.atomic_open``.
+
+Integrity: a payload whose checksum does not match, or that cannot be read, is moved aside
+(``model.pt.corrupt-<UTC time>``, kept for inspection) and the model retrained, with a warning
+naming the file; :func:`clean_cache` removes folders a failed run left holding only ``.lock``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import datetime as _dt
 import fcntl
 import hashlib
 import json
+import os
 import re
+import time
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -22,8 +31,11 @@ from torch import Tensor, nn
 
 from repro.infra import paths, storage
 
-__all__ = ["artifact_lock", "cached_artifact_dir", "canonical_json", "config_hash", "fingerprint",
-           "load_or_train"]
+__all__ = ["CHECKSUMS", "CorruptArtifactError", "artifact_lock", "cached_artifact_dir",
+           "canonical_json", "clean_cache", "config_hash", "file_checksum", "fingerprint",
+           "load_or_train", "verify_checksum", "write_checksum"]
+
+CHECKSUMS = "checksums.json"
 
 _KIND_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
@@ -117,6 +129,100 @@ def artifact_lock(directory: Path) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
+class CorruptArtifactError(ValueError):
+    """A cached file that is not what was written: its message names the file and the fix."""
+
+
+def file_checksum(path: Path) -> dict[str, Any]:
+    """``{"sha256": hex digest, "bytes": size}`` of a file, read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    size = 0
+    with open(path, "rb") as handle:
+        while block := handle.read(1 << 20):
+            digest.update(block)
+            size += len(block)
+    return {"sha256": digest.hexdigest(), "bytes": size}
+
+
+def write_checksum(directory: Path, name: str) -> None:
+    """Record the checksum of ``directory/name`` in ``directory/checksums.json``."""
+    directory = Path(directory)
+    recorded = _read_checksums(directory) or {}
+    recorded[name] = file_checksum(directory / name)
+    storage.write_json(directory / CHECKSUMS, recorded)
+
+
+def _read_checksums(directory: Path) -> dict[str, Any] | None:
+    try:
+        recorded = storage.read_json(directory / CHECKSUMS)
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError):
+        return {}
+    return recorded if isinstance(recorded, dict) else {}
+
+
+def verify_checksum(directory: Path, name: str) -> str | None:
+    """What is wrong with ``directory/name`` against its recorded checksum, or None if it
+    matches. An entry written before checksums existed (no ``checksums.json``) is "unverified"
+    and passes here; its load is the check (and records the checksum)."""
+    directory = Path(directory)
+    recorded = _read_checksums(directory)
+    if recorded is None:
+        return None
+    if name not in recorded:
+        return f"{directory / CHECKSUMS} has no checksum for {name}"
+    try:
+        actual = file_checksum(directory / name)
+    except OSError as error:
+        return f"{directory / name} cannot be read ({error})"
+    expected = recorded[name]
+    if actual != expected:
+        return (f"{directory / name} is {actual['bytes']} bytes with sha256 "
+                f"{actual['sha256'][:12]}…, but {expected.get('bytes')} bytes with sha256 "
+                f"{str(expected.get('sha256'))[:12]}… were written (truncated or changed)")
+    return None
+
+
+def _move_aside(path: Path, problem: str) -> Path:
+    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y%m%dT%H%M%SZ")
+    aside = path.with_name(f"{path.name}.corrupt-{stamp}")
+    os.replace(path, aside)
+    message = (f"cache: {problem}; moved it aside to {aside} and retraining (delete that file "
+               "once inspected)")
+    warnings.warn(message, RuntimeWarning, stacklevel=3)
+    return aside
+
+
+def clean_cache(root: Path | None = None, *, tmp_age_s: float = 600.0) -> list[Path]:
+    """Remove what failed runs left in the cache: entry folders holding only ``.lock`` and
+    ``.*.tmp`` files of interrupted writes older than ``tmp_age_s``. A folder whose lock is
+    held (a model training now) is left alone. Returns the removed paths."""
+    root = Path(root) if root is not None else paths.cache_dir()
+    removed: list[Path] = []
+    if not root.is_dir():
+        return removed
+    now = time.time()
+    for lock in sorted(root.glob("*/*/.lock")):
+        directory = lock.parent
+        with open(lock, "a") as handle:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                continue  # in use
+            for tmp in directory.glob(".*.tmp"):
+                with contextlib.suppress(OSError):
+                    if now - tmp.stat().st_mtime > tmp_age_s:
+                        tmp.unlink()
+                        removed.append(tmp)
+            if [p.name for p in directory.iterdir()] == [".lock"]:
+                lock.unlink()
+                with contextlib.suppress(OSError):
+                    directory.rmdir()
+                removed.append(directory)
+    return removed
+
+
 def load_or_train(kind: str, config: dict[str, Any], build_model: Callable[[], nn.Module],
                   train: Callable[[nn.Module], Any], *, device: str | torch.device = "cpu",
                   retrain: bool = False) -> nn.Module:
@@ -140,10 +246,25 @@ def _load_or_train_locked(directory: Path, config: dict[str, Any],
     weights_file = directory / "model.pt"
     if not retrain and weights_file.exists() and _read_config(
             directory / "config.json") == _normalised(config):
-        model = build_model()
-        state = torch.load(weights_file, map_location=device, weights_only=True)
-        model.load_state_dict(state)
-        return model.to(device).eval()
+        problem = verify_checksum(directory, weights_file.name)
+        if problem is None:
+            try:
+                state = torch.load(weights_file, map_location=device, weights_only=True)
+            except Exception as error:  # truncated zip, unpickling error, EINVAL
+                problem = f"{weights_file} cannot be read ({type(error).__name__}: {error})"
+        if problem is None:
+            model = build_model()
+            try:
+                model.load_state_dict(state)
+            except RuntimeError as error:
+                raise CorruptArtifactError(
+                    f"{weights_file} does not fit the model its config builds ({error}); the "
+                    f"cache key misses a change of the model code: delete {directory} to "
+                    "retrain it") from None
+            if _read_checksums(directory) is None:
+                write_checksum(directory, weights_file.name)  # an entry from before checksums
+            return model.to(device).eval()
+        _move_aside(weights_file, problem)
 
     result = train(build_model().to(device))
     model, metrics = result if isinstance(result, tuple) else (result, None)
@@ -155,4 +276,5 @@ def _load_or_train_locked(directory: Path, config: dict[str, Any],
         storage.write_json(directory / "metrics.json", metrics)
     with storage.atomic_open(weights_file, "wb") as handle:
         torch.save({k: v.detach().cpu() for k, v in model.state_dict().items()}, handle)
+    write_checksum(directory, weights_file.name)
     return model.to(device).eval()

@@ -1,7 +1,9 @@
 """Atomic writes: a reader never sees a half-written file, and a failure leaves the old one.
 
 Every file the package writes (sidecars, caches, reports, datasets) goes through here:
-write to a temporary file in the same folder, flush and fsync, then ``os.replace``.
+write to a temporary file in the same folder, flush and fsync, then ``os.replace``. The file
+gets the mode a plain ``open`` would give it (0666 less the user's umask), not ``mkstemp``'s
+private 0600.
 """
 
 from __future__ import annotations
@@ -17,6 +19,26 @@ from typing import IO, Any
 import numpy as np
 
 
+def current_umask() -> int:
+    """The process's umask, read without changing it (``/proc/self/status``; else set and
+    restore, which is not thread-safe but only runs where /proc is missing)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except OSError:
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def file_mode() -> int:
+    """The mode ``open(path, "w")`` would create a file with: 0666 less the umask."""
+    return 0o666 & ~current_umask()
+
+
 @contextlib.contextmanager
 def atomic_open(path: str | os.PathLike, mode: str = "w", **kwargs: Any) -> Iterator[IO]:
     """Open a temporary sibling of ``path`` for writing; on success it replaces ``path``."""
@@ -26,6 +48,7 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kwargs: Any) -> Iter
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.fchmod(fd, file_mode())
         with os.fdopen(fd, mode, **kwargs) as handle:
             yield handle
             handle.flush()

@@ -41,13 +41,14 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     try:
         return reproduce(quick=args.quick, only=args.only, jobs=args.jobs, seed=args.seed,
                          device=args.device, snapshot=args.snapshot, extra_parameters=extra,
-                         threads=args.threads)
+                         threads=args.threads, allow_mixed=args.allow_mixed)
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
+    from repro.claims.provenance import ReportError
     from repro.claims.report import write_report, write_snapshot
     from repro.infra import paths
 
@@ -56,7 +57,12 @@ def _cmd_report(args: argparse.Namespace) -> int:
         print(f"error: no claim sidecars in {build / 'claims'}; run notebooks first",
               file=sys.stderr)
         return 2
-    report = write_report(build, quick=args.quick, provenance=args.note or "")
+    try:
+        report = write_report(build, quick=args.quick, provenance=args.note or "",
+                              allow_mixed=args.allow_mixed)
+    except ReportError as error:
+        print(f"error: {error}; the last good report is kept", file=sys.stderr)
+        return 2
     print(f"report: {report}")
     if args.snapshot:
         if args.quick:
@@ -136,9 +142,14 @@ def main(argv: list[str] | None = None) -> int:
                      "cores shared among --jobs; 1 when other work shares the cores)")
     rep.add_argument("--device", default="cpu", help="torch device, e.g. cuda")
     rep.add_argument("-p", "--parameter", action="append", type=_parse_parameter,
-                     metavar="NAME=VALUE", help="extra notebook parameter (JSON value)")
+                     metavar="NAME=VALUE", help="extra notebook parameter (JSON value), "
+                     "checked against the notebook's parameters cell before any kernel "
+                     "starts; quick, seed, device and build_dir are set by the runner")
     rep.add_argument("--snapshot", action="store_true",
                      help="after a successful full run of every notebook, refresh results/")
+    rep.add_argument("--allow-mixed", action="store_true",
+                     help="write the report even if its claims come from several runs (the "
+                     "provenance then names every run)")
     rep.set_defaults(func=_cmd_reproduce)
 
     rpt = sub.add_parser("report", help="rewrite the report from the recorded claim sidecars "
@@ -146,6 +157,8 @@ def main(argv: list[str] | None = None) -> int:
     rpt.add_argument("--quick", action="store_true", help="the quick build's sidecars")
     rpt.add_argument("--snapshot", action="store_true", help="also refresh results/")
     rpt.add_argument("--note", help="a provenance note printed at the top of the report")
+    rpt.add_argument("--allow-mixed", action="store_true",
+                     help="report claims recorded by several runs side by side, naming each")
     rpt.set_defaults(func=_cmd_report)
 
     stab = sub.add_parser("stability", help="compare the verdicts of full runs made from "

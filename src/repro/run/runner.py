@@ -1,40 +1,65 @@
-"""Execute the notebooks with papermill, one process per notebook, and write the report.
+"""Execute the notebooks with papermill, one worker process per notebook, and write the report.
 
-- Parameter names are validated against each notebook's ``parameters`` cell before anything
-  runs (papermill itself only warns about unknown names).
-- Each notebook runs in its own process with torch/BLAS threads limited so that ``--jobs``
-  processes share the cores; a per-cell timeout stops a hung cell.
+- Parameters are validated (names, types, ranges, folders, the dataset) against each
+  notebook's ``parameters`` cell before any kernel starts (``run.params``).
+- A run is a transaction (``run.transaction``): notebooks write into the run's staging folder
+  and a notebook's outputs are published only when it succeeded.
+- Children die with the run: workers by ``PR_SET_PDEATHSIG``, kernels (and their pools) by
+  ``run.kernel_guard``; on SIGINT/SIGTERM the runner kills them itself and publishes nothing
+  more.
+- Each notebook runs with torch/BLAS threads limited so that ``--jobs`` processes share the
+  cores; a per-cell timeout stops a hung cell. Progress: ``run.progress_view``.
 - Quick runs write under ``build/quick`` and never touch a full run's outputs.
-- A failing notebook is reported with its cell; the others still run; the command exits
-  non-zero and the last good report is kept.
+- A failing notebook is reported with its cell; the others still run and publish; the command
+  exits non-zero and the last good report is kept.
 """
 
 from __future__ import annotations
 
-import multiprocessing
+import contextlib
 import os
+import signal
+import subprocess
 import sys
+import threading
 import time
-from collections.abc import Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from repro.claims.registry import CLAIMS
 from repro.claims.report import slowest_of, slowest_seconds
-from repro.infra import paths
+from repro.infra import cache, lifetime, paths
+from repro.infra.storage import read_json
+from repro.run import params, transaction, worker
+from repro.run.params import STANDARD_PARAMETERS, validate_parameters
+from repro.run.progress_view import ProgressView
 
-STANDARD_PARAMETERS = ("quick", "seed", "device", "build_dir")
+__all__ = ["STANDARD_PARAMETERS", "NotebookResult", "RunInterrupted", "available_notebooks",
+           "longest_first", "previous_seconds", "reproduce", "resolve_targets", "run_notebooks",
+           "validate_parameters"]
+
+
+class RunInterrupted(Exception):
+    """SIGINT or SIGTERM reached the runner; its children were stopped."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(f"stopped by {signal.Signals(signum).name}")
+        self.signum = signum
 
 
 @dataclass
 class NotebookResult:
+    """A notebook's outcome: ``output`` is the published executed notebook, or the staged one
+    when it failed."""
+
     name: str
     ok: bool
     seconds: float
     output: str
     error: str = ""
+    claims: tuple[str, ...] = ()
 
 
 def available_notebooks() -> list[str]:
@@ -64,68 +89,6 @@ def resolve_targets(only: Sequence[str] | None) -> list[str]:
     return [n for n in notebooks if n in chosen]
 
 
-def notebook_parameters(name: str) -> dict[str, Any]:
-    """The parameters a notebook declares (papermill's inspection of its tagged cell)."""
-    import papermill
-
-    path = paths.notebooks_dir() / f"{name}.ipynb"
-    if not path.is_file():
-        raise ValueError(f"no notebook {path}")
-    declared = papermill.inspect_notebook(str(path))
-    if not declared:
-        raise ValueError(f"notebook {name} has no cell tagged 'parameters'")
-    return declared
-
-
-def validate_parameters(name: str, parameters: dict[str, Any]) -> None:
-    """Raise ValueError naming every parameter the notebook does not declare."""
-    declared = notebook_parameters(name)
-    unknown = sorted(set(parameters) - set(declared))
-    if unknown:
-        raise ValueError(f"notebook {name} has no parameter(s) {unknown}; it declares "
-                         f"{sorted(declared)}")
-    missing = sorted(set(STANDARD_PARAMETERS) - set(declared))
-    if missing:
-        raise ValueError(f"notebook {name} must declare the standard parameters {missing}")
-
-
-def kernel_name() -> str:
-    """The venv's kernel ("repro", installed by ``make setup``), else the default python3."""
-    from jupyter_client.kernelspec import KernelSpecManager
-
-    specs = KernelSpecManager().find_kernel_specs()
-    return "repro" if "repro" in specs else "python3"
-
-
-def _execute(name: str, parameters: dict[str, Any], output: str, timeout: int,
-             threads: int, build_dir: str) -> NotebookResult:
-    """Run one notebook (in a worker process)."""
-    import papermill
-    from papermill.exceptions import PapermillExecutionError
-
-    for variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
-                     "REPRO_TORCH_THREADS"):
-        os.environ[variable] = str(threads)
-    os.environ["REPRO_BUILD_DIR"] = build_dir
-    os.environ.setdefault("MPLBACKEND", "Agg")
-    start = time.perf_counter()
-    try:
-        papermill.execute_notebook(
-            str(paths.notebooks_dir() / f"{name}.ipynb"), output, parameters=parameters,
-            kernel_name=kernel_name(), progress_bar=False, log_output=False,
-            cwd=str(paths.notebooks_dir()), execution_timeout=timeout, start_timeout=120)
-    except PapermillExecutionError as error:
-        source = error.source.strip().splitlines()
-        first = source[0] if source else ""
-        message = (f"notebook {name}, cell {error.cell_index} of the executed notebook "
-                   f"(starting {first!r}) raised {error.ename}: {error.evalue}")
-        return NotebookResult(name, False, time.perf_counter() - start, output, message)
-    except Exception as error:  # kernel death, timeout, missing kernel
-        return NotebookResult(name, False, time.perf_counter() - start, output,
-                              f"notebook {name}: {type(error).__name__}: {error}")
-    return NotebookResult(name, True, time.perf_counter() - start, output)
-
-
 def previous_seconds(quick: bool) -> dict[str, float]:
     """Each notebook's slowest known wall time (``report.slowest_seconds``) in the reports of
     this kind of run: the build's own and the committed ``results/`` snapshot's (full runs
@@ -142,63 +105,218 @@ def longest_first(targets: Sequence[str], seconds: dict[str, float]) -> list[str
     return sorted(targets, key=lambda name: -seconds.get(name, float("inf")))
 
 
+
+
+def kernel_name() -> str:
+    """The venv's kernel ("repro", installed by ``make setup``), else the default python3."""
+    from jupyter_client.kernelspec import KernelSpecManager
+
+    specs = KernelSpecManager().find_kernel_specs()
+    return "repro" if "repro" in specs else "python3"
+
+
+@dataclass
+class _Running:
+    name: str
+    process: subprocess.Popen
+    started: float
+    log: IO[bytes]
+
+
+@contextlib.contextmanager
+def _signals_raise() -> Iterator[None]:
+    """SIGINT/SIGTERM raise :class:`RunInterrupted` in the main thread while the run lasts."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, _frame: Any) -> None:
+        raise RunInterrupted(signum)
+
+    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+def _stop_children(running: dict[str, _Running], pids_dir: Path) -> None:
+    """Kill every kernel group the run registered and every worker, and wait for them."""
+    kernels = []
+    for pid_file in pids_dir.glob("kernel-*"):
+        with contextlib.suppress(ValueError, OSError):
+            kernels.append(int(pid_file.read_text()))
+    for pid in kernels:
+        lifetime.kill_group(pid)
+    for job in running.values():
+        with contextlib.suppress(ProcessLookupError):
+            job.process.kill()
+    deadline = time.monotonic() + 10
+    for job in running.values():
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            job.process.wait(timeout=max(deadline - time.monotonic(), 0.1))
+        job.log.close()
+    while any(lifetime.pid_alive(pid) for pid in kernels) and time.monotonic() < deadline:
+        time.sleep(0.05)
+
+
+def _start(run: transaction.Run, name: str, parameters: dict[str, Any], *, threads: int,
+           timeout: int, kernel: str) -> _Running:
+    folder = run.notebook_dir(name)
+    folder.mkdir(parents=True)
+    spec = worker.WorkerSpec(
+        name=name, notebook=str(paths.notebooks_dir() / f"{name}.ipynb"),
+        output=str(folder / f"{name}.ipynb"), staging=str(folder),
+        parameters={**parameters, "build_dir": str(folder)}, threads=threads, timeout=timeout,
+        run_id=run.run_id, runner_pid=os.getpid(), kernel_name=kernel,
+        progress_dir=str(run.progress_dir), pids_dir=str(run.pids_dir))
+    worker.write_spec(folder / "worker.json", spec)
+    log = open(folder / "worker.log", "wb")  # closed when the worker ends
+    process = subprocess.Popen([sys.executable, "-m", "repro.run.worker",
+                                str(folder / "worker.json")], stdout=log,
+                               stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    return _Running(name, process, time.perf_counter(), log)
+
+
+def _result(run: transaction.Run, job: _Running) -> NotebookResult:
+    folder = run.notebook_dir(job.name)
+    job.log.close()
+    seconds = time.perf_counter() - job.started
+    output = str(folder / f"{job.name}.ipynb")
+    try:
+        outcome = read_json(folder / "result.json")
+    except (OSError, ValueError):
+        return NotebookResult(job.name, False, seconds, output,
+                              f"notebook {job.name}: its worker ended with exit code "
+                              f"{job.process.returncode} and no result; see "
+                              f"{folder / 'worker.log'}")
+    if not outcome["ok"]:
+        return NotebookResult(job.name, False, outcome["seconds"], output, outcome["error"])
+    try:
+        claims = transaction.publish(run, job.name)
+    except (OSError, ValueError) as error:
+        return NotebookResult(job.name, False, outcome["seconds"], output,
+                              f"notebook {job.name}: {error}")
+    published = str(run.build_dir / "notebooks" / f"{job.name}.ipynb")
+    return NotebookResult(job.name, True, outcome["seconds"], published, claims=tuple(claims))
+
+
 def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device: str = "cpu",
                   jobs: int = 1, extra_parameters: dict[str, Any] | None = None,
                   timeout: int | None = None, threads: int | None = None,
-                  log=print) -> list[NotebookResult]:
-    """Execute ``targets`` with papermill into ``<build>/notebooks``; returns one result each.
-    ``threads``: torch/BLAS threads per notebook (default: the cores shared among ``jobs``)."""
+                  log=print, stream: IO[str] | None = None,
+                  status_interval_s: float = 30.0) -> list[NotebookResult]:
+    """Execute ``targets`` as one run (see the module docstring); returns one result each.
+
+    ``threads``: torch/BLAS threads per notebook (default: the cores shared among ``jobs``).
+    ``stream``: where progress goes (default stdout; redrawn when it is a terminal).
+    Raises ValueError before anything runs when a parameter is wrong, and
+    :class:`RunInterrupted` after stopping every child on SIGINT/SIGTERM.
+    """
     targets = list(targets)
     if jobs < 1:
         raise ValueError(f"--jobs must be at least 1, got {jobs}")
-    build_dir = paths.run_build_dir(quick)
-    out_dir = build_dir / "notebooks"
-    out_dir.mkdir(parents=True, exist_ok=True)
-    base = {"quick": quick, "seed": seed, "device": device, "build_dir": str(build_dir)}
-    parameters = {**base, **(extra_parameters or {})}
-    for name in targets:  # validate everything before running anything
-        validate_parameters(name, parameters)
-    cores = os.cpu_count() or 1
-    workers = min(jobs, len(targets)) or 1
     if threads is not None and threads < 1:
         raise ValueError(f"--threads must be at least 1, got {threads}")
-    threads = threads or max(1, cores // workers)
+    extra = dict(extra_parameters or {})
+    params.check_extra_parameters(extra)
+    parameters = {"quick": quick, "seed": seed, "device": device, "build_dir": None, **extra}
+    params.forget_checks()
+    for name in targets:  # validate everything before running anything
+        validate_parameters(name, parameters)
+    removed = cache.clean_cache()
+    if removed:
+        log(f"cache: removed {len(removed)} leftover(s) of failed runs (lock-only folders, "
+            "interrupted writes)")
+    workers = min(jobs, len(targets)) or 1
+    threads = threads or max(1, (os.cpu_count() or 1) // workers)
     timeout = timeout or (600 if quick else 3600)
+    run = transaction.new_run(quick=quick, seed=seed, device=device, targets=targets,
+                              parameters=parameters)
+    log(f"run {run.run_id}: {len(targets)} notebook(s) ({run.mode} parameters, {workers} at a "
+        f"time, {threads} thread(s) each); staging {run.staging}, publishing into "
+        f"{run.build_dir}")
+    known = previous_seconds(quick)
+    pending = longest_first(targets, known)
+    view = ProgressView(progress_dir=run.progress_dir, total=len(targets), workers=workers,
+                        known_s=known, stream=stream, interval_s=status_interval_s)
+    running: dict[str, _Running] = {}
     results: list[NotebookResult] = []
-    log(f"running {len(targets)} notebook(s) ({'quick' if quick else 'full'} parameters, "
-        f"{workers} at a time, {threads} thread(s) each) into {out_dir}")
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        futures = {pool.submit(_execute, name, parameters, str(out_dir / f"{name}.ipynb"),
-                               timeout, threads, str(build_dir)): name
-                   for name in longest_first(targets, previous_seconds(quick))}
-        for done, future in enumerate(as_completed(futures), start=1):
-            result = future.result()
-            results.append(result)
-            status = "ok" if result.ok else "FAILED"
-            log(f"[{done}/{len(targets)}] {result.name}: {status} in {result.seconds:.1f} s")
-            if not result.ok:
-                log(f"    {result.error}\n    executed notebook: {result.output}")
+    kernel = kernel_name()
+    try:
+        with _signals_raise():
+            while pending or running:
+                while pending and len(running) < workers:
+                    name = pending.pop(0)
+                    running[name] = _start(run, name, parameters, threads=threads,
+                                           timeout=timeout, kernel=kernel)
+                    slowest = (f"slowest known {known[name]:.0f} s" if name in known
+                               else "no time known yet")
+                    view.log(f"[start] {name} ({slowest})")
+                for name, job in list(running.items()):
+                    if job.process.poll() is None:
+                        continue
+                    del running[name]
+                    result = _result(run, job)
+                    results.append(result)
+                    status = "ok" if result.ok else "FAILED"
+                    view.log(f"[{len(results)}/{len(targets)}] {name}: {status} in "
+                             f"{result.seconds:.1f} s")
+                    if not result.ok:
+                        view.log(f"    {result.error}\n    executed notebook (not published): "
+                                 f"{result.output}")
+                now = time.perf_counter()
+                view.update(pending, {n: now - j.started for n, j in running.items()},
+                            len(results))
+                time.sleep(0.2 if running else 0)
+    except BaseException as stop:
+        view.close()
+        _stop_children(running, run.pids_dir)
+        if isinstance(stop, RunInterrupted):
+            log(f"run {run.run_id} {stop}: its kernels and workers are stopped; "
+                f"{len(running)} unfinished notebook(s) published nothing "
+                f"({', '.join(running) or 'none'}); staging kept in {run.staging}")
+        raise
+    view.close()
+    transaction.finish(run, [r.name for r in results if not r.ok])
     order = {name: i for i, name in enumerate(targets)}
     return sorted(results, key=lambda r: order[r.name])
 
 
 def reproduce(*, quick: bool, only: Sequence[str] | None = None, jobs: int = 1, seed: int = 0,
               device: str = "cpu", snapshot: bool = False,
-              extra_parameters: dict[str, Any] | None = None, threads: int | None = None) -> int:
-    """The ``reproduce`` command: run, then write the report (only when every notebook ran)."""
+              extra_parameters: dict[str, Any] | None = None, threads: int | None = None,
+              allow_mixed: bool = False) -> int:
+    """The ``reproduce`` command: run, then write the report (only when every notebook ran).
+    Exit codes: 0 done, 1 a notebook failed or the report could not be written, 130/143
+    stopped by SIGINT/SIGTERM; a bad argument raises ValueError (the CLI's exit 2)."""
+    from repro.claims.provenance import ReportError
     from repro.claims.report import write_report, write_snapshot
 
     targets = resolve_targets(only)
-    results = run_notebooks(targets, quick=quick, seed=seed, device=device, jobs=jobs,
-                            extra_parameters=extra_parameters, threads=threads)
+    try:
+        results = run_notebooks(targets, quick=quick, seed=seed, device=device, jobs=jobs,
+                                extra_parameters=extra_parameters, threads=threads)
+    except RunInterrupted as stop:
+        print(f"interrupted ({stop}); the last good report is kept.", file=sys.stderr)
+        return 128 + stop.signum
     failed = [r for r in results if not r.ok]
     build_dir = paths.run_build_dir(quick)
     if failed:
-        print(f"{len(failed)} notebook(s) failed: {', '.join(r.name for r in failed)}; the last "
-              f"good report in {build_dir / 'report'} is kept.", file=sys.stderr)
+        print(f"{len(failed)} notebook(s) failed: {', '.join(r.name for r in failed)}; the "
+              f"others were published; the last good report in {build_dir / 'report'} is "
+              "kept.", file=sys.stderr)
         return 1
-    report = write_report(build_dir, quick=quick, runs=results)
+    if not any(r.claims for r in results):
+        print(f"this run recorded no claim ({', '.join(targets)}): the report in "
+              f"{build_dir / 'report'} is not rewritten")
+        return 0
+    try:
+        report = write_report(build_dir, quick=quick, runs=results, allow_mixed=allow_mixed)
+    except ReportError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
     print(f"report: {report}")
     if snapshot:
         if quick:

@@ -1,0 +1,103 @@
+"""Which runs a report's claims come from, and the executed notebooks rendered for reading.
+
+- :func:`check_runs`: a report is of one run. Sidecars of several run IDs (e.g. seed 7's
+  GMD-A1 beside seed 0's GMD-A3 after a run that failed half-way), a sidecar of the other
+  mode, or no sidecar at all are errors; ``allow_mixed`` lets several runs through and the
+  provenance then names every run and its claims.
+- :func:`render_notebooks`: each executed notebook as a self-contained HTML page (nbconvert;
+  the figures are the notebook's PNG outputs, embedded) for the ``results/`` snapshot.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from repro.infra.storage import write_text
+
+NO_RUN_ID = "(no run ID: recorded outside the runner)"
+
+
+class ReportError(ValueError):
+    """The sidecars cannot make one honest report; the message says why and what to do."""
+
+
+def runs_of(sidecars: Mapping[str, Mapping[str, Any]]) -> dict[str, list[str]]:
+    """Run ID → the claim IDs recorded by that run, in the sidecars' order."""
+    runs: dict[str, list[str]] = {}
+    for claim_id, sidecar in sidecars.items():
+        runs.setdefault(sidecar.get("run_id") or NO_RUN_ID, []).append(claim_id)
+    return runs
+
+
+def _runs_text(runs: Mapping[str, list[str]]) -> str:
+    return "; ".join(f"run {run} ({', '.join(claims)})" for run, claims in runs.items())
+
+
+def check_runs(sidecars: Mapping[str, Mapping[str, Any]], *, quick: bool, folder: Path,
+               allow_mixed: bool = False) -> str:
+    """Raise :class:`ReportError` unless the sidecars make one report; return the provenance
+    line naming the run(s)."""
+    if not sidecars:
+        raise ReportError(f"no claim is recorded in {folder}: there is nothing to report (run "
+                          "the notebooks first: python -m repro reproduce)")
+    mode = "quick" if quick else "full"
+    wrong = sorted(c for c, s in sidecars.items() if s.get("mode") != mode)
+    if wrong:
+        raise ReportError(f"{folder} is a {mode} run's folder but holds sidecars of another "
+                          f"mode: {', '.join(wrong)}; remove them and rerun those notebooks")
+    runs = runs_of(sidecars)
+    if len(runs) > 1 and not allow_mixed:
+        raise ReportError(f"the claims in {folder} come from {len(runs)} runs: "
+                          f"{_runs_text(runs)}. Rerun the notebooks together "
+                          "(python -m repro reproduce), or pass --allow-mixed to report them "
+                          "side by side with every run named")
+    if len(runs) > 1:
+        return f"Mixed runs (--allow-mixed): {_runs_text(runs)}."
+    return f"Run {next(iter(runs))}."
+
+
+SHARED_STYLE = "notebook.css"
+_STYLE_BLOCK = re.compile(r"<style[^>]*>(.*?)</style>", re.S)
+
+
+def render_notebooks(source: Path, target: Path) -> list[Path]:
+    """Every ``source/*.ipynb`` as ``target/<name>.html`` (nbconvert's HTML exporter, lab
+    template, figures embedded as PNG data URIs); returns the pages written.
+
+    The template's style sheet (about 260 kB, the same for every page) is written once to
+    ``target/notebook.css`` and linked, which keeps the snapshot small."""
+    import nbformat
+    from nbconvert import HTMLExporter
+
+    exporter = HTMLExporter()
+    exporter.embed_images = True
+    pages = []
+    target.mkdir(parents=True, exist_ok=True)
+    style = ""
+    for notebook_path in sorted(Path(source).glob("*.ipynb")):
+        notebook = nbformat.read(notebook_path, as_version=4)
+        body, _ = exporter.from_notebook_node(
+            notebook, resources={"metadata": {"name": notebook_path.stem}})
+        blocks = _STYLE_BLOCK.findall(body)
+        style = style or "\n".join(blocks)
+        if "\n".join(blocks) == style:  # the template's sheet: link it instead
+            body = _STYLE_BLOCK.sub("", body)
+            body = body.replace("</head>", f'<link rel="stylesheet" href="{SHARED_STYLE}">\n'
+                                "</head>", 1)
+        pages.append(write_text(target / f"{notebook_path.stem}.html", body))
+    if style:
+        write_text(target / SHARED_STYLE, style)
+    return pages
+
+
+def notebooks_section(pages: list[Path], relative_to: Path) -> str:
+    """The report's "Executed notebooks" section: a link to each rendered page."""
+    lines = ["", "## Executed notebooks", "",
+             "Each notebook as the last full run executed it (code, outputs and figures); "
+             "open a page in any browser."]
+    lines += [f"- [{page.stem}]({os.path.relpath(page, relative_to)})" for page in pages]
+    return "\n".join(lines) + "\n"

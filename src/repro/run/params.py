@@ -1,0 +1,184 @@
+"""Notebook parameters checked before any kernel starts.
+
+Names, defaults and annotated types come from each notebook's ``parameters`` cell (papermill's
+``inspect_notebook``); a value must have the type of the annotation or, without one, of the
+default (``n_seeds = 3`` takes an int). :data:`RULES` adds the ranges and the checks a type
+cannot say (a seed is ≥ 0, a data folder exists and passes ``validate-dataset``, a device
+exists here). The runner alone sets ``quick``, ``build_dir``, ``seed`` and ``device`` (from
+``--quick``, its staging folder, ``--seed`` and ``--device``), so ``-p`` cannot send quick
+output into a full run's folder.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from repro.infra import paths
+
+STANDARD_PARAMETERS = ("quick", "seed", "device", "build_dir")
+SET_BY_RUNNER = {
+    "quick": "quick mode is set by --quick alone (quick output never enters a full run's folder)",
+    "build_dir": "the runner writes each notebook into its run's staging folder",
+    "seed": "use --seed (the base seed is part of the run ID)",
+    "device": "use --device",
+}
+
+_TYPE_NAMES: dict[str, type] = {"bool": bool, "int": int, "float": float, "str": str,
+                                "None": type(None), "NoneType": type(None), "list": list,
+                                "dict": dict}
+
+
+@dataclass(frozen=True)
+class Rule:
+    """What a parameter's value must satisfy beyond its type; ``check`` returns a problem."""
+
+    types: tuple[type, ...]
+    check: Callable[[Any], str | None] | None = None
+
+
+def _at_least(minimum: int) -> Callable[[Any], str | None]:
+    def check(value: Any) -> str | None:
+        return None if value is None or value >= minimum else f"must be at least {minimum}"
+    return check
+
+
+def _device_problem(value: Any) -> str | None:
+    import torch
+
+    try:
+        device = torch.device(value)
+    except (RuntimeError, TypeError) as error:
+        return f"is not a torch device ({error})"
+    if device.type == "cuda" and not torch.cuda.is_available():
+        return "names CUDA, which is not available here"
+    if device.type not in ("cpu", "cuda"):
+        return "must be cpu, cuda or cuda:N"
+    return None
+
+
+def _data_dir_problem(value: Any) -> str | None:
+    if value is None:
+        return None
+    return _dataset_problem(str(Path(value).expanduser().resolve()))
+
+
+@functools.lru_cache(maxsize=8)
+def _dataset_problem(resolved: str) -> str | None:
+    """One validation per folder and run (``forget_checks`` at the start of each run)."""
+    from repro.motion.humanml3d import format_problems, validate_dataset
+
+    folder = Path(resolved)
+    if not folder.is_dir():
+        return f"is not a folder ({folder.resolve()} does not exist)"
+    try:
+        problems = [p for p in validate_dataset(folder) if p.severity == "error"]
+    except Exception as error:  # a file the validator itself cannot read
+        return (f"is not a valid HumanML3D-layout folder: the validator failed with "
+                f"{type(error).__name__}: {error} (python -m repro validate-dataset {folder} "
+                "shows where)")
+    if problems:
+        return (f"is not a valid HumanML3D-layout folder:\n{format_problems(problems)}\n"
+                f"(python -m repro validate-dataset {folder} shows the same)")
+    return None
+
+
+RULES: dict[str, Rule] = {
+    "quick": Rule((bool,)),
+    "seed": Rule((int,), _at_least(0)),
+    "device": Rule((str,), _device_problem),
+    "build_dir": Rule((str, type(None))),
+    "data_dir": Rule((str, type(None)), _data_dir_problem),
+    "n_seeds": Rule((int,), _at_least(1)),
+    "train_steps": Rule((int, type(None)), _at_least(1)),
+}
+
+
+def declared_types(entry: dict[str, Any]) -> tuple[type, ...] | None:
+    """The types papermill's inspection gives for one parameter: its annotation
+    (``inferred_type_name``, e.g. "int | None"), else the type of its literal default (None
+    for a default of None: any type)."""
+    annotation = str(entry.get("inferred_type_name") or "None")
+    if annotation != "None":
+        names = [part.strip() for part in annotation.replace("Optional[", "").strip("]")
+                 .split("|")]
+        types = tuple(_TYPE_NAMES[n] for n in names if n in _TYPE_NAMES)
+        if types:
+            return types
+    try:
+        default = ast.literal_eval(str(entry.get("default")))
+    except (ValueError, SyntaxError):
+        return None
+    if default is None:
+        return None
+    return (float, int) if isinstance(default, float) else (type(default),)
+
+
+def _type_matches(value: Any, types: tuple[type, ...]) -> bool:
+    if isinstance(value, bool) and bool not in types:
+        return False  # True is an int to Python, not to a reader of the notebook
+    return isinstance(value, types)
+
+
+def _type_text(types: tuple[type, ...]) -> str:
+    return " or ".join("None" if t is type(None) else t.__name__ for t in types)
+
+
+def value_problems(name: str, value: Any, entry: dict[str, Any]) -> list[str]:
+    """Why ``value`` does not fit parameter ``name`` (declared as ``entry``); [] if it does."""
+    rule = RULES.get(name)
+    types = rule.types if rule else declared_types(entry)
+    if types is not None and not _type_matches(value, types):
+        return [f"parameter {name} must be {_type_text(types)} (the notebook's default is "
+                f"{entry.get('default')}), got {value!r} ({type(value).__name__})"]
+    if rule and rule.check:
+        problem = rule.check(value)
+        if problem:
+            return [f"parameter {name}={value!r} {problem}"]
+    return []
+
+
+def notebook_parameters(name: str) -> dict[str, Any]:
+    """The parameters a notebook declares (papermill's inspection of its tagged cell)."""
+    import papermill
+
+    path = paths.notebooks_dir() / f"{name}.ipynb"
+    if not path.is_file():
+        raise ValueError(f"no notebook {path}")
+    declared = papermill.inspect_notebook(str(path))
+    if not declared:
+        raise ValueError(f"notebook {name} has no cell tagged 'parameters'")
+    return declared
+
+
+def forget_checks() -> None:
+    """Forget the dataset folders validated so far (the runner calls this per run)."""
+    _dataset_problem.cache_clear()
+
+
+def check_extra_parameters(extra: dict[str, Any]) -> None:
+    """Refuse ``-p`` values for what the runner sets itself."""
+    reserved = [f"{name} ({SET_BY_RUNNER[name]})" for name in extra if name in SET_BY_RUNNER]
+    if reserved:
+        raise ValueError(f"-p cannot set {'; '.join(reserved)}")
+
+
+def validate_parameters(name: str, parameters: dict[str, Any]) -> None:
+    """Raise ValueError naming every problem: unknown names, missing standard parameters, and
+    values of the wrong type or out of range."""
+    declared = notebook_parameters(name)
+    unknown = sorted(set(parameters) - set(declared))
+    if unknown:
+        raise ValueError(f"notebook {name} has no parameter(s) {unknown}; it declares "
+                         f"{sorted(declared)}")
+    missing = sorted(set(STANDARD_PARAMETERS) - set(declared))
+    if missing:
+        raise ValueError(f"notebook {name} must declare the standard parameters {missing}")
+    problems = [problem for key, value in parameters.items()
+                for problem in value_problems(key, value, declared[key])]
+    if problems:
+        raise ValueError(f"notebook {name}: " + "; ".join(problems))

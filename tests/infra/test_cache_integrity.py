@@ -1,0 +1,106 @@
+"""Cached artefacts carry a checksum verified on load: a truncated, changed or unreadable
+``model.pt`` is moved aside and retrained with a warning naming it; lock-only folders left by
+failed runs are cleaned. Cache keys are untouched (the key pins live in tests/core)."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+import pytest
+import torch
+from torch import nn
+
+from repro.infra import cache
+
+CONFIG = {"kind_of": "integrity test", "width": 3}
+
+
+@pytest.fixture()
+def cache_root(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def _train_counter() -> tuple[list[int], object]:
+    calls: list[int] = []
+
+    def train(module: nn.Module) -> nn.Module:
+        calls.append(1)
+        with torch.no_grad():
+            module.weight.fill_(float(len(calls)))
+        return module
+
+    return calls, train
+
+
+def _entry() -> Path:
+    return cache._artifact_dir("integrity", CONFIG)
+
+
+def test_checksum_is_recorded_and_a_clean_entry_loads(cache_root: Path) -> None:
+    calls, train = _train_counter()
+    cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    recorded = cache.storage.read_json(_entry() / cache.CHECKSUMS)["model.pt"]
+    assert recorded == cache.file_checksum(_entry() / "model.pt")
+    model = cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    assert calls == [1] and float(model.weight[0, 0].detach()) == 1.0
+
+
+@pytest.mark.parametrize("damage", ["truncated", "changed", "empty"])
+def test_a_damaged_model_is_moved_aside_and_retrained_saying_so(cache_root: Path,
+                                                                damage: str) -> None:
+    calls, train = _train_counter()
+    cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    weights = _entry() / "model.pt"
+    payload = weights.read_bytes()
+    weights.write_bytes({"truncated": payload[: len(payload) // 2],
+                         "changed": payload[:-1] + bytes([payload[-1] ^ 1]),
+                         "empty": b""}[damage])
+    with pytest.warns(RuntimeWarning, match=r"model\.pt is .* bytes .*moved it aside to .*"
+                      r"model\.pt\.corrupt-.* and retraining"):
+        model = cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    assert calls == [1, 1] and float(model.weight[0, 0].detach()) == 2.0
+    assert len(list(_entry().glob("model.pt.corrupt-*"))) == 1
+    assert cache.verify_checksum(_entry(), "model.pt") is None
+
+
+def test_an_entry_from_before_checksums_is_checked_by_loading_it(cache_root: Path) -> None:
+    calls, train = _train_counter()
+    cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    (_entry() / cache.CHECKSUMS).unlink()                    # an old entry: no checksums
+    cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    assert calls == [1] and (_entry() / cache.CHECKSUMS).is_file()   # adopted
+    (_entry() / cache.CHECKSUMS).unlink()
+    (_entry() / "model.pt").write_bytes(b"PK\x03\x04 not a zip")    # old and unreadable
+    with pytest.warns(RuntimeWarning, match=r"model\.pt cannot be read"):
+        cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    assert calls == [1, 1]
+
+
+def test_weights_that_do_not_fit_the_model_name_the_file_and_the_fix(cache_root: Path) -> None:
+    _, train = _train_counter()
+    cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    with pytest.raises(cache.CorruptArtifactError, match=r"(?s)model\.pt does not fit .* delete "):
+        cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 4), train)
+
+
+def test_lock_only_folders_and_stale_temporaries_are_cleaned(cache_root: Path) -> None:
+    def fail(module: nn.Module) -> nn.Module:
+        raise RuntimeError("training failed")
+
+    with pytest.raises(RuntimeError):
+        cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), fail)
+    assert [p.name for p in _entry().iterdir()] == [".lock"]
+    _, train = _train_counter()
+    cache.load_or_train("integrity", {"other": 1}, lambda: nn.Linear(3, 3), train)
+    other = cache._artifact_dir("integrity", {"other": 1})
+    stale = other / ".model.pt.abc.tmp"
+    stale.write_bytes(b"half")
+    os.utime(stale, (time.time() - 3600, time.time() - 3600))
+    removed = cache.clean_cache()
+    assert _entry() in removed and stale in removed
+    assert not _entry().exists() and (other / "model.pt").is_file()
+    with cache.artifact_lock(_entry()):            # a folder in use is left alone
+        assert cache.clean_cache() == []

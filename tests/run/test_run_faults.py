@@ -1,0 +1,249 @@
+"""Every fault of issue #18 ends with an error naming the problem, and leaves ``results/`` and
+the last good report untouched. Tiny notebooks written by the tests; no model training."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+from pathlib import Path
+
+import nbformat
+import numpy as np
+import pytest
+
+from repro.infra import paths
+from repro.infra.storage import read_json
+from repro.run import runner
+from repro.run.cli import main
+
+PARAMETERS = ("quick = True\nseed = 0\ndevice = 'cpu'\nbuild_dir = None\ndata_dir = None\n"
+              "train_steps = None\nn_seeds = 3\nscale = 0.5\n")
+
+RECORD = """
+from repro.run.notebook import setup_notebook
+from repro.claims.ledger import record_claim
+ctx = setup_notebook(quick=quick, seed=seed, device=device, build_dir=build_dir)
+import matplotlib.pyplot as plt
+figure = ctx.figure_path("{name}.png")
+plt.plot([0, 1]); plt.savefig(figure)
+measured = {{"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5,
+            "cosine_x0_share_argmax_fraction": 0.05, "cosine_eps_share_argmax_fraction": 0.95,
+            "round_trip_max_error": 0.0, "rel_late_displacement": 1.0,
+            "abs_late_displacement": 0.1, "rel_sensitivity_growth": 2.0}}
+for claim in {claims}:
+    record_claim(ctx, claim, measured, seeds=[seed], figures=[figure])
+{tail}
+"""
+
+
+def _notebook(path: Path, body: str) -> None:
+    notebook = nbformat.v4.new_notebook()
+    parameters = nbformat.v4.new_code_cell(PARAMETERS)
+    parameters.metadata["tags"] = ["parameters"]
+    notebook.cells = [parameters, nbformat.v4.new_code_cell(body)]
+    notebook.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3",
+                                       "language": "python"}
+    nbformat.write(notebook, path)
+
+
+def _recording(name: str, claims: list[str], tail: str = "") -> str:
+    return RECORD.format(name=name, claims=claims, tail=tail)
+
+
+def _tree_digest(*folders: Path) -> dict[str, str]:
+    """Path → sha256 of every file below ``folders`` (what "untouched" is checked against)."""
+    out = {}
+    for folder in folders:
+        for path in sorted(folder.rglob("*")) if folder.exists() else []:
+            if path.is_file():
+                out[str(path)] = hashlib.sha256(path.read_bytes()).hexdigest()
+    return out
+
+
+@pytest.fixture()
+def sandbox(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    notebooks = tmp_path / "notebooks"
+    notebooks.mkdir()
+    _notebook(notebooks / "01_two_claims.ipynb", _recording("one", ["GMD-A1", "GMD-A2"]))
+    monkeypatch.setenv("REPRO_NOTEBOOKS_DIR", str(notebooks))
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
+    monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("REPRO_BUILD_DIR", raising=False)
+    return tmp_path
+
+
+@pytest.fixture()
+def guarded(sandbox: Path):
+    """A last good quick report (recorded directly, no kernel); yields a check that results/
+    and that report and its sidecars are byte for byte what they were."""
+    from conftest import make_context
+
+    from repro.claims.ledger import record_claim
+    from repro.claims.report import write_report
+
+    quick = sandbox / "build" / "quick"
+    record_claim(make_context(quick, run_id="earlier-run"), "GMD-A1",
+                 {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
+    write_report(quick, quick=True)
+    before = _tree_digest(paths.results_dir(), quick / "report", quick / "claims")
+    yield lambda: _tree_digest(paths.results_dir(), quick / "report",
+                               quick / "claims") == before
+
+
+def test_a_run_publishes_sidecars_notebook_and_figures_under_its_run_id(sandbox: Path) -> None:
+    assert runner.reproduce(quick=True) == 0
+    quick = sandbox / "build" / "quick"
+    sidecar = read_json(quick / "claims" / "GMD-A1.json")
+    assert sidecar["run_id"].endswith("-seed0-quick") and sidecar["mode"] == "quick"
+    assert sidecar["figures"] == [str(quick / "figures" / "one.png")]
+    assert (quick / "figures" / "one.png").is_file()
+    assert (quick / "notebooks" / "01_two_claims.ipynb").is_file()
+    assert not (quick / "runs").exists() or not any((quick / "runs").iterdir())
+    assert f"Run {sidecar['run_id']}." in (quick / "report" / "REPORT.md").read_text()
+    assert read_json(quick / "claims" / "GMD-A2.json")["run_id"] == sidecar["run_id"]
+
+
+def test_a_failed_notebook_publishes_nothing_and_the_others_do(
+        sandbox: Path, guarded, capsys: pytest.CaptureFixture[str]) -> None:
+    notebooks = sandbox / "notebooks"
+    # records GMD-A1 with seed 7, then fails: the last good run's A1 must stay as it was
+    _notebook(notebooks / "01_two_claims.ipynb",
+              _recording("one", ["GMD-A1"], "raise RuntimeError('half-way failure')"))
+    _notebook(notebooks / "02_other.ipynb", _recording("two", ["GMD-B1"]))
+    assert runner.reproduce(quick=True, seed=7, jobs=2) == 1
+    out = capsys.readouterr()
+    assert "half-way failure" in out.out and "not published" in out.out
+    assert "the last good report" in out.err
+    quick = sandbox / "build" / "quick"
+    assert read_json(quick / "claims" / "GMD-B1.json")["seeds"] == [7]  # the good one published
+    assert read_json(quick / "claims" / "GMD-A1.json")["run_id"] == "earlier-run"
+    staged = list((quick / "runs").glob("*-seed7-quick/01_two_claims/claims/GMD-A1.json"))
+    assert len(staged) == 1  # kept for inspection, in the staging folder only
+    (quick / "claims" / "GMD-B1.json").unlink()  # the check below is about the rest
+    assert guarded()
+
+
+def test_report_refuses_to_mix_runs_unless_allowed(
+        sandbox: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert runner.reproduce(quick=True) == 0
+    first = read_json(sandbox / "build" / "quick" / "claims" / "GMD-A1.json")["run_id"]
+    _notebook(sandbox / "notebooks" / "02_other.ipynb", _recording("two", ["GMD-B1"]))
+    quick = sandbox / "build" / "quick"
+    report_before = (quick / "report" / "REPORT.md").read_bytes()
+    assert runner.reproduce(quick=True, only=["02"], seed=7) == 1
+    err = capsys.readouterr().err
+    assert "come from 2 runs" in err and first in err and "--allow-mixed" in err
+    assert (quick / "report" / "REPORT.md").read_bytes() == report_before
+    assert main(["report", "--quick"]) == 2
+    assert "come from 2 runs" in capsys.readouterr().err
+    assert (quick / "report" / "REPORT.md").read_bytes() == report_before
+    assert main(["report", "--quick", "--allow-mixed"]) == 0
+    text = (quick / "report" / "REPORT.md").read_text()
+    second = read_json(quick / "claims" / "GMD-B1.json")["run_id"]
+    assert "Mixed runs (--allow-mixed)" in text
+    assert f"run {first} (GMD-A1, GMD-A2)" in text and f"run {second} (GMD-B1)" in text
+
+
+@pytest.mark.parametrize("name", ["quick", "build_dir", "seed", "device"])
+def test_runner_parameters_cannot_be_passed_with_p(sandbox: Path, guarded, name: str,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    value = {"quick": "true", "build_dir": '"/tmp/x"', "seed": "3", "device": '"cpu"'}[name]
+    assert main(["reproduce", "-p", f"{name}={value}"]) == 2
+    assert f"-p cannot set {name}" in capsys.readouterr().err
+    assert not (sandbox / "build" / "claims").exists()  # nothing reached the full folder
+    assert guarded()
+
+
+def test_report_over_no_claim_or_the_wrong_mode_is_an_error(
+        sandbox: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (sandbox / "build" / "claims").mkdir(parents=True)
+    assert main(["report"]) == 2
+    assert "no claim is recorded" in capsys.readouterr().err
+    from conftest import make_context
+
+    from repro.claims.ledger import record_claim
+
+    record_claim(make_context(sandbox / "build", quick=True, run_id="r"), "GMD-A1",
+                 {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5},
+                 seeds=[0])  # a quick sidecar in the full folder
+    assert main(["report"]) == 2
+    assert "holds sidecars of another mode: GMD-A1" in capsys.readouterr().err
+    assert not (sandbox / "build" / "report").exists()
+
+
+BAD_VALUES = [
+    (["-p", 'train_steps="abc"'], "parameter train_steps must be int or None"),
+    (["-p", "train_steps=0"], "parameter train_steps=0 must be at least 1"),
+    (["-p", "n_seeds=true"], "parameter n_seeds must be int"),
+    (["-p", "scale=\"big\""], "parameter scale must be float or int"),
+    (["-p", "stepz=3"], "has no parameter(s) ['stepz']"),
+    (["--seed", "-1"], "parameter seed=-1 must be at least 0"),
+    (["--device", "cuda:0"], "names CUDA, which is not available here"),
+    (["--device", "gpu"], "parameter device='gpu' is not a torch device"),
+    (["-p", 'data_dir="/no/such/folder"'], "is not a folder (/no/such/folder does not exist)"),
+    (["--only", "99_nope"], "unknown notebook or claim ID '99_nope'"),
+    (["--only", "XYZ-9"], "unknown notebook or claim ID 'XYZ-9'"),
+]
+
+
+@pytest.mark.parametrize(("arguments", "message"), BAD_VALUES)
+def test_bad_input_is_refused_before_any_kernel_starts(
+        sandbox: Path, guarded, arguments: list[str], message: str,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import torch
+
+    if "cuda:0" in arguments and torch.cuda.is_available():
+        pytest.skip("CUDA is available here")
+    runs_before = sorted((sandbox / "build" / "quick" / "runs").glob("*"))
+    assert main(["reproduce", "--quick", *arguments]) == 2
+    assert message in capsys.readouterr().err
+    assert sorted((sandbox / "build" / "quick" / "runs").glob("*")) == runs_before  # no run
+    assert guarded()
+
+
+def _damage(folder: Path, how: str) -> str:
+    """Damage one file of a copy of the stand-in dataset; returns what the error must name."""
+    clip = (folder / "train.txt").read_text().split()[0]
+    features = folder / "new_joint_vecs" / f"{clip}.npy"
+    if how == "missing":
+        features.unlink()
+    elif how == "empty":
+        features.write_bytes(b"")
+    elif how == "truncated":
+        features.write_bytes(features.read_bytes()[:200])
+    elif how == "wrong-shape":
+        np.save(features, np.zeros((40, 12), dtype=np.float32))
+    elif how == "missing-statistics":
+        (folder / "Mean.npy").unlink()
+        return "Mean.npy"
+    return f"{clip}.npy"
+
+
+@pytest.mark.parametrize("how", [
+    "missing",
+    pytest.param("empty", marks=pytest.mark.xfail(
+        strict=True, reason="motion.humanml3d._validate_clip catches OSError and ValueError "
+        "but not numpy's EOFError for an empty .npy: the error names the problem, not the "
+        "file, until the motion area catches it")),
+    "truncated", "wrong-shape", "missing-statistics"])
+def test_bad_dataset_files_are_named_before_any_kernel_starts(
+        sandbox: Path, guarded, how: str, capsys: pytest.CaptureFixture[str]) -> None:
+    data = sandbox / "data"
+    shutil.copytree(paths.data_stubs_dir(), data)
+    named = _damage(data, how)
+    assert main(["reproduce", "--quick", "-p", f'data_dir="{data}"']) == 2
+    err = capsys.readouterr().err
+    assert "is not a valid HumanML3D-layout folder" in err and named in err
+    assert guarded()
+
+
+def test_an_empty_dataset_file_is_refused_before_any_kernel_starts(
+        sandbox: Path, guarded, capsys: pytest.CaptureFixture[str]) -> None:
+    data = sandbox / "data"
+    shutil.copytree(paths.data_stubs_dir(), data)
+    _damage(data, "empty")
+    assert main(["reproduce", "--quick", "-p", f'data_dir="{data}"']) == 2
+    err = capsys.readouterr().err
+    assert "is not a valid HumanML3D-layout folder" in err and "No data left in file" in err
+    assert not (sandbox / "build" / "quick" / "runs").exists()
+    assert guarded()
