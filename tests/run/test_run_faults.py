@@ -221,11 +221,7 @@ def _damage(folder: Path, how: str) -> str:
 
 @pytest.mark.parametrize("how", [
     "missing",
-    pytest.param("empty", marks=pytest.mark.xfail(
-        strict=True, reason="motion.humanml3d._validate_clip catches OSError and ValueError "
-        "but not numpy's EOFError for an empty .npy: the error names the problem, not the "
-        "file, until the motion area catches it")),
-    "truncated", "wrong-shape", "missing-statistics"])
+    "empty", "truncated", "wrong-shape", "missing-statistics"])
 def test_bad_dataset_files_are_named_before_any_kernel_starts(
         sandbox: Path, guarded, how: str, capsys: pytest.CaptureFixture[str]) -> None:
     data = sandbox / "data"

@@ -456,7 +456,7 @@ def _validate_joints(joints_path: Path | None, features_path: Path,
     if joints_path is not None and joints_path.is_file():
         try:
             joints = np.load(joints_path)
-        except (OSError, ValueError) as error:
+        except (OSError, ValueError, EOFError) as error:  # an empty .npy raises EOFError
             return [Problem(joints_path, "unreadable", f"np.load failed: {error}")]
         if joints.shape != (frames, NUM_JOINTS, 3):
             return [Problem(joints_path, "shape", f"expected ({frames}, {NUM_JOINTS}, 3) to "
@@ -492,7 +492,7 @@ def _validate_clip(root: Path, clip: str, check_joints: bool) -> list[Problem]:
         return problems + [Problem(path, "missing", "features of a listed clip not found")]
     try:
         features = np.load(path)
-    except (OSError, ValueError) as error:
+    except (OSError, ValueError, EOFError) as error:  # an empty .npy raises EOFError
         return problems + [Problem(path, "unreadable", f"np.load failed: {error}")]
     if features.ndim != 2 or features.shape[1] != FEATURE_DIM:
         return problems + [Problem(path, "shape", f"expected (T, {FEATURE_DIM}), "
