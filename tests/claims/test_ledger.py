@@ -71,3 +71,28 @@ def test_quality_gate_and_new_measurements(tmp_path: Path) -> None:
     assert emg9.verdict == INCONCLUSIVE and sidecar["v1"]["verdict"] == PAPER_DISCREPANCY
     with pytest.raises(ValueError, match="printed_vs_closed_form_relative_error"):
         record_claim(ctx, "EMG-9", {"fid_vs_closed_form_relative_error": 0.0}, seeds=[0])
+
+
+def test_a_model_that_fails_its_gate_makes_the_claim_inconclusive(tmp_path: Path) -> None:
+    from conftest import make_context
+
+    from repro.claims.report import models_markdown, models_of
+    from repro.core.gates import model_record
+    from repro.infra.storage import read_json
+
+    claim = get_claim("GMD-A4")
+    measured = claim.planted_example(np.random.default_rng(0))
+    good = model_record(name="x0 motion", family="evaluator", values={"r_precision_top3": 0.9})
+    bad = model_record(name="eps motion", family="evaluator", values={"r_precision_top3": 0.2})
+    ctx = make_context(tmp_path, quick=False)
+    passed = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good])
+    failed = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good, bad])
+    assert passed.verdict == "reproduced"
+    assert failed.verdict == "inconclusive" and "model eps motion" in failed.reason
+    sidecars = {"GMD-A4": read_json(tmp_path / "claims" / "GMD-A4.json")}
+    models = models_of(sidecars)
+    assert [m["name"] for m in models] == ["eps motion", "x0 motion"]
+    assert models[0]["claims"] == ["GMD-A4"] and not models[0]["passed"]
+    assert "**no**" in "\n".join(models_markdown(models))
+    with pytest.raises(ValueError, match="model_record"):
+        record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[{"name": "x"}])

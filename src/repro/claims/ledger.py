@@ -52,6 +52,14 @@ def _control_record(claim_id: str, kind: str, measured: Mapping[str, Any] | None
             "parts": [p.as_dict() for p in decision.parts], "measured": dict(measured)}, decision
 
 
+def _checked_model(claim_id: str, record: Mapping[str, Any]) -> dict[str, Any]:
+    missing = sorted({"name", "family", "gate", "passed"} - set(record))
+    if missing:
+        raise ValueError(f"{claim_id}: a model record needs {missing} (make it with "
+                         "repro.core.gates.model_record)")
+    return dict(record)
+
+
 def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
                  controls: Mapping[str, Mapping[str, Any]] | None = None,
                  quality_gates: Mapping[str, bool] | None = None,
@@ -77,6 +85,7 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
 def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
                  seeds: Sequence[int], controls: Mapping[str, Mapping[str, Any]] | None = None,
                  quality_gates: Mapping[str, bool] | None = None,
+                 models: Sequence[Mapping[str, Any]] = (),
                  figures: Sequence[str | os.PathLike] = (), notes: str = "", headline: str = "",
                  extra: Mapping[str, Any] | None = None) -> Decision:
     """Apply the registered rules of ``claim_id`` to ``measured`` and write its sidecar.
@@ -95,14 +104,21 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
             recorded as missing, not an error.
         quality_gates: gate name → passed, for the models behind the measurements; a failed
             gate makes the claim inconclusive.
+        models: the trained models behind the measurements, each a
+            ``repro.core.gates.model_record`` (family, gate values against their registered
+            bounds, steps, training time); a model that fails its gate makes the claim
+            inconclusive (``quality_gates`` gains ``model <name>``), and the report's "Models"
+            section and ``models.json`` list every model with the claims that use it.
         figures: paths of the figures that show the claim.
         notes: what the notebook chose where the paper is silent, caveats.
         headline: one line of our key numbers for the report's table (default: derived).
         extra: further numbers to keep beside the rule's inputs (tables, paper rows).
     """
     claim = get_claim(claim_id)
+    models = [_checked_model(claim_id, m) for m in models]
+    gates = {**(quality_gates or {}), **{f"model {m['name']}": bool(m["passed"]) for m in models}}
     decision, stored_controls, v1 = decide_claim(claim_id, measured, controls=controls,
-                                                 quality_gates=quality_gates)
+                                                 quality_gates=gates or None)
     sidecar = {
         "id": claim.id,
         "registry_version": REGISTRY_VERSION,
@@ -118,7 +134,8 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
         "checks": decision.checks,
         "parts": [p.as_dict() for p in decision.parts],
         "controls": stored_controls,
-        "quality_gates": dict(quality_gates or {}),
+        "quality_gates": gates,
+        "models": models,
         "v1": {"registry_version": 1, "verdict": v1.verdict, "reason": v1.reason,
                "checks": v1.checks, "rule": registry_v1.get_claim(claim_id).rule},
         "measured": dict(measured),

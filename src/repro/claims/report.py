@@ -75,6 +75,46 @@ def _controls_line(sidecar: dict[str, Any]) -> str:
     return "; ".join(words)
 
 
+def models_of(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every model behind a recorded claim, once, with the claim IDs that use it
+    (``results/models.json``: ``family``, ``claims``, ``gate``, ``passed``, …)."""
+    models: dict[str, dict[str, Any]] = {}
+    for claim_id, sidecar in sidecars.items():
+        for record in sidecar.get("models", []):
+            entry = models.setdefault(record["name"], {**record, "claims": []})
+            entry["claims"].append(claim_id)
+    return [models[name] for name in sorted(models)]
+
+
+def _gate_text(gate: dict[str, Any]) -> str:
+    """``metric value (wanted range) ✓/✗`` for each gate of one model."""
+    cells = []
+    for metric, result in gate.items():
+        low, high = result["at_least"], result["at_most"]
+        wanted = (f"{low:.3g}–{high:.3g}" if low is not None and high is not None
+                  else f"≤ {high:.3g}" if high is not None else f"≥ {low:.3g}")
+        value = "not measured" if result["value"] is None else f"{result['value']:.3g}"
+        cells.append(f"{metric} {value} (want {wanted}) {'✓' if result['passed'] else '✗'}")
+    return "; ".join(cells)
+
+
+def models_markdown(models: list[dict[str, Any]]) -> list[str]:
+    """The report's "Models" section: every model behind a verdict and its quality gate."""
+    lines = ["", "## Models", ""]
+    if not models:
+        return lines + ["No notebook of this run recorded its models' quality gates yet, so no "
+                        "verdict here is backed by a model known to work (gates: "
+                        "`repro.core.gates`).", ""]
+    lines += ["| model | family | claims | steps | training s | gate (value, wanted range) | "
+              "passed |", "|---|---|---|---|---|---|---|"]
+    for m in models:
+        seconds = "—" if m.get("train_seconds") is None else f"{m['train_seconds']:.0f}"
+        cells = [m["name"], m["family"], ", ".join(m["claims"]), str(m.get("steps") or "—"),
+                 seconds, _gate_text(m["gate"]), "yes" if m["passed"] else "**no**"]
+        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    return lines + [""]
+
+
 def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
               runs: Sequence[Any], figure_names: dict[str, list[str]],
               provenance: str = "") -> str:
@@ -94,6 +134,7 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
         cells = [r["id"], r["statement"], r["paper"], r["ours"], verdict,
                  r.get("v1_verdict", ""), r["notebook"]]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    lines += models_markdown(models_of(sidecars))
     if runs:
         lines += ["", "## Notebook run times", "", "| notebook | seconds |", "|---|---|"]
         lines += [f"| {r.name} | {r.seconds:.1f} |" for r in runs]
@@ -218,6 +259,8 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
                                             "run_seconds": {r.name: round(r.seconds, 1)
                                                             for r in runs},
                                             "slowest_seconds": slowest})
+    write_json(report_dir / "models.json", {"mode": "quick" if quick else "full",
+                                            "models": models_of(sidecars)})
     write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names))
     return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, quick, runs,
                                                           figure_names, provenance))
@@ -270,6 +313,7 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     claims["slowest_seconds"] = slowest_of(slowest_seconds(target / "claims.json"),
                                          slowest_seconds(report_dir / "claims.json"))
     write_json(staging / "claims.json", claims)
+    shutil.copy2(report_dir / "models.json", staging / "models.json")
     (staging / "figures").mkdir()
     for figure in (report_dir / "figures").glob("*.png"):
         shutil.copy2(figure, staging / "figures" / figure.name)
