@@ -24,11 +24,16 @@ per diffusion family at two batch sizes (the gain from batching seeds and items 
 Data are synthetic (smooth random signals, random latents and text tokens): speed does not
 depend on the values. Writes the keys ``training``, ``training_bench`` and ``sampling`` of
 ``build/bench/bench.json``, keeping every other key, atomically.
+
+Threads: 2 by default (the machine kind of #15). On a machine other processes load, two
+OpenMP threads spin-wait for each other: one measured run took 18 min with ratios from 0.07
+to 5.7, against 3 min and 0.6–1.9 with ``--threads 1``; the JSON records the load average.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import statistics
 import subprocess
@@ -275,6 +280,7 @@ def bench_training(*, quick: bool = False, threads: int = 2,
     out = Path(out) if out is not None else paths.build_root() / "bench" / "bench.json"
     previous_threads = torch.get_num_threads()
     torch.set_num_threads(threads)
+    load_before = os.getloadavg()[0]
     start = time.perf_counter()
     try:
         with torch.random.fork_rng(devices=[]):
@@ -301,6 +307,7 @@ def bench_training(*, quick: bool = False, threads: int = 2,
             "peaks": peaks, "width_study": width_study, "pilot": pilot,
             "cpu_flags": _cpu_flags(), "torch": torch.__version__,
             "platform": platform.platform(), "seconds": time.perf_counter() - start,
+            "load_average_1min": {"start": load_before, "end": os.getloadavg()[0]},
             "measured": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
             "commit": _commit(),
             "method": "median of adjacent baseline/candidate pairs (A/B/A/B); synthetic data"}
