@@ -39,6 +39,9 @@ def test_quick_bench_writes_every_family_and_keeps_other_keys(quick_bench):
     assert meta["mode"] == "quick" and meta["threads"] == 1
     assert set(meta["width_study"]) == {"base16", f"width{QUICK.wide_width}"}
     assert {"fp32", "bf16_autocast"} <= set(meta["pilot"]["validation_loss"])
+    for name in ("fast_mish_forward_backward", "fast_mish_forward", "update_foreach_vs_loop",
+                 "update_fused_vs_loop"):
+        assert meta["isolated_levers"][name]["ratio"] > 0
     assert set(written["sampling"]) == {"gmd_trajectory", "gmd_motion", "latent_denoiser"}
     for row in written["sampling"].values():
         assert row["ddpm_batching_gain"] > 0 and row["ddim_batching_gain"] > 0

@@ -17,9 +17,12 @@ denoiser, the evaluator), at the sizes the package trains it with:
 - the time to pass the family's quality gate: null, no gate is registered yet (#14).
 
 Also fp32 against bf16 autocast for the motion UNet at base 16 and at width 288 (mults 1-1-1,
-wide enough for 263-d ε), a numerics pilot (validation loss of each lever's run against fp32's
-after the same steps, tolerance ``PILOT_TOLERANCE``), and samples/s of the DDPM and DDIM loops
-per diffusion family at two batch sizes (the gain from batching seeds and items together).
+wide enough for 263-d ε), the exact-math levers alone (FastMish forward + backward and
+forward only; the parameter update as loops, foreach and fused: a whole step's noise on a
+shared machine hides a 5–10 % gain), a numerics pilot (validation loss of each lever's run
+against fp32's after the same steps, tolerance ``PILOT_TOLERANCE``), and samples/s of the DDPM
+and DDIM loops per diffusion family at two batch sizes (the gain from batching seeds and
+items together).
 
 Data are synthetic (smooth random signals, random latents and text tokens): speed does not
 depend on the values. Writes the keys ``training``, ``training_bench`` and ``sampling`` of
@@ -174,6 +177,66 @@ def _sample_seconds(diffusion: GaussianDiffusion, loop: str, model: nn.Module,
                                                        model_kwargs=kwargs, seed=0))
 
 
+def _isolated_levers(sizes: BenchSizes) -> dict[str, Any]:
+    """The exact-math levers alone on the motion UNet (base 16), where a whole training step's
+    noise would hide them: forward + backward and forward only with ``FastMish`` against
+    ``nn.Mish``; the parameter update (AdamW + clip + EMA) as loops, foreach, fused."""
+    spec = GMDModelSpec(task="motion")
+    frames, batch = sizes.frames or spec.data.frames, sizes.batch or spec.batch_size
+    pairs, calls = 4 * sizes.repeats, max(1, sizes.steps - 1)
+    plain = _seeded(lambda: UNet1D(spec.channels, spec.base_channels, spec.channel_mults))
+    fast = UNet1D(spec.channels, spec.base_channels, spec.channel_mults, fast_mish=True)
+    fast.load_state_dict(plain.state_dict())
+    x = smooth_signals(batch, spec.channels, frames, seed=8)
+    t = torch.arange(batch) % spec.diffusion_steps
+
+    def step(model: nn.Module) -> Callable[[int], float]:
+        def run(n: int) -> float:
+            def once() -> None:
+                model.zero_grad(set_to_none=True)
+                model(x, t).pow(2).mean().backward()
+            return sum(seconds_of(once) for _ in range(n))
+        return run
+
+    def forward(model: nn.Module) -> Callable[[int], float]:
+        def run(n: int) -> float:
+            with torch.no_grad():
+                return sum(seconds_of(lambda: model(x, t)) for _ in range(n))
+        return run
+
+    plain(x, t).pow(2).mean().backward()                 # gradients for the update timings
+    params = list(plain.parameters())
+    ema = [p.detach().clone() for p in params]
+
+    def update(kind: str) -> Callable[[int], float]:
+        optimizer = torch.optim.AdamW(params, lr=1e-9, foreach=kind == "foreach",
+                                      fused=True if kind == "fused" else None)
+
+        def once() -> None:
+            nn.utils.clip_grad_norm_(params, 1e9, foreach=kind != "loop")
+            optimizer.step()
+            with torch.no_grad():
+                if kind == "loop":
+                    for e, p in zip(ema, params, strict=True):
+                        e.lerp_(p, 1e-4)
+                else:
+                    torch._foreach_lerp_(ema, params, 1e-4)
+
+        return lambda n: sum(seconds_of(once) for _ in range(n))
+
+    out: dict[str, Any] = {"model": f"UNet1D(263, base 16, mults [1, 2, 4]), batch {batch}, "
+                                    f"{frames} frames", "pairs": pairs, "calls_per_pair": calls}
+    for name, (a, b) in {"fast_mish_forward_backward": (step(plain), step(fast)),
+                         "fast_mish_forward": (forward(plain), forward(fast)),
+                         "update_foreach_vs_loop": (update("loop"), update("foreach")),
+                         "update_fused_vs_loop": (update("loop"), update("fused"))}.items():
+        pair = paired_ratios(a, b, calls, pairs)
+        out[name] = {"ratio": pair["ratio"],
+                     "baseline_ms": 1e3 * statistics.median(pair["baseline_seconds"]) / calls,
+                     "candidate_ms": 1e3 * statistics.median(pair["candidate_seconds"]) / calls}
+    return out
+
+
 def _validation_loss(model: nn.Module, diffusion: GaussianDiffusion, data: Tensor) -> float:
     g = torch.Generator().manual_seed(1)
     t = torch.randint(0, diffusion.num_timesteps, (data.shape[0],), generator=g)
@@ -292,6 +355,8 @@ def bench_training(*, quick: bool = False, threads: int = 2,
                 training[family.name] = _family_row(family, sizes)
             _progress("fp32 against bf16 at base 16 and wide", start)
             width_study = _width_study(sizes)
+            _progress("isolated levers", start)
+            isolated = _isolated_levers(sizes)
             _progress("numerics pilot", start)
             pilot = _pilot(sizes)
             _progress("sampling", start)
@@ -304,7 +369,8 @@ def bench_training(*, quick: bool = False, threads: int = 2,
     finally:
         torch.set_num_threads(previous_threads)
     meta = {"mode": "quick" if quick else "full", "threads": threads, "sizes": asdict(sizes),
-            "peaks": peaks, "width_study": width_study, "pilot": pilot,
+            "peaks": peaks, "width_study": width_study, "isolated_levers": isolated,
+            "pilot": pilot,
             "cpu_flags": _cpu_flags(), "torch": torch.__version__,
             "platform": platform.platform(), "seconds": time.perf_counter() - start,
             "load_average_1min": {"start": load_before, "end": os.getloadavg()[0]},
@@ -330,6 +396,10 @@ def format_summary(sections: dict[str, Any]) -> str:
         lines.append(f"{name:18s} {row['baseline_samples_per_s']:8.0f} "
                      f"{row['package_samples_per_s']:8.0f} {row['ratio_vs_fp32_eager']:6.2f} "
                      f"{row['gflops']:8.1f} {100 * row['fraction_of_fp32_peak']:6.1f}  {levers}")
+    for name, row in meta["isolated_levers"].items():
+        if isinstance(row, dict):
+            lines.append(f"isolated {name}: {row['baseline_ms']:.2f} -> {row['candidate_ms']:.2f}"
+                         f" ms ({row['ratio']:.2f}x)")
     for name, row in meta["width_study"].items():
         lines.append(f"width study {name}: fp32 {row['fp32_ms_per_step']:.0f} ms/step, bf16 "
                      f"{row['bf16_ms_per_step']:.0f} ms/step ({row['bf16_speedup']:.2f}x)")
