@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import os
@@ -11,7 +12,14 @@ import torch
 from torch import nn
 
 from repro.core.diffusion import GaussianDiffusion, cosine_betas
-from repro.core.training import TrainConfig, TrainResult, ema_decay_at, train_diffusion
+from repro.core.training import (
+    TrainConfig,
+    TrainResult,
+    _update_ema,
+    ema_decay_at,
+    make_adamw,
+    train_diffusion,
+)
 from repro.infra import cache
 from repro.infra.cache import cached_artifact_dir, config_hash, load_or_train
 from repro.models.unet import sinusoidal_embedding
@@ -151,6 +159,101 @@ def test_train_config_validation_and_hashable_fields(capsys):
     train_diffusion(RecordingModel(), GaussianDiffusion(cosine_betas(20)), torch.randn(8, 1, 4),
                     TrainConfig(steps=3, batch_size=4), progress=True)
     assert "training" not in capsys.readouterr().err
+
+
+# -- speed levers (issue #15) --------------------------------------------------------------------
+
+
+def _loop_reference(model: nn.Module, steps: int, lr: float) -> tuple[nn.Module, nn.Module]:
+    """The plain per-parameter loops: for-loop AdamW, clip and EMA (lerp_ per parameter)."""
+    ema = copy.deepcopy(model)
+    optimizer = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=0.01, foreach=False)
+    x, t = torch.randn(16, 1, 1), torch.randint(0, 50, (16,))
+    for _ in range(steps):
+        loss = (model(x, t) - x).pow(2).mean()
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        nn.utils.clip_grad_norm_(model.parameters(), 1.0, foreach=False)
+        optimizer.step()
+        with torch.no_grad():
+            for ema_param, param in zip(ema.parameters(), model.parameters(), strict=True):
+                ema_param.lerp_(param, 0.1)
+    return model, ema
+
+
+def _package_levers(model: nn.Module, steps: int, lr: float,
+                    fused: bool = False) -> tuple[nn.Module, nn.Module]:
+    """The same steps through the package's AdamW, foreach clip and ``_update_ema``."""
+    ema = copy.deepcopy(model)
+    optimizer = make_adamw(model.parameters(), lr=lr, weight_decay=0.01, fused=fused)
+    x, t = torch.randn(16, 1, 1), torch.randint(0, 50, (16,))
+    for _ in range(steps):
+        loss = (model(x, t) - x).pow(2).mean()
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        nn.utils.clip_grad_norm_(model.parameters(), 1.0, foreach=True)
+        optimizer.step()
+        _update_ema(ema, model, 0.9)
+    return model, ema
+
+
+def test_foreach_adamw_clip_and_ema_are_bitwise_the_per_parameter_loops():
+    torch.manual_seed(0)
+    start = TinyDenoiser()
+    torch.manual_seed(1)
+    reference = _loop_reference(copy.deepcopy(start), steps=6, lr=3e-2)
+    torch.manual_seed(1)
+    levers = _package_levers(copy.deepcopy(start), steps=6, lr=3e-2)
+    for ref_module, lever_module in zip(reference, levers, strict=True):
+        for a, b in zip(ref_module.parameters(), lever_module.parameters(), strict=True):
+            assert torch.equal(a, b)
+    assert not torch.equal(next(start.parameters()), next(levers[0].parameters()))
+
+
+def test_fused_adamw_stays_within_float_noise_of_the_loop():
+    torch.manual_seed(0)
+    start = TinyDenoiser()
+    torch.manual_seed(1)
+    reference, _ = _loop_reference(copy.deepcopy(start), steps=6, lr=3e-2)
+    torch.manual_seed(1)
+    fused, _ = _package_levers(copy.deepcopy(start), steps=6, lr=3e-2, fused=True)
+    for a, b in zip(reference.parameters(), fused.parameters(), strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-5)
+
+
+def test_opt_in_levers_enter_the_cache_key_only_when_set():
+    default = TrainConfig().to_config()
+    assert "autocast" not in default and "fused_adamw" not in default
+    assert set(default) == {"steps", "batch_size", "lr", "weight_decay", "grad_clip",
+                            "ema_decay", "ema_warmup", "seed", "feature_weights",
+                            "cond_dropout"}
+    bf16 = TrainConfig(autocast="bfloat16").to_config()
+    fused = TrainConfig(fused_adamw=True).to_config()
+    assert bf16["autocast"] == "bfloat16" and fused["fused_adamw"] is True
+    hashes = {config_hash(c) for c in (default, bf16, fused)}
+    assert len(hashes) == 3
+    assert TrainConfig(autocast="bfloat16").autocast_dtype is torch.bfloat16
+    assert TrainConfig().autocast_dtype is None
+    with pytest.raises(ValueError, match="autocast must be one of"):
+        TrainConfig(autocast="float16")
+
+
+def test_bf16_autocast_training_tracks_fp32_losses():
+    """bf16 matrix products, fp32 weights: the loss curve stays within a few per cent."""
+    diffusion = GaussianDiffusion(cosine_betas(50), "epsilon")
+    data = _mixture(512, 0)
+
+    def run(autocast: str | None) -> TrainResult:
+        return train_diffusion(TinyDenoiser, diffusion, data,
+                               TrainConfig(steps=60, batch_size=128, lr=3e-3, seed=0,
+                                           autocast=autocast))
+
+    fp32, bf16 = run(None), run("bfloat16")
+    assert all(math.isfinite(v) for v in bf16.losses)
+    assert fp32.losses != bf16.losses                       # autocast did act
+    assert all(p.dtype == torch.float32 for p in bf16.ema_model.parameters())
+    mean_fp32, mean_bf16 = sum(fp32.losses[-20:]) / 20, sum(bf16.losses[-20:]) / 20
+    assert mean_bf16 == pytest.approx(mean_fp32, rel=0.05)
 
 
 # -- cache --------------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ import torch
 
 from repro.core.diffusion import GaussianDiffusion, cosine_betas
 from repro.models import UNet1D
-from repro.models.unet import ResBlock1D, sinusoidal_embedding
+from repro.models.unet import FastMish, ResBlock1D, sinusoidal_embedding, use_fast_mish
 
 torch.set_num_threads(1)
 
@@ -107,3 +107,34 @@ def test_a_few_training_steps_reduce_the_diffusion_loss():
         losses.append(loss.item())
     assert losses[0] == pytest.approx(x0.pow(2).mean().item(), rel=1e-5)   # zero output at init
     assert sum(losses[-5:]) / 5 < 0.3 * losses[0]
+
+
+def test_fast_mish_equals_torch_mish_in_value_and_gradient():
+    x = torch.cat([torch.linspace(-60.0, 60.0, 20001), 4.0 * torch.randn(20000),
+                   torch.tensor([0.0, -0.0, 1e-30, -1e-30, 88.0, -103.0])]).requires_grad_()
+    grad_out = torch.randn_like(x)
+    fast = FastMish()(x)
+    (fast_grad,) = torch.autograd.grad(fast, x, grad_out)
+    reference = torch.nn.functional.mish(x)
+    (reference_grad,) = torch.autograd.grad(reference, x, grad_out)
+    torch.testing.assert_close(fast, reference, rtol=1e-6, atol=1e-6)
+    torch.testing.assert_close(fast_grad, reference_grad, rtol=1e-5, atol=1e-6)
+
+
+def test_fast_mish_unet_has_no_torch_mish_left_and_matches_the_plain_one():
+    torch.manual_seed(0)
+    plain = UNet1D(4, base_channels=8, channel_mults=(1, 2), cond_dim=3)
+    torch.manual_seed(0)
+    fast = UNet1D(4, base_channels=8, channel_mults=(1, 2), cond_dim=3, fast_mish=True)
+    for a, b in zip(plain.parameters(), fast.parameters(), strict=True):
+        assert torch.equal(a, b)                     # same initialisation, same weights
+    _perturb_zero_inits(plain)
+    fast.load_state_dict(plain.state_dict())
+    assert not any(isinstance(m, torch.nn.Mish) for m in fast.modules())
+    assert sum(isinstance(m, FastMish) for m in fast.modules()) == sum(
+        isinstance(m, torch.nn.Mish) for m in plain.modules())
+    x, t, cond = torch.randn(2, 4, 8), torch.tensor([3, 70]), torch.randn(2, 3)
+    torch.testing.assert_close(fast(x, t, cond=cond), plain(x, t, cond=cond),
+                               rtol=1e-5, atol=1e-6)
+    swapped = use_fast_mish(plain)
+    assert swapped is plain and not any(isinstance(m, torch.nn.Mish) for m in plain.modules())

@@ -15,6 +15,15 @@ a seeded generator; or an iterable of batches (a DataLoader) each either a tenso
 with ``"x"`` and optional ``"cond"`` and ``"mask"``. Models are called as
 ``model(x_t, t, cond=…, cond_mask=…)``; ``cond_mask`` (true = keep) is drawn here when
 ``cond_dropout > 0`` (classifier-free training).
+
+Speed (issue #15; measured by ``python -m repro.run.bench_training``): AdamW, the gradient
+clip and the EMA run as ``foreach`` kernels over all parameters — on CPU the same arithmetic as
+the per-parameter loops, bitwise (``tests/core/test_training.py`` checks it), so they are the
+default and leave every cache key as it was. Two levers change the numerics and are opt-in,
+entering ``to_config`` (and so the cache key) only when set: ``autocast="bfloat16"`` runs the
+forward and backward under ``torch.autocast`` (bf16 matrix products, fp32 weights, optimiser
+and loss reduction), and ``fused_adamw=True`` uses the fused AdamW kernel (float-noise
+differences, ~1e-6 after a few steps).
 """
 
 from __future__ import annotations
@@ -35,8 +44,12 @@ from repro.core.diffusion import GaussianDiffusion, UniformSampler
 from repro.infra import progress as run_progress
 from repro.infra.cache import load_or_train
 
-__all__ = ["TrainConfig", "TrainResult", "ema_decay_at", "load_or_train", "torch_threads",
-           "train_diffusion"]
+__all__ = ["AUTOCAST_DTYPES", "TrainConfig", "TrainResult", "autocast_context", "ema_decay_at",
+           "load_or_train", "make_adamw", "torch_threads", "train_diffusion"]
+
+#: the ``TrainConfig.autocast`` values and the dtype each runs the matrix products in
+AUTOCAST_DTYPES: dict[str | None, torch.dtype | None] = {None: None, "bfloat16": torch.bfloat16}
+_OPT_IN_DEFAULTS: dict[str, Any] = {"autocast": None, "fused_adamw": False}
 
 
 @dataclass
@@ -55,6 +68,10 @@ class TrainConfig:
     cond_dropout: float = 0.0
     device: str = "cpu"
     num_threads: int | None = None
+    #: None (fp32) or "bfloat16": forward/backward under torch.autocast (opt-in; in the key)
+    autocast: str | None = None
+    #: the fused AdamW kernel (float-noise differences from the loop; opt-in; in the key)
+    fused_adamw: bool = False
 
     def __post_init__(self) -> None:
         if self.steps < 1 or self.batch_size < 1:
@@ -71,13 +88,27 @@ class TrainConfig:
             raise ValueError(f"cond_dropout must be in [0, 1], got {self.cond_dropout}")
         if self.feature_weights is not None:
             self.feature_weights = [float(w) for w in self.feature_weights]
+        if self.autocast not in AUTOCAST_DTYPES:
+            raise ValueError(f"autocast must be one of {sorted(map(str, AUTOCAST_DTYPES))}, "
+                             f"got {self.autocast!r}")
 
     def to_config(self) -> dict[str, Any]:
-        """Every field that changes the trained weights (not ``device`` or ``num_threads``)."""
+        """Every field that changes the trained weights (not ``device`` or ``num_threads``).
+
+        The opt-in speed levers appear only when set, so the keys of configs that leave them
+        at their defaults are those of the configs before the levers existed.
+        """
         config = dataclasses.asdict(self)
         config.pop("device")
         config.pop("num_threads")
+        for name, default in _OPT_IN_DEFAULTS.items():
+            if config[name] == default:
+                config.pop(name)
         return config
+
+    @property
+    def autocast_dtype(self) -> torch.dtype | None:
+        return AUTOCAST_DTYPES[self.autocast]
 
 
 @dataclass
@@ -109,11 +140,33 @@ def ema_decay_at(update: int, ema_decay: float, warmup: bool = True) -> float:
 
 @torch.no_grad()
 def _update_ema(ema_model: nn.Module, model: nn.Module, decay: float) -> None:
-    """θ_ema ← decay·θ_ema + (1 − decay)·θ; buffers are copied."""
-    for ema_param, param in zip(ema_model.parameters(), model.parameters(), strict=True):
-        ema_param.lerp_(param.detach(), 1.0 - decay)
+    """θ_ema ← decay·θ_ema + (1 − decay)·θ (one foreach lerp over all parameters, the same
+    arithmetic as ``lerp_`` per parameter); buffers are copied."""
+    ema_params = list(ema_model.parameters())
+    params = [p.detach() for p in model.parameters()]
+    if len(ema_params) != len(params):
+        raise ValueError("the EMA model and the model have different parameter lists")
+    if params:
+        torch._foreach_lerp_(ema_params, params, 1.0 - decay)
     for ema_buffer, buffer in zip(ema_model.buffers(), model.buffers(), strict=True):
         ema_buffer.copy_(buffer)
+
+
+def make_adamw(parameters: Iterable[nn.Parameter], *, lr: float, weight_decay: float,
+               fused: bool = False) -> torch.optim.AdamW:
+    """AdamW as the package trains with it: the foreach kernel (bitwise the per-parameter
+    loop's result on CPU), or the fused kernel when ``fused`` (float-noise differences)."""
+    if fused:
+        return torch.optim.AdamW(parameters, lr=lr, weight_decay=weight_decay, fused=True)
+    return torch.optim.AdamW(parameters, lr=lr, weight_decay=weight_decay, foreach=True)
+
+
+def autocast_context(device: torch.device, dtype: torch.dtype | None
+                     ) -> contextlib.AbstractContextManager:
+    """``torch.autocast(device.type, dtype)`` when ``dtype`` is set, else a no-op context."""
+    if dtype is None:
+        return contextlib.nullcontext()
+    return torch.autocast(device.type, dtype=dtype)
 
 
 def _tensor_batches(x: Tensor, cond: Tensor | None, mask: Tensor | None, batch_size: int,
@@ -184,8 +237,9 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
 
     feature_weights = (None if config.feature_weights is None
                        else torch.tensor(config.feature_weights, device=device))
-    optimizer = torch.optim.AdamW(model.parameters(), lr=config.lr,
-                                  weight_decay=config.weight_decay)
+    optimizer = make_adamw(model.parameters(), lr=config.lr, weight_decay=config.weight_decay,
+                           fused=config.fused_adamw)
+    autocast_dtype = config.autocast_dtype
     sampler = UniformSampler(diffusion.num_timesteps)
     previous_threads = torch.get_num_threads()
     if config.num_threads is not None:
@@ -211,16 +265,17 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
                     keep = torch.rand(b, generator=generator) >= config.cond_dropout
                     model_kwargs["cond_mask"] = keep.to(device)
             batch_mask = batch.get("mask")
-            loss = diffusion.training_losses(
-                model, x0, t, model_kwargs=model_kwargs, noise=noise,
-                feature_weights=feature_weights,
-                mask=None if batch_mask is None else batch_mask.to(device)).mean()
+            with autocast_context(device, autocast_dtype):
+                loss = diffusion.training_losses(
+                    model, x0, t, model_kwargs=model_kwargs, noise=noise,
+                    feature_weights=feature_weights,
+                    mask=None if batch_mask is None else batch_mask.to(device)).mean()
             if not torch.isfinite(loss):
                 raise FloatingPointError(f"loss became {loss.item()} at step {step}")
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             if config.grad_clip is not None:
-                nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip)
+                nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip, foreach=True)
             optimizer.step()
             _update_ema(ema_model, model, ema_decay_at(step, config.ema_decay, config.ema_warmup))
             losses.append(loss.item())

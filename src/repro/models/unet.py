@@ -17,6 +17,12 @@ skip is used (GMD's TemporalUnet leaves the first level's skip unused). Classifi
 uses a learned null embedding in place of the projected condition.
 
 Layout: x is (B, C, T) — C features, T frames — and the output has the same shape.
+
+Speed (issue #15): ``fast_mish=True`` (or ``use_fast_mish(model)`` on a built model) computes
+Mish(x) = x·tanh(softplus(x)) from torch's elementwise kernels, about 2× faster forward and
+forward + backward than ``nn.Mish`` on this CPU; it equals ``F.mish`` to float rounding
+(~1 ulp), not bitwise, so it is opt-in: a model trained with it is not the model
+trained without it.
 """
 
 from __future__ import annotations
@@ -25,7 +31,32 @@ import math
 from collections.abc import Sequence
 
 import torch
+import torch.nn.functional as F
 from torch import Tensor, nn
+
+__all__ = ["FastMish", "ResBlock1D", "UNet1D", "sinusoidal_embedding", "use_fast_mish"]
+
+
+class FastMish(nn.Module):
+    """Mish(x) = x·tanh(softplus(x)) (Misra 2019), composed of torch's elementwise kernels.
+
+    Autograd keeps softplus' and tanh's results, so the backward pass needs no transcendental
+    function again (torch's fused CPU Mish recomputes them); equal to ``F.mish`` to ~1 ulp.
+    """
+
+    def forward(self, x: Tensor) -> Tensor:
+        return x * torch.tanh(F.softplus(x))
+
+
+def use_fast_mish(module: nn.Module) -> nn.Module:
+    """Replace every ``nn.Mish`` inside ``module`` by ``FastMish`` (in place; no weights
+    change, so a state dict loads either way). Returns ``module``."""
+    for name, child in list(module.named_children()):
+        if isinstance(child, nn.Mish):
+            setattr(module, name, FastMish())
+        else:
+            use_fast_mish(child)
+    return module
 
 
 def _groups_for(channels: int, groups: int) -> int:
@@ -85,11 +116,12 @@ class UNet1D(nn.Module):
     vector is projected and added to the time embedding; where ``cond_mask`` is false, where
     ``cond`` is None, or with ``force_unconditional=True``, a learned null embedding is used
     instead (classifier-free guidance; the training loop draws ``cond_mask``).
+    ``fast_mish`` uses ``FastMish`` for every Mish (same weights and initialisation).
     """
 
     def __init__(self, in_channels: int, base_channels: int = 64,
                  channel_mults: Sequence[float] = (1, 2, 4), cond_dim: int | None = None,
-                 num_res_blocks: int = 1, groups: int = 8) -> None:
+                 num_res_blocks: int = 1, groups: int = 8, fast_mish: bool = False) -> None:
         super().__init__()
         if in_channels < 1 or base_channels < 1:
             raise ValueError("in_channels and base_channels must be >= 1")
@@ -141,6 +173,8 @@ class UNet1D(nn.Module):
         self.out_conv = nn.Conv1d(channels, in_channels, 1)
         nn.init.zeros_(self.out_conv.weight)
         nn.init.zeros_(self.out_conv.bias)
+        if fast_mish:
+            use_fast_mish(self)
 
     @property
     def frame_multiple(self) -> int:
