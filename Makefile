@@ -44,8 +44,9 @@ test: $(STAMP)  ## lint + unit tests + every notebook executed with quick parame
 reproduce: $(STAMP)  ## execute every notebook with full parameters; write build/report and refresh results/
 	$(PY) -m repro reproduce --jobs $(JOBS) --seed $(SEED) --snapshot $(ARGS)
 
-bench: $(STAMP)  ## measure the time budgets; writes build/bench/bench.json (ARGS="--full", "--warm-cache DIR")
+bench: $(STAMP)  ## time budgets and training throughput; writes build/bench/bench.json (ARGS="--full", "--warm-cache DIR")
 	$(PY) -m repro bench $(ARGS)
+	$(PY) -m repro bench --training
 
 check-rendered: $(STAMP)  ## open results/ and build/report in headless Chromium: figures load, links work
 	$(PY) scripts/check_rendered.py $(ARGS)

@@ -96,8 +96,10 @@ def run_bench(*, full: bool = False, venv: bool = False, quick: bool = True,
                   else "" if budget is None else "ok" if row["seconds"] <= budget else "OVER")
         print(f"{name:48s} {row['seconds']:8.1f} {budget or '':>7}  {status}"
               + ("" if name not in earlier or row is not earlier[name] else "  (earlier)"))
-    write_json(out, {"machine": {"cpus": os.cpu_count(), "platform": platform.platform(),
-                                 "python": platform.python_version()}, "rows": rows})
+    kept = read_json(out) if out.is_file() else {}  # e.g. the --training sections
+    write_json(out, {**kept, "machine": {"cpus": os.cpu_count(),
+                                         "platform": platform.platform(),
+                                         "python": platform.python_version()}, "rows": rows})
     print(f"written {out}")
     return 0
 

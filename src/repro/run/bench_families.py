@@ -24,13 +24,10 @@ from torch import Tensor, nn
 
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import TrainConfig, ema_decay_at, train_diffusion
-from repro.energymogen.pipeline import (
-    PipelineConfig,
-    denoiser_kwargs,
-    scaled_linear_betas,
-    vae_kwargs,
-)
-from repro.gmd.library import GMDModelSpec, schedule_diffusion
+from repro.energymogen.config import PipelineConfig
+from repro.energymogen.pipeline import denoiser_kwargs, scaled_linear_betas, vae_kwargs
+from repro.gmd.coefficients import schedule_diffusion
+from repro.gmd.models import GMDModelSpec
 from repro.models.evaluator import (
     Evaluator,
     EvaluatorConfig,

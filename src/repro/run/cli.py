@@ -112,6 +112,11 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 def _cmd_bench(args: argparse.Namespace) -> int:
     from repro.run.bench import run_bench
 
+    if args.training:
+        from repro.run import bench_training
+
+        return bench_training.main((["--quick"] if args.small else [])
+                                   + ["--threads", str(args.threads)])
     try:
         return run_bench(full=args.full, venv=args.venv, quick=not args.no_quick,
                          warm_cache=args.warm_cache)
@@ -181,6 +186,14 @@ def main(argv: list[str] | None = None) -> int:
                        help="skip the unit tests, quick notebooks and make test")
     bench.add_argument("--warm-cache", metavar="DIR",
                        help="also time a full reproduce on DIR, an earlier full run's cache")
+    bench.add_argument("--training", action="store_true",
+                       help="only the training/sampling throughput section (samples/s against "
+                            "a plain fp32 eager loop, GFLOP/s against the GEMM peaks)")
+    bench.add_argument("--small", action="store_true",
+                       help="with --training: tiny sizes (seconds), a test of the bench")
+    bench.add_argument("--threads", type=int, default=1,
+                       help="with --training: torch threads (default 1: two threads wait on "
+                            "each other when other work holds a core)")
     bench.set_defaults(func=_cmd_bench)
 
     sub.add_parser("generate-stubs", help="regenerate data_stubs/").set_defaults(func=_cmd_stubs)
