@@ -1,0 +1,152 @@
+"""The GMD controls: exact planting, no effect in the null, a larger planted effect is seen."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from repro.claims.registry import get_claim
+from repro.claims.verdicts import PARTIAL, REPRODUCED
+from repro.core import metrics
+from repro.gmd import controls
+from repro.gmd.emphasis_study import coherence
+from repro.gmd.measurements import evaluator_inputs, jitter_of
+from repro.gmd.models import GMDModelSpec
+from repro.gmd.windows import DataConfig, MotionWindows, load_windows
+from repro.gmd.x0_vs_eps import goal_reaching_experiment, guided_change_survival
+from repro.infra.paths import data_stubs_dir
+from repro.models.evaluator import EvaluatorConfig, train_evaluator
+
+SEEDS = list(range(8))
+
+
+@pytest.fixture(scope="module")
+def windows() -> MotionWindows:
+    return load_windows(DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=8))
+
+
+@pytest.fixture(scope="module")
+def exact_models(windows: MotionWindows) -> dict:
+    """What the A3 controls read of the trajectory x0 models (diffusion, space, spec)."""
+    spec = GMDModelSpec(prediction="x0", diffusion_steps=20, data=DataConfig(frames=32))
+    space = windows.space("trajectory")
+    from repro.gmd.models import TrainedGMD
+
+    base = TrainedGMD(torch.nn.Linear(1, 1), spec.diffusion(), space, spec)
+    return {("trajectory", "x0", s): base for s in SEEDS}
+
+
+def _mean(values: list) -> float:
+    return float(np.mean(values))
+
+
+# --- exact planting -------------------------------------------------------------------------
+
+def test_scale_world_scales_joints_jerk_and_foot_skating_exactly(windows: MotionWindows) -> None:
+    space = windows.space("motion")
+    x = windows.x[:6]
+    joints = space.joints(x).double()
+    np.testing.assert_allclose(space.joints(controls.scale_world(space, x, 1.1)).double(),
+                               1.1 * joints, rtol=1e-4, atol=1e-4)
+    assert jitter_of(space, controls.scale_world(space, x, 1.1)).jerk == pytest.approx(
+        1.1 * jitter_of(space, x).jerk, rel=1e-3)
+    horizontal = controls.scale_world(space, x, 1 / 0.9, horizontal_only=True)
+    np.testing.assert_allclose(space.joints(horizontal)[..., 1].double(), joints[..., 1],
+                               atol=1e-4)
+    assert coherence(space, horizontal)["foot_skating"] == pytest.approx(
+        coherence(space, x)["foot_skating"] / 0.9, rel=1e-3)
+
+
+def test_plant_undone_guidance_sets_goal_error_and_survival_exactly(exact_models) -> None:
+    exact = controls.exact_model(exact_models[("trajectory", "x0", 0)])
+    targets = np.array([[1.0, 2.0], [-0.5, 1.5], [0.3, -1.0]], np.float32)
+    run = goal_reaching_experiment(exact, targets, seed=5, clip_x0=None)
+    planted = controls.plant_undone_guidance(run, goal_factor=1 / 0.9, survival_drop=0.1)
+    np.testing.assert_allclose(planted.error_guided, run.error_guided / 0.9, rtol=1e-4)
+    assert planted.survival == pytest.approx(run.survival - 0.1, abs=1e-4)
+    assert guided_change_survival(planted.space, planted.x0_guided_at_stop,
+                                  planted.x0_unguided_at_stop, planted.guided,
+                                  planted.unguided) == pytest.approx(planted.survival)
+
+
+def test_calibrate_increasing_finds_the_size() -> None:
+    assert controls.calibrate_increasing(lambda a: 1 + a * a, 1.21, high=0.05) == pytest.approx(
+        0.1 * np.sqrt(21), rel=1e-6)
+    assert controls.calibrate_increasing(lambda a: 2 + a, 1.1, high=1.0) == 0.0
+
+
+# --- the null has no effect, the positive the registered one --------------------------------
+
+def test_c4_null_arms_are_equal_in_expectation_and_positive_plants_a_tenth(
+        windows: MotionWindows) -> None:
+    result = controls.c4_controls(windows, SEEDS, (1, 10), n=6)
+    for v in ("1", "10"):
+        loss = np.asarray(result.null["foot_skating_loss_scaling"][v])
+        emphasis = np.asarray(result.null["foot_skating_emphasis"][v])
+        difference = loss - emphasis
+        assert abs(difference.mean()) < 3 * difference.std(ddof=1) / np.sqrt(len(SEEDS))
+        planted = np.asarray(result.positive["foot_skating_loss_scaling"][v])
+        np.testing.assert_allclose(planted, loss / 0.9, rtol=1e-3)  # δ: 10 % of loss's arm
+        assert result.positive["foot_skating_emphasis"][v] == list(emphasis)
+
+
+def test_a3_null_is_equal_in_expectation_and_positive_plants_delta(windows, exact_models
+                                                                   ) -> None:
+    result = controls.a3_controls(exact_models, windows, SEEDS[:4], goals=3, min_distance=0.0)
+    null, positive = result.null, result.positive
+    np.testing.assert_allclose(positive["goal_error_x0"], np.asarray(null["goal_error_x0"]) / 0.9,
+                               rtol=1e-4)
+    np.testing.assert_allclose(positive["guided_change_survival_x0"],
+                               np.asarray(null["guided_change_survival_x0"]) - 0.1, atol=1e-4)
+    assert positive["goal_error_eps"] == null["goal_error_eps"]
+    gap = np.asarray(null["goal_error_x0"]) - np.asarray(null["goal_error_eps"])
+    assert abs(gap.mean()) < 4 * gap.std(ddof=1) / 2 + 1e-9
+
+
+@pytest.fixture(scope="module")
+def evaluator(windows: MotionWindows):
+    features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
+    return train_evaluator(features, lengths, windows.captions,
+                           EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16))
+
+
+def test_a4_positive_plants_the_jitter_and_fid_ratios(windows: MotionWindows, evaluator) -> None:
+    features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
+    test_embeddings = evaluator.embed_motions(features, lengths)
+    result = controls.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
+                                  test_embeddings=test_embeddings, calibration_draws=2)
+    assert result.planted["calibrated_jerk_ratio"] == pytest.approx(1.1, rel=1e-3)
+    assert result.planted["calibrated_fid_ratio"] == pytest.approx(1.1, rel=1e-3)
+    jerk = _mean(result.positive["motion_jitter_eps"]) / _mean(result.null["motion_jitter_eps"])
+    assert jerk == pytest.approx(1.1, rel=0.05)  # on the control's own draws: measured size
+    assert result.positive["motion_jitter_x0"] == result.null["motion_jitter_x0"]
+    assert result.positive["trajectory_jitter_eps"] == result.null["trajectory_jitter_eps"]
+    assert metrics.fid(test_embeddings, test_embeddings) == pytest.approx(0.0, abs=1e-6)
+
+
+# --- decisions: a clearly larger planted effect is seen, the null never fires ---------------
+
+def test_c4_decision_sees_a_large_planted_effect(windows: MotionWindows) -> None:
+    claim = get_claim("GMD-C4")
+    big = controls.c4_controls(windows, SEEDS, (1, 2, 5, 10), n=8, factor=4.0)
+    assert claim.decide(big.positive).verdict == REPRODUCED
+    assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
+
+
+def test_a3_decision_sees_a_large_planted_effect(windows, exact_models) -> None:
+    claim = get_claim("GMD-A3")
+    big = controls.a3_controls(exact_models, windows, SEEDS[:5], goals=3, min_distance=0.0,
+                               goal_factor=3.0, survival_drop=0.8)
+    assert claim.decide(big.positive).verdict == REPRODUCED
+    assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
+
+
+def test_a4_decision_sees_a_large_planted_effect(windows: MotionWindows, evaluator) -> None:
+    claim = get_claim("GMD-A4")
+    features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
+    big = controls.a4_controls(windows, SEEDS, n=16, evaluator=evaluator,
+                               test_embeddings=evaluator.embed_motions(features, lengths),
+                               calibration_draws=2, factor=3.0)
+    assert claim.decide(big.positive).verdict == REPRODUCED
+    assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
