@@ -14,7 +14,7 @@ controls=...)`` decides both with the claim's own rule.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,6 +23,7 @@ import torch
 from torch import Tensor, nn
 
 from repro.core.diffusion import GaussianDiffusion
+from repro.core.tables import markdown_table
 from repro.gmd.emphasis_study import coherence
 from repro.gmd.guidance import goal_error
 from repro.gmd.measurements import jitter_of
@@ -33,7 +34,7 @@ from repro.motion.features import FEATURE_BLOCKS
 
 __all__ = ["CONTROL_SEED_BASE", "Controls", "ExactGaussianDenoiser", "a3_controls",
            "a4_controls", "c4_controls", "calibrate_increasing", "control_seed",
-           "exact_model", "plant_undone_guidance", "scale_world"]
+           "controls_markdown", "exact_model", "plant_undone_guidance", "scale_world"]
 
 #: control randomness lives far from the experiments' seeds (0, 1, 2, …)
 CONTROL_SEED_BASE = 1_000_000
@@ -55,9 +56,21 @@ class Controls:
     null: dict[str, Any]
     positive: dict[str, Any]
     planted: dict[str, Any] = field(default_factory=dict)
+    #: what each control's arms are, in words rendered from the planted sizes
+    null_text: str = ""
+    positive_text: str = ""
 
     def as_controls(self) -> dict[str, dict[str, Any]]:
         return {"positive": self.positive, "null": self.null}
+
+
+def controls_markdown(controls: Controls, verdicts: Mapping[str, str]) -> str:
+    """The two controls beside a verdict: what each is, its verdict under the claim's rule
+    (``verdicts``: "positive"/"null" → verdict) and what it must come out as."""
+    rows = [["positive", controls.positive_text, verdicts["positive"], "reproduced"],
+            ["null", controls.null_text, verdicts["null"],
+             "neither reproduced nor partially"]]
+    return markdown_table(["control", "arms", "verdict (same rule)", "must be"], rows)
 
 
 def control_seed(seed: int, arm: int, stream: int = 0) -> int:
@@ -214,7 +227,11 @@ def a3_controls(models: dict[tuple[str, str, int], TrainedGMD], test: MotionWind
                     positive=_a3_measured(planted, eps_runs),
                     planted={"goal_error_factor_x0": goal_factor,
                              "survival_drop_x0": survival_drop,
-                             "model": "exact smooth-Gaussian x0 model, independent noise per arm"})
+                             "model": "exact smooth-Gaussian x0 model, independent noise per arm"},
+                    null_text=(f"the exact smooth-Gaussian model guided toward the same goals "
+                               f"in both arms, independent noise, {len(seeds)} seed(s)"),
+                    positive_text=(f"the same runs; the x0 arm's goal errors × {goal_factor:.3g} "
+                                   f"and its survival − {survival_drop:g} (exact)"))
 
 
 # --- GMD-A4: the data as the model, jitter and FID planted in the ε arm ---------------------
@@ -301,7 +318,14 @@ def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator
                              "calibrated_fid_ratio": fid_ratio(size),
                              "fid_ratio_of_noise_alone": fid_ratio(0.0),
                              "calibration_draws": calibration_draws,
-                             "model": f"{n} training windows per arm and seed"})
+                             "model": f"{n} training windows per arm and seed"},
+                    null_text=(f"{n} training windows per arm, independent draws, "
+                               f"{len(seeds)} seed(s)"),
+                    positive_text=(f"the same draws; the ε motion arm jagged (white noise of "
+                                   f"{1000 * amplitude:.3g} mm on every joint position: jerk × "
+                                   f"{jerk_ratio(amplitude):.3g}) and its non-joint features "
+                                   f"shifted (FID × {fid_ratio(size):.3g}), measured on "
+                                   f"{calibration_draws} calibration draws"))
 
 
 # --- GMD-C4: the data as the model, foot skating planted in the loss-scaling arm -----------
@@ -334,4 +358,9 @@ def c4_controls(test: MotionWindows, seeds: Sequence[int], values: Sequence[floa
                 out["foot_skating_emphasis"][key].append(skating)
     return Controls(null=null, positive=positive,
                     planted={"foot_skating_factor_loss_scaling": factor,
-                             "model": f"{n} test windows per arm, value and seed"})
+                             "model": f"{n} test windows per arm, value and seed"},
+                    null_text=(f"{n} test windows per arm, value and seed, independent draws, "
+                               f"{len(seeds)} seed(s)"),
+                    positive_text=(f"the same draws; the loss-scaling arm's motion stretched "
+                                   f"horizontally × {factor:.3g} (foot skating × {factor:.3g}, "
+                                   f"exact)"))
