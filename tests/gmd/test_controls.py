@@ -70,6 +70,12 @@ def test_plant_undone_guidance_sets_goal_error_and_survival_exactly(exact_models
                                   planted.unguided) == pytest.approx(planted.survival)
 
 
+def test_control_seeds_are_distinct_across_streams_seeds_and_arms() -> None:
+    seeds = {controls.control_seed(s, a, stream=k) for s in range(50) for a in range(10)
+             for k in range(40)}
+    assert len(seeds) == 50 * 10 * 40 and min(seeds) >= controls.CONTROL_SEED_BASE
+
+
 def test_calibrate_increasing_finds_the_size() -> None:
     assert controls.calibrate_increasing(lambda a: 1 + a * a, 1.21, high=0.05) == pytest.approx(
         0.1 * np.sqrt(21), rel=1e-6)
@@ -136,7 +142,7 @@ def test_c4_decision_sees_a_large_planted_effect(windows: MotionWindows) -> None
 
 def test_a3_decision_sees_a_large_planted_effect(windows, exact_models) -> None:
     claim = get_claim("GMD-A3")
-    big = controls.a3_controls(exact_models, windows, SEEDS[:5], goals=3, min_distance=0.0,
+    big = controls.a3_controls(exact_models, windows, SEEDS, goals=8, min_distance=0.0,
                                goal_factor=3.0, survival_drop=0.8)
     assert claim.decide(big.positive).verdict == REPRODUCED
     assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
@@ -150,3 +156,52 @@ def test_a4_decision_sees_a_large_planted_effect(windows: MotionWindows, evaluat
                                calibration_draws=2, factor=3.0)
     assert claim.decide(big.positive).verdict == REPRODUCED
     assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
+
+
+# --- GMD-B2 and GMD-F1 -------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def location_tasks(windows: MotionWindows) -> dict:
+    from repro.gmd.root_representation import location_task
+
+    return {s: location_task(windows, 6, seed=s) for s in SEEDS}
+
+
+def test_b2_null_sits_at_the_threshold_and_positive_plants_delta(windows, location_tasks
+                                                                 ) -> None:
+    result = controls.b2_controls(windows, location_tasks, SEEDS)
+    rel, abs_ = (np.asarray(result.null[f"{k}_location_error"]) for k in ("rel", "abs"))
+    # E‖d‖ = 0.1 m in both arms: 8 seeds × 12 offsets, σ = 0.1/√(π/2): SE ≈ 0.05/√96 m
+    assert rel.mean() == pytest.approx(0.1, abs=0.02) and abs_.mean() == pytest.approx(0.1,
+                                                                                     abs=0.02)
+    np.testing.assert_allclose(result.positive["abs_location_error"], 0.9 * abs_, rtol=1e-4)
+    assert result.positive["rel_location_error"] == list(rel)
+
+
+def test_b2_decision_sees_a_large_planted_effect(windows, location_tasks) -> None:
+    claim = get_claim("GMD-B2")
+    big = controls.b2_controls(windows, location_tasks, SEEDS, abs_factor=0.3)
+    assert claim.decide(big.positive).verdict == REPRODUCED
+    assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
+
+
+def test_f1_arms_carry_the_planted_factors_exactly(windows: MotionWindows) -> None:
+    space = windows.space("trajectory")
+    x = windows.trajectory()[:5]
+    targets = np.array([[1.0, 2.0]] * 5, np.float32)
+    planted = controls._planted_path(space, x, targets, jerk_factor=1.4, goal_factor=0.45)
+    assert jitter_of(space, planted).jerk == pytest.approx(1.4 * jitter_of(space, x).jerk,
+                                                           rel=1e-3)
+    from repro.gmd.guidance import goal_error
+
+    np.testing.assert_allclose(goal_error(space, planted, targets),
+                               0.45 * goal_error(space, x, targets), rtol=1e-4)
+
+
+def test_f1_decision_sees_a_large_planted_effect_and_null_does_not_fire(windows) -> None:
+    claim = get_claim("GMD-F1")
+    base = controls.f1_controls(windows, SEEDS, (100, 150, 200), goals=6, min_distance=0.0)
+    assert claim.decide(base.null).verdict not in (REPRODUCED, PARTIAL)
+    big = controls.f1_controls(windows, SEEDS, (100, 150, 200), goals=16, min_distance=0.0,
+                               margin=6.0)
+    assert claim.decide(big.positive).verdict == REPRODUCED

@@ -26,14 +26,17 @@ from repro.core.diffusion import GaussianDiffusion
 from repro.core.tables import markdown_table
 from repro.gmd.emphasis_study import coherence
 from repro.gmd.guidance import goal_error
+from repro.gmd.guidance_schedule import strength_key
 from repro.gmd.measurements import jitter_of
 from repro.gmd.models import TrainedGMD
+from repro.gmd.root_representation import location_errors
 from repro.gmd.windows import FeatureSpace, MotionWindows, goal_targets
 from repro.gmd.x0_vs_eps import GoalReachingResult, goal_reaching_experiment, motion_fid
 from repro.motion.features import FEATURE_BLOCKS
 
 __all__ = ["CONTROL_SEED_BASE", "Controls", "ExactGaussianDenoiser", "a3_controls",
-           "a4_controls", "c4_controls", "calibrate_increasing", "control_seed",
+           "a4_controls", "b2_controls", "c4_controls", "calibrate_increasing", "control_seed",
+           "f1_controls",
            "controls_markdown", "exact_model", "plant_undone_guidance", "scale_world"]
 
 #: control randomness lives far from the experiments' seeds (0, 1, 2, …)
@@ -74,9 +77,9 @@ def controls_markdown(controls: Controls, verdicts: Mapping[str, str]) -> str:
 
 
 def control_seed(seed: int, arm: int, stream: int = 0) -> int:
-    """The sampling/draw seed of one control arm: independent of the experiment's seeds and
-    of the other arm."""
-    return CONTROL_SEED_BASE + 1000 * stream + 2 * int(seed) + arm
+    """The sampling/draw seed of one control arm (``arm`` < 100, ``seed`` < 1000): distinct
+    for every stream, seed and arm, and apart from the experiment's seeds."""
+    return CONTROL_SEED_BASE + 100_000 * stream + 100 * int(seed) + arm
 
 
 def calibrate_increasing(effect: Callable[[float], float], target: float, *, high: float,
@@ -364,3 +367,143 @@ def c4_controls(test: MotionWindows, seeds: Sequence[int], values: Sequence[floa
                     positive_text=(f"the same draws; the loss-scaling arm's motion stretched "
                                    f"horizontally × {factor:.3g} (foot skating × {factor:.3g}, "
                                    f"exact)"))
+
+
+# --- GMD-B2: constructed samples with known location errors -------------------------------
+
+#: E‖d‖ of d ~ N(0, σ²I₂) is σ·√(π/2): the σ that gives a mean location error r̄ is r̄/√(π/2)
+_RAYLEIGH_MEAN = float(np.sqrt(np.pi / 2))
+
+
+def _located(space: FeatureSpace, x: Tensor, frames: Sequence[int], targets: np.ndarray,
+             offsets: np.ndarray) -> Tensor:
+    """x with its root x/z at ``frames`` set to ``targets`` + ``offsets`` (n, len(frames), 2)."""
+    features = space.unnormalise(x.detach()).clone()
+    placed = torch.as_tensor(targets + offsets, dtype=features.dtype)
+    for k, f in enumerate(frames):
+        features[:, f, [_ROOT_X, _ROOT_Z]] = placed[:, k]
+    return space.normalise(features)
+
+
+def b2_controls(test: MotionWindows, tasks: Mapping[int, Any], seeds: Sequence[int], *,
+                mean_error: float = 0.1, abs_factor: float = 0.9) -> Controls:
+    """GMD-B2's controls: constructed samples whose location errors are known, measured with
+    the experiment's ``root_representation.location_errors`` (mean over samples and the two
+    target frames). Each arm is a draw of test trajectories (as many as the seed's task has
+    targets) with the root at the waypoint and goal frames placed at the target plus a
+    Gaussian offset d ~ N(0, σ²I₂), σ = ``mean_error``/√(π/2), so E‖d‖ = ``mean_error``.
+
+    Null: both arms at 0.1 m (equal arms; the abs arm exactly at part 2's 10 cm threshold).
+    Positive: the same draws with the abs arm's offsets × 0.9 — abs error 0.09 m: rel − abs =
+    0.01 m = 10 % of rel's (part 1's δ) and 0.1 m − abs = 1 cm (part 2's δ), in expectation.
+    Tests plant larger effects through ``abs_factor``."""
+    space = test.space("trajectory")
+    sigma = mean_error / _RAYLEIGH_MEAN
+    null: dict[str, list[float]] = {"rel_location_error": [], "abs_location_error": []}
+    positive: dict[str, list[float]] = {"rel_location_error": [], "abs_location_error": []}
+    for s in seeds:
+        task = tasks[s]
+        frames = list(task.frames)
+        arms = {}
+        for k, name in enumerate(("rel", "abs")):
+            x = test.trajectory()[_draw(test, task.n, control_seed(s, k, stream=20))]
+            offsets = sigma * np.random.default_rng(control_seed(s, k, stream=21)).standard_normal(
+                (task.n, len(frames), 2))
+            arms[name] = (x, offsets)
+        for out, factor in ((null, 1.0), (positive, abs_factor)):
+            for name, scale in (("rel", 1.0), ("abs", factor)):
+                x, offsets = arms[name]
+                placed = _located(space, x, frames, task.targets, scale * offsets)
+                out[f"{name}_location_error"].append(
+                    float(location_errors(space, placed, task).mean()))
+    return Controls(null=null, positive=positive,
+                    planted={"mean_location_error_m": mean_error, "abs_offset_factor": abs_factor},
+                    null_text=(f"test trajectories placed at the targets + Gaussian offsets of "
+                               f"mean length {mean_error:g} m in both arms, independent draws, "
+                               f"{len(seeds)} seed(s)"),
+                    positive_text=(f"the same draws; the abs arm's offsets × {abs_factor:g} "
+                                   f"(mean {abs_factor * mean_error:.3g} m)"))
+
+
+# --- GMD-F1: the data as the model, strength and stop effects planted ----------------------
+
+def _planted_path(space: FeatureSpace, x: Tensor, targets: np.ndarray, *, jerk_factor: float,
+                  goal_factor: float) -> Tensor:
+    """Trajectories (B, 4, T) whose root jerk is ``jerk_factor`` × theirs (the root path
+    scaled: jerk is linear in positions) and whose goal errors are ``goal_factor`` × theirs
+    (the whole path then translated so its last frame lies at g + goal_factor·(p_last − g);
+    a translation leaves the jerk unchanged)."""
+    with torch.no_grad():
+        last = space.root_xz(x)[:, -1].double()
+        scaled = scale_world(space, x, jerk_factor)
+        goal = torch.as_tensor(targets, dtype=torch.float64)
+        shift = goal + goal_factor * (last - goal) - space.root_xz(scaled)[:, -1].double()
+        features = space.unnormalise(scaled).clone()
+        features[..., [_ROOT_X, _ROOT_Z]] += shift[:, None, :].to(features.dtype)
+    return space.normalise(features)
+
+
+def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[float], *,
+                goals: int, min_distance: float, margin: float = 1.0) -> Controls:
+    """GMD-F1's controls: test trajectories toward the experiment's goals stand in for the
+    samples, measured as ``guidance_schedule.sweep_strengths`` measures them (mean goal error
+    of the last frame, root jerk). Every arm is an independent draw; the unguided and the
+    stop-0 arms are left as drawn, each other arm is built by :func:`_planted_path`.
+
+    Null (every part exactly at its threshold, no effect): each strength's arm with goal
+    errors × 0.5 and jerk × 1.5; the stop-20 arm with jerk × 1 and goal errors × 1.2.
+    Positive (every part beyond its threshold by δ): goal errors × 0.45 (0.5·unguided −
+    guided = 5 % of unguided), jerk × 1.4 (10 %), the stop-20 arm's jerk × 0.95 (5 % of stop
+    0) and goal errors × 1.15 (5 %). The worst of the three strengths is taken over
+    independent arms, so the planted effect on "worst" is at most δ. Tests plant larger
+    effects through ``margin`` (a multiple of every δ)."""
+    space = test.space("trajectory")
+    sizes = {"null": (0.5, 1.5, 1.0, 1.2),
+             "positive": (0.5 - 0.05 * margin, 1.5 - 0.1 * margin, 1 - 0.05 * margin,
+                          1.2 - 0.05 * margin)}
+    out: dict[str, dict[str, Any]] = {
+        kind: {"goal_error_unguided": [], "jitter_unguided": [],
+               "goal_error_by_strength": {strength_key(v): [] for v in (0, *strengths)},
+               "jitter_by_strength": {strength_key(v): [] for v in (0, *strengths)},
+               "jitter_stop_0": [], "jitter_stop_20": [], "goal_error_stop_0": [],
+               "goal_error_stop_20": []} for kind in sizes}
+
+    def measure(x: Tensor, targets: np.ndarray) -> tuple[float, float]:
+        return (float(goal_error(space, x, targets).mean()), float(jitter_of(space, x).jerk))
+
+    for s in seeds:
+        targets = goal_targets(test, goals, seed=s, min_distance=min_distance)
+        arm = {name: test.trajectory()[_draw(test, goals, control_seed(s, k, stream=30))]
+               for k, name in enumerate(("unguided", "stop_0", "stop_20",
+                                         *(strength_key(v) for v in strengths)))}
+        unguided, stop_0 = measure(arm["unguided"], targets), measure(arm["stop_0"], targets)
+        for kind, (goal_f, jerk_f, stop_jerk_f, stop_goal_f) in sizes.items():
+            m = out[kind]
+            for key, (g, j) in (("unguided", unguided), ("stop_0", stop_0)):
+                m["goal_error_unguided" if key == "unguided" else "goal_error_stop_0"].append(g)
+                m["jitter_unguided" if key == "unguided" else "jitter_stop_0"].append(j)
+            m["goal_error_by_strength"]["0"].append(unguided[0])
+            m["jitter_by_strength"]["0"].append(unguided[1])
+            for v in strengths:
+                g, j = measure(_planted_path(space, arm[strength_key(v)], targets,
+                                             jerk_factor=jerk_f, goal_factor=goal_f), targets)
+                m["goal_error_by_strength"][strength_key(v)].append(g)
+                m["jitter_by_strength"][strength_key(v)].append(j)
+            g, j = measure(_planted_path(space, arm["stop_20"], targets, jerk_factor=stop_jerk_f,
+                                         goal_factor=stop_goal_f), targets)
+            m["goal_error_stop_20"].append(g)
+            m["jitter_stop_20"].append(j)
+    null_f, pos_f = sizes["null"], sizes["positive"]
+    return Controls(null=out["null"], positive=out["positive"],
+                    planted={"null": dict(zip(("goal", "jerk", "stop_jerk", "stop_goal"), null_f,
+                                              strict=True)),
+                             "positive": dict(zip(("goal", "jerk", "stop_jerk", "stop_goal"),
+                                                  pos_f, strict=True)),
+                             "model": f"{goals} test trajectories per arm and seed"},
+                    null_text=(f"{goals} test trajectories per arm (independent draws, "
+                               f"{len(seeds)} seed(s)), every part at its threshold: guided "
+                               f"goal error × {null_f[0]:g}, jerk × {null_f[1]:g}; stop 20: jerk "
+                               f"× {null_f[2]:g}, goal error × {null_f[3]:g} (exact)"),
+                    positive_text=(f"the same draws beyond every threshold by δ: guided goal "
+                                   f"error × {pos_f[0]:.3g}, jerk × {pos_f[1]:.3g}; stop 20: "
+                                   f"jerk × {pos_f[2]:.3g}, goal error × {pos_f[3]:.3g} (exact)"))
