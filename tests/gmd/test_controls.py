@@ -80,6 +80,8 @@ def test_calibrate_increasing_finds_the_size() -> None:
     assert controls.calibrate_increasing(lambda a: 1 + a * a, 1.21, high=0.05) == pytest.approx(
         0.1 * np.sqrt(21), rel=1e-6)
     assert controls.calibrate_increasing(lambda a: 2 + a, 1.1, high=1.0) == 0.0
+    assert controls.calibrate_increasing(lambda a: 1 - 1 / (1 + a), 2.0, high=1.0,
+                                         doublings=3) == 8.0  # never reached: the largest
 
 
 # --- the null has no effect, the positive the registered one --------------------------------
@@ -156,6 +158,9 @@ def test_a4_decision_sees_a_large_planted_effect(windows: MotionWindows, evaluat
                                calibration_draws=2, factor=3.0)
     assert claim.decide(big.positive).verdict == REPRODUCED
     assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
+    for name in ("motion_jitter", "motion_fid", "trajectory_jitter"):  # null: equal arms
+        gap = np.asarray(big.null[f"{name}_eps"]) - np.asarray(big.null[f"{name}_x0"])
+        assert abs(gap.mean()) < 3 * gap.std(ddof=1) / np.sqrt(len(gap))
 
 
 # --- GMD-B2 and GMD-F1 -------------------------------------------------------------------
@@ -202,6 +207,10 @@ def test_f1_decision_sees_a_large_planted_effect_and_null_does_not_fire(windows)
     claim = get_claim("GMD-F1")
     base = controls.f1_controls(windows, SEEDS, (100, 150, 200), goals=6, min_distance=0.0)
     assert claim.decide(base.null).verdict not in (REPRODUCED, PARTIAL)
+    null = base.null  # each guided arm at the threshold: 0.5·unguided − guided ≈ 0
+    gap = 0.5 * np.asarray(null["goal_error_unguided"]) - np.asarray(
+        null["goal_error_by_strength"]["100"])
+    assert abs(gap.mean()) < 3 * gap.std(ddof=1) / np.sqrt(len(gap))
     big = controls.f1_controls(windows, SEEDS, (100, 150, 200), goals=16, min_distance=0.0,
                                margin=6.0)
     assert claim.decide(big.positive).verdict == REPRODUCED

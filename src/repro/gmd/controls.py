@@ -36,8 +36,8 @@ from repro.motion.features import FEATURE_BLOCKS
 
 __all__ = ["CONTROL_SEED_BASE", "Controls", "ExactGaussianDenoiser", "a3_controls",
            "a4_controls", "b2_controls", "c4_controls", "calibrate_increasing", "control_seed",
-           "f1_controls",
-           "controls_markdown", "exact_model", "plant_undone_guidance", "scale_world"]
+           "controls_markdown", "exact_model", "f1_controls", "plant_undone_guidance",
+           "scale_world"]
 
 #: control randomness lives far from the experiments' seeds (0, 1, 2, …)
 CONTROL_SEED_BASE = 1_000_000
@@ -83,14 +83,20 @@ def control_seed(seed: int, arm: int, stream: int = 0) -> int:
 
 
 def calibrate_increasing(effect: Callable[[float], float], target: float, *, high: float,
-                         iterations: int = 30) -> float:
+                         iterations: int = 30, doublings: int = 20) -> float:
     """The size a ≥ 0 with ``effect(a)`` = ``target`` by bisection on [0, high], for an
-    ``effect`` that grows with a (0 when effect(0) ≥ target: nothing left to plant)."""
+    ``effect`` that grows with a (0 when effect(0) ≥ target: nothing left to plant). ``high``
+    is doubled until it reaches the target, at most ``doublings`` times (then the largest size
+    tried is returned: the caller records the effect it reached)."""
     if effect(0.0) >= target:
         return 0.0
     low = 0.0
-    while effect(high) < target:
+    for _ in range(doublings):
+        if effect(high) >= target:
+            break
         low, high = high, 2 * high
+    else:
+        return high
     for _ in range(iterations):
         middle = 0.5 * (low + high)
         low, high = (middle, high) if effect(middle) < target else (low, middle)
@@ -507,3 +513,4 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                     positive_text=(f"the same draws beyond every threshold by δ: guided goal "
                                    f"error × {pos_f[0]:.3g}, jerk × {pos_f[1]:.3g}; stop 20: "
                                    f"jerk × {pos_f[2]:.3g}, goal error × {pos_f[3]:.3g} (exact)"))
+
