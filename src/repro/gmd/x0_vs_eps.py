@@ -31,7 +31,7 @@ from repro.models.evaluator import Evaluator, EvaluatorConfig
 
 __all__ = ["CLAMPS", "PREDICTIONS", "GoalReachingResult", "SampleQuality", "Settings",
            "clamp_sensitivity", "goal_error_kept", "goal_reaching_experiment",
-           "goal_reaching_study", "guided_change_survival", "sample_quality"]
+           "goal_reaching_study", "guided_change_survival", "motion_fid", "sample_quality"]
 
 
 def guided_change_survival(space: TrainedGMD | FeatureSpace, x0_guided_at_stop: Tensor,
@@ -253,6 +253,14 @@ CLAMPS: dict[str, float | None | str] = {"ours: ±max|x|": "registered",
                                          "GMD's constant: ±6": 6.0, "no clamp": None}
 
 
+def motion_fid(space: TrainedGMD | FeatureSpace, x: Tensor, evaluator: Evaluator,
+               test_embeddings: np.ndarray) -> float:
+    """FID (``metrics.fid``) of motion-task samples (B, 263, T) against ``test_embeddings``,
+    through the evaluator's embedding of their relative-root features."""
+    features, lengths = evaluator_inputs(space, x)
+    return float(metrics.fid(evaluator.embed_motions(features, lengths), test_embeddings))
+
+
 @dataclass
 class SampleQuality:
     """GMD-A4: per-seed lists ``values[name]`` (names as registered, e.g. ``motion_jitter_eps``)
@@ -277,13 +285,12 @@ def sample_quality(models: dict[tuple[str, str, int], TrainedGMD], seeds: Sequen
             motion_model = models[("motion", prediction, s)]
             x = sample(motion_model, n, seed=s)
             jitter = jitter_of(motion_model, x)
-            features, lengths = evaluator_inputs(motion_model, x)
             values[f"motion_jitter_{tag}"].append(float(jitter.jerk))
             values[f"motion_acceleration_{tag}"].append(float(jitter.acceleration))
             values[f"motion_root_jitter_{tag}"].append(
                 float(jitter_of(motion_model, x, "root").jerk))
-            values[f"motion_fid_{tag}"].append(float(metrics.fid(
-                evaluator.embed_motions(features, lengths), test_embeddings)))
+            values[f"motion_fid_{tag}"].append(motion_fid(motion_model, x, evaluator,
+                                                          test_embeddings))
             values[f"motion_foot_skating_{tag}"].append(float(foot_skating_of(motion_model, x)))
             trajectory_model = models[("trajectory", prediction, s)]
             trajectories = sample(trajectory_model, n, seed=s)
