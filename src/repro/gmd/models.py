@@ -268,11 +268,14 @@ def load_or_train_many(specs: Sequence[GMDModelSpec], data: MotionWindows, *,
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
+        from repro.infra.lifetime import die_with_parent
+
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(min(workers, len(missing)), mp_context=context) as pool:
+        # a worker dies with its kernel (an out-of-memory kill included), never outlives it
+        with ProcessPoolExecutor(min(workers, len(missing)), mp_context=context,
+                                 initializer=die_with_parent) as pool:
             list(pool.map(_train_in_worker, missing, [data.fingerprint] * len(missing)))
     return [load_or_train_gmd(spec, data, device=device) for spec in specs]
-
 
 
 def describe(spec: GMDModelSpec) -> str:
