@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from repro.claims.registry import get_claim
+from repro.core import tables
 from repro.energymogen.config import ARM_CONCEPTS, LOWER_CONCEPTS
 from repro.energymogen.data import composition_items, negation_items, stand_in_clip
 from repro.energymogen.energy import map_similarity
@@ -38,9 +38,10 @@ from repro.energymogen.studies import _pair_index, _per_pair_mean, composition_m
 from repro.models.evaluator import evaluate_generated
 from repro.standin.oracles import detect_concepts
 
-__all__ = ["CONTROL_STREAM", "augmentation_controls", "composition_controls",
-           "energy_map_controls", "latent_count_controls", "sef_controls",
-           "step_size_controls", "swap_motions", "scale_movement"]
+__all__ = ["CONTROL_STREAM", "as_ledger_controls", "augmentation_controls",
+           "composition_controls", "controls_markdown", "energy_map_controls",
+           "latent_count_controls", "scale_movement", "sef_controls", "step_size_controls",
+           "swap_motions"]
 
 #: rng stream of every control (disjoint from the experiments' streams)
 CONTROL_STREAM = 13013
@@ -49,11 +50,6 @@ KINDS = ("positive", "null")
 
 def _rng(seed: int, claim: int, kind: str) -> np.random.Generator:
     return np.random.default_rng([CONTROL_STREAM, claim, KINDS.index(kind), seed])
-
-
-def _delta(claim_id: str, part: str) -> str:
-    """The registered δ reason of a part (for the calibration record)."""
-    return next(p.smallest_effect_reason for p in get_claim(claim_id).parts if p.name == part)
 
 
 # --- EMG-2 / EMG-3: oracle-measured rates on generator clips ------------------------------
@@ -74,8 +70,8 @@ def _neither(pair: tuple[str, ...]) -> str:
     return next(c for c in group if c not in pair)
 
 
-def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_case: int,
-                         stream: int = 2) -> dict[str, Any]:
+def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_case: int
+                         ) -> dict[str, dict[str, Any]]:
     """EMG-2/3's controls: the six rates of ``studies.composition_study`` measured by the same
     oracles on constructed sets of generator clips, per seed on that seed's items (the same
     composition items and negation cases and counts).
@@ -92,8 +88,10 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
     baseline) in the positive control, 0.9 in the null, and the kept concept with
     probability 1.1/2 (2·kept − baseline = δ = 10 % of the baseline) vs ½ (the null of
     "at least half its baseline"). The oracles find every pool concept in the ground truth,
-    so these probabilities are the planted rates. ``stream``: the claim's random stream (2 for
-    EMG-2, 3 for EMG-3: independent draws for the two claims).
+    so these probabilities are the planted rates.
+
+    Returns ``{"EMG-2": controls, "EMG-3": controls}``: the clips are generated once per seed
+    and shared by both claims and both controls; each arm's draws are independent.
     """
     names = ("conjunction_both_present", "best_single_concept_both_present",
              "negation_negated_present", "baseline_negated_present", "negation_kept_present",
@@ -101,20 +99,22 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
     plan = {"positive": {"conjunction": _BASE_BOTH + 0.1, "negated": _BASE_NEGATED * 0.9,
                          "kept": 1.1 / 2},
             "null": {"conjunction": _BASE_BOTH, "negated": _BASE_NEGATED, "kept": 0.5}}
-    out: dict[str, Any] = {kind: {n: [] for n in names} for kind in KINDS}
+    claims = {"EMG-2": 2, "EMG-3": 3}
+    out: dict[str, Any] = {c: {kind: {n: [] for n in names} for kind in KINDS} for c in claims}
     for seed in seeds:
         pipe = pipeline_for(source, seed)
         frames = pipe.data.frames
         items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
         pairs = _pair_index(items)
         neg = negation_items(seed, per_case)
-        for kind in KINDS:
-            rng, rates = _rng(seed, stream, kind), plan[kind]
-            has_both = np.array([bool(set(names_) <= detect_concepts(j))
-                                 for names_, j in zip(items.concepts, items.gt_joints,
-                                                      strict=True)])
-            alone = np.array([bool(set(c) <= detect_concepts(_clip_joints((c[0],), frames, rng)))
-                              for c in items.concepts])
+        clips = np.random.default_rng([CONTROL_STREAM, 23, seed])   # shared by both controls
+        has_both = np.array([bool(set(names_) <= detect_concepts(j))
+                             for names_, j in zip(items.concepts, items.gt_joints, strict=True)])
+        alone = np.array([bool(set(c) <= detect_concepts(_clip_joints((c[0],), frames, clips)))
+                          for c in items.concepts])
+        found = _negation_sets(neg, frames, clips)
+        for claim_id, kind in ((c, k) for c in claims for k in KINDS):
+            rng, rates = _rng(seed, claims[claim_id], kind), plan[kind]
 
             def arm(p: float, rng: np.random.Generator = rng, has_both: np.ndarray = has_both,
                     alone: np.ndarray = alone) -> np.ndarray:
@@ -123,18 +123,19 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
             single1 = arm(_BASE_BOTH)
             single2 = alone.copy()
             best = np.maximum(_per_pair_mean(single1, pairs), _per_pair_mean(single2, pairs))
-            m = out[kind]
+            m = out[claim_id][kind]
             m["conjunction_both_present"].append(float(arm(rates["conjunction"]).mean()))
             m["best_single_concept_both_present"].append(float(best.mean()))
-            found = _negation_sets(neg, frames, rng)
             base = _draw_negation(found, rng, negated=_BASE_NEGATED, kept=1.0)
             treated = _draw_negation(found, rng, negated=rates["negated"], kept=rates["kept"])
             m["negation_negated_present"].append(float(treated[:, 1].mean()))
             m["baseline_negated_present"].append(float(base[:, 1].mean()))
             m["negation_kept_present"].append(float(treated[:, 0].mean()))
             m["baseline_kept_present"].append(float(base[:, 0].mean()))
-    out["calibration"] = {"planted": plan, "single_concept_both_present": _BASE_BOTH,
-                          "baseline_negated_present": _BASE_NEGATED}
+    for claim_id in claims:
+        out[claim_id]["calibration"] = {"planted": plan,
+                                        "single_concept_both_present": _BASE_BOTH,
+                                        "baseline_negated_present": _BASE_NEGATED}
     return out
 
 
@@ -158,7 +159,8 @@ def _draw_negation(found: Mapping[str, np.ndarray], rng: np.random.Generator, *,
     concept alone; none: a third concept), the two drawn as independently as the rates allow
     (P(both) = max(0, negated + kept − 1), the rest split)."""
     both = max(0.0, negated + kept - 1.0)
-    probabilities = np.array([both, kept - both, negated - both, 1.0 - negated - kept + both])
+    probabilities = np.clip([both, kept - both, negated - both, 1.0 - negated - kept + both],
+                            0.0, 1.0)
     choice = rng.choice(4, size=len(found["pair"]), p=probabilities / probabilities.sum())
     stacked = np.stack([found["pair"], found["kept"], found["negated"], found["neither"]])
     return stacked[choice, np.arange(len(choice))]
@@ -203,7 +205,7 @@ def energy_map_controls(cases: Mapping[str, Sequence[Mapping[str, Any]]],
             out[kind][f"{case_kind}_similarity_to_multi"] = multi
             out[kind][f"{case_kind}_similarity_to_control"] = control
     out["calibration"] = {"planted_correlation": delta, "grid": grid,
-                          "reason": _delta("EMG-6", "conjunction")}
+                          "reason": "δ = 0.1 in Pearson r (registry v2)"}
     return out
 
 
@@ -340,10 +342,13 @@ def sef_controls(source: PipelineSource, seeds: Sequence[int]) -> dict[str, Any]
 # --- EMG-7: MPJPE and generation FID ------------------------------------------------------
 
 def _offset_height(features: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Test clips with their root height (feature 3) raised by ``offsets`` (per clip, m): every
-    recovered joint moves by exactly that much, so MPJPE is the mean |offset|."""
+    """Test clips raised by ``offsets`` (per clip, m): the root height (feature 3) and the y of
+    every stored joint position (features 4:67, which carry their own height), so every
+    recovered joint moves up by exactly that much and MPJPE is the mean |offset|."""
     out = np.array(features, copy=True)
-    out[:, :, 3] += offsets[:, None].astype(out.dtype)
+    lift = offsets[:, None].astype(out.dtype)
+    out[:, :, 3] += lift
+    out[:, :, 5:67:3] += lift[..., None]
     return out
 
 
@@ -463,3 +468,26 @@ def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
     out["calibration"] = {"plan": plan, "baseline_fid_expected": base_fid,
                           "baseline_r3_expected": base_r3}
     return out
+
+
+# --- reporting -----------------------------------------------------------------------------
+
+def as_ledger_controls(controls: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``controls=`` argument of ``record_claim``: the positive and null measurements."""
+    return {kind: controls[kind] for kind in KINDS}
+
+
+def controls_markdown(decisions: Mapping[str, Any]) -> str:
+    """A table of the two controls, ``decisions`` = kind → the claim's v2 decision of that
+    control (``get_claim(id).decide(controls[kind])``, what the ledger records beside the
+    verdict): control, what it must come out as, its verdict, passed or failed, its parts."""
+    expected = {"positive": "reproduced", "null": "neither reproduced nor partially"}
+    rows = []
+    for kind in KINDS:
+        decision = decisions[kind]
+        passed = (decision.verdict == "reproduced" if kind == "positive"
+                  else decision.verdict not in ("reproduced", "partially reproduced"))
+        rows.append([f"{kind} ({'registered δ planted' if kind == 'positive' else 'no effect'})",
+                     expected[kind], decision.verdict, "passed" if passed else "failed",
+                     decision.parts_in_words()])
+    return tables.markdown_table(["control", "must come out", "verdict", "", "parts"], rows)
