@@ -10,14 +10,14 @@ none (the compared arms come from one source, with independent randomness per se
 are set analytically or from a scale factor measured on the data before the arms are drawn
 (never by trying until a control passes); ``calibration`` records those numbers.
 
-The sample sets are built from the stand-in data ("the data itself as the model"):
-generator clips whose concepts the oracles detect (EMG-2/3), ground-truth test motions with
-a fraction of them swapped to another item's motion (R-precision drops linearly in that
-fraction) or with their body's movement scaled about its temporal mean (transition distance
-scales exactly), test clips with their root height offset (MPJPE is exactly the offset), and
-test clips with Gaussian feature noise (FID rises with its size; calibrated on a draw of its
-own). A control with one seed cannot decide a direction: in quick runs both controls come out
-inconclusive, and the claim with them.
+The sample sets are built from the stand-in data ("the data itself as the model"): training
+and ground-truth clips whose concepts the oracles detect (EMG-2/3), ground-truth test
+motions with a fraction of them swapped to another item's motion (R-precision drops linearly
+in that fraction) or with their body's movement scaled about its temporal mean (transition
+distance scales exactly), test clips with their root height offset (MPJPE is exactly the
+offset), and test clips with Gaussian feature noise (FID rises with its size; calibrated on
+a draw of its own). A control with one seed cannot decide a direction: in quick runs both
+controls come out inconclusive, and the claim with them.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 
 from repro.core import tables
-from repro.energymogen.config import ARM_CONCEPTS, LOWER_CONCEPTS
-from repro.energymogen.data import composition_items, negation_items, stand_in_clip
+from repro.energymogen.config import LOWER_CONCEPTS
+from repro.energymogen.data import composition_items, negation_items
 from repro.energymogen.energy import map_similarity
 from repro.energymogen.harness import TextToMotionTest
 from repro.energymogen.latent_count import mpjpe
@@ -60,14 +60,27 @@ _BASE_BOTH = 0.3
 _BASE_NEGATED = 0.9
 
 
-def _clip_joints(concepts: tuple[str, ...], frames: int, rng: np.random.Generator) -> np.ndarray:
-    return stand_in_clip(concepts, frames, rng)[1]
+class _TrainingClips:
+    """Training clips by their concepts (single concepts and trained pairs), drawn at random:
+    real stand-in motion whose concepts are known, without generating any."""
+
+    def __init__(self, pipe: EnergyMoGenPipeline) -> None:
+        self.pipe = pipe
+        self.index: dict[frozenset[str], list[int]] = {}
+        for i, names in enumerate(pipe.data.train_concepts):
+            self.index.setdefault(frozenset(names), []).append(i)
+
+    def found(self, concepts: Sequence[tuple[str, ...]], rng: np.random.Generator
+              ) -> list[set[str]]:
+        """The oracles' concepts of one random training clip of each concept set."""
+        picks = [int(rng.choice(self.index[frozenset(c)])) for c in concepts]
+        joints = self.pipe.joints(self.pipe.data.train_features[picks])
+        return [detect_concepts(j) for j in joints]
 
 
 def _neither(pair: tuple[str, ...]) -> str:
-    """A concept of neither of ``pair`` (the first of the pool not sharing its body group)."""
-    group = LOWER_CONCEPTS if pair[0] in LOWER_CONCEPTS else ARM_CONCEPTS
-    return next(c for c in group if c not in pair)
+    """A concept of neither of ``pair``: the first lower-body concept not in it."""
+    return next(c for c in LOWER_CONCEPTS if c not in pair)
 
 
 def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_case: int
@@ -77,18 +90,18 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
     composition items and negation cases and counts).
 
     Each item of an arm is, with a planted probability, the clip that has the measured
-    concept(s) (the item's ground-truth composed clip; for negation a generated clip of the
-    pair) and otherwise one that lacks it (a single-concept clip; the kept concept alone, the
+    concept(s) (the item's ground-truth composed clip; for negation a training clip of the pair)
+    and otherwise one that lacks it (a single-concept training clip; the kept concept alone, the
     negated concept alone or a third concept), drawn per item. Conjunction: concept 1's arm
-    holds both concepts with probability p₀ = 0.3 and concept 2's never, so "best single"
-    (per pair the better of the two, as the study) has mean p₀ with no max-of-two bias; the
+    holds both concepts with probability p₀ = 0.3 and concept 2's never, so "best single" (per
+    pair the better of the two, as the study) has mean p₀ with no max-of-two bias; the
     conjunction arm p₀ + δ (δ = 0.1) in the positive control, p₀ in the null. Negation: the
     baseline keeps the negated concept with probability 0.9 and the kept one always; the
     negation arm has the negated concept with probability 0.9·(1 − 0.1) (δ: 10 % of the
-    baseline) in the positive control, 0.9 in the null, and the kept concept with
-    probability 1.1/2 (2·kept − baseline = δ = 10 % of the baseline) vs ½ (the null of
-    "at least half its baseline"). The oracles find every pool concept in the ground truth,
-    so these probabilities are the planted rates.
+    baseline) in the positive control, 0.9 in the null, and the kept concept with probability
+    1.1/2 (2·kept − baseline = δ = 10 % of the baseline) vs ½ (the null of "at least half its
+    baseline"). The oracles find every pool concept in the ground truth, so these probabilities
+    are the planted rates.
 
     Returns ``{"EMG-2": controls, "EMG-3": controls}``: the clips are generated once per seed
     and shared by both claims and both controls; each arm's draws are independent.
@@ -103,16 +116,16 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
     out: dict[str, Any] = {c: {kind: {n: [] for n in names} for kind in KINDS} for c in claims}
     for seed in seeds:
         pipe = pipeline_for(source, seed)
-        frames = pipe.data.frames
+        pool = _TrainingClips(pipe)
         items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
         pairs = _pair_index(items)
         neg = negation_items(seed, per_case)
         clips = np.random.default_rng([CONTROL_STREAM, 23, seed])   # shared by both controls
         has_both = np.array([bool(set(names_) <= detect_concepts(j))
                              for names_, j in zip(items.concepts, items.gt_joints, strict=True)])
-        alone = np.array([bool(set(c) <= detect_concepts(_clip_joints((c[0],), frames, clips)))
-                          for c in items.concepts])
-        found = _negation_sets(neg, frames, clips)
+        singles = pool.found([(c[0],) for c in items.concepts], clips)
+        alone = np.array([set(c) <= f for c, f in zip(items.concepts, singles, strict=True)])
+        found = _negation_sets(neg, pool, clips)
         for claim_id, kind in ((c, k) for c in claims for k in KINDS):
             rng, rates = _rng(seed, claims[claim_id], kind), plan[kind]
 
@@ -139,17 +152,19 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
     return out
 
 
-def _negation_sets(neg: Any, frames: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """Per negation item, the oracle's (kept, negated) presence on four generated clips: the
+def _negation_sets(neg: Any, pool: _TrainingClips, rng: np.random.Generator
+                   ) -> dict[str, np.ndarray]:
+    """Per negation item, the oracle's (kept, negated) presence on four training clips: the
     pair, the kept concept alone, the negated concept alone, a third concept."""
-    out: dict[str, list[list[bool]]] = {k: [] for k in ("pair", "kept", "negated", "neither")}
-    for kept, negated in zip(neg.kept, neg.negated, strict=True):
-        pair = (kept, negated) if kept in LOWER_CONCEPTS else (negated, kept)
-        for key, concepts in (("pair", pair), ("kept", (kept,)), ("negated", (negated,)),
-                              ("neither", (_neither(pair),))):
-            found = detect_concepts(_clip_joints(concepts, frames, rng))
-            out[key].append([kept in found, negated in found])
-    return {k: np.asarray(v, dtype=bool) for k, v in out.items()}
+    out: dict[str, np.ndarray] = {}
+    kinds = {"pair": lambda k, n: (k, n), "kept": lambda k, n: (k,),
+             "negated": lambda k, n: (n,), "neither": lambda k, n: (_neither((k, n)),)}
+    for key, concepts_of in kinds.items():
+        found = pool.found([concepts_of(k, n) for k, n in zip(neg.kept, neg.negated,
+                                                                strict=True)], rng)
+        out[key] = np.array([[k in f, n in f] for k, n, f in zip(neg.kept, neg.negated, found,
+                                                                strict=True)], dtype=bool)
+    return out
 
 
 def _draw_negation(found: Mapping[str, np.ndarray], rng: np.random.Generator, *,
