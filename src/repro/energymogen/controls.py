@@ -1,6 +1,7 @@
 """Positive and null controls of the EnergyMoGen experiments (issue #13, item 3), one function
-per claim: the experiment's own measurement code (oracles, ``studies.composition_metrics``,
-``energy.map_similarity``, ``latent_count.mpjpe``, ``evaluator.evaluate_generated``) run on
+per claim: the experiment's own measurement code (oracles, the calls of
+``studies.composition_metrics`` and ``evaluator.evaluate_generated`` for the quantities the
+rules read, ``energy.map_similarity``, ``latent_count.mpjpe``) run on
 the same number of seeds and items, on constructed sample sets whose truth is known.
 
 Every function returns ``{"positive": measured, "null": measured, "calibration": {...}}``:
@@ -8,7 +9,9 @@ Every function returns ``{"positive": measured, "null": measured, "calibration":
 v2 rule); *positive* plants every part's registered effect δ (registry v2), *null* plants
 none (the compared arms come from one source, with independent randomness per seed). Sizes
 are set analytically or from a scale factor measured on the data before the arms are drawn
-(never by trying until a control passes); ``calibration`` records those numbers.
+(never by trying until a control passes); ``calibration`` records those numbers. ``scale``
+multiplies every planted effect: 1 (the registered δ) in the notebooks; the tests plant
+larger effects to show that the measurement sees them.
 
 The sample sets are built from the stand-in data ("the data itself as the model"): training
 and ground-truth clips whose concepts the oracles detect (EMG-2/3), ground-truth test
@@ -27,15 +30,14 @@ from typing import Any
 
 import numpy as np
 
-from repro.core import tables
+from repro.core import metrics, tables
 from repro.energymogen.config import LOWER_CONCEPTS
 from repro.energymogen.data import composition_items, negation_items
 from repro.energymogen.energy import map_similarity
 from repro.energymogen.harness import TextToMotionTest
 from repro.energymogen.latent_count import mpjpe
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, pipeline_for
-from repro.energymogen.studies import _pair_index, _per_pair_mean, composition_metrics
-from repro.models.evaluator import evaluate_generated
+from repro.energymogen.studies import _pair_index, _per_pair_mean, transition_distance_cm
 from repro.standin.oracles import detect_concepts
 
 __all__ = ["CONTROL_STREAM", "as_ledger_controls", "augmentation_controls",
@@ -83,8 +85,8 @@ def _neither(pair: tuple[str, ...]) -> str:
     return next(c for c in LOWER_CONCEPTS if c not in pair)
 
 
-def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_case: int
-                         ) -> dict[str, dict[str, Any]]:
+def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_case: int,
+                         scale: float = 1.0) -> dict[str, dict[str, Any]]:
     """EMG-2/3's controls: the six rates of ``studies.composition_study`` measured by the same
     oracles on constructed sets of generator clips, per seed on that seed's items (the same
     composition items and negation cases and counts).
@@ -109,8 +111,9 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
     names = ("conjunction_both_present", "best_single_concept_both_present",
              "negation_negated_present", "baseline_negated_present", "negation_kept_present",
              "baseline_kept_present")
-    plan = {"positive": {"conjunction": _BASE_BOTH + 0.1, "negated": _BASE_NEGATED * 0.9,
-                         "kept": 1.1 / 2},
+    plan = {"positive": {"conjunction": _BASE_BOTH + 0.1 * scale,
+                         "negated": _BASE_NEGATED * (1 - 0.1 * scale),
+                         "kept": (1 + 0.1 * scale) / 2},
             "null": {"conjunction": _BASE_BOTH, "negated": _BASE_NEGATED, "kept": 0.5}}
     claims = {"EMG-2": 2, "EMG-3": 3}
     out: dict[str, Any] = {c: {kind: {n: [] for n in names} for kind in KINDS} for c in claims}
@@ -189,8 +192,8 @@ def _standardised(values: np.ndarray) -> np.ndarray:
 
 
 def energy_map_controls(cases: Mapping[str, Sequence[Mapping[str, Any]]],
-                        smooth: Callable[[np.ndarray], np.ndarray], grid: int
-                        ) -> dict[str, Any]:
+                        smooth: Callable[[np.ndarray], np.ndarray], grid: int, *,
+                        scale: float = 1.0) -> dict[str, Any]:
     """EMG-6's controls on the experiment's own composed maps (``case["smooth"]["composed"]``,
     one per seed and case): the "multi-concept" and "control" maps are replaced by maps whose
     correlation with the composed map is known, and the similarity is the experiment's
@@ -203,7 +206,7 @@ def energy_map_controls(cases: Mapping[str, Sequence[Mapping[str, Any]]],
     its control map is N₂ (E r = 0): r(multi) − r(control) has mean δ, and the noise a smooth
     random field puts on a correlation. The null control: multi = N₁, control = N₂.
     """
-    delta = 0.1
+    delta = 0.1 * scale
     out: dict[str, Any] = {kind: {} for kind in KINDS}
     for index_kind, (case_kind, found) in enumerate(cases.items()):
         for kind in KINDS:
@@ -249,9 +252,17 @@ def scale_movement(features: np.ndarray, factor: float) -> np.ndarray:
     return out.astype(np.asarray(features).dtype)
 
 
-def _r3(pipe: EnergyMoGenPipeline, features: np.ndarray, items: Any, seed: int
-        ) -> dict[str, float]:
-    return composition_metrics(pipe, features, pipe.joints(features), items, seed)
+def row_measurements(pipe: EnergyMoGenPipeline, features: np.ndarray, items: Any, seed: int
+                     ) -> dict[str, float]:
+    """R@3 (%) and transition distance of one row, computed exactly as
+    ``studies.composition_metrics`` computes those two (the same calls; the oracles and the
+    other columns, which no control reads, are left out for speed)."""
+    evaluator = pipe.evaluator
+    text = evaluator.embed_texts(list(items.multi_texts))
+    gen = evaluator.embed_motions(features, np.full(len(features), features.shape[1]))
+    r = metrics.r_precision(text, gen, 32, 3, seed)
+    return {"r_precision_top3": 100.0 * float(r[2]),
+            "transition_distance": transition_distance_cm(features)}
 
 
 def _swap_fraction(clean: float, swapped: float, target: float) -> float:
@@ -278,7 +289,7 @@ def _row_plan(source: PipelineSource, seeds: Sequence[int], claim: int,
             for row, spec in plan.items():
                 moved = scale_movement(items.gt_features, spec["movement"])
                 features = swap_motions(moved, spec["swap"], rng, groups)
-                values = _r3(pipe, features, items, seed)
+                values = row_measurements(pipe, features, items, seed)
                 for metric in ("r_precision_top3", "transition_distance"):
                     out[kind][metric].setdefault(row, []).append(values[metric])
     out["calibration"] = calibration
@@ -291,16 +302,18 @@ def _endpoints(pipe: EnergyMoGenPipeline, items: Any, seed: int, movement: float
     a calibration draw of its own."""
     groups = _pair_index(items)
     moved = scale_movement(items.gt_features, movement)
-    clean = _r3(pipe, moved, items, seed)["r_precision_top3"]
+    clean = row_measurements(pipe, moved, items, seed)["r_precision_top3"]
     rng = np.random.default_rng([CONTROL_STREAM, 99, seed])
-    swapped = _r3(pipe, swap_motions(moved, 1.0, rng, groups), items, seed)["r_precision_top3"]
+    swapped = row_measurements(pipe, swap_motions(moved, 1.0, rng, groups), items,
+                               seed)["r_precision_top3"]
     return clean, swapped
 
 
-def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: Sequence[str]
-                       ) -> dict[str, Any]:
+def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: Sequence[str],
+                       *, scale: float = 1.0) -> dict[str, Any]:
     """EMG-4's controls: every Table 9 row is the seed's ground-truth composition motions with
-    a fraction swapped (:func:`swap_motions`), measured by ``composition_metrics``.
+    a fraction swapped (:func:`swap_motions`), measured as ``composition_metrics`` measures
+    (:func:`row_measurements`).
 
     Positive: [0.001, 0.002] clean (R₀); every other row at R₀/1.035 (the claimed best exceeds
     it by δ = 3.5 % of the other row); [0.1, 0.2] at (1 − 0.417) of γ = 0's (δ: half the
@@ -311,10 +324,10 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
     def rows(pipe: EnergyMoGenPipeline, items: Any, seed: int, kind: str
              ) -> dict[str, dict[str, Any]]:
         clean, swapped = _endpoints(pipe, items, seed, 1.0)
-        other = clean / 1.035
+        other = clean / (1 + 0.035 * (scale if kind == "positive" else 1.0))
         targets = {key: other for key in row_keys}
         if kind == "positive":
-            targets[best], targets[large] = clean, other * (1 - 0.417)
+            targets[best], targets[large] = clean, other * (1 - 0.417 * scale)
         return {key: {"movement": 1.0, "swap": _swap_fraction(clean, swapped, target),
                       "target": target, "clean": clean, "swapped": swapped}
                 for key, target in targets.items()}
@@ -325,7 +338,8 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
     return out
 
 
-def sef_controls(source: PipelineSource, seeds: Sequence[int]) -> dict[str, Any]:
+def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float = 1.0
+                 ) -> dict[str, Any]:
     """EMG-5's controls: the latent, semantic and SEF rows are the seed's ground-truth
     composition motions with their movement scaled (:func:`scale_movement`, transition
     distance ∝ factor) and a fraction swapped (:func:`swap_motions`, R@3 linear in it).
@@ -343,10 +357,11 @@ def sef_controls(source: PipelineSource, seeds: Sequence[int]) -> dict[str, Any]
             swap = _swap_fraction(clean, swapped, clean / 1.2143)
             return {key: {"movement": 1.0, "swap": swap, "clean": clean, "swapped": swapped}
                     for key in (lat, sem, sef)}
-        movement = {lat: 1.0, sem: 1.1875, sef: 1.1875 * (1 - 0.1364)}
+        semantic = 1 + 0.1875 * scale
+        movement = {lat: 1.0, sem: semantic, sef: semantic * (1 - 0.1364 * scale)}
         ends = {key: _endpoints(pipe, items, seed, factor) for key, factor in movement.items()}
-        target_lat = ends[sef][0] / 1.2143
-        targets = {lat: target_lat, sem: 1.2015 * target_lat, sef: ends[sef][0]}
+        target_lat = ends[sef][0] / (1 + 0.2143 * scale)
+        targets = {lat: target_lat, sem: (1 + 0.2015 * scale) * target_lat, sef: ends[sef][0]}
         return {key: {"movement": movement[key], "target": targets[key],
                       "swap": _swap_fraction(*ends[key], targets[key]), "clean": ends[key][0],
                       "swapped": ends[key][1]} for key in movement}
@@ -373,22 +388,32 @@ def _noisy(features: np.ndarray, std: np.ndarray, amplitude: float,
         features.dtype)
 
 
-def _fid(pipe: EnergyMoGenPipeline, test: TextToMotionTest, features: np.ndarray, seed: int
-         ) -> dict[str, float]:
-    return evaluate_generated(pipe.evaluator, features, test.lengths, test.texts(seed),
-                              test.features, test.lengths, seed=seed)
+def t2m_measurements(pipe: EnergyMoGenPipeline, test: TextToMotionTest, features: np.ndarray,
+                     seed: int, reference: np.ndarray) -> dict[str, float]:
+    """FID against the test clips (``reference``: their evaluator embeddings) and R@3
+    (fraction) of the test captions drawn with ``seed``, computed exactly as
+    ``evaluator.evaluate_generated`` computes those two (the same calls)."""
+    gen = pipe.evaluator.embed_motions(features, test.lengths)
+    text = pipe.evaluator.embed_texts(test.texts(seed))
+    r = metrics.r_precision(text, gen, 32, 3, seed)
+    return {"fid": metrics.fid(gen, reference), "r_precision_top3": float(r[2])}
 
 
-_AMPLITUDES = np.geomspace(0.02, 2.0, 12)
+def _reference(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> np.ndarray:
+    return pipe.evaluator.embed_motions(test.features, test.lengths)
 
 
-def _fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> tuple[np.ndarray,
-                                                                         np.ndarray]:
+#: the calibration grid around the base amplitude (FID only falls below it)
+_AMPLITUDES = np.geomspace(0.2, 0.7, 8)
+
+
+def _fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest, reference: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
     """FID of the test clips with feature noise of each amplitude (× the data's per-feature
     std) against the clean clips, on a calibration draw of its own (the scale factor)."""
     rng = np.random.default_rng([CONTROL_STREAM, 77])
-    values = [_fid(pipe, test, _noisy(test.features, pipe.data.std, a, rng), 0)["fid"]
-              for a in _AMPLITUDES]
+    values = [t2m_measurements(pipe, test, _noisy(test.features, pipe.data.std, a, rng), 0,
+                               reference)["fid"] for a in _AMPLITUDES]
     return _AMPLITUDES, np.maximum.accumulate(np.asarray(values))
 
 
@@ -402,28 +427,30 @@ _BASE_AMPLITUDE = 0.5
 
 
 def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
-                          counts: Sequence[int], seeds: Sequence[int]) -> dict[str, Any]:
+                          counts: Sequence[int], seeds: Sequence[int], *, scale: float = 1.0
+                          ) -> dict[str, Any]:
     """EMG-7's controls: per N and seed, "reconstructions" = the test clips with per-clip root
     height offsets |N(0, 1)|·√(π/2)·e (mean e, independent per N and seed; MPJPE through
     ``latent_count.mpjpe`` is exactly their mean) and "generations" = the test clips with
-    feature noise (FID through ``evaluate_generated``, as ``harness.generation_metrics``).
+    feature noise (FID as ``evaluate_generated`` computes it, :func:`t2m_measurements`).
 
     Positive: N = 7's offsets scaled by 1 − 0.362 (δ: half the paper's 72.5 % margin, of the
     other N's error), N = 5's FID at (1 − 0.177) of the others' (δ: half of 35.4 %), its noise
     amplitude read off the FID-vs-amplitude curve of a calibration draw. Null: every N alike.
     e = 0.05 m (the decision is scale-free in e)."""
     base = 0.05
-    curve = _fid_curve(pipe, test)
+    reference = _reference(pipe, test)
+    curve = _fid_curve(pipe, test, reference)
     other_fid = float(np.interp(np.log(_BASE_AMPLITUDE), np.log(curve[0]), curve[1]))
-    best_amplitude = _amplitude_for(curve, (1 - 0.177) * other_fid)
+    best_amplitude = _amplitude_for(curve, (1 - 0.177 * scale) * other_fid)
     out: dict[str, Any] = {kind: {"reconstruction_error": {}, "generation_fid": {}}
                            for kind in KINDS}
     for seed in seeds:
         for kind in KINDS:
             rng = _rng(seed, 7, kind)
             for n in counts:
-                scale = base * (1 - 0.362 if kind == "positive" and n == 7 else 1.0)
-                offsets = scale * np.sqrt(np.pi / 2) * np.abs(rng.standard_normal(len(test)))
+                mean = base * (1 - 0.362 * scale if kind == "positive" and n == 7 else 1.0)
+                offsets = mean * np.sqrt(np.pi / 2) * np.abs(rng.standard_normal(len(test)))
                 recon = _offset_height(test.features, offsets)
                 amplitude = (best_amplitude if kind == "positive" and n == 5
                              else _BASE_AMPLITUDE)
@@ -431,7 +458,7 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                 out[kind]["reconstruction_error"].setdefault(str(n), []).append(
                     mpjpe(recon, test.features))
                 out[kind]["generation_fid"].setdefault(str(n), []).append(
-                    _fid(pipe, test, generated, seed)["fid"])
+                    t2m_measurements(pipe, test, generated, seed, reference)["fid"])
     out["calibration"] = {"offset_mean_m": base, "base_amplitude": _BASE_AMPLITUDE,
                           "best_amplitude": best_amplitude, "other_fid": other_fid,
                           "fid_curve": {"amplitude": curve[0].tolist(),
@@ -442,30 +469,31 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 # --- EMG-8: R@3 and FID of the text-to-motion test -----------------------------------------
 
 def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
-                          seeds: Sequence[int]) -> dict[str, Any]:
+                          seeds: Sequence[int], *, scale: float = 1.0) -> dict[str, Any]:
     """EMG-8's controls: "generations" of the baseline and the augmented model are the test
     clips with feature noise and a fraction of them swapped to another clip's motion, measured
-    by ``evaluate_generated`` (R@3 over the test set, FID against it), as the study measures.
+    as ``evaluate_generated`` measures (R@3 over the test set, FID against it).
 
     Baseline: noise 0.5 × std and half the clips swapped (our choices: R@3 and FID off their
     floors). Positive: the augmented arm's noise read off the FID curve for 0.9 × the
     baseline's FID (δ: 10 % of it) and its swap fraction for R@3 + 0.01 (δ: one percentage
     point), both from scale factors measured on a calibration draw. Null: both arms alike."""
-    curve = _fid_curve(pipe, test)
+    reference = _reference(pipe, test)
+    curve = _fid_curve(pipe, test, reference)
     groups = np.arange(len(test))
     rng_cal = np.random.default_rng([CONTROL_STREAM, 88])
 
     def r3_at(amplitude: float, fraction: float) -> float:
         noisy = _noisy(test.features, pipe.data.std, amplitude, rng_cal)
-        return _fid(pipe, test, swap_motions(noisy, fraction, rng_cal, groups),
-                    0)["r_precision_top3"]
+        return t2m_measurements(pipe, test, swap_motions(noisy, fraction, rng_cal, groups),
+                                0, reference)["r_precision_top3"]
 
     base_swap = 0.5
     base_fid = float(np.interp(np.log(_BASE_AMPLITUDE), np.log(curve[0]), curve[1]))
-    aug_amplitude = _amplitude_for(curve, 0.9 * base_fid)
+    aug_amplitude = _amplitude_for(curve, (1 - 0.1 * scale) * base_fid)
     base_r3 = r3_at(_BASE_AMPLITUDE, base_swap)
     aug_swap = _swap_fraction(r3_at(aug_amplitude, 0.0), r3_at(aug_amplitude, 1.0),
-                              base_r3 + 0.01)
+                              base_r3 + 0.01 * scale)
     plan = {"positive": {"augmented": (aug_amplitude, aug_swap),
                          "baseline": (_BASE_AMPLITUDE, base_swap)},
             "null": {"augmented": (_BASE_AMPLITUDE, base_swap),
@@ -476,7 +504,8 @@ def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
             rng = _rng(seed, 8, kind)
             for arm, (amplitude, fraction) in plan[kind].items():
                 noisy = _noisy(test.features, pipe.data.std, amplitude, rng)
-                values = _fid(pipe, test, swap_motions(noisy, fraction, rng, groups), seed)
+                values = t2m_measurements(pipe, test, swap_motions(noisy, fraction, rng, groups),
+                                          seed, reference)
                 out[kind].setdefault(f"r_precision_top3_{arm}", []).append(
                     values["r_precision_top3"])
                 out[kind].setdefault(f"fid_{arm}", []).append(values["fid"])
