@@ -25,14 +25,16 @@ controls come out inconclusive, and the claim with them.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from repro.core import metrics, tables
 from repro.energymogen.config import LOWER_CONCEPTS
-from repro.energymogen.data import composition_items, negation_items
+from repro.energymogen.data import composition_items, negation_items, stand_in_clip
 from repro.energymogen.energy import map_similarity
 from repro.energymogen.harness import TextToMotionTest
 from repro.energymogen.latent_count import mpjpe
@@ -43,7 +45,7 @@ from repro.standin.oracles import detect_concepts
 __all__ = ["CONTROL_STREAM", "as_ledger_controls", "augmentation_controls",
            "composition_controls", "controls_markdown", "energy_map_controls",
            "latent_count_controls", "scale_movement", "sef_controls", "step_size_controls",
-           "swap_motions"]
+           "swap_motions", "FidCurve", "fid_curve", "permute_motions"]
 
 #: rng stream of every control (disjoint from the experiments' streams)
 CONTROL_STREAM = 13013
@@ -64,7 +66,9 @@ _BASE_NEGATED = 0.9
 
 class _TrainingClips:
     """Training clips by their concepts (single concepts and trained pairs), drawn at random:
-    real stand-in motion whose concepts are known, without generating any."""
+    real stand-in motion whose concepts are known, without generating any (a concept set no
+    training clip holds, as in a tiny test configuration, is generated as the training clips
+    were, ``data.stand_in_clip``)."""
 
     def __init__(self, pipe: EnergyMoGenPipeline) -> None:
         self.pipe = pipe
@@ -75,9 +79,16 @@ class _TrainingClips:
     def found(self, concepts: Sequence[tuple[str, ...]], rng: np.random.Generator
               ) -> list[set[str]]:
         """The oracles' concepts of one random training clip of each concept set."""
-        picks = [int(rng.choice(self.index[frozenset(c)])) for c in concepts]
-        joints = self.pipe.joints(self.pipe.data.train_features[picks])
-        return [detect_concepts(j) for j in joints]
+        out = []
+        for names in concepts:
+            options = self.index.get(frozenset(names))
+            if options:
+                pick = int(rng.choice(options))
+                joints = self.pipe.joints(self.pipe.data.train_features[pick:pick + 1])[0]
+            else:
+                joints = stand_in_clip(tuple(names), self.pipe.data.frames, rng)[1]
+            out.append(detect_concepts(joints))
+        return out
 
 
 def _neither(pair: tuple[str, ...]) -> str:
@@ -238,6 +249,19 @@ def swap_motions(features: np.ndarray, fraction: float, rng: np.random.Generator
     for i in np.flatnonzero(rng.uniform(size=len(features)) < fraction):
         others = np.flatnonzero(groups != groups[i])
         out[i] = features[int(rng.choice(others))]
+    return out
+
+
+def permute_motions(features: np.ndarray, fraction: float, rng: np.random.Generator
+                    ) -> np.ndarray:
+    """``features`` with a random subset (each item with probability ``fraction``) of motions
+    passed round within the subset (a random cycle): every chosen item gets another's motion,
+    and the set of motions is unchanged, so FID (a function of that set) is exactly unchanged
+    while R-precision falls."""
+    out = np.array(features, copy=True)
+    chosen = rng.permutation(np.flatnonzero(rng.uniform(size=len(features)) < fraction))
+    if len(chosen) > 1:
+        out[chosen] = features[np.roll(chosen, 1)]
     return out
 
 
@@ -403,23 +427,40 @@ def _reference(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> np.ndarray:
     return pipe.evaluator.embed_motions(test.features, test.lengths)
 
 
-#: the calibration grid around the base amplitude (FID only falls below it)
-_AMPLITUDES = np.geomspace(0.2, 0.7, 8)
+#: the calibration grid around the base amplitude (the planted arms only lower FID from it)
+_AMPLITUDES = np.geomspace(0.2, 0.7, 6)
+_CALIBRATION_DRAWS = 4
 
 
-def _fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest, reference: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """FID of the test clips with feature noise of each amplitude (× the data's per-feature
-    std) against the clean clips, on a calibration draw of its own (the scale factor)."""
+@dataclass(frozen=True)
+class FidCurve:
+    """FID of noised test clips against the clean ones as a power law of the noise amplitude,
+    FID ≈ c·aᵏ, fitted (least squares in log–log) to the mean FID over calibration draws of
+    its own on a grid around the base amplitude: the measured scale factor from which each
+    arm's amplitude is read (a fit, so one noisy calibration draw does not set it)."""
+
+    amplitudes: tuple[float, ...]
+    fids: tuple[float, ...]
+    log_c: float
+    k: float
+
+    def fid(self, amplitude: float) -> float:
+        return float(np.exp(self.log_c + self.k * np.log(amplitude)))
+
+    def amplitude(self, fid: float) -> float:
+        return float(np.exp((np.log(fid) - self.log_c) / self.k))
+
+
+def fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest, reference: np.ndarray
+              ) -> FidCurve:
+    """:class:`FidCurve` of the pipeline's evaluator on ``test`` (feature noise: amplitude ×
+    the data's per-feature std, :func:`_noisy`)."""
     rng = np.random.default_rng([CONTROL_STREAM, 77])
-    values = [t2m_measurements(pipe, test, _noisy(test.features, pipe.data.std, a, rng), 0,
-                               reference)["fid"] for a in _AMPLITUDES]
-    return _AMPLITUDES, np.maximum.accumulate(np.asarray(values))
-
-
-def _amplitude_for(curve: tuple[np.ndarray, np.ndarray], target: float) -> float:
-    amplitudes, values = curve
-    return float(np.exp(np.interp(target, values, np.log(amplitudes))))
+    fids = np.mean([[t2m_measurements(pipe, test, _noisy(test.features, pipe.data.std, a, rng),
+                                      0, reference)["fid"] for a in _AMPLITUDES]
+                    for _ in range(_CALIBRATION_DRAWS)], axis=0)
+    k, log_c = np.polyfit(np.log(_AMPLITUDES), np.log(fids), 1)
+    return FidCurve(tuple(_AMPLITUDES.tolist()), tuple(fids.tolist()), float(log_c), float(k))
 
 
 #: our choice: the compared arms' base noise (× the data's per-feature std)
@@ -436,13 +477,14 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 
     Positive: N = 7's offsets scaled by 1 − 0.362 (δ: half the paper's 72.5 % margin, of the
     other N's error), N = 5's FID at (1 − 0.177) of the others' (δ: half of 35.4 %), its noise
-    amplitude read off the FID-vs-amplitude curve of a calibration draw. Null: every N alike.
+    amplitude read off the FID curve fitted on calibration draws (:class:`FidCurve`). Null:
+    every N alike.
     e = 0.05 m (the decision is scale-free in e)."""
     base = 0.05
     reference = _reference(pipe, test)
-    curve = _fid_curve(pipe, test, reference)
-    other_fid = float(np.interp(np.log(_BASE_AMPLITUDE), np.log(curve[0]), curve[1]))
-    best_amplitude = _amplitude_for(curve, (1 - 0.177 * scale) * other_fid)
+    curve = fid_curve(pipe, test, reference)
+    other_fid = curve.fid(_BASE_AMPLITUDE)
+    best_amplitude = curve.amplitude((1 - 0.177 * scale) * other_fid)
     out: dict[str, Any] = {kind: {"reconstruction_error": {}, "generation_fid": {}}
                            for kind in KINDS}
     for seed in seeds:
@@ -461,8 +503,7 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                     t2m_measurements(pipe, test, generated, seed, reference)["fid"])
     out["calibration"] = {"offset_mean_m": base, "base_amplitude": _BASE_AMPLITUDE,
                           "best_amplitude": best_amplitude, "other_fid": other_fid,
-                          "fid_curve": {"amplitude": curve[0].tolist(),
-                                        "fid": curve[1].tolist()}}
+                          "fid_curve": dataclasses.asdict(curve)}
     return out
 
 
@@ -471,26 +512,27 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                           seeds: Sequence[int], *, scale: float = 1.0) -> dict[str, Any]:
     """EMG-8's controls: "generations" of the baseline and the augmented model are the test
-    clips with feature noise and a fraction of them swapped to another clip's motion, measured
+    clips with feature noise and a fraction of their motions passed round
+    (:func:`permute_motions`: R@3 falls, FID does not move), measured
     as ``evaluate_generated`` measures (R@3 over the test set, FID against it).
 
     Baseline: noise 0.5 × std and half the clips swapped (our choices: R@3 and FID off their
     floors). Positive: the augmented arm's noise read off the FID curve for 0.9 × the
-    baseline's FID (δ: 10 % of it) and its swap fraction for R@3 + 0.01 (δ: one percentage
-    point), both from scale factors measured on a calibration draw. Null: both arms alike."""
+    baseline's FID (δ: 10 % of it; :class:`FidCurve`) and its permuted fraction for R@3 + 0.01
+    (δ: one percentage point; R@3 clean and fully permuted at that noise, measured on a
+    calibration draw, linear in between). Null: both arms alike."""
     reference = _reference(pipe, test)
-    curve = _fid_curve(pipe, test, reference)
-    groups = np.arange(len(test))
+    curve = fid_curve(pipe, test, reference)
     rng_cal = np.random.default_rng([CONTROL_STREAM, 88])
 
     def r3_at(amplitude: float, fraction: float) -> float:
         noisy = _noisy(test.features, pipe.data.std, amplitude, rng_cal)
-        return t2m_measurements(pipe, test, swap_motions(noisy, fraction, rng_cal, groups),
+        return t2m_measurements(pipe, test, permute_motions(noisy, fraction, rng_cal),
                                 0, reference)["r_precision_top3"]
 
     base_swap = 0.5
-    base_fid = float(np.interp(np.log(_BASE_AMPLITUDE), np.log(curve[0]), curve[1]))
-    aug_amplitude = _amplitude_for(curve, (1 - 0.1 * scale) * base_fid)
+    base_fid = curve.fid(_BASE_AMPLITUDE)
+    aug_amplitude = curve.amplitude((1 - 0.1 * scale) * base_fid)
     base_r3 = r3_at(_BASE_AMPLITUDE, base_swap)
     aug_swap = _swap_fraction(r3_at(aug_amplitude, 0.0), r3_at(aug_amplitude, 1.0),
                               base_r3 + 0.01 * scale)
@@ -504,12 +546,13 @@ def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
             rng = _rng(seed, 8, kind)
             for arm, (amplitude, fraction) in plan[kind].items():
                 noisy = _noisy(test.features, pipe.data.std, amplitude, rng)
-                values = t2m_measurements(pipe, test, swap_motions(noisy, fraction, rng, groups),
+                values = t2m_measurements(pipe, test, permute_motions(noisy, fraction, rng),
                                           seed, reference)
                 out[kind].setdefault(f"r_precision_top3_{arm}", []).append(
                     values["r_precision_top3"])
                 out[kind].setdefault(f"fid_{arm}", []).append(values["fid"])
     out["calibration"] = {"plan": plan, "baseline_fid_expected": base_fid,
+                          "fid_curve": dataclasses.asdict(curve),
                           "baseline_r3_expected": base_r3}
     return out
 
