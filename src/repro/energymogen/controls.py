@@ -64,15 +64,19 @@ _BASE_BOTH = 0.3
 _BASE_NEGATED = 0.9
 
 
+_FALLBACK_CLIPS = 4
+
+
 class _TrainingClips:
     """Training clips by their concepts (single concepts and trained pairs), drawn at random:
-    real stand-in motion whose concepts are known, without generating any (a concept set no
-    training clip holds, as in a tiny test configuration, is generated as the training clips
-    were, ``data.stand_in_clip``)."""
+    real stand-in motion whose concepts are known, without generating any (for a concept set
+    no training clip holds, as in a tiny test configuration, :data:`_FALLBACK_CLIPS` clips are
+    generated as the training clips were, ``data.stand_in_clip``, and drawn from)."""
 
     def __init__(self, pipe: EnergyMoGenPipeline) -> None:
         self.pipe = pipe
         self.index: dict[frozenset[str], list[int]] = {}
+        self.generated: dict[frozenset[str], list[set[str]]] = {}
         for i, names in enumerate(pipe.data.train_concepts):
             self.index.setdefault(frozenset(names), []).append(i)
 
@@ -85,9 +89,13 @@ class _TrainingClips:
             if options:
                 pick = int(rng.choice(options))
                 joints = self.pipe.joints(self.pipe.data.train_features[pick:pick + 1])[0]
-            else:
-                joints = stand_in_clip(tuple(names), self.pipe.data.frames, rng)[1]
-            out.append(detect_concepts(joints))
+                out.append(detect_concepts(joints))
+                continue
+            key = frozenset(names)
+            if key not in self.generated:
+                self.generated[key] = [detect_concepts(stand_in_clip(
+                    tuple(names), self.pipe.data.frames, rng)[1]) for _ in range(_FALLBACK_CLIPS)]
+            out.append(self.generated[key][int(rng.integers(_FALLBACK_CLIPS))])
         return out
 
 
