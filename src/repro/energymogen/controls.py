@@ -585,4 +585,4 @@ def controls_markdown(decisions: Mapping[str, Any]) -> str:
         rows.append([f"{kind} ({'registered δ planted' if kind == 'positive' else 'no effect'})",
                      expected[kind], decision.verdict, "passed" if passed else "failed",
                      decision.parts_in_words()])
-    return tables.markdown_table(["control", "must come out", "verdict", "", "parts"], rows)
+    return tables.markdown_table(["control", "must come out", "verdict", "outcome", "parts"], rows)
