@@ -6,8 +6,10 @@ Modules, each importing only those above it in this list (and lower layers):
 ``PipelineConfig``) · ``data`` (stand-in data, composition and negation test items) ·
 ``text_stage`` (the frozen text encoder, the stand-in for CLIP) · ``pipeline`` (the trained
 pipeline, its stages and sampling) · ``harness`` (the text-to-motion test set and generation
-metrics shared by EMG-7 and EMG-8) · ``energy`` (EMG-1, 6, 9) · ``studies`` (EMG-2, 3, 4, 5)
-· ``latent_count`` (EMG-7) · ``augmentation`` (EMG-8) · ``settings`` (quick/full settings per
-notebook) · ``figures`` (the notebooks' figures).
+metrics shared by EMG-7 and EMG-8) · ``energy`` (EMG-1, 6, 9) · ``gradient_field`` (EMG-1's
+per-t residual Jacobian asymmetry and loop integrals) · ``fid_checks`` (EMG-9's fixed cases) ·
+``studies`` (EMG-2, 3, 4, 5) · ``latent_count`` (EMG-7) · ``augmentation`` (EMG-8) ·
+``controls`` (the positive and null controls of EMG-2 to 8) · ``settings`` (quick/full
+settings per notebook) · ``figures`` (the notebooks' figures).
 
 Layers: docs/DESIGN.md."""
