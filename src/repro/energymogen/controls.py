@@ -39,7 +39,7 @@ from repro.energymogen.energy import map_similarity
 from repro.energymogen.harness import TextToMotionTest
 from repro.energymogen.latent_count import mpjpe
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, pipeline_for
-from repro.energymogen.studies import _pair_index, _per_pair_mean, transition_distance_cm
+from repro.energymogen.studies import pair_index, per_pair_mean, transition_distance_cm
 from repro.standin.oracles import detect_concepts
 
 __all__ = ["CONTROL_STREAM", "as_ledger_controls", "augmentation_controls",
@@ -140,7 +140,7 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
         pipe = pipeline_for(source, seed)
         pool = _TrainingClips(pipe)
         items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
-        pairs = _pair_index(items)
+        pairs = pair_index(items)
         neg = negation_items(seed, per_case)
         clips = np.random.default_rng([CONTROL_STREAM, 23, seed])   # shared by both controls
         has_both = np.array([bool(set(names_) <= detect_concepts(j))
@@ -157,7 +157,7 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
 
             single1 = arm(_BASE_BOTH)
             single2 = alone.copy()
-            best = np.maximum(_per_pair_mean(single1, pairs), _per_pair_mean(single2, pairs))
+            best = np.maximum(per_pair_mean(single1, pairs), per_pair_mean(single2, pairs))
             m = out[claim_id][kind]
             m["conjunction_both_present"].append(float(arm(rates["conjunction"]).mean()))
             m["best_single_concept_both_present"].append(float(best.mean()))
@@ -313,7 +313,7 @@ def _row_plan(source: PipelineSource, seeds: Sequence[int], claim: int,
     for seed in seeds:
         pipe = pipeline_for(source, seed)
         items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
-        groups = _pair_index(items)
+        groups = pair_index(items)
         for kind in KINDS:
             rng = _rng(seed, claim, kind)
             plan = rows(pipe, items, seed, kind)
@@ -332,7 +332,7 @@ def _endpoints(pipe: EnergyMoGenPipeline, items: Any, seed: int, movement: float
                ) -> tuple[float, float]:
     """R@3 of the ground truth (moved by ``movement``) clean and with every motion swapped, on
     a calibration draw of its own."""
-    groups = _pair_index(items)
+    groups = pair_index(items)
     moved = scale_movement(items.gt_features, movement)
     clean = row_measurements(pipe, moved, items, seed)["r_precision_top3"]
     rng = np.random.default_rng([CONTROL_STREAM, 99, seed])

@@ -209,12 +209,12 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
 # ----------------------------------------------------------------------------------------------
 
 
-def _pair_index(items: CompositionItems) -> np.ndarray:
+def pair_index(items: CompositionItems) -> np.ndarray:
     order = {pair: k for k, pair in enumerate(HELD_OUT_PAIRS)}
     return np.array([order[tuple(c)] for c in items.concepts])
 
 
-def _per_pair_mean(values: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+def per_pair_mean(values: np.ndarray, pairs: np.ndarray) -> np.ndarray:
     """Mean of ``values`` (B,) within each held-out pair present → (P',)."""
     return np.array([values[pairs == p].mean() for p in np.unique(pairs)])
 
@@ -257,7 +257,7 @@ def composition_study(source: PipelineSource, seeds: Sequence[int], *, per_case:
         s = pipe.config.guidance_scale
         items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
         c1, c2 = items.concept_texts
-        pairs = _pair_index(items)
+        pairs = pair_index(items)
 
         def presence(sampler: Sampler, concept_texts: Sequence[Sequence[str]],
                      multi: Sequence[str] | None, concepts: Sequence[Sequence[str]],
@@ -278,8 +278,8 @@ def composition_study(source: PipelineSource, seeds: Sequence[int], *, per_case:
                                    "latent conjunction"),
                 "semantic": presence(Sampler("semantic"), [c1, c2], None, items.concepts, b,
                                      "semantic conjunction")}
-        best_pairs = np.maximum(_per_pair_mean(single1.all(1), pairs),
-                                _per_pair_mean(single2.all(1), pairs))
+        best_pairs = np.maximum(per_pair_mean(single1.all(1), pairs),
+                                per_pair_mean(single2.all(1), pairs))
         neg = negation_items(seed, per_case)
         neg_concepts = list(zip(neg.kept, neg.negated, strict=True))
         nb = len(neg)
@@ -308,10 +308,10 @@ def composition_study(source: PipelineSource, seeds: Sequence[int], *, per_case:
                             ("multi_text", multi)):
             extra["conjunction_concept_present"][mode]["lower"].append(float(found[:, 0].mean()))
             extra["conjunction_concept_present"][mode]["arm"].append(float(found[:, 1].mean()))
-        per_pair = {"latent": _per_pair_mean(conj["latent"].all(1), pairs),
-                    "semantic": _per_pair_mean(conj["semantic"].all(1), pairs),
+        per_pair = {"latent": per_pair_mean(conj["latent"].all(1), pairs),
+                    "semantic": per_pair_mean(conj["semantic"].all(1), pairs),
                     "best_single": best_pairs,
-                    "multi_text": _per_pair_mean(multi.all(1), pairs)}
+                    "multi_text": per_pair_mean(multi.all(1), pairs)}
         for mode, values in per_pair.items():
             for p, value in zip(np.unique(pairs), values, strict=True):
                 extra["by_pair"][mode]["/".join(HELD_OUT_PAIRS[p])].append(float(value))
