@@ -210,6 +210,7 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
 
 
 def pair_index(items: CompositionItems) -> np.ndarray:
+    """Each item's index in ``HELD_OUT_PAIRS`` (B,), to average per held-out pair."""
     order = {pair: k for k, pair in enumerate(HELD_OUT_PAIRS)}
     return np.array([order[tuple(c)] for c in items.concepts])
 
