@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import nbformat
 import pytest
 import torch
 
@@ -58,3 +59,15 @@ def emg_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
 def tiny_pipeline(emg_cache: Path) -> EnergyMoGenPipeline:
     """The pipeline of :data:`TINY_PIPELINE` (seconds to train), once per test module."""
     return load_pipeline(TINY_PIPELINE, log=None)
+
+
+def write_notebook(path: Path, body: str, *, parameters: str) -> None:
+    """A two-cell notebook (a ``parameters`` cell, then ``body``) on the plain python3 kernel,
+    for runner tests."""
+    notebook = nbformat.v4.new_notebook()
+    cell = nbformat.v4.new_code_cell(parameters)
+    cell.metadata["tags"] = ["parameters"]
+    notebook.cells = [cell, nbformat.v4.new_code_cell(body)]
+    notebook.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3",
+                                       "language": "python"}
+    nbformat.write(notebook, path)

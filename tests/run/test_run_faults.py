@@ -7,9 +7,9 @@ import hashlib
 import shutil
 from pathlib import Path
 
-import nbformat
 import numpy as np
 import pytest
+from conftest import write_notebook
 
 from repro.infra import paths
 from repro.infra.storage import read_json
@@ -37,13 +37,7 @@ for claim in {claims}:
 
 
 def _notebook(path: Path, body: str) -> None:
-    notebook = nbformat.v4.new_notebook()
-    parameters = nbformat.v4.new_code_cell(PARAMETERS)
-    parameters.metadata["tags"] = ["parameters"]
-    notebook.cells = [parameters, nbformat.v4.new_code_cell(body)]
-    notebook.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3",
-                                       "language": "python"}
-    nbformat.write(notebook, path)
+    write_notebook(path, body, parameters=PARAMETERS)
 
 
 def _recording(name: str, claims: list[str], tail: str = "") -> str:

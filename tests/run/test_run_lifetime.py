@@ -10,8 +10,8 @@ import sys
 import time
 from pathlib import Path
 
-import nbformat
 import pytest
+from conftest import write_notebook
 
 from repro.infra import paths
 
@@ -42,13 +42,7 @@ for _ in range(6000):
 
 
 def _notebook(path: Path, body: str) -> None:
-    notebook = nbformat.v4.new_notebook()
-    parameters = nbformat.v4.new_code_cell(PARAMETERS)
-    parameters.metadata["tags"] = ["parameters"]
-    notebook.cells = [parameters, nbformat.v4.new_code_cell(body)]
-    notebook.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3",
-                                       "language": "python"}
-    nbformat.write(notebook, path)
+    write_notebook(path, body, parameters=PARAMETERS)
 
 
 def processes_of_run(runner_pid: int) -> list[int]:

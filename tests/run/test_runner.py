@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import nbformat
 import pytest
+from conftest import write_notebook
 
 from repro.run import runner
 
@@ -13,13 +13,7 @@ PARAMETERS = "quick = True\nseed = 0\ndevice = 'cpu'\nbuild_dir = None\n"
 
 
 def _notebook(path: Path, body: str) -> None:
-    notebook = nbformat.v4.new_notebook()
-    parameters = nbformat.v4.new_code_cell(PARAMETERS)
-    parameters.metadata["tags"] = ["parameters"]
-    notebook.cells = [parameters, nbformat.v4.new_code_cell(body)]
-    notebook.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3",
-                                       "language": "python"}
-    nbformat.write(notebook, path)
+    write_notebook(path, body, parameters=PARAMETERS)
 
 
 GOOD = """

@@ -184,20 +184,27 @@ def jacobian_asymmetry(eps_fn: Callable[[Tensor], Tensor], z: Tensor) -> np.ndar
     return np.asarray(out)
 
 
+def conditional_eps(denoiser: LatentDenoiser, t: int, condition: Condition | None,
+                    b: int) -> Callable[[Tensor], Tensor]:
+    """x ↦ ε_θ(x, t, c_b): the denoiser at step ``t`` under the ``b``-th text of ``condition``
+    (tokens (B, L, D), mask (B, L)), or under ∅ when ``condition`` is None."""
+    def eps(x: Tensor) -> Tensor:
+        tt = torch.full((x.shape[0],), int(t), dtype=torch.long, device=x.device)
+        if condition is None:
+            return denoiser(x, tt, *denoiser.null_text(x.shape[0]))
+        tokens, mask = condition
+        return denoiser(x, tt, tokens[b:b + 1].expand(x.shape[0], -1, -1),
+                        mask[b:b + 1].expand(x.shape[0], -1))
+    return eps
+
+
 def denoiser_jacobian_asymmetry(denoiser: LatentDenoiser, z_t: Tensor, t: int,
                                 condition: Condition | None) -> np.ndarray:
     """:func:`jacobian_asymmetry` of z ↦ ε_θ(z, t, c) at each latent of ``z_t`` (B, N, d);
     ``condition`` is (tokens (B, L, D), mask (B, L)), one text per latent, or None for ∅."""
     out = []
     for b in range(z_t.shape[0]):
-        def eps(x: Tensor, b: int = b) -> Tensor:
-            tt = torch.full((x.shape[0],), int(t), dtype=torch.long, device=x.device)
-            if condition is None:
-                return denoiser(x, tt, *denoiser.null_text(x.shape[0]))
-            tokens, mask = condition
-            return denoiser(x, tt, tokens[b:b + 1].expand(x.shape[0], -1, -1),
-                            mask[b:b + 1].expand(x.shape[0], -1))
-        out.append(jacobian_asymmetry(eps, z_t[b:b + 1])[0])
+        out.append(jacobian_asymmetry(conditional_eps(denoiser, t, condition, b), z_t[b:b + 1])[0])
     return np.asarray(out)
 
 

@@ -28,10 +28,9 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from repro.energymogen.compose import Condition
 from repro.energymogen.data import composition_items
+from repro.energymogen.energy import conditional_eps
 from repro.energymogen.pipeline import EnergyMoGenPipeline
-from repro.models.latent_denoiser import LatentDenoiser
 
 __all__ = ["LOOP_POINTS", "flat_jacobian", "gradient_field_study", "loop_plane",
            "relative_circulation", "residual_asymmetry"]
@@ -82,17 +81,6 @@ def relative_circulation(eps_fn: EpsFn, centre: Tensor, u: Tensor, v: Tensor, ra
     return float(work.abs() / path.clamp_min(1e-30))
 
 
-def _eps_fn(denoiser: LatentDenoiser, t: int, condition: Condition | None, b: int) -> EpsFn:
-    def eps(x: Tensor) -> Tensor:
-        tt = torch.full((x.shape[0],), int(t), dtype=torch.long, device=x.device)
-        if condition is None:
-            return denoiser(x, tt, *denoiser.null_text(x.shape[0]))
-        tokens, mask = condition
-        return denoiser(x, tt, tokens[b:b + 1].expand(x.shape[0], -1, -1),
-                        mask[b:b + 1].expand(x.shape[0], -1))
-    return eps
-
-
 def gradient_field_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
                          timesteps: Sequence[int]) -> dict[str, Any]:
     """EMG-1's two per-t measurements on ``energy_view_study``'s draws (``samples`` ground-truth
@@ -114,7 +102,7 @@ def gradient_field_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
         asymmetry[key], circulation[key], radii[key] = [], [], radius
         for cond in (condition, None):
             for b in range(samples):
-                eps = _eps_fn(pipe.denoiser, t, cond, b)
+                eps = conditional_eps(pipe.denoiser, t, cond, b)
                 jac = flat_jacobian(eps, z_t[b:b + 1])
                 asymmetry[key].append(residual_asymmetry(jac, 1.0 / np.sqrt(one_minus)))
                 u, v = loop_plane(jac)
