@@ -260,7 +260,8 @@ def augmentation_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 
 
 def gates_markdown(records: Sequence[Mapping[str, Any]]) -> str:
-    """One line per (model, gate): value, allowed range, passed; plus size and steps."""
+    """A caption and one line per (model, gate): value, allowed range, passed; plus size and
+    steps."""
     def bound(value: float | None) -> str:
         return "—" if value is None else f"{value:.3g}"
 
@@ -273,5 +274,8 @@ def gates_markdown(records: Sequence[Mapping[str, Any]]) -> str:
                          "not measured" if value is None else f"{value:.3g}",
                          f"[{bound(gate['at_least'])}, {bound(gate['at_most'])}]",
                          "pass" if gate["passed"] else "FAIL"])
-    return markdown_table(["model", "family", "parameters", "steps", "gate", "value",
-                           "allowed", "passed"], rows)
+    table = markdown_table(["model", "family", "parameters", "steps", "gate", "value",
+                            "allowed", "passed"], rows)
+    return ("**Quality gates of the trained models** (registered in `repro.core.gates`, "
+            "measured on the held-out text-to-motion clips of notebooks 07/08; a verdict "
+            "resting on a model that fails its gate is inconclusive)\n\n" + table)
