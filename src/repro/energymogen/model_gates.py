@@ -172,17 +172,21 @@ def vae_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float],
 
 def denoiser_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float], real_recall: float,
                     *, name: str | None = None, kind: str = "emg_latent_denoiser",
-                    train_config: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                    train_config: Mapping[str, Any] | None = None,
+                    data: str | None = None) -> dict[str, Any]:
     """The ``latent_denoiser`` record of ``pipe.denoiser``: ``values`` of
     :func:`denoiser_gate_values` (or ``harness.generation_metrics``'s ``oracle_accuracy`` as
     ``single_text_accuracy``), reference = ``real_recall``. A fine-tuned denoiser (EMG-8)
-    passes its ``name``, cache ``kind`` and training config."""
+    passes its ``name``, cache ``kind``, training config and the ``data`` fingerprint of its
+    cache key where known."""
     config = pipe.config
     train = (denoiser_train_config(config, pipe.train_seed).to_config()
              if train_config is None else dict(train_config))
-    training = cached_training(kind, {"model": pipe.denoiser.config(), "train": train}
-                               if kind != "emg_latent_denoiser" else
-                               {"model": denoiser_kwargs(config), "train": train})
+    match = {"model": pipe.denoiser.config() if kind != "emg_latent_denoiser"
+             else denoiser_kwargs(config), "train": train}
+    if data is not None:
+        match["data"] = data
+    training = cached_training(kind, match)
     return _record(name=name or (f"EMG latent denoiser N={config.latent_count} train seed "
                                  f"{pipe.train_seed}"),
                    family="latent_denoiser", values=values,
@@ -254,7 +258,8 @@ def augmentation_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
             pipe, {"single_text_accuracy": t2m[row]["oracle_accuracy"][i]}, real_recall,
             name=f"EMG {row} denoiser (fine-tuned from train seed {pipe.train_seed}, seed {sd})",
             kind="emg_finetuned_denoiser",
-            train_config=finetune_config(pipe.config, sd, threads).to_config())
+            train_config=finetune_config(pipe.config, sd, threads).to_config(),
+            data=results.get("finetune_data", {}).get(row, [None] * len(seeds))[i])
             for i, sd in enumerate(seeds)]
     return out
 
