@@ -226,12 +226,15 @@ def augmentation_study(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
     """Per seed: compose a set of ``size``, fine-tune control and augmented, measure every
     row of :data:`ROWS` on both tests, all with ``threads`` torch threads. Returns
     ``{"t2m": {row: {metric: per-seed list}}, "held_out": {row: {...}}, "composed": {metric:
-    per-seed list}, "example": ComposedSet of the first seed, "seconds": {...}}``;
+    per-seed list}, "example": ComposedSet of the first seed, "seconds": {...},
+    "finetune_data": {row: per-seed fingerprint of the fine-tuning rows (the ``data`` of the
+    row's cache key, ``model_gates.augmentation_records``)}}``;
     composed-set metrics: oracle both-present rate overall and on held-out pairs, per-concept
     accuracy."""
     out: dict[str, Any] = {"t2m": {r: {} for r in ROWS}, "held_out": {r: {} for r in ROWS},
                            "composed": {}, "seconds": {"compose": [], "control": [],
-                                                       "augmented": [], "evaluate": []}}
+                                                       "augmented": [], "evaluate": []},
+                           "finetune_data": {"control": [], "augmented": []}}
     with torch_threads(threads):
         _augment_and_measure(pipe, test, seeds, size, threads, log, out)
     return out
@@ -265,6 +268,8 @@ def _augment_and_measure(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
             start = time.perf_counter()
             denoisers[row] = load_or_finetune(pipe, rows, config)
             out["seconds"][row].append(time.perf_counter() - start)
+            out["finetune_data"][row].append(
+                array_fingerprint(rows.latents, rows.tokens, rows.mask))
         start = time.perf_counter()
         for row in ROWS:
             variant = replace(pipe, denoiser=denoisers[row])
