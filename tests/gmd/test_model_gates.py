@@ -137,3 +137,43 @@ def test_sample_quality_values_map_to_the_gate_metrics() -> None:
               "motion_fid_eps": [1.0, 2.0], "motion_jitter_x0": [9.0, 9.0]}
     assert mg.sample_quality_gate_values(values, "eps", 1) == {
         "foot_skating": 0.2, "joint_jerk": 6.0, "fid": 2.0}
+
+
+def test_emphasis_study_records_reuse_table_b1_samples_and_measure_the_rest(
+        cache, dataset_dir) -> None:
+    from repro.gmd import emphasis_study as study
+    from repro.gmd.models import GMDModelSpec
+    from repro.gmd.windows import DataConfig
+
+    data = DataConfig(data_dir=str(dataset_dir), frames=16, stride=4)  # ≥ 32 test windows
+    base = GMDModelSpec(task="motion", prediction="x0", text_conditioned=True, data=data,
+                        base_channels=8, channel_mults=(1, 2), diffusion_steps=5,
+                        train_steps=2, batch_size=8)
+    settings = study.Settings(quick=True, seeds=1, stand_in_clips=0, stride=4,
+                              diffusion_steps=5, train_steps=2, samples=32, evaluator_steps=5,
+                              values=(1,))
+    train = load_windows(data)
+    test = load_windows(data, "test", statistics=(train.mean, train.std))
+    train_relative = load_windows(DataConfig(data_dir=str(dataset_dir), frames=16, stride=4,
+                                             representation="relative"))
+    evaluator = study.window_evaluator(train_relative, 5)
+    results = study.run_experiment(settings, base, train, test, evaluator, [0], log=lambda _: None)
+    records = mg.emphasis_study_records(results, base=base, train=train, test=test,
+                                        train_relative=train_relative, evaluator=evaluator,
+                                        samples=settings.samples)
+    assert [r["name"].split(" seed")[0] for r in records] == [
+        "gmd motion/x0 loss scaling k=1", "gmd motion/x0 Emphasis c=1"]
+    # loss scaling k=1 is a Table B.1 model: its text-to-motion values are reused as measured
+    reused = records[0]["gate"]
+    assert reused["foot_skating"]["value"] == results.text_to_motion["loss scaling k=1"][
+        "foot_skating"][0]
+    # Emphasis c=1 is not: measured here the same way, so a re-measurement agrees
+    trained = study.load_or_train_variant(base, study.Variant("emphasis", 1), train, 0)
+    again = study.measure_text_to_motion(trained, study.draw_targets(test, 32, seed=0),
+                                         evaluator, seed=0)
+    measured = records[1]["gate"]
+    assert measured["joint_jerk"]["value"] == pytest.approx(again["jerk"])
+    assert measured["fid"]["value"] == pytest.approx(again["fid"])
+    # the reference is the targets' own skating, so the allowed bound is 3× it
+    assert measured["foot_skating"]["at_most"] == pytest.approx(
+        3 * results.ground_truth["foot_skating"][0])
