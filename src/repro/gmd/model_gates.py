@@ -156,18 +156,22 @@ def _number(value: float | None) -> str:
 
 
 def gates_markdown(records: Sequence[Mapping[str, Any]]) -> str:
-    """One row per model and gate: value, allowed range, passed (from the records' values)."""
+    """One row per model and gate: the model's steps and training seconds (first row), the
+    gate's value, allowed range and pass/fail, all from the records."""
     rows = []
     for record in records:
-        for metric, gate in record["gate"].items():
+        for k, (metric, gate) in enumerate(record["gate"].items()):
             allowed = f"[{_number(gate['at_least'])}, {_number(gate['at_most'])}]"
-            rows.append([record["name"], metric, _number(gate["value"]), allowed,
+            head = ([record["name"], _number(record["steps"]), _number(record["train_seconds"])]
+                    if k == 0 else ["", "", ""])
+            rows.append([*head, metric, _number(gate["value"]), allowed,
                          "pass" if gate["passed"] else "**fail**"])
     passed = sum(bool(r["passed"]) for r in records)
     families = sorted({r["family"] for r in records})
     gates = {f: ", ".join(g.metric for g in GATES[f]) for f in families}
     legend = "; ".join(f"{f}: {g}" for f, g in gates.items())
-    return (markdown_table(["model", "gate", "value", "allowed", ""], rows)
+    return (markdown_table(["model", "steps", "training s", "gate", "value", "allowed", ""],
+                           rows)
             + f"\n\n{passed} of {len(records)} models pass their registered gates ({legend}).")
 
 
