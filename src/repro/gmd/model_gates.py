@@ -1,0 +1,234 @@
+"""The quality gates of tiny GMD's models and of the evaluator, measured (``core.gates``).
+
+One function per gate family measures what the registered gate names, the same way for a
+model's samples and for the data it was trained on (the data's value is the gate's
+``reference``):
+
+* ``gmd_motion`` — :func:`motion_gate_values`: foot skating (m/s, ``metrics.foot_skating``)
+  and joint jerk (m/s³, ``metrics.jitter``) of the recovered joints, and an FID measured by
+  the caller's evaluator (samples against test windows; for the data, training windows
+  against the same test windows);
+* ``gmd_trajectory`` — :func:`trajectory_gate_values`: root jerk (m/s³, ``jitter_of``) and
+  horizontal path length (m) of the root;
+* ``evaluator`` — :func:`evaluator_gate_values`: R-precision top-3 (``metrics.r_precision``,
+  batches of 32) of held-out real windows with their own captions.
+
+:func:`gmd_model_record` / :func:`evaluator_model_record` turn the values into
+``core.gates.model_record``s with what the model cache keeps (steps, seconds, the training
+loss curve); nothing here touches a cache key.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from repro.core import metrics
+from repro.core.gates import GATES, model_record
+from repro.core.tables import markdown_table
+from repro.gmd.measurements import jitter_of
+from repro.gmd.models import TrainedGMD, parameter_count
+from repro.gmd.windows import FeatureSpace
+from repro.infra import cache
+from repro.models.evaluator import Evaluator
+from repro.motion.features import FPS, features_to_joints
+
+__all__ = ["CURVE_POINTS", "emphasis_study_records", "evaluator_gate_values",
+           "evaluator_model_record", "gates_markdown", "gmd_model_name", "gmd_model_record",
+           "loss_curve", "motion_gate_values", "one_caption_each", "path_length",
+           "relative_features_gate_values", "sample_quality_gate_values",
+           "trajectory_gate_values"]
+
+#: points of the training-loss curve kept in a model record (means of equal chunks of steps).
+CURVE_POINTS = 50
+
+
+def motion_gate_values(joints: np.ndarray | Tensor, *, fid: float | None) -> dict[str, float]:
+    """The ``gmd_motion`` gate's measurements of joint positions (B, T, 22, 3) in metres:
+    ``foot_skating`` (mean horizontal foot speed in contact, m/s, ``metrics.foot_skating``),
+    ``joint_jerk`` (mean ‖Δ³p‖·fps³ over joints and frames, m/s³, ``metrics.jitter``) and
+    ``fid`` as the caller measured it with its evaluator (None: not measured, the gate fails).
+
+    Pass unguided samples' joints with their FID against the test windows, or the data's
+    joints with the training windows' own FID against the same test windows (the reference).
+    """
+    points = joints.detach().cpu().double().numpy() if isinstance(joints, Tensor) \
+        else np.asarray(joints, dtype=np.float64)
+    values = {"foot_skating": float(metrics.foot_skating(points, fps=FPS)),
+              "joint_jerk": float(metrics.jitter(points, fps=FPS).jerk)}
+    if fid is not None:
+        values["fid"] = float(fid)
+    return values
+
+
+def path_length(root_positions: np.ndarray | Tensor) -> np.ndarray:
+    """Horizontal path length (m) of each root path (B, T, 3) = (x, y, z): Σ_t ‖Δ(x, z)‖."""
+    root = root_positions.detach().cpu().double().numpy() if isinstance(root_positions, Tensor) \
+        else np.asarray(root_positions, dtype=np.float64)
+    steps = np.diff(root[..., [0, 2]], axis=1)
+    return np.linalg.norm(steps, axis=-1).sum(axis=1)
+
+
+def trajectory_gate_values(space: TrainedGMD | FeatureSpace, x: Tensor) -> dict[str, float]:
+    """The ``gmd_trajectory`` gate's measurements of model-space windows (B, C, T) in
+    ``space``: ``root_jerk`` (mean root jerk, m/s³, ``measurements.jitter_of`` on the root) and
+    ``path_length`` (mean horizontal root path length, m, :func:`path_length`). The same
+    function measures unguided samples and the data's windows (the reference)."""
+    space = space.space if isinstance(space, TrainedGMD) else space
+    with torch.no_grad():
+        root = space.root_positions(x.detach())
+    return {"root_jerk": float(jitter_of(space, x, "root").jerk),
+            "path_length": float(path_length(root).mean())}
+
+
+def one_caption_each(captions: Sequence[str | Sequence[str]], *, seed: int) -> list[str]:
+    """One caption per window: a window with several is given one drawn with ``seed``."""
+    rng = np.random.default_rng(seed)
+    return [item if isinstance(item, str) else list(item)[rng.integers(len(item))]
+            for item in captions]
+
+
+def evaluator_gate_values(evaluator: Evaluator, features: np.ndarray, lengths: Sequence[int],
+                          captions: Sequence[str | Sequence[str]], *,
+                          seed: int) -> dict[str, float]:
+    """The ``evaluator`` gate's measurement: R-precision top-3 (``metrics.r_precision``,
+    Guo et al.'s protocol, batches of 32, pairs shuffled with ``seed``) of held-out *real*
+    windows (relative-root features (N, T, 263), N ≥ 32) against their own captions (one per
+    window, :func:`one_caption_each`)."""
+    texts = evaluator.embed_texts(one_caption_each(captions, seed=seed))
+    motions = evaluator.embed_motions(np.asarray(features, dtype=np.float32), list(lengths))
+    hits = metrics.r_precision(texts, motions, batch_size=32, top_k=3, seed=seed)
+    return {"r_precision_top3": float(hits[2])}
+
+
+def loss_curve(losses: Sequence[float], points: int = CURVE_POINTS) -> list[float]:
+    """The per-step training losses as ``points`` means of equal chunks of steps (all of
+    them when there are fewer steps)."""
+    values = np.asarray(list(losses), dtype=np.float64)
+    if len(values) <= points:
+        return values.tolist()
+    return [float(chunk.mean()) for chunk in np.array_split(values, points)]
+
+
+def gmd_model_name(trained: TrainedGMD, label: str = "") -> str:
+    """A name that is the same wherever the same cached model is used (its cache key)."""
+    spec = trained.spec
+    head = f"gmd {spec.task}/{spec.prediction}" + (f" {label}" if label else "")
+    return f"{head} seed {spec.seed} [{trained.cache_key[:10]}]"
+
+
+def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, float],
+                     reference: Mapping[str, float], label: str = "") -> dict[str, Any]:
+    """``core.gates.model_record`` of a tiny GMD model: parameters counted, steps and training
+    seconds from the cache's metrics.json, the *training* loss (online weights, per step; the
+    cache keeps no held-out loss) as its curve; ``converged`` unknown (None)."""
+    if family not in ("gmd_motion", "gmd_trajectory"):
+        raise ValueError(f"a GMD model's family is gmd_motion or gmd_trajectory, not {family!r}")
+    losses = list(trained.metrics.get("losses") or [])
+    return model_record(name=gmd_model_name(trained, label), family=family, values=values,
+                        reference=reference, parameters=parameter_count(trained),
+                        steps=len(losses) or trained.spec.train_steps,
+                        train_seconds=trained.metrics.get("seconds"),
+                        validation_curve=loss_curve(losses), converged=None)
+
+
+def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float]
+                           ) -> dict[str, Any]:
+    """``core.gates.model_record`` of the evaluator, named by a hash of its weights (so the
+    one cached evaluator two notebooks share is one entry); steps from its config, its
+    contrastive training loss as the curve; the cache does not keep its training time."""
+    weights = [t for _, t in sorted(evaluator.state_dict().items())]
+    name = (f"evaluator dim {evaluator.config.dim} hidden {evaluator.config.hidden} "
+            f"[{cache.fingerprint(*weights, digits=10)}]")
+    return model_record(name=name, family="evaluator", values=values, reference={},
+                        parameters=sum(p.numel() for p in evaluator.parameters()),
+                        steps=len(evaluator.losses) or evaluator.config.steps,
+                        train_seconds=None, validation_curve=loss_curve(evaluator.losses),
+                        converged=None)
+
+
+def _number(value: float | None) -> str:
+    return "–" if value is None else f"{value:.4g}"
+
+
+def gates_markdown(records: Sequence[Mapping[str, Any]]) -> str:
+    """One row per model and gate: the model's steps and training seconds (first row), the
+    gate's value, allowed range and pass/fail, all from the records."""
+    rows = []
+    for record in records:
+        for k, (metric, gate) in enumerate(record["gate"].items()):
+            allowed = f"[{_number(gate['at_least'])}, {_number(gate['at_most'])}]"
+            head = ([record["name"], _number(record["steps"]), _number(record["train_seconds"])]
+                    if k == 0 else ["", "", ""])
+            rows.append([*head, metric, _number(gate["value"]), allowed,
+                         "pass" if gate["passed"] else "**fail**"])
+    passed = sum(bool(r["passed"]) for r in records)
+    families = sorted({r["family"] for r in records})
+    gates = {f: ", ".join(g.metric for g in GATES[f]) for f in families}
+    legend = "; ".join(f"{f}: {g}" for f, g in gates.items())
+    return (markdown_table(["model", "steps", "training s", "gate", "value", "allowed", ""],
+                           rows)
+            + f"\n\n{passed} of {len(records)} models pass their registered gates ({legend}).")
+
+
+def sample_quality_gate_values(values: Mapping[str, Sequence[float]], tag: str,
+                               index: int) -> dict[str, float]:
+    """The ``gmd_motion`` gate's measurements of one motion model as GMD-A4's
+    ``x0_vs_eps.sample_quality`` already measured them on its unguided samples (``tag`` "x0"
+    or "eps", ``index`` the seed's position): foot skating, joint jerk (``motion_jitter``) and
+    FID against the test windows — the same functions as :func:`motion_gate_values`."""
+    return {"foot_skating": float(values[f"motion_foot_skating_{tag}"][index]),
+            "joint_jerk": float(values[f"motion_jitter_{tag}"][index]),
+            "fid": float(values[f"motion_fid_{tag}"][index])}
+
+
+def relative_features_gate_values(features: np.ndarray | Tensor, *,
+                                  fid: float | None) -> dict[str, float]:
+    """:func:`motion_gate_values` of HumanML3D relative-root features (B, T, 263) — samples
+    as ``table_b1.generate_for_captions`` returns them, or real windows — through their
+    recovered joints (``features.features_to_joints``)."""
+    features = torch.as_tensor(np.asarray(features), dtype=torch.float64)
+    return motion_gate_values(features_to_joints(features), fid=fid)
+
+
+def emphasis_study_records(results: Any, *, base: Any, train: Any, test: Any,
+                           train_relative: Any, evaluator: Evaluator, samples: int,
+                           device: str | torch.device = "cpu") -> list[dict[str, Any]]:
+    """``gmd_motion`` records of every GMD-C4 model (``emphasis_study.run_experiment``'s
+    ``results``: each variant × seed), measured on *unguided* caption-conditioned samples —
+    Table B.1's text-to-motion samples where the study drew them, else drawn here the same
+    way (``measure_text_to_motion``: one per target caption, the study's seed) — against the
+    seed's targets: their own foot skating and jerk (``results.ground_truth``) and the FID of
+    as many training windows (drawn with the seed) against them. The models are the study's
+    cached ones (``load_or_train_variant`` only loads)."""
+    from repro.gmd import emphasis_study as study
+
+    with torch.no_grad():
+        train_features = train_relative.space("motion").relative_features(train_relative.x)
+    train_features = train_features.numpy().astype(np.float32)
+    records = []
+    for k, seed in enumerate(results.seeds):
+        targets = study.draw_targets(test, samples, seed=seed)
+        lengths = [targets.relative.shape[1]] * len(targets)
+        picks = np.sort(np.random.default_rng(seed).choice(len(train_features), len(targets),
+                                                           replace=False))
+        real_fid = metrics.fid(evaluator.embed_motions(train_features[picks], lengths),
+                               evaluator.embed_motions(targets.relative, lengths))
+        reference = {"foot_skating": float(results.ground_truth["foot_skating"][k]),
+                     "joint_jerk": float(results.ground_truth["jerk"][k]),
+                     "fid": float(real_fid)}
+        for variant in results.variants:
+            trained = study.load_or_train_variant(base, variant, train, seed, device=device)
+            drawn = results.text_to_motion.get(variant.label)
+            measured = ({name: drawn[name][k] for name in ("fid", "foot_skating", "jerk")}
+                        if drawn else study.measure_text_to_motion(trained, targets, evaluator,
+                                                                   seed=seed))
+            values = {"foot_skating": float(measured["foot_skating"]),
+                      "joint_jerk": float(measured["jerk"]), "fid": float(measured["fid"])}
+            records.append(gmd_model_record(trained, family="gmd_motion", values=values,
+                                            reference=reference, label=variant.label))
+    return records
