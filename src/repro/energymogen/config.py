@@ -6,7 +6,8 @@
   (:data:`NEGATION_CASES`);
 - :class:`PipelineConfig`: every size, step count and seed behind the cache keys of the data
   (``repro.energymogen.data``) and the trained models (``repro.energymogen.pipeline``), and
-  :func:`pipeline_config`, the one configuration every EnergyMoGen notebook uses.
+  :func:`pipeline_config`, the one configuration every EnergyMoGen notebook uses;
+  :func:`with_minilm`, the opt-in frozen pretrained text encoder (issue #16).
 
 Our choices where the paper is silent or too large for 2 CPU cores are collected here and in
 the docstrings ("our choice").
@@ -14,16 +15,22 @@ the docstrings ("our choice").
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
+from repro.models.frozen_text import MINILM_WIDTH
 from repro.standin.generator import GENERATOR_VERSION
 
 __all__ = [
     "ARM_CONCEPTS", "EXTRA_TEST_SETS", "FRAMES", "HELD_OUT_PAIRS", "LOWER_CONCEPTS",
-    "NEGATION_CASES", "RHYTHM_OVERRIDES", "THREES_AS_PAIRS", "THREE_CONCEPT_SETS",
-    "PipelineConfig", "config_summary", "pipeline_config",
+    "MINILM_MAX_TEXT_LEN", "NEGATION_CASES", "RHYTHM_OVERRIDES", "TEXT_ENCODERS", "THREES_AS_PAIRS",
+    "THREE_CONCEPT_SETS", "PipelineConfig", "config_summary", "pipeline_config", "with_minilm",
 ]
+
+#: the pipeline's text encoders: "learned" (the default: a BiGRU pretrained contrastively on
+#: the stand-in captions, ``text_stage``) or "minilm" (frozen all-MiniLM-L6-v2,
+#: ``repro.models.frozen_text``; the paper's encoder is a frozen pretrained CLIP)
+TEXT_ENCODERS = ("learned", "minilm")
 
 FRAMES = 64
 #: concepts owning root + legs + torso (the generator's locomotion/leg concepts) ...
@@ -96,11 +103,16 @@ class PipelineConfig:
     vae_steps: int = 1000
     vae_batch: int = 32
     vae_lr: float = 1e-3
-    # frozen text encoder (the stand-in for CLIP ViT-L/14)
+    # frozen text encoder (the stand-in for CLIP ViT-L/14). text_dim is the width of its token
+    # states (the denoiser's text width); with "minilm" it is the model's 384 and text_steps
+    # and text_lr are unused; max_text_len counts words ("learned") or WordPiece tokens with
+    # [CLS] and [SEP] ("minilm")
     text_dim: int = 64
     text_steps: int = 300
     text_lr: float = 2e-3
     max_text_len: int = 24
+    #: one of :data:`TEXT_ENCODERS`; enters :func:`config_summary` only when not "learned"
+    text_encoder: str = "learned"
     # latent denoiser (Sec. 3.1; appendix A: AdamW, 10 % unconditional)
     denoiser_width: int = 64
     denoiser_layers: int = 3
@@ -118,6 +130,15 @@ class PipelineConfig:
     items_per_pair: int = 8
     #: items per set of :data:`EXTRA_TEST_SETS` (7 sets: 70 items, two R-precision batches)
     items_per_extra_set: int = 10
+
+    def __post_init__(self) -> None:
+        if self.text_encoder not in TEXT_ENCODERS:
+            raise ValueError(f"text_encoder must be one of {TEXT_ENCODERS}, got "
+                             f"{self.text_encoder!r}")
+        if self.text_encoder == "minilm" and self.text_dim != MINILM_WIDTH:
+            raise ValueError(f"text_encoder='minilm' gives {MINILM_WIDTH}-wide token states: "
+                             f"text_dim must be {MINILM_WIDTH}, got {self.text_dim} (use "
+                             "with_minilm(config))")
 
     def data_dict(self) -> dict[str, Any]:
         return {"generator_version": GENERATOR_VERSION, "frames": self.frames,
@@ -140,7 +161,26 @@ def pipeline_config(quick: bool) -> PipelineConfig:
                           items_per_pair=4, items_per_extra_set=5)
 
 
+#: WordPiece tokens (with [CLS] and [SEP]) the "minilm" encoder reads: CLIP's context length,
+#: the limit of the paper's text encoder. The learned default's 24 words would cut 18 of the 63
+#: quick-mode three-concept captions (up to 29 tokens; measured), none of which it cuts as words.
+MINILM_MAX_TEXT_LEN = 77
+
+
+def with_minilm(config: PipelineConfig) -> PipelineConfig:
+    """``config`` with the frozen all-MiniLM-L6-v2 text encoder: ``text_encoder="minilm"``,
+    ``text_dim`` = its width 384, ``max_text_len`` = :data:`MINILM_MAX_TEXT_LEN`; everything
+    else unchanged. Opt-in: the default stays the learned encoder, with which every
+    registered EnergyMoGen claim was run."""
+    return replace(config, text_encoder="minilm", text_dim=MINILM_WIDTH,
+                   max_text_len=MINILM_MAX_TEXT_LEN)
+
+
 def config_summary(config: PipelineConfig) -> dict[str, Any]:
-    """The configuration as a plain dict (for notes and sidecars)."""
-    return asdict(config)
+    """The configuration as a plain dict (for notes and sidecars); ``text_encoder`` only when
+    it is not the default "learned", so the summaries of existing runs are unchanged."""
+    summary = asdict(config)
+    if summary["text_encoder"] == "learned":
+        del summary["text_encoder"]
+    return summary
 

@@ -1,9 +1,15 @@
 """The frozen text encoder of the EnergyMoGen pipeline (the stand-in for CLIP ViT-L/14).
 
-A word-embedding + BiGRU encoder (``repro.standin.text.TextEncoder``), pretrained
-contrastively (symmetric InfoNCE, CLIP-style) against linear maps of a VAE's scaled training
-latents and then frozen; never the evaluator's. Cached as kind ``emg_text_encoder``
-(:func:`text_encoder_cache_key`).
+``config.text_encoder`` chooses it:
+
+- "learned" (the default): a word-embedding + BiGRU encoder
+  (``repro.standin.text.TextEncoder``), pretrained contrastively (symmetric InfoNCE,
+  CLIP-style) against linear maps of a VAE's scaled training latents and then frozen; never
+  the evaluator's. Cached as kind ``emg_text_encoder`` (:func:`text_encoder_cache_key`).
+- "minilm" (opt-in, issue #16): all-MiniLM-L6-v2 with pretrained weights
+  (``repro.models.frozen_text``), frozen, with its own WordPiece tokenizer in place of the
+  vocabulary; nothing is trained or cached. The denoiser then reads its 384-wide token
+  states (``config.text_dim`` = 384), and its key changes through them.
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ from repro.energymogen.config import PipelineConfig
 from repro.energymogen.data import StandInData
 from repro.infra import cache
 from repro.models.evaluator import info_nce
+from repro.models.frozen_text import FrozenTextEncoder, WordPieceTokenizer, shared_minilm
 from repro.models.vae import array_fingerprint
 from repro.standin.text import TextEncoder, Vocabulary, tokenize
 
@@ -62,10 +69,11 @@ def _train_text_encoder(model: _LatentTextModel, vocab: Vocabulary, captions: li
 
 @dataclass(frozen=True)
 class TextStage:
-    """The frozen text encoder (stand-in for CLIP) and its vocabulary."""
+    """The frozen text encoder (stand-in for CLIP) and its vocabulary (for "minilm", its
+    WordPiece tokenizer: the same ``encode_batch``, and the encoder the same ``tokens``)."""
 
-    text_encoder: TextEncoder
-    vocab: Vocabulary
+    text_encoder: TextEncoder | FrozenTextEncoder
+    vocab: Vocabulary | WordPieceTokenizer
     seconds: float
 
 
@@ -86,8 +94,15 @@ def train_text_stage(data: StandInData, config: PipelineConfig, latents: Tensor,
     It stands in for the paper's frozen *pretrained* CLIP, so :func:`load_pipeline` always
     trains it with ``config.data_seed`` against the ``data_seed`` VAE's latents, whatever the
     training seed of the VAE and denoiser: the text encoder is the same for every training
-    seed, as CLIP is the same for every EnergyMoGen run (our choice)."""
+    seed, as CLIP is the same for every EnergyMoGen run (our choice).
+
+    With ``config.text_encoder == "minilm"`` nothing is trained: the stage is the frozen
+    pretrained all-MiniLM-L6-v2 on the CPU (``frozen_text.shared_minilm``, loaded once per
+    process) and ``data``, ``latents`` and ``train_seed`` are not used."""
     start = time.perf_counter()
+    if config.text_encoder == "minilm":
+        encoder = shared_minilm("cpu")
+        return TextStage(encoder, encoder.tokenizer, time.perf_counter() - start)
     vocab = Vocabulary.build([c for caps in data.train_captions for c in caps])
     captions = [list(c) for c in data.train_captions]
 

