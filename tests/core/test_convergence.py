@@ -78,18 +78,18 @@ def test_plateau_criterion_counts_evaluations_without_a_relative_improvement():
 def test_validation_pairs_are_fixed_and_cover_the_t_grid():
     data = _mixture(6, 1)
     validation = ValidationSet(data)
-    a = validation.prepare(100, 5, noise_seed=3)
-    b = validation.prepare(100, 5, noise_seed=3)
-    assert torch.equal(a["noise"], b["noise"])
-    assert a["t"].unique().tolist() == [0, 25, 50, 74, 99]   # round(k·99/4)
-    assert a["x"].shape == (30, 1, 1)
-    assert validation.prepare(100, 1, noise_seed=3)["t"].unique().tolist() == [99]
+    pairs = validation.pairs(100, 5, noise_seed=3)
+    assert pairs.t.unique().tolist() == [0, 25, 50, 74, 99]   # round(k·99/4)
+    assert pairs.index.tolist() == list(range(6)) * 5
+    assert validation.pairs(100, 1, noise_seed=3).t.unique().tolist() == [99]
     diffusion = GaussianDiffusion(cosine_betas(100), "epsilon")
     torch.manual_seed(0)
     model = TinyDenoiser().eval()
-    first = validation_loss(model, diffusion, a, batch_size=4, device=torch.device("cpu"))
-    again = validation_loss(model, diffusion, b, batch_size=30, device=torch.device("cpu"))
-    assert first == pytest.approx(again, rel=1e-6)
+    cpu = torch.device("cpu")
+    first = validation_loss(model, diffusion, pairs, batch_size=4, device=cpu)
+    assert validation_loss(model, diffusion, pairs, batch_size=4, device=cpu) == first
+    other_noise = validation.pairs(100, 5, noise_seed=4)
+    assert validation_loss(model, diffusion, other_noise, batch_size=4, device=cpu) != first
     with pytest.raises(ValueError, match="cond has 2 rows"):
         ValidationSet(data, cond=torch.zeros(2, 3))
 

@@ -54,7 +54,7 @@ from repro.infra import progress as run_progress
 from repro.infra.cache import load_or_train
 
 __all__ = ["AUTOCAST_DTYPES", "VALIDATION_SEED_OFFSET", "ConvergenceRecord", "PlateauCriterion",
-           "TrainConfig", "TrainResult", "ValidationSet", "autocast_context",
+           "TrainConfig", "TrainResult", "ValidationPairs", "ValidationSet", "autocast_context",
            "check_convergence_fields", "drop_unset_convergence_fields", "ema_decay_at",
            "load_or_train", "make_adamw", "torch_threads", "train_diffusion",
            "validation_loss"]
@@ -319,9 +319,11 @@ def _loader_batches(loader: Iterable[Any]) -> Iterator[dict[str, Tensor]]:
 class ValidationSet:
     """Held-out data x (N, C, T) with optional ``cond`` (N, …) and frame ``mask`` (N, T).
 
-    ``prepare`` fixes the evaluation pairs once: every example at each of K evenly spaced
-    timesteps t_k = round(k·(T − 1)/(K − 1)) (K = 1: t = T − 1), each pair with its own noise
-    from ``torch.Generator(noise_seed)``, so two evaluations differ only by the weights.
+    ``pairs`` fixes what one evaluation covers: every example at each of K evenly spaced
+    timesteps t_k = round(k·(T − 1)/(K − 1)) (K = 1: t = T − 1), each pair with its own
+    noise; ``validation_loss`` redraws that noise from ``torch.Generator(noise_seed)`` in the
+    same chunks every time, so two evaluations differ only by the weights (and nothing of
+    size N·K·C·T is kept between them).
     """
 
     x: Tensor
@@ -336,43 +338,48 @@ class ValidationSet:
                 raise ValueError(f"validation {name} has {extra.shape[0]} rows but x has "
                                  f"{self.x.shape[0]}")
 
-    def prepare(self, num_timesteps: int, timesteps: int, noise_seed: int
-                ) -> dict[str, Tensor | None]:
-        """The fixed pairs: x, cond, mask repeated K times, t (N·K,), noise like x."""
+    def pairs(self, num_timesteps: int, timesteps: int, noise_seed: int) -> ValidationPairs:
+        """The fixed (example, t) pairs, examples varying fastest."""
         k = min(timesteps, num_timesteps)
         grid = (torch.tensor([num_timesteps - 1]) if k == 1 else
                 torch.round(torch.linspace(0, num_timesteps - 1, k)).long())
         n = self.x.shape[0]
-        generator = torch.Generator().manual_seed(noise_seed)
-        x = self.x.repeat(k, *([1] * (self.x.dim() - 1)))
-        return {"x": x, "t": grid.repeat_interleave(n),
-                "noise": torch.randn(x.shape, generator=generator, dtype=x.dtype),
-                "cond": None if self.cond is None else
-                self.cond.repeat(k, *([1] * (self.cond.dim() - 1))),
-                "mask": None if self.mask is None else
-                self.mask.repeat(k, *([1] * (self.mask.dim() - 1)))}
+        return ValidationPairs(data=self, index=torch.arange(n).repeat(k),
+                               t=grid.repeat_interleave(n), noise_seed=noise_seed)
+
+
+@dataclass
+class ValidationPairs:
+    """``ValidationSet.pairs``: example ``index`` and timestep ``t`` per pair (N·K,)."""
+
+    data: ValidationSet
+    index: Tensor
+    t: Tensor
+    noise_seed: int
 
 
 @torch.no_grad()
-def validation_loss(model: nn.Module, diffusion: GaussianDiffusion,
-                    pairs: dict[str, Tensor | None], *, batch_size: int,
-                    device: torch.device, feature_weights: Tensor | None = None) -> float:
-    """Mean of ``diffusion.training_losses`` over the fixed pairs of ``ValidationSet.prepare``
-    (the condition always kept), in chunks of ``batch_size``; the model is used as it is
-    (pass the EMA copy, in eval mode)."""
-    x_all = pairs["x"]
-    assert x_all is not None
-    total, count = 0.0, x_all.shape[0]
+def validation_loss(model: nn.Module, diffusion: GaussianDiffusion, pairs: ValidationPairs,
+                    *, batch_size: int, device: torch.device,
+                    feature_weights: Tensor | None = None) -> float:
+    """Mean of ``diffusion.training_losses`` over the fixed pairs (the condition always
+    kept), in chunks of ``batch_size``, the noise of each chunk drawn in turn from a fresh
+    ``torch.Generator(pairs.noise_seed)``; the model is used as it is (pass the EMA copy, in
+    eval mode)."""
+    data, generator = pairs.data, torch.Generator().manual_seed(pairs.noise_seed)
+    total, count = 0.0, pairs.index.shape[0]
     for start in range(0, count, batch_size):
-        chunk = slice(start, start + batch_size)
+        index = pairs.index[start:start + batch_size]
+        x0 = data.x[index]
+        noise = torch.randn(x0.shape, generator=generator, dtype=x0.dtype)
         model_kwargs: dict[str, Any] = {}
-        if pairs["cond"] is not None:
-            model_kwargs["cond"] = pairs["cond"][chunk].to(device)
-        chunk_mask = None if pairs["mask"] is None else pairs["mask"][chunk].to(device)
+        if data.cond is not None:
+            model_kwargs["cond"] = data.cond[index].to(device)
+        mask = None if data.mask is None else data.mask[index].to(device)
         losses = diffusion.training_losses(
-            model, x_all[chunk].to(device), pairs["t"][chunk].to(device),
-            model_kwargs=model_kwargs, noise=pairs["noise"][chunk].to(device),
-            feature_weights=feature_weights, mask=chunk_mask)
+            model, x0.to(device), pairs.t[start:start + batch_size].to(device),
+            model_kwargs=model_kwargs, noise=noise.to(device), feature_weights=feature_weights,
+            mask=mask)
         total += float(losses.double().sum())
     return total / count
 
@@ -422,7 +429,7 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
                            fused=config.fused_adamw)
     autocast_dtype = config.autocast_dtype
     sampler = UniformSampler(diffusion.num_timesteps)
-    validation_pairs = (None if validation is None else validation.prepare(
+    validation_pairs = (None if validation is None else validation.pairs(
         diffusion.num_timesteps, config.validation_timesteps,
         config.seed + VALIDATION_SEED_OFFSET))
     plateau = PlateauCriterion(config.patience, config.min_delta)
