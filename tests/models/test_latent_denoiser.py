@@ -226,3 +226,21 @@ def test_train_latent_denoiser_learns_and_returns_denoisers():
                               tokens, mask, config)
     with pytest.raises(ValueError, match=r"latents must be \(M, 4, 6\)"):
         train_latent_denoiser(_denoiser(), diffusion, latents[:, :2], tokens, mask, config)
+
+
+def test_train_latent_denoiser_passes_the_convergence_record_through():
+    diffusion = GaussianDiffusion(cosine_betas(50))
+    g = torch.Generator().manual_seed(0)
+    latents = torch.randn(40, N, D_LATENT, generator=g)
+    tokens = torch.randn(40, 3, D_TEXT, generator=g)
+    mask = torch.ones(40, 3, dtype=torch.bool)
+    config = TrainConfig(steps=6, batch_size=8, lr=1e-3, cond_dropout=0.1, seed=0,
+                         num_threads=1, validate_every=3, patience=10)
+    result = train_latent_denoiser(_denoiser(), diffusion, latents[:32], tokens[:32], mask[:32],
+                                   config, validation=(latents[32:], tokens[32:], mask[32:]))
+    assert isinstance(result.ema_model, LatentDenoiser)
+    assert result.convergence is not None
+    assert [step for step, _ in result.convergence.validation] == [0, 3, 6]
+    with pytest.raises(ValueError, match="validation latents"):
+        train_latent_denoiser(_denoiser(), diffusion, latents[:32], tokens[:32], mask[:32],
+                              config, validation=(latents[32:, :2], tokens[32:], mask[32:]))

@@ -162,3 +162,39 @@ def test_load_or_train_vae_caches_by_config(tmp_path, monkeypatch):
         assert torch.equal(a, b)
     with pytest.raises(AssertionError, match="cache"):       # other data → a new entry
         load_or_train_vae(motions + 1, lengths, model_kwargs=kwargs, config=config)
+
+
+def test_vae_convergence_is_opt_in_and_leaves_the_trajectory_unchanged():
+    assert set(VAETrainConfig().to_config()) == {"steps", "batch_size", "lr", "weight_decay",
+                                                 "grad_clip", "kl_weight", "seed"}
+    assert {"validate_every", "patience", "min_delta"} <= set(
+        VAETrainConfig(validate_every=10).to_config())
+    with pytest.raises(ValueError, match="only act with validate_every"):
+        VAETrainConfig(patience=2)
+    motions, lengths = _toy_data()
+    held_out, held_lengths = _toy_data(count=8)
+    plain = train_vae(_tiny(2, max_frames=12, dropout=0.0), motions, lengths,
+                      VAETrainConfig(steps=20, batch_size=8, lr=3e-3, num_threads=1))
+    capped = train_vae(_tiny(2, max_frames=12, dropout=0.0), motions, lengths,
+                       VAETrainConfig(steps=20, batch_size=8, lr=3e-3, num_threads=1,
+                                      validate_every=10, patience=50),
+                       validation=(held_out, held_lengths))
+    assert capped.losses == plain.losses and plain.convergence is None
+    record = capped.convergence
+    assert record is not None and not record.converged
+    assert [step for step, _ in record.validation] == [0, 10, 20]
+    assert record.validation[-1][1] < record.validation[0][1]
+    assert capped.metrics()["convergence"]["steps_used"] == 20
+    with pytest.raises(ValueError, match="exactly when"):
+        train_vae(_tiny(2, max_frames=12), motions, lengths, VAETrainConfig(validate_every=5))
+
+
+def test_vae_training_stops_on_a_plateau():
+    motions, lengths = _toy_data()
+    config = VAETrainConfig(steps=2000, batch_size=8, lr=3e-3, num_threads=1, validate_every=10,
+                            patience=2, min_delta=0.05)
+    result = train_vae(_tiny(2, max_frames=12, dropout=0.0), motions, lengths, config,
+                       validation=_toy_data(count=8))
+    record = result.convergence
+    assert record is not None and record.converged
+    assert record.steps_used == len(result.losses["loss"]) == record.validation[-1][0] < 2000

@@ -24,6 +24,15 @@ entering ``to_config`` (and so the cache key) only when set: ``autocast="bfloat1
 forward and backward under ``torch.autocast`` (bf16 matrix products, fp32 weights, optimiser
 and loss reduction), and ``fused_adamw=True`` uses the fused AdamW kernel (float-noise
 differences, ~1e-6 after a few steps).
+
+Convergence (issue #14; docs/TRAINING.md): with ``validate_every`` set and a ``validation``
+set passed, the EMA weights' loss on held-out data is measured every ``validate_every`` steps
+on a fixed grid of timesteps with fixed noise (``ValidationSet``), so successive values of the
+curve differ only by the weights. Training stops when the best validation loss has not
+improved by a relative ``min_delta`` for ``patience`` evaluations (``PlateauCriterion``);
+``steps`` stays the cap. Validation draws from its own generator, so the training trajectory
+is the one without validation, step for step. The convergence fields enter ``to_config``
+only when ``validate_every`` is set, so every earlier cache key is unchanged.
 """
 
 from __future__ import annotations
@@ -44,12 +53,95 @@ from repro.core.diffusion import GaussianDiffusion, UniformSampler
 from repro.infra import progress as run_progress
 from repro.infra.cache import load_or_train
 
-__all__ = ["AUTOCAST_DTYPES", "TrainConfig", "TrainResult", "autocast_context", "ema_decay_at",
-           "load_or_train", "make_adamw", "torch_threads", "train_diffusion"]
+__all__ = ["AUTOCAST_DTYPES", "VALIDATION_SEED_OFFSET", "ConvergenceRecord", "PlateauCriterion",
+           "TrainConfig", "TrainResult", "ValidationPairs", "ValidationSet", "autocast_context",
+           "check_convergence_fields", "drop_unset_convergence_fields", "ema_decay_at",
+           "load_or_train", "make_adamw", "torch_threads", "train_diffusion",
+           "validation_loss"]
 
 #: the ``TrainConfig.autocast`` values and the dtype each runs the matrix products in
 AUTOCAST_DTYPES: dict[str | None, torch.dtype | None] = {None: None, "bfloat16": torch.bfloat16}
 _OPT_IN_DEFAULTS: dict[str, Any] = {"autocast": None, "fused_adamw": False}
+#: the convergence fields: in ``to_config`` (as a group) only when ``validate_every`` is set
+_CONVERGENCE_DEFAULTS: dict[str, Any] = {"validate_every": None, "patience": 5,
+                                         "min_delta": 0.01, "validation_timesteps": 10}
+#: the validation noise's generator seed is ``seed + VALIDATION_SEED_OFFSET`` (not the
+#: training generator, so validating leaves the training trajectory unchanged)
+VALIDATION_SEED_OFFSET = 7919
+
+
+def check_convergence_fields(config: Any) -> None:
+    """Validate ``validate_every``/``patience``/``min_delta``/``validation_timesteps``; they
+    may differ from their defaults only when ``validate_every`` is set (else they do nothing
+    and would still change the cache key)."""
+    if config.validate_every is None:
+        changed = [name for name, default in _CONVERGENCE_DEFAULTS.items()
+                   if getattr(config, name, default) != default]
+        if changed:
+            raise ValueError(f"{changed} only act with validate_every set")
+        return
+    if config.validate_every < 1:
+        raise ValueError(f"validate_every must be >= 1 or None, got {config.validate_every}")
+    if config.patience < 1:
+        raise ValueError(f"patience must be >= 1, got {config.patience}")
+    if not 0.0 <= config.min_delta < 1.0:
+        raise ValueError(f"min_delta must be in [0, 1), got {config.min_delta}")
+    if getattr(config, "validation_timesteps", 1) < 1:
+        raise ValueError("validation_timesteps must be >= 1")
+
+
+def drop_unset_convergence_fields(config: dict[str, Any]) -> dict[str, Any]:
+    """Without ``validate_every`` the convergence fields leave the key (as before they
+    existed); with it they all stay."""
+    if config.get("validate_every") is None:
+        for name in _CONVERGENCE_DEFAULTS:
+            config.pop(name, None)
+    return config
+
+
+@dataclass
+class PlateauCriterion:
+    """Stop when the best loss has not improved by a relative ``min_delta`` for ``patience``
+    evaluations: an evaluation improves when loss < best·(1 − min_delta)."""
+
+    patience: int
+    min_delta: float
+    best: float = float("inf")
+    best_step: int | None = None
+    evaluations_since_best: int = 0
+
+    def update(self, step: int, loss: float) -> bool:
+        """Record ``loss`` measured after ``step`` steps; true when training should stop."""
+        if not loss == loss:                        # NaN never improves
+            self.evaluations_since_best += 1
+        elif self.best_step is None or loss < self.best * (1.0 - self.min_delta):
+            self.best, self.best_step, self.evaluations_since_best = loss, step, 0
+        else:
+            self.evaluations_since_best += 1
+        return self.evaluations_since_best >= self.patience
+
+
+@dataclass
+class ConvergenceRecord:
+    """How a run with validation ended: the curve (step, loss), the steps it used, and
+    whether the plateau criterion stopped it (``converged``) or the step cap did."""
+
+    validation: list[tuple[int, float]]
+    steps_used: int
+    step_cap: int
+    converged: bool
+    best_step: int | None
+    best_loss: float
+
+    @property
+    def stop_reason(self) -> str:
+        return "plateau" if self.converged else "step cap"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"validation": [[step, loss] for step, loss in self.validation],
+                "steps_used": self.steps_used, "step_cap": self.step_cap,
+                "converged": self.converged, "stop_reason": self.stop_reason,
+                "best_step": self.best_step, "best_loss": self.best_loss}
 
 
 @dataclass
@@ -72,6 +164,14 @@ class TrainConfig:
     autocast: str | None = None
     #: the fused AdamW kernel (float-noise differences from the loop; opt-in; in the key)
     fused_adamw: bool = False
+    #: evaluate the EMA weights on the validation set every this many steps (None: never;
+    #: the convergence fields below enter the key only when this is set)
+    validate_every: int | None = None
+    #: stop after this many evaluations without a relative improvement of ``min_delta``
+    patience: int = 5
+    min_delta: float = 0.01
+    #: the validation loss averages over this many evenly spaced timesteps 0 … T − 1
+    validation_timesteps: int = 10
 
     def __post_init__(self) -> None:
         if self.steps < 1 or self.batch_size < 1:
@@ -91,6 +191,7 @@ class TrainConfig:
         if self.autocast not in AUTOCAST_DTYPES:
             raise ValueError(f"autocast must be one of {sorted(map(str, AUTOCAST_DTYPES))}, "
                              f"got {self.autocast!r}")
+        check_convergence_fields(self)
 
     def to_config(self) -> dict[str, Any]:
         """Every field that changes the trained weights (not ``device`` or ``num_threads``).
@@ -104,7 +205,7 @@ class TrainConfig:
         for name, default in _OPT_IN_DEFAULTS.items():
             if config[name] == default:
                 config.pop(name)
-        return config
+        return drop_unset_convergence_fields(config)
 
     @property
     def autocast_dtype(self) -> torch.dtype | None:
@@ -119,14 +220,26 @@ class TrainResult:
     ema_model: nn.Module
     losses: list[float] = field(default_factory=list)
     seconds: float = 0.0
+    #: set when the run validated (``TrainConfig.validate_every``), else None
+    convergence: ConvergenceRecord | None = None
 
     @property
     def steps_per_second(self) -> float:
         return len(self.losses) / self.seconds if self.seconds > 0 else float("nan")
 
+    @property
+    def steps_used(self) -> int:
+        return len(self.losses)
+
     def metrics(self) -> dict[str, Any]:
-        return {"losses": self.losses, "final_loss": self.losses[-1] if self.losses else None,
-                "seconds": self.seconds, "steps_per_second": self.steps_per_second}
+        """Losses and timing; plus ``"convergence"`` (``ConvergenceRecord.to_dict``) when the
+        run validated."""
+        metrics = {"losses": self.losses,
+                   "final_loss": self.losses[-1] if self.losses else None,
+                   "seconds": self.seconds, "steps_per_second": self.steps_per_second}
+        if self.convergence is not None:
+            metrics["convergence"] = self.convergence.to_dict()
+        return metrics
 
     def for_cache(self, use_ema: bool = True) -> tuple[nn.Module, dict[str, Any]]:
         """``(module, metrics)`` as ``load_or_train``'s ``train`` callable should return."""
@@ -202,17 +315,92 @@ def _loader_batches(loader: Iterable[Any]) -> Iterator[dict[str, Tensor]]:
             raise ValueError("the data loader yielded no batch")
 
 
+@dataclass
+class ValidationSet:
+    """Held-out data x (N, C, T) with optional ``cond`` (N, …) and frame ``mask`` (N, T).
+
+    ``pairs`` fixes what one evaluation covers: every example at each of K evenly spaced
+    timesteps t_k = round(k·(T − 1)/(K − 1)) (K = 1: t = T − 1), each pair with its own
+    noise; ``validation_loss`` redraws that noise from ``torch.Generator(noise_seed)`` in the
+    same chunks every time, so two evaluations differ only by the weights (and nothing of
+    size N·K·C·T is kept between them).
+    """
+
+    x: Tensor
+    cond: Tensor | None = None
+    mask: Tensor | None = None
+
+    def __post_init__(self) -> None:
+        if self.x.dim() < 2 or self.x.shape[0] < 1:
+            raise ValueError(f"validation x must be (N, C, T), got {tuple(self.x.shape)}")
+        for name, extra in (("cond", self.cond), ("mask", self.mask)):
+            if extra is not None and extra.shape[0] != self.x.shape[0]:
+                raise ValueError(f"validation {name} has {extra.shape[0]} rows but x has "
+                                 f"{self.x.shape[0]}")
+
+    def pairs(self, num_timesteps: int, timesteps: int, noise_seed: int) -> ValidationPairs:
+        """The fixed (example, t) pairs, examples varying fastest."""
+        k = min(timesteps, num_timesteps)
+        grid = (torch.tensor([num_timesteps - 1]) if k == 1 else
+                torch.round(torch.linspace(0, num_timesteps - 1, k)).long())
+        n = self.x.shape[0]
+        return ValidationPairs(data=self, index=torch.arange(n).repeat(k),
+                               t=grid.repeat_interleave(n), noise_seed=noise_seed)
+
+
+@dataclass
+class ValidationPairs:
+    """``ValidationSet.pairs``: example ``index`` and timestep ``t`` per pair (N·K,)."""
+
+    data: ValidationSet
+    index: Tensor
+    t: Tensor
+    noise_seed: int
+
+
+@torch.no_grad()
+def validation_loss(model: nn.Module, diffusion: GaussianDiffusion, pairs: ValidationPairs,
+                    *, batch_size: int, device: torch.device,
+                    feature_weights: Tensor | None = None) -> float:
+    """Mean of ``diffusion.training_losses`` over the fixed pairs (the condition always
+    kept), in chunks of ``batch_size``, the noise of each chunk drawn in turn from a fresh
+    ``torch.Generator(pairs.noise_seed)``; the model is used as it is (pass the EMA copy, in
+    eval mode)."""
+    data, generator = pairs.data, torch.Generator().manual_seed(pairs.noise_seed)
+    total, count = 0.0, pairs.index.shape[0]
+    for start in range(0, count, batch_size):
+        index = pairs.index[start:start + batch_size]
+        x0 = data.x[index]
+        noise = torch.randn(x0.shape, generator=generator, dtype=x0.dtype)
+        model_kwargs: dict[str, Any] = {}
+        if data.cond is not None:
+            model_kwargs["cond"] = data.cond[index].to(device)
+        mask = None if data.mask is None else data.mask[index].to(device)
+        losses = diffusion.training_losses(
+            model, x0.to(device), pairs.t[start:start + batch_size].to(device),
+            model_kwargs=model_kwargs, noise=noise.to(device), feature_weights=feature_weights,
+            mask=mask)
+        total += float(losses.double().sum())
+    return total / count
+
+
 def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: GaussianDiffusion,
                     data: Tensor | Iterable[Any], config: TrainConfig, *,
                     cond: Tensor | None = None, mask: Tensor | None = None,
+                    validation: ValidationSet | None = None,
                     progress: bool = True) -> TrainResult:
     """Minimise ``diffusion.training_losses`` (simple MSE on x0 or ε) for ``config.steps``.
 
     Deterministic given ``config.seed`` (on one device/thread count): the model's
     initialisation uses ``torch.manual_seed(seed)`` when ``model`` is a factory, and batches,
     timesteps, noise and condition dropout come from one ``torch.Generator(seed)``.
+    With ``config.validate_every`` set, ``validation`` (required then) is evaluated on the EMA
+    weights after 0, k, 2k, … steps and after the last one, and training stops early when
+    the plateau criterion fires (module docstring); the result's ``convergence`` records it.
     The progress bar is shown only when ``progress`` is true and stderr is a terminal.
     """
+    if (config.validate_every is None) != (validation is None):
+        raise ValueError("pass a validation set exactly when config.validate_every is set")
     device = torch.device(config.device)
     torch.manual_seed(config.seed)
     if not isinstance(model, nn.Module):
@@ -241,6 +429,22 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
                            fused=config.fused_adamw)
     autocast_dtype = config.autocast_dtype
     sampler = UniformSampler(diffusion.num_timesteps)
+    validation_pairs = (None if validation is None else validation.pairs(
+        diffusion.num_timesteps, config.validation_timesteps,
+        config.seed + VALIDATION_SEED_OFFSET))
+    plateau = PlateauCriterion(config.patience, config.min_delta)
+    curve: list[tuple[int, float]] = []
+    converged = False
+
+    def validate(steps_done: int) -> bool:
+        assert validation_pairs is not None
+        with autocast_context(device, autocast_dtype):
+            loss = validation_loss(ema_model, diffusion, validation_pairs,
+                                   batch_size=config.batch_size, device=device,
+                                   feature_weights=feature_weights)
+        curve.append((steps_done, loss))
+        return plateau.update(steps_done, loss)
+
     previous_threads = torch.get_num_threads()
     if config.num_threads is not None:
         torch.set_num_threads(config.num_threads)
@@ -252,6 +456,8 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
     losses: list[float] = []
     start = time.perf_counter()
     try:
+        if validation_pairs is not None:
+            validate(0)
         for step in range(config.steps):
             batch = next(batches)
             x0 = batch["x"].to(device)
@@ -284,13 +490,22 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
                 bar.set_postfix(loss=f"{losses[-1]:.4f}")
             run_progress.report("training diffusion model", step + 1, config.steps,
                                 loss=losses[-1])
+            if validation_pairs is not None and config.validate_every is not None and (
+                    (step + 1) % config.validate_every == 0 or step + 1 == config.steps):
+                if validate(step + 1):
+                    converged = True
+                    break
     finally:
         bar.close()
         if config.num_threads is not None:
             torch.set_num_threads(previous_threads)
     seconds = time.perf_counter() - start
     model.eval()
-    return TrainResult(model=model, ema_model=ema_model, losses=losses, seconds=seconds)
+    convergence = None if validation_pairs is None else ConvergenceRecord(
+        validation=curve, steps_used=len(losses), step_cap=config.steps, converged=converged,
+        best_step=plateau.best_step, best_loss=plateau.best)
+    return TrainResult(model=model, ema_model=ema_model, losses=losses, seconds=seconds,
+                       convergence=convergence)
 
 
 @contextlib.contextmanager

@@ -39,7 +39,7 @@ import torch
 from torch import Tensor, nn
 
 from repro.core.diffusion import GaussianDiffusion
-from repro.core.training import TrainConfig, TrainResult, train_diffusion
+from repro.core.training import TrainConfig, TrainResult, ValidationSet, train_diffusion
 from repro.models.unet import sinusoidal_embedding
 
 __all__ = [
@@ -326,6 +326,7 @@ class _PackedTextAdapter(nn.Module):
 def train_latent_denoiser(denoiser: LatentDenoiser, diffusion: GaussianDiffusion,
                           latents: Tensor, text_tokens: Tensor, text_mask: Tensor,
                           config: TrainConfig | None = None, *,
+                          validation: tuple[Tensor, Tensor, Tensor] | None = None,
                           progress: bool = False) -> TrainResult:
     """Minimise ‖ε − ε_θ(z_t, t, c)‖² (Eq. 2) with ``repro.training.train_diffusion``.
 
@@ -333,6 +334,8 @@ def train_latent_denoiser(denoiser: LatentDenoiser, diffusion: GaussianDiffusion
     text encoder (the paper's frozen CLIP). ``config.cond_dropout`` is the rate at which the
     text is replaced by ∅ (appendix A: 10 %; the default config here uses 0.1). The returned
     ``TrainResult`` holds the denoiser and its EMA copy (not the training adapter).
+    ``validation`` = held-out (latents, text tokens, text mask), with ``config.validate_every``
+    set: the convergence criterion of ``train_diffusion`` (text always kept when validating).
     """
     if diffusion.prediction != "epsilon":
         raise ValueError("EnergyMoGen's denoiser predicts ε; use GaussianDiffusion(…, "
@@ -346,7 +349,18 @@ def train_latent_denoiser(denoiser: LatentDenoiser, diffusion: GaussianDiffusion
                          f"{tuple(text_tokens.shape)}")
     _check_text(text_tokens, text_mask, denoiser.text_dim)
     packed = torch.cat([text_tokens.float(), text_mask[..., None].float()], dim=-1)
+    validation_set = None
+    if validation is not None:
+        val_latents, val_tokens, val_mask = validation
+        if val_latents.dim() != 3 or val_latents.shape[1:] != latents.shape[1:]:
+            raise ValueError(f"validation latents must be (M', {denoiser.latent_count}, "
+                             f"{denoiser.latent_dim}), got {tuple(val_latents.shape)}")
+        _check_text(val_tokens, val_mask, denoiser.text_dim)
+        validation_set = ValidationSet(
+            val_latents.float(),
+            cond=torch.cat([val_tokens.float(), val_mask[..., None].float()], dim=-1))
     result = train_diffusion(_PackedTextAdapter(denoiser), diffusion, latents.float(), config,
-                             cond=packed, progress=progress)
+                             cond=packed, validation=validation_set, progress=progress)
     return TrainResult(model=result.model.denoiser, ema_model=result.ema_model.denoiser,
-                       losses=result.losses, seconds=result.seconds)
+                       losses=result.losses, seconds=result.seconds,
+                       convergence=result.convergence)

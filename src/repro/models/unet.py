@@ -34,7 +34,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-__all__ = ["FastMish", "ResBlock1D", "UNet1D", "sinusoidal_embedding", "use_fast_mish"]
+__all__ = ["FastMish", "ResBlock1D", "UNet1D", "narrowest_full_resolution_width",
+           "sinusoidal_embedding", "use_fast_mish"]
 
 
 class FastMish(nn.Module):
@@ -233,3 +234,21 @@ class UNet1D(nn.Module):
             if i < self.num_levels - 1:
                 h = self.upsamplers[i](h)
         return self.out_conv(self.out_block(h))
+
+
+def narrowest_full_resolution_width(model: UNet1D) -> int:
+    """The fewest channels any layer at the input's frame rate carries (issue #14).
+
+    Full-resolution layers: the first level's down blocks, the last up level's blocks and
+    the output block (the 1×1 output convolution maps back to the data's channels). A model
+    whose narrowest full-resolution layer is narrower than its data (263 motion features)
+    cannot pass 263 independent values per frame, so it cannot fit ε ≈ x_t at large t (GMD's
+    motion UNet is 263 → 1024 wide, REFERENCE.md).
+    """
+    if not isinstance(model, UNet1D):
+        raise ValueError(f"need a UNet1D, got {type(model).__name__}")
+    blocks = [*model.down_blocks[0], *model.up_blocks[-1]]
+    widths = [block.conv1.out_channels for block in blocks]
+    widths += [block.conv2.out_channels for block in blocks]
+    widths.append(model.out_block[0].out_channels)
+    return min(widths)

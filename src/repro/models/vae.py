@@ -36,6 +36,13 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from repro.core.training import (
+    VALIDATION_SEED_OFFSET,
+    ConvergenceRecord,
+    PlateauCriterion,
+    check_convergence_fields,
+    drop_unset_convergence_fields,
+)
 from repro.infra import cache
 from repro.infra.cache import load_or_train
 from repro.models.unet import sinusoidal_embedding
@@ -49,6 +56,7 @@ __all__ = [
     "lengths_to_mask",
     "load_or_train_vae",
     "train_vae",
+    "vae_validation_loss",
 ]
 
 _FORMAT_VERSION = 1
@@ -219,7 +227,11 @@ class VAETrainConfig:
     """AdamW + gradient clipping, seeded (appendix A: AdamW, lr 1e-4, recon 1, KL 1e-4).
 
     Our choice: lr 5e-4 by default because our runs are thousands, not 300K, of steps.
-    ``num_threads`` only changes speed and is left out of ``to_config``.
+    ``num_threads`` only changes speed and is left out of ``to_config``. Convergence as in
+    ``repro.core.training``: with ``validate_every`` set (and a validation set passed to
+    ``train_vae``), stop when the validation loss has not improved by a relative ``min_delta``
+    for ``patience`` evaluations, ``steps`` being the cap; these fields enter ``to_config``
+    only when ``validate_every`` is set.
     """
 
     steps: int = 2000
@@ -230,8 +242,12 @@ class VAETrainConfig:
     kl_weight: float = 1e-4
     seed: int = 0
     num_threads: int | None = None
+    validate_every: int | None = None
+    patience: int = 5
+    min_delta: float = 0.01
 
     def __post_init__(self) -> None:
+        check_convergence_fields(self)
         if self.steps < 1 or self.batch_size < 1:
             raise ValueError(f"steps and batch_size must be >= 1, got {self.steps}, "
                              f"{self.batch_size}")
@@ -243,7 +259,7 @@ class VAETrainConfig:
     def to_config(self) -> dict[str, Any]:
         config = asdict(self)
         config.pop("num_threads")
-        return config
+        return drop_unset_convergence_fields(config)
 
 
 @dataclass
@@ -253,10 +269,15 @@ class VAETrainResult:
     model: MotionVAE
     losses: dict[str, list[float]] = field(default_factory=dict)
     seconds: float = 0.0
+    #: set when the run validated (``VAETrainConfig.validate_every``), else None
+    convergence: ConvergenceRecord | None = None
 
     def metrics(self) -> dict[str, Any]:
-        return {"losses": self.losses, "seconds": self.seconds,
-                "final": {k: v[-1] for k, v in self.losses.items() if v}}
+        metrics = {"losses": self.losses, "seconds": self.seconds,
+                   "final": {k: v[-1] for k, v in self.losses.items() if v}}
+        if self.convergence is not None:
+            metrics["convergence"] = self.convergence.to_dict()
+        return metrics
 
     def for_cache(self) -> tuple[MotionVAE, dict[str, Any]]:
         """``(module, metrics)`` as ``load_or_train``'s ``train`` callable returns."""
@@ -270,22 +291,60 @@ def _as_float_tensor(array: Tensor | np.ndarray, name: str) -> Tensor:
     return tensor
 
 
-def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
-              lengths: Tensor | np.ndarray | Sequence[int],
-              config: VAETrainConfig | None = None) -> VAETrainResult:
-    """Minimise ``vae.loss`` on normalised motions (M, T, F) with lengths (M,).
-
-    Batches are drawn without replacement (a permutation per epoch) from
-    ``torch.Generator(seed)``; the same generator draws the reparameterisation noise. The
-    model is initialised by the caller; seed it before building for a reproducible run.
-    """
-    config = config or VAETrainConfig()
+def _motions_and_lengths(motions: Tensor | np.ndarray,
+                         lengths: Tensor | np.ndarray | Sequence[int]) -> tuple[Tensor, Tensor]:
     motions = _as_float_tensor(motions, "motions")
     lengths = torch.as_tensor(np.asarray(lengths), dtype=torch.long)
     if motions.dim() != 3 or motions.shape[0] < 1 or lengths.shape != (motions.shape[0],):
         raise ValueError(f"need motions (M, T, F) and lengths (M,), got {tuple(motions.shape)} "
                          f"and {tuple(lengths.shape)}")
     lengths_to_mask(lengths, motions.shape[1])       # validates 1 ≤ ℓ ≤ T
+    return motions, lengths
+
+
+@torch.no_grad()
+def vae_validation_loss(vae: MotionVAE, motions: Tensor, lengths: Tensor, *,
+                        kl_weight: float, batch_size: int, noise_seed: int) -> float:
+    """``vae.loss`` on held-out motions in eval mode, the reparameterisation noise from a
+    fresh ``torch.Generator(noise_seed)`` each call (the same noise every evaluation);
+    chunk losses are weighted by their clip count."""
+    was_training = vae.training
+    vae.eval()
+    device = next(vae.parameters()).device
+    generator = torch.Generator().manual_seed(noise_seed)
+    total = 0.0
+    try:
+        for start in range(0, motions.shape[0], batch_size):
+            chunk_lengths = lengths[start:start + batch_size]
+            frames = int(chunk_lengths.max())
+            out = vae.loss(motions[start:start + batch_size, :frames].to(device),
+                           chunk_lengths.to(device), kl_weight=kl_weight, generator=generator)
+            total += float(out["loss"]) * chunk_lengths.shape[0]
+    finally:
+        vae.train(was_training)
+    return total / motions.shape[0]
+
+
+def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
+              lengths: Tensor | np.ndarray | Sequence[int],
+              config: VAETrainConfig | None = None, *,
+              validation: tuple[Tensor | np.ndarray, Tensor | np.ndarray | Sequence[int]]
+              | None = None) -> VAETrainResult:
+    """Minimise ``vae.loss`` on normalised motions (M, T, F) with lengths (M,).
+
+    Batches are drawn without replacement (a permutation per epoch) from
+    ``torch.Generator(seed)``; the same generator draws the reparameterisation noise. The
+    model is initialised by the caller; seed it before building for a reproducible run.
+    With ``config.validate_every`` set, ``validation`` = (motions, lengths) of held-out clips
+    is required and evaluated after 0, k, 2k, … steps and after the last
+    (``vae_validation_loss``); the plateau criterion may stop the run early, and the result's
+    ``convergence`` records the curve. Validating leaves the training trajectory unchanged.
+    """
+    config = config or VAETrainConfig()
+    if (config.validate_every is None) != (validation is None):
+        raise ValueError("pass a validation set exactly when config.validate_every is set")
+    motions, lengths = _motions_and_lengths(motions, lengths)
+    validation_data = None if validation is None else _motions_and_lengths(*validation)
     device = next(vae.parameters()).device
     generator = torch.Generator().manual_seed(config.seed)
     optimizer = torch.optim.AdamW(vae.parameters(), lr=config.lr,
@@ -295,9 +354,23 @@ def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
         torch.set_num_threads(config.num_threads)
     losses: dict[str, list[float]] = {"loss": [], "recon": [], "kl": []}
     order = torch.empty(0, dtype=torch.long)
+    plateau = PlateauCriterion(config.patience, config.min_delta)
+    curve: list[tuple[int, float]] = []
+    converged = False
+
+    def validate(steps_done: int) -> bool:
+        assert validation_data is not None
+        loss = vae_validation_loss(vae, *validation_data, kl_weight=config.kl_weight,
+                                   batch_size=config.batch_size,
+                                   noise_seed=config.seed + VALIDATION_SEED_OFFSET)
+        curve.append((steps_done, loss))
+        return plateau.update(steps_done, loss)
+
     start = time.perf_counter()
     vae.train()
     try:
+        if validation_data is not None:
+            validate(0)
         for step in range(config.steps):
             while order.numel() < config.batch_size:
                 order = torch.cat([order, torch.randperm(motions.shape[0], generator=generator)])
@@ -315,11 +388,20 @@ def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
             optimizer.step()
             for key in losses:
                 losses[key].append(out[key].item())
+            if validation_data is not None and config.validate_every is not None and (
+                    (step + 1) % config.validate_every == 0 or step + 1 == config.steps):
+                if validate(step + 1):
+                    converged = True
+                    break
     finally:
         if config.num_threads is not None:
             torch.set_num_threads(previous_threads)
     vae.eval()
-    return VAETrainResult(model=vae, losses=losses, seconds=time.perf_counter() - start)
+    convergence = None if validation_data is None else ConvergenceRecord(
+        validation=curve, steps_used=len(losses["loss"]), step_cap=config.steps,
+        converged=converged, best_step=plateau.best_step, best_loss=plateau.best)
+    return VAETrainResult(model=vae, losses=losses, seconds=time.perf_counter() - start,
+                          convergence=convergence)
 
 
 def array_fingerprint(*arrays: Tensor | np.ndarray) -> str:
@@ -331,9 +413,14 @@ def array_fingerprint(*arrays: Tensor | np.ndarray) -> str:
 def load_or_train_vae(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray | Sequence[int],
                       *, model_kwargs: dict[str, Any] | None = None,
                       config: VAETrainConfig | None = None, retrain: bool = False,
-                      device: str | torch.device = "cpu") -> MotionVAE:
+                      device: str | torch.device = "cpu",
+                      validation: tuple[Tensor | np.ndarray,
+                                        Tensor | np.ndarray | Sequence[int]] | None = None
+                      ) -> MotionVAE:
     """The VAE for these kwargs, training config and data from ``repro.infra.cache`` (kind
     ``motion_vae``), trained with ``train_vae`` (model seeded with ``config.seed``) if absent.
+    ``validation`` (held-out motions, lengths; with ``config.validate_every``) enters the
+    key as a fingerprint only when given.
     """
     model_kwargs = dict(model_kwargs or {})
     config = config or VAETrainConfig()
@@ -341,11 +428,15 @@ def load_or_train_vae(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray
                     "data": array_fingerprint(np.asarray(motions, dtype=np.float32),
                                               np.asarray(lengths, dtype=np.int64)),
                     "format": _FORMAT_VERSION}
+    if validation is not None:
+        cache_config["validation"] = array_fingerprint(
+            np.asarray(validation[0], dtype=np.float32), np.asarray(validation[1], dtype=np.int64))
 
     def build() -> MotionVAE:
         torch.manual_seed(config.seed)
         return MotionVAE(**model_kwargs)
 
     return load_or_train("motion_vae", cache_config, build,
-                         lambda vae: train_vae(vae, motions, lengths, config).for_cache(),
+                         lambda vae: train_vae(vae, motions, lengths, config,
+                                              validation=validation).for_cache(),
                          device=device, retrain=retrain)
