@@ -71,3 +71,10 @@ def write_notebook(path: Path, body: str, *, parameters: str) -> None:
     notebook.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3",
                                        "language": "python"}
     nbformat.write(notebook, path)
+
+
+def bimodal_mixture(n: int, seed: int) -> torch.Tensor:
+    """0.5·N(−1, 0.2²) + 0.5·N(+1, 0.2²) as (n, 1, 1): a target a tiny denoiser can learn."""
+    g = torch.Generator().manual_seed(seed)
+    sign = torch.randint(0, 2, (n, 1, 1), generator=g) * 2.0 - 1.0
+    return sign + 0.2 * torch.randn(n, 1, 1, generator=g)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 import torch
+from conftest import bimodal_mixture
 from torch import nn
 
 from repro.core.diffusion import GaussianDiffusion, cosine_betas
@@ -35,10 +36,6 @@ class TinyDenoiser(nn.Module):
         return self.net(h).reshape(x.shape)
 
 
-def _mixture(n: int, seed: int) -> torch.Tensor:
-    g = torch.Generator().manual_seed(seed)
-    sign = torch.randint(0, 2, (n, 1, 1), generator=g) * 2.0 - 1.0
-    return sign + 0.2 * torch.randn(n, 1, 1, generator=g)
 
 
 def test_without_validate_every_the_key_is_the_key_before_convergence_existed():
@@ -76,7 +73,7 @@ def test_plateau_criterion_counts_evaluations_without_a_relative_improvement():
 
 
 def test_validation_pairs_are_fixed_and_cover_the_t_grid():
-    data = _mixture(6, 1)
+    data = bimodal_mixture(6, 1)
     validation = ValidationSet(data)
     pairs = validation.pairs(100, 5, noise_seed=3)
     assert pairs.t.unique().tolist() == [0, 25, 50, 74, 99]   # round(k·99/4)
@@ -96,13 +93,13 @@ def test_validation_pairs_are_fixed_and_cover_the_t_grid():
 
 def test_validating_leaves_the_training_trajectory_unchanged():
     diffusion = GaussianDiffusion(cosine_betas(50), "epsilon")
-    data = _mixture(64, 0)
+    data = bimodal_mixture(64, 0)
     plain = train_diffusion(TinyDenoiser, diffusion, data,
                             TrainConfig(steps=30, batch_size=16, lr=1e-3), progress=False)
     validated = train_diffusion(
         TinyDenoiser, diffusion, data,
         TrainConfig(steps=30, batch_size=16, lr=1e-3, validate_every=10, patience=100),
-        validation=ValidationSet(_mixture(32, 1)), progress=False)
+        validation=ValidationSet(bimodal_mixture(32, 1)), progress=False)
     assert validated.losses == plain.losses
     for pa, pb in zip(plain.ema_model.parameters(), validated.ema_model.parameters(),
                       strict=True):
@@ -119,8 +116,8 @@ def test_training_stops_on_a_plateau_before_the_cap():
     diffusion = GaussianDiffusion(cosine_betas(50), "epsilon")
     config = TrainConfig(steps=3000, batch_size=128, lr=3e-3, ema_decay=0.9, validate_every=25,
                          patience=3, min_delta=0.02, validation_timesteps=10)
-    result = train_diffusion(TinyDenoiser, diffusion, _mixture(2048, 0), config,
-                             validation=ValidationSet(_mixture(256, 1)), progress=False)
+    result = train_diffusion(TinyDenoiser, diffusion, bimodal_mixture(2048, 0), config,
+                             validation=ValidationSet(bimodal_mixture(256, 1)), progress=False)
     record = result.convergence
     assert record is not None and record.converged and record.stop_reason == "plateau"
     assert record.steps_used < config.steps
@@ -137,8 +134,8 @@ def test_training_stops_on_a_plateau_before_the_cap():
 def test_a_validation_set_is_passed_exactly_when_validating():
     diffusion = GaussianDiffusion(cosine_betas(20), "epsilon")
     with pytest.raises(ValueError, match="exactly when"):
-        train_diffusion(TinyDenoiser, diffusion, _mixture(8, 0),
+        train_diffusion(TinyDenoiser, diffusion, bimodal_mixture(8, 0),
                         TrainConfig(steps=2, validate_every=1), progress=False)
     with pytest.raises(ValueError, match="exactly when"):
-        train_diffusion(TinyDenoiser, diffusion, _mixture(8, 0), TrainConfig(steps=2),
-                        validation=ValidationSet(_mixture(4, 1)), progress=False)
+        train_diffusion(TinyDenoiser, diffusion, bimodal_mixture(8, 0), TrainConfig(steps=2),
+                        validation=ValidationSet(bimodal_mixture(4, 1)), progress=False)

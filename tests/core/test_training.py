@@ -9,6 +9,7 @@ import os
 
 import pytest
 import torch
+from conftest import bimodal_mixture
 from torch import nn
 
 from repro.core.diffusion import GaussianDiffusion, cosine_betas
@@ -42,11 +43,6 @@ class TinyDenoiser(nn.Module):
         return self.net(h).reshape(x.shape)
 
 
-def _mixture(n: int, seed: int) -> torch.Tensor:
-    """0.5·N(−1, 0.2²) + 0.5·N(+1, 0.2²) as (n, 1, 1)."""
-    g = torch.Generator().manual_seed(seed)
-    sign = torch.randint(0, 2, (n, 1, 1), generator=g) * 2.0 - 1.0
-    return sign + 0.2 * torch.randn(n, 1, 1, generator=g)
 
 
 # -- training ----------------------------------------------------------------------------------
@@ -57,7 +53,7 @@ def test_training_on_a_gaussian_mixture_learns_it(prediction):
     diffusion = GaussianDiffusion(cosine_betas(100), prediction)
     config = TrainConfig(steps=800, batch_size=256, lr=3e-3, ema_decay=0.99, seed=0,
                          num_threads=1)
-    result = train_diffusion(TinyDenoiser, diffusion, _mixture(4096, 0), config)
+    result = train_diffusion(TinyDenoiser, diffusion, bimodal_mixture(4096, 0), config)
     first, last = sum(result.losses[:20]) / 20, sum(result.losses[-50:]) / 50
     assert last < 0.7 * first
     with torch.no_grad():
@@ -71,7 +67,7 @@ def test_training_on_a_gaussian_mixture_learns_it(prediction):
 
 def test_training_is_deterministic_given_the_seed():
     diffusion = GaussianDiffusion(cosine_betas(50), "epsilon")
-    data = _mixture(64, 0)
+    data = bimodal_mixture(64, 0)
 
     def run(seed: int) -> TrainResult:
         return train_diffusion(TinyDenoiser, diffusion, data,
@@ -90,7 +86,7 @@ def test_ema_follows_the_documented_update():
     assert ema_decay_at(10**6, 0.9999) == 0.9999
     assert ema_decay_at(0, 0.9999, warmup=False) == 0.9999
     diffusion = GaussianDiffusion(cosine_betas(50), "x0")
-    data = _mixture(32, 0)
+    data = bimodal_mixture(32, 0)
     torch.manual_seed(3)
     initial = TinyDenoiser()
     config = TrainConfig(steps=1, batch_size=8, lr=1e-2, ema_decay=0.25, ema_warmup=False,
@@ -241,7 +237,7 @@ def test_opt_in_levers_enter_the_cache_key_only_when_set():
 def test_bf16_autocast_training_tracks_fp32_losses():
     """bf16 matrix products, fp32 weights: the loss curve stays within a few per cent."""
     diffusion = GaussianDiffusion(cosine_betas(50), "epsilon")
-    data = _mixture(512, 0)
+    data = bimodal_mixture(512, 0)
 
     def run(autocast: str | None) -> TrainResult:
         return train_diffusion(TinyDenoiser, diffusion, data,
@@ -347,7 +343,7 @@ def test_failed_save_leaves_no_partial_file(cache_root, monkeypatch):
 
 def test_train_diffusion_result_plugs_into_the_cache(cache_root):
     diffusion = GaussianDiffusion(cosine_betas(20), "epsilon")
-    data = _mixture(32, 0)
+    data = bimodal_mixture(32, 0)
     train_config = TrainConfig(steps=3, batch_size=8, seed=0)
     config = {"model": "tiny", "train": train_config.to_config(), "T": 20}
 
