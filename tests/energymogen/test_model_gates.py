@@ -11,7 +11,7 @@ import pytest
 import torch
 from conftest import TINY_AUGMENTATION_PIPELINE, TINY_PIPELINE
 
-from repro.core.gates import gate_results
+from repro.core.gates import gate_results, gates_markdown
 from repro.energymogen import augmentation as ag
 from repro.energymogen import model_gates as mg
 from repro.energymogen.harness import (
@@ -108,7 +108,7 @@ def test_records_come_from_the_cache_entries(tiny) -> None:
     evaluator = mg.evaluator_record(pipe, test)
     assert evaluator["steps"] == TINY_PIPELINE.evaluator_steps
     assert evaluator["validation_curve"]
-    text = mg.gates_markdown([vae, denoiser, evaluator])
+    text = gates_markdown([vae, denoiser, evaluator])
     for metric in ("reconstruction_mpjpe", "concept_preservation", "single_text_accuracy",
                    "r_precision_top3"):
         assert metric in text

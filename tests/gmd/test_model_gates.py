@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from repro.core.gates import gate_results
+from repro.core.gates import gate_results, gates_markdown
 from repro.gmd import model_gates as mg
 from repro.gmd.models import load_or_train_gmd
 from repro.gmd.windows import load_windows
@@ -116,7 +116,7 @@ def test_gmd_model_record_reads_the_cache_metrics(cache, small_spec, windows) ->
                                   values={"root_jerk": reference["root_jerk"] * 10},
                                   reference=reference)
     assert not failing["passed"] and failing["gate"]["path_length"]["value"] is None
-    assert "**fail**" in mg.gates_markdown([record, failing])
+    assert "**fail**" in gates_markdown([record, failing])
     with pytest.raises(ValueError, match="family"):
         mg.gmd_model_record(trained, family="vae", values={}, reference={})
 

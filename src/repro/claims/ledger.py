@@ -154,9 +154,9 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
     return decision
 
 
-def load_sidecars(directory: str | os.PathLike | None = None) -> dict[str, dict[str, Any]]:
-    """Every recorded claim in ``directory`` (default: the build's claims folder)."""
-    folder = Path(directory) if directory is not None else paths.claims_dir()
+def load_sidecars(directory: str | os.PathLike) -> dict[str, dict[str, Any]]:
+    """Every recorded claim in ``directory`` (a run's ``claims/`` folder)."""
+    folder = Path(directory)
     if not folder.is_dir():
         return {}
     return {p.stem: read_json(p) for p in sorted(folder.glob("*.json"))}

@@ -20,7 +20,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["GATES", "GATES_VERSION", "Gate", "gate_results", "model_record"]
+from repro.core.tables import markdown_table
+
+__all__ = ["GATES", "GATES_VERSION", "Gate", "gate_results", "gates_markdown",
+           "model_record"]
 
 GATES_VERSION = 1
 
@@ -125,3 +128,28 @@ def model_record(*, name: str, family: str, values: Mapping[str, float],
             "parameters": parameters, "steps": steps, "train_seconds": train_seconds,
             "converged": converged, "validation_curve": list(validation_curve or []),
             "gate": gates, "passed": all(g["passed"] for g in gates.values())}
+
+
+def _number(value: float | None) -> str:
+    return "—" if value is None else f"{value:.3g}"
+
+
+def gates_markdown(records: list[dict[str, Any]] | tuple[dict[str, Any], ...]) -> str:
+    r"""One row per (model, gate) of :func:`model_record`\ s: the model's family, size, steps
+    and training time, the gate's value, its allowed range and pass/fail; then how many pass."""
+    rows = []
+    for record in records:
+        for k, (metric, gate) in enumerate(record["gate"].items()):
+            head = ([record["name"], record["family"], _number(record["parameters"]),
+                     _number(record["steps"]), _number(record["train_seconds"])]
+                    if k == 0 else ["", "", "", "", ""])
+            value = "not measured" if gate["value"] is None else _number(gate["value"])
+            rows.append([*head, metric, value,
+                         f"[{_number(gate['at_least'])}, {_number(gate['at_most'])}]",
+                         "pass" if gate["passed"] else "**fail**"])
+    passed = sum(bool(r["passed"]) for r in records)
+    return (markdown_table(["model", "family", "parameters", "steps", "training s", "gate",
+                            "value", "allowed", ""], rows)
+            + f"\n\n{passed} of {len(records)} models pass their registered gates "
+            "(`repro.core.gates`); a verdict resting on a model that fails its gate is "
+            "inconclusive.")

@@ -35,7 +35,6 @@ from torch import nn
 
 from repro.core import metrics
 from repro.core.gates import model_record
-from repro.core.tables import markdown_table
 from repro.core.training import torch_threads
 from repro.energymogen.augmentation import finetune_config
 from repro.energymogen.harness import TextToMotionTest, oracle_accuracy
@@ -52,7 +51,7 @@ from repro.infra import cache, paths, storage
 
 __all__ = [
     "cached_training", "denoiser_gate_values", "denoiser_record", "evaluator_gate_values",
-    "evaluator_record", "gate_seed", "gates_markdown", "parameter_count",
+    "evaluator_record", "gate_seed", "parameter_count",
     "augmentation_records", "latent_count_records", "pipeline_records", "real_concept_recall",
     "vae_gate_values", "vae_record",
 ]
@@ -262,25 +261,3 @@ def augmentation_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
             data=results.get("finetune_data", {}).get(row, [None] * len(seeds))[i])
             for i, sd in enumerate(seeds)]
     return out
-
-
-def gates_markdown(records: Sequence[Mapping[str, Any]]) -> str:
-    """A caption and one line per (model, gate): value, allowed range, passed; plus size and
-    steps."""
-    def bound(value: float | None) -> str:
-        return "—" if value is None else f"{value:.3g}"
-
-    rows = []
-    for record in records:
-        for metric, gate in record["gate"].items():
-            value = gate["value"]
-            rows.append([record["name"], record["family"], str(record["parameters"]),
-                         str(record["steps"]), metric,
-                         "not measured" if value is None else f"{value:.3g}",
-                         f"[{bound(gate['at_least'])}, {bound(gate['at_most'])}]",
-                         "pass" if gate["passed"] else "FAIL"])
-    table = markdown_table(["model", "family", "parameters", "steps", "gate", "value",
-                            "allowed", "passed"], rows)
-    return ("**Quality gates of the trained models** (registered in `repro.core.gates`, "
-            "measured on the held-out text-to-motion clips of notebooks 07/08; a verdict "
-            "resting on a model that fails its gate is inconclusive)\n\n" + table)

@@ -28,8 +28,7 @@ import torch
 from torch import Tensor
 
 from repro.core import metrics
-from repro.core.gates import GATES, model_record
-from repro.core.tables import markdown_table
+from repro.core.gates import model_record
 from repro.gmd.measurements import jitter_of
 from repro.gmd.models import TrainedGMD, parameter_count
 from repro.gmd.windows import FeatureSpace
@@ -38,7 +37,7 @@ from repro.models.evaluator import Evaluator
 from repro.motion.features import FPS, features_to_joints
 
 __all__ = ["CURVE_POINTS", "emphasis_study_records", "evaluator_gate_values",
-           "evaluator_model_record", "gates_markdown", "gmd_model_name", "gmd_model_record",
+           "evaluator_model_record", "gmd_model_name", "gmd_model_record",
            "loss_curve", "motion_gate_values", "one_caption_each", "path_length",
            "relative_features_gate_values", "sample_quality_gate_values",
            "trajectory_gate_values"]
@@ -149,30 +148,6 @@ def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float]
                         steps=len(evaluator.losses) or evaluator.config.steps,
                         train_seconds=None, validation_curve=loss_curve(evaluator.losses),
                         converged=None)
-
-
-def _number(value: float | None) -> str:
-    return "–" if value is None else f"{value:.4g}"
-
-
-def gates_markdown(records: Sequence[Mapping[str, Any]]) -> str:
-    """One row per model and gate: the model's steps and training seconds (first row), the
-    gate's value, allowed range and pass/fail, all from the records."""
-    rows = []
-    for record in records:
-        for k, (metric, gate) in enumerate(record["gate"].items()):
-            allowed = f"[{_number(gate['at_least'])}, {_number(gate['at_most'])}]"
-            head = ([record["name"], _number(record["steps"]), _number(record["train_seconds"])]
-                    if k == 0 else ["", "", ""])
-            rows.append([*head, metric, _number(gate["value"]), allowed,
-                         "pass" if gate["passed"] else "**fail**"])
-    passed = sum(bool(r["passed"]) for r in records)
-    families = sorted({r["family"] for r in records})
-    gates = {f: ", ".join(g.metric for g in GATES[f]) for f in families}
-    legend = "; ".join(f"{f}: {g}" for f, g in gates.items())
-    return (markdown_table(["model", "steps", "training s", "gate", "value", "allowed", ""],
-                           rows)
-            + f"\n\n{passed} of {len(records)} models pass their registered gates ({legend}).")
 
 
 def sample_quality_gate_values(values: Mapping[str, Sequence[float]], tag: str,

@@ -2,8 +2,7 @@
 
 Every path is absolute so that papermill's ``cwd`` never changes what a path means.
 Environment variables override the defaults (tests, CI, a shared cache):
-``REPRO_BUILD_ROOT`` (default ``build/``), ``REPRO_BUILD_DIR`` (the current run's folder,
-set by the runner and by ``setup_notebook``), ``REPRO_CACHE_DIR``, ``REPRO_SHARED_DIR``,
+``REPRO_BUILD_ROOT`` (default ``build/``), ``REPRO_CACHE_DIR``, ``REPRO_SHARED_DIR``,
 ``REPRO_NOTEBOOKS_DIR``.
 """
 
@@ -23,11 +22,6 @@ def build_root() -> Path:
 def run_build_dir(quick: bool) -> Path:
     """A run's output folder: quick (test) runs never overwrite a full run's outputs."""
     return build_root() / "quick" if quick else build_root()
-
-
-def build_dir() -> Path:
-    """The current run's folder: executed notebooks, claim sidecars, report, figures."""
-    return Path(os.environ.get("REPRO_BUILD_DIR", build_root())).resolve()
 
 
 def cache_dir() -> Path:
@@ -59,19 +53,3 @@ def data_stubs_dir() -> Path:
 def results_dir() -> Path:
     """The committed snapshot of the last full run (claims table, report, figures)."""
     return REPO_ROOT / "results"
-
-
-def figures_dir() -> Path:
-    return build_dir() / "figures"
-
-
-def claims_dir() -> Path:
-    return build_dir() / "claims"
-
-
-def executed_notebooks_dir() -> Path:
-    return build_dir() / "notebooks"
-
-
-def report_dir() -> Path:
-    return build_dir() / "report"
