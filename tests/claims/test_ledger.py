@@ -23,7 +23,7 @@ def test_sidecar_carries_both_versions_parts_and_missing_controls(tmp_path: Path
     decision = record_claim(make_context(tmp_path, quick=False), "GMD-A3", A3_GOOD,
                             seeds=[0, 1, 2, 3, 4])
     sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
-    assert sidecar["registry_version"] == 2
+    assert sidecar["registry_version"] == 3
     assert sidecar["verdict"] == decision.verdict
     assert sidecar["v1"]["verdict"] == REPRODUCED and sidecar["v1"]["registry_version"] == 1
     assert [p["name"] for p in sidecar["parts"]] == ["eps_reaches_goal_better",

@@ -30,7 +30,7 @@ def test_registry_matches_claims_md() -> None:
 
 
 def test_version_2_keeps_v1_claims_and_measurement_names() -> None:
-    assert REGISTRY_VERSION == 2
+    assert REGISTRY_VERSION == 3
     assert list(CLAIMS) == list(registry_v1.CLAIMS)
     for claim_id, claim in CLAIMS.items():
         v1 = registry_v1.CLAIMS[claim_id]

@@ -22,7 +22,7 @@ def test_report_shows_v1_beside_v2_and_parts_in_words(tmp_path: Path) -> None:
     record_claim(ctx, "GMD-A2", {"cosine_x0_share_argmax_fraction": 0.0,
                                  "cosine_eps_share_argmax_fraction": 1.0}, seeds=[0])
     text = write_report(tmp_path, quick=False).read_text(encoding="utf-8")
-    assert "| verdict (registry v2) | v1 verdict |" in text
+    assert "| verdict (registry v3) | v1 verdict |" in text
     assert ("**partially reproduced** — eps_reaches_goal_better: supported; "
             "eps_keeps_more_guided_change: contradicted | partially reproduced |") in text
     assert "| **reproduced** | reproduced |" in text  # A2: no parts listed when reproduced
@@ -30,7 +30,7 @@ def test_report_shows_v1_beside_v2_and_parts_in_words(tmp_path: Path) -> None:
     assert "- Controls: positive: missing; null: missing" in text
     rows = {r["id"]: r for r in read_json(tmp_path / "report" / "claims.json")["claims"]}
     assert rows["GMD-A3"]["v1_verdict"] == "partially reproduced"
-    assert rows["GMD-A3"]["registry_version"] == "2"
+    assert rows["GMD-A3"]["registry_version"] == "3"
     assert "contradicted (significantly against" in rows["GMD-A3"]["parts"]
     sidecars = read_json(tmp_path / "report" / "claims.json")["sidecars"]
     assert sidecars["GMD-A3"]["v1"]["verdict"] == "partially reproduced"

@@ -20,7 +20,7 @@ Measured = Mapping[str, Any]
 Path = str | tuple[str, ...]
 Example = Callable[[np.random.Generator, float, int], dict[str, Any]]
 
-REGISTRY_VERSION = 2
+REGISTRY_VERSION = 3
 SEEDS = "per-seed list"
 
 

@@ -19,7 +19,7 @@ from typing import Any
 
 from repro.claims.ledger import load_sidecars, part_outcomes, v1_verdict
 from repro.claims.provenance import check_runs, notebooks_section, render_notebooks
-from repro.claims.registry import CLAIMS
+from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.infra import paths
 from repro.infra.storage import read_json, write_json, write_text
 
@@ -126,8 +126,8 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
              "never the paper's absolute numbers.", ""]
     if provenance:
         lines += [f"**Provenance.** {provenance}", ""]
-    lines += ["| claim | statement | paper | ours | verdict (registry v2) | v1 verdict | "
-              "notebook |", "|---|---|---|---|---|---|---|"]
+    lines += [f"| claim | statement | paper | ours | verdict (registry v{REGISTRY_VERSION}) "
+              "| v1 verdict | notebook |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         verdict = f"**{r['verdict']}**" + (f" — {r['parts_short']}" if r.get("parts_short")
                                            else "")
@@ -170,7 +170,8 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
             "100%}</style>")
     body = [f"<h1>Reproduction report{' (QUICK run: not results)' if quick else ''}</h1>",
             "<table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
-            "<th>verdict (registry v2)</th><th>parts</th><th>v1 verdict</th><th>notebook</th>"
+            f"<th>verdict (registry v{REGISTRY_VERSION})</th><th>parts</th><th>v1 verdict</th>"
+            "<th>notebook</th>"
             "</tr>"]
     for r in markdown_rows:
         body.append("<tr>" + "".join(f"<td>{esc(r.get(k, ''))}</td>" for k in

@@ -1,0 +1,41 @@
+"""GMD's settings that several notebooks share, in one place (issues #14 and #17).
+
+Each constant is a fact of GMD's paper or code (REFERENCE.md "GMD"; ``korrawe/guided-motion-
+diffusion``) or a registered choice of this package, with its reason beside it. Notebooks 01,
+02, 03 and 06 read them from here, so the models one notebook trains are the ones another
+loads (one cache key), and a change is made once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["GUIDANCE_DIFFUSION_STEPS", "GUIDANCE_SCHEDULE", "GUIDANCE_STOP_T",
+           "MOTION_ARCHITECTURE", "TRAJECTORY_ARCHITECTURE", "X0_CLAMP", "Architecture"]
+
+
+@dataclass(frozen=True)
+class Architecture:
+    """A ``models.unet.UNet1D``'s widths: ``base_channels`` × ``channel_mults`` per level."""
+
+    base_channels: int
+    channel_mults: tuple[float, ...]
+
+    @property
+    def full_resolution_width(self) -> int:
+        """The narrowest width at full temporal resolution (the first level's)."""
+        return int(self.base_channels * self.channel_mults[0])
+
+
+#: the guidance experiments (GMD-A3, B2, F1) run GMD's diffusion: T = 1000, cosine schedule.
+GUIDANCE_DIFFUSION_STEPS = 1000
+GUIDANCE_SCHEDULE = "cosine"
+#: GMD stops guidance at t = 20 of T = 1000 (appendix F).
+GUIDANCE_STOP_T = 20
+#: GMD clamps its ε trajectory model's x̂0 to ±6 (in its normalised units).
+X0_CLAMP = 6.0
+
+#: the tiny GMD UNets (set by #14's design pilot; the motion model's full-resolution width
+#: must be at least the 263 features it carries).
+MOTION_ARCHITECTURE = Architecture(base_channels=16, channel_mults=(1, 2, 4))
+TRAJECTORY_ARCHITECTURE = Architecture(base_channels=16, channel_mults=(1, 2, 4))
