@@ -35,11 +35,11 @@ lab: $(LAB)  ## open the notebooks in JupyterLab
 	$(VENV)/bin/jupyter lab notebooks
 
 unit: $(STAMP)  ## unit tests only (no notebooks)
-	$(PY) -m pytest -q -m "not notebook"
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile -m "not notebook"
 
 test: $(STAMP)  ## lint + unit tests + every notebook executed with quick parameters
 	$(PY) -m ruff check src tests notebooks scripts
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile
 
 reproduce: $(STAMP)  ## execute every notebook with full parameters; write build/report and refresh results/
 	$(PY) -m repro reproduce --jobs $(JOBS) --seed $(SEED) --snapshot $(ARGS)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -40,6 +41,14 @@ TINY_PIPELINE = PipelineConfig(n_train_clips=24, test_clips_per_pair=2, vae_step
 TINY_AUGMENTATION_PIPELINE = PipelineConfig(n_train_clips=24, test_clips_per_pair=2,
                                             vae_steps=2, text_steps=2, denoiser_steps=6,
                                             evaluator_steps=2, ddim_steps=2, items_per_pair=4)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Under pytest-xdist (``make test`` runs one worker per core) each worker and the
+    notebook kernels it starts use one torch thread, so workers do not oversubscribe cores."""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        torch.set_num_threads(1)
+        os.environ.setdefault("REPRO_TORCH_THREADS", "1")
 
 
 @pytest.fixture(scope="module")
