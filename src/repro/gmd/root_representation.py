@@ -70,11 +70,13 @@ ROOT_PARAMETERS = slice(0, 3)
 #: training loss of 1.58 → 0.81 (step 500) → 0.55 (1000) → 0.47 (1500): still falling at 1000,
 #: but 1500 would cost another ~50 % of the notebook's largest item; 1000 is the compromise.
 MOTION_STEPS = 1000
-#: seeds of the full run: GMD-B2's power plan asks for {B2_PLAN} (its parts' ``seeds``), GMD-B3's
-#: for 5 per effect part and 32 for the R@3 non-inferiority part; B2 samples 6 methods × T =
-#: 1000 per seed and B3 trains two motion models per seed, so B2 runs its plan where it is
-#: small and B3 the effect parts' 5 (the R@3 part can then only come out supported or
-#: inconclusive: ``Claim.power_note``).
+#: seeds of the full run. The power plan (the parts' registered ``seeds``) asks GMD-B2 for
+#: 1000+ / 44 / 18 (imputation difference / 10 cm threshold / guidance difference) and GMD-B3
+#: for 5 / 5 / 32 (FID / diversity gap / R@3 non-inferiority). B2 trains two trajectory
+#: models and samples six methods at T = 1000 per seed: it affords 3, as v1 (every part can
+#: then only come out supported or inconclusive). B3 trains two motion models per seed: it
+#: runs the effect parts' 5; the R@3 part can only come out supported or inconclusive
+#: (``Claim.power_note``).
 B2_SEEDS = 3
 B3_SEEDS = 5
 
