@@ -40,6 +40,8 @@ def test_b2_reading_counts_each_mechanism_and_picks_the_guidance_sentence() -> N
     assert "last 20 free steps" in worse
     helped = readings.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=20)
     assert "guidance helped in abs" in helped and "abs closer on 2 of 2 seeds" in helped
+    to_the_end = readings.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=0)
+    assert "act to the last step" in to_the_end and "free steps" not in to_the_end
 
 
 def _skating(loss: list[float], emphasis: list[float]) -> dict[str, dict[str, list[float]]]:

@@ -103,3 +103,11 @@ def test_settings_trajectory_spec_is_the_guidance_experiments_model() -> None:
     motion = full.motion_spec("relative", 1)
     assert motion.text_conditioned and motion.prediction == "x0"
     assert motion.data.representation == "relative"
+
+
+def test_quick_mode_stays_a_small_test_of_the_code() -> None:
+    quick = R.Settings.for_mode(quick=True)
+    assert quick.seeds == quick.motion_seeds == 1
+    assert quick.trajectory_diffusion_steps <= 20 and quick.diffusion_steps <= 20
+    assert max(quick.trajectory_steps, quick.motion_steps, quick.evaluator_steps) <= 30
+    assert quick.targets <= 8 and quick.evaluation_windows <= 96

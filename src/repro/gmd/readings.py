@@ -75,18 +75,22 @@ def reading_b2(per_method: dict[str, list[dict[str, float]]], *, seeds: Sequence
     return render(
         "**Reading** (this run, seeds {seeds}). *Imputation against imputation:* replacing "
         "the two x/z entries in abs ends {abs_imp} m from the targets, replacing the root "
-        "entries of every frame in rel {rel_imp} m (abs closer on {ki} of {n} seeds). Both "
-        "replacements hold the targets while t ≥ {stop}; what the last {stop} free steps move "
-        "in rel is summed over every earlier frame, in abs it is the entry itself. The rel "
-        "imputation reaches its targets only by dictating the whole path (it moves the path "
-        "{rel_off:.3f} m away from the targets' frames against {abs_off:.3f} m for abs, "
-        "compared with the unguided samples of the same noise). *Guidance against "
+        "entries of every frame in rel {rel_imp} m (abs closer on {ki} of {n} seeds). "
+        "{free} The rel imputation dictates the whole root path (every frame's entries are "
+        "replaced); against the unguided samples of the same noise it moves the path "
+        "{rel_off:.3f} m on frames away from the targets, abs imputation {abs_off:.3f} m. "
+        "*Guidance against "
         "guidance:* abs ends {abs_g} m, rel {rel_g} m from the targets (abs closer on {kg} of "
         "{n} seeds); against the unguided samples guidance {abs_help} in abs ({abs_u} m "
         "unguided) and {rel_help} in rel ({rel_u} m).",
         seeds=list(seeds), abs_imp=interval_text(values("abs_imputation")),
         rel_imp=interval_text(values("rel_imputation")), ki=imputation_better, n=len(seeds),
-        stop=stop_t, rel_off=mean("rel_imputation", "path_change_off_target"),
+        free=_either(stop_t > 0, render(
+            "Both replacements hold the targets while t ≥ {stop}; what the last {stop} free "
+            "steps move in rel is summed over every earlier frame, in abs it is the entry "
+            "itself.", stop=stop_t), "Both replacements act to the last step (t = 0), so both "
+            "end on their targets up to rounding."),
+        rel_off=mean("rel_imputation", "path_change_off_target"),
         abs_off=mean("abs_imputation", "path_change_off_target"),
         abs_g=interval_text(values("abs_guidance")), rel_g=interval_text(values("rel_guidance")),
         kg=guidance_better, abs_help=_either(abs_guidance_helps, "helped", "did not help"),
