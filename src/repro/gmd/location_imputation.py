@@ -13,8 +13,10 @@ So the comparison is made twice, each mechanism against itself (issue #17):
 * **guidance** — the same L1 goal on the root recovered from x̂0, the same strength and stop
   step, in both (:func:`location_loss`).
 
-Both mechanisms act while t ≥ the stop step (GMD: t ≥ 20 of T = 1000); the free steps after
-it are where a rel sample's small changes compound into its locations (GMD-B1). Part of
+Both mechanisms act while t ≥ the stop step: GMD's trajectory model imputes its key
+locations and is guided while t ≥ 20 of T = 1000 (``sample/generate.py``: imputation of the
+key points until ``impute_slack`` = 20, guidance until ``cond_until`` = 20). The free steps
+after it are where a rel sample's small changes compound into its locations (GMD-B1). Part of
 ``notebooks/02_root_representation.ipynb``; the figures are in ``repro.gmd.figures``.
 """
 
