@@ -167,7 +167,7 @@ def test_a4_decision_sees_a_large_planted_effect(windows: MotionWindows, evaluat
 
 @pytest.fixture(scope="module")
 def location_tasks(windows: MotionWindows) -> dict:
-    from repro.gmd.root_representation import location_task
+    from repro.gmd.location_imputation import location_task
 
     return {s: location_task(windows, 6, seed=s) for s in SEEDS}
 
@@ -175,12 +175,17 @@ def location_tasks(windows: MotionWindows) -> dict:
 def test_b2_null_sits_at_the_threshold_and_positive_plants_delta(windows, location_tasks
                                                                  ) -> None:
     result = controls.b2_controls(windows, location_tasks, SEEDS)
-    rel, abs_ = (np.asarray(result.null[f"{k}_location_error"]) for k in ("rel", "abs"))
-    # E‖d‖ = 0.1 m in both arms: 8 seeds × 12 offsets, σ = 0.1/√(π/2): SE ≈ 0.05/√96 m
-    assert rel.mean() == pytest.approx(0.1, abs=0.02) and abs_.mean() == pytest.approx(0.1,
-                                                                                     abs=0.02)
-    np.testing.assert_allclose(result.positive["abs_location_error"], 0.9 * abs_, rtol=1e-4)
-    assert result.positive["rel_location_error"] == list(rel)
+    for mechanism in ("imputation", "guidance"):
+        rel, abs_ = (np.asarray(result.null[f"{k}_{mechanism}_error"]) for k in ("rel", "abs"))
+        # E‖d‖ = 0.1 m in every arm: 8 seeds × 12 offsets, σ = 0.1/√(π/2): SE ≈ 0.05/√96 m
+        assert rel.mean() == pytest.approx(0.1, abs=0.02)
+        assert abs_.mean() == pytest.approx(0.1, abs=0.02)
+        np.testing.assert_allclose(result.positive[f"abs_{mechanism}_error"], 0.9 * abs_,
+                                   rtol=1e-4)
+        assert result.positive[f"rel_{mechanism}_error"] == list(rel)
+    # v1's names carry v1's meaning: rel guidance and abs imputation
+    assert result.null["rel_location_error"] == result.null["rel_guidance_error"]
+    assert result.null["abs_location_error"] == result.null["abs_imputation_error"]
 
 
 def test_b2_decision_sees_a_large_planted_effect(windows, location_tasks) -> None:

@@ -75,7 +75,7 @@ def test_load_or_train_many_trains_missing_models_in_worker_processes(small_conf
 PINNED_MODEL_KEYS = {
     "default": "c03af8ed144c25b8",
     "nb01_quick_motion_x0": "5853a2b6525f2dcf",
-    "nb02_traj_rel_full": "f56c1af801149234",
+    "nb02_traj_rel_full": "7c8bb8ef926274b5",
     "nb02_motion_abs_quick": "d2ff7eccfe67bb79",
     "nb03_k5_full": "e5301b8a4bab04e1",
     "nb03_c10_quick": "11a26dfca5174f77",

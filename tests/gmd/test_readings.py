@@ -27,17 +27,21 @@ def test_clamp_reading_follows_the_numbers() -> None:
 def _runs(abs_guidance: float) -> dict[str, list[dict[str, float]]]:
     row = {"location_error": 1.0, "waypoint_error": 1.0, "goal_error": 1.0,
            "root_acceleration": 2.0, "path_change": 0.0, "path_change_off_target": 0.0}
-    methods = {"abs_unguided": 5.0, "abs_imputation": 0.2, "abs_guidance": abs_guidance,
-               "rel_unguided": 3.0, "rel_guidance": 1.5, "rel_velocity_replacement": 0.01}
+    methods = {"abs_unguided": 5.0, "abs_imputation": 0.02, "abs_guidance": abs_guidance,
+               "rel_unguided": 3.0, "rel_imputation": 0.2, "rel_guidance": 1.5}
     return {m: [{**row, "location_error": v}, {**row, "location_error": v * 1.1}]
             for m, v in methods.items()}
 
 
-def test_b2_reading_picks_the_control_sentence() -> None:
-    worse = readings.reading_b2(_runs(8.0), seeds=[0, 1])
-    assert "guidance made it worse" in worse and "abs closer on 2 of 2 seeds" in worse
-    helped = readings.reading_b2(_runs(1.0), seeds=[0, 1])
-    assert "guidance helped the abs model too" in helped and "made it worse" not in helped
+def test_b2_reading_counts_each_mechanism_and_picks_the_guidance_sentence() -> None:
+    worse = readings.reading_b2(_runs(8.0), seeds=[0, 1], stop_t=20)
+    assert "abs closer on 2 of 2 seeds" in worse and "abs closer on 0 of 2 seeds" in worse
+    assert "guidance did not help in abs" in worse and "helped in rel" in worse
+    assert "last 20 free steps" in worse
+    helped = readings.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=20)
+    assert "guidance helped in abs" in helped and "abs closer on 2 of 2 seeds" in helped
+    to_the_end = readings.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=0)
+    assert "act to the last step" in to_the_end and "free steps" not in to_the_end
 
 
 def _skating(loss: list[float], emphasis: list[float]) -> dict[str, dict[str, list[float]]]:

@@ -1,5 +1,5 @@
-"""Relative vs absolute root (GMD-B1…B3 logic): the round trip, the sensitivity study and
-the location-imputation helpers, on small synthetic root paths."""
+"""Relative vs absolute root (GMD-B1 logic and notebook 02's settings): the round trip and
+the sensitivity study on small synthetic root paths."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import torch
 
+from repro.gmd import paper_settings
 from repro.gmd import root_representation as R
-from repro.gmd.models import GMDModelSpec, TrainedGMD
-from repro.gmd.windows import DataConfig, FeatureSpace
+from repro.gmd.guidance import default_stop_step
 from repro.motion.features import FEATURE_DIM, relative_to_absolute_root
 
 
@@ -83,77 +83,31 @@ def test_linearisation_error_grows_with_the_perturbation() -> None:
     assert errors[0] < errors[1]
 
 
-# ------------------------------------------------------------------------------ GMD-B2 helpers
-
-def _task(n: int = 3, frames: int = 16) -> R.LocationTask:
-    rng = np.random.default_rng(1)
-    return R.LocationTask(rng.normal(0.0, 1.0, (n, 2, 2)).astype(np.float32), frames // 2 - 1,
-                          frames - 1)
-
-
-def _space(representation: str) -> FeatureSpace:
-    return FeatureSpace("trajectory", representation, np.array([0.1, 0.2, -0.3, 0.9]),
-                            np.array([0.5, 2.0, 1.5, 0.1]))
-
-
-def test_straight_line_velocities_hit_both_targets() -> None:
-    task, frames = _task(), 16
-    space = _space("relative")
-    imputation = R.rel_velocity_replacement(space, task, frames)
-    assert imputation.mask[0, :3].all() and not imputation.mask[0, 3].any()
-    x = imputation.target.clone()
-    errors = R.location_errors(space, x, task)
-    assert errors.max() < 1e-5
-
-
-def test_abs_imputation_replaces_only_the_target_entries() -> None:
-    task, frames = _task(), 16
-    space = _space("absolute")
-    imputation = R.abs_location_imputation(space, task, frames)
-    assert int(imputation.mask.sum()) == 4
-    x = torch.randn(task.n, 4, frames)
-    x = torch.where(imputation.mask, imputation.target, x)
-    assert R.location_errors(space, x, task).max() < 1e-5
-    loss = R.location_loss(space, task)(x)
-    assert loss.shape == (task.n,) and float(loss.max()) < 1e-5
-
-
-def test_location_loss_is_l1_over_both_frames() -> None:
-    task, frames = _task(1), 16
-    space = _space("absolute")
-    x = space.normalise(torch.zeros(1, frames, 4))
-    expected = np.abs(task.targets).sum()
-    assert float(R.location_loss(space, task)(x)) == pytest.approx(expected, rel=1e-5)
-
-
-# ------------------------------------------------------------------------------ GMD-B3 helpers
-
-
-def test_impute_locations_with_untrained_models() -> None:
-    """Untrained UNets output 0; with T = 10 the stop step is 0, so both replacements act
-    until the end and hit their targets exactly; every method is run and measured."""
-    settings = R.Settings.for_mode(quick=True)
-    task = _task(2, 16)
-    models = {}
-    for rep in ("absolute", "relative"):
-        spec = settings.trajectory_spec(rep, 0)
-        spec = spec.replace(diffusion_steps=10, data=DataConfig(frames=16,
-                                                                   representation=rep))
-        models[rep] = TrainedGMD(spec.build_model().eval(), spec.diffusion(),
-                                     _space(rep), spec)
-    runs = R.impute_locations(models, task, seed=0)
-    assert set(runs) == set(R.METHODS)
-    assert runs["abs_imputation"].mean_error < 1e-4
-    assert runs["rel_velocity_replacement"].mean_error < 1e-4
-    assert runs["abs_unguided"].path_change == 0.0
-    assert all(np.isfinite(run.location_error).all() for run in runs.values())
-
-
-def test_settings_full_mode_uses_the_library_default_trajectory_model() -> None:
+def test_settings_trajectory_spec_is_the_guidance_experiments_model() -> None:
+    """Full mode: T, schedule and widths from ``paper_settings`` (one cache key with the
+    other guidance notebooks), GMD's stop step and clamp recorded as parameters."""
     full = R.Settings.for_mode(quick=False)
-    assert full.seeds >= 3
+    assert full.seeds >= 3 and full.motion_seeds >= 5
     spec = full.trajectory_spec("absolute", 0)
-    assert spec == GMDModelSpec(task="trajectory", prediction="epsilon", seed=0)
+    architecture = paper_settings.TRAJECTORY_ARCHITECTURE
+    assert (spec.task, spec.prediction) == ("trajectory", "epsilon")
+    assert spec.diffusion_steps == paper_settings.GUIDANCE_DIFFUSION_STEPS == 1000
+    assert spec.schedule == paper_settings.GUIDANCE_SCHEDULE
+    assert (spec.base_channels, spec.channel_mults) == (architecture.base_channels,
+                                                        architecture.channel_mults)
+    assert full.sampling_parameters() == {"num_timesteps": 1000, "guidance_stop_t": 20,
+                                          "x0_clamp": paper_settings.X0_CLAMP}
+    quick = R.Settings.for_mode(quick=True)
+    assert quick.trajectory_spec("relative", 0).diffusion_steps == quick.diffusion_steps
+    assert quick.guidance_stop_t == default_stop_step(quick.diffusion_steps)
     motion = full.motion_spec("relative", 1)
     assert motion.text_conditioned and motion.prediction == "x0"
     assert motion.data.representation == "relative"
+
+
+def test_quick_mode_stays_a_small_test_of_the_code() -> None:
+    quick = R.Settings.for_mode(quick=True)
+    assert quick.seeds == quick.motion_seeds == 1
+    assert quick.trajectory_diffusion_steps <= 20 and quick.diffusion_steps <= 20
+    assert max(quick.trajectory_steps, quick.motion_steps, quick.evaluator_steps) <= 30
+    assert quick.targets <= 8 and quick.evaluation_windows <= 96

@@ -6,7 +6,9 @@ noncentral t with n − 1 degrees of freedom and noncentrality δ√n/σ when th
 tested at α/k here: Holm's first step, so the number holds for the part Holm tests first and
 is conservative for the others. The registered ``seeds`` of every part is
 ``seeds_for_power`` at its smallest effect of interest on the spread of the v1 full run in
-``results/claims.json`` (tests/claims/test_power.py recomputes them).
+``results/claims.json`` (tests/claims/test_power.py recomputes them); a v3 measurement the v1
+run did not record under its name is powered on the v1 values of its nearest measurement
+(:data:`V1_NEAREST`, :func:`v1_measured`).
 """
 
 from __future__ import annotations
@@ -21,6 +23,15 @@ from scipy import stats
 from repro.claims.verdicts import ALPHA, POWER, Part
 
 MAX_SEEDS = 1000
+
+#: v3 measurement → the v1 method (``extra.per_method``, per seed ``location_error``) nearest
+#: to it. GMD-B2 (issue #17): v1's abs imputation and both guidance runs were sampled at T =
+#: 100; its rel imputation nearest the v3 one is the velocity replacement of every frame.
+V1_NEAREST: dict[str, dict[str, str]] = {
+    "GMD-B2": {"abs_imputation_error": "abs_imputation",
+               "rel_imputation_error": "rel_velocity_replacement",
+               "abs_guidance_error": "abs_guidance", "rel_guidance_error": "rel_guidance"},
+}
 
 
 def power_of(n: int, effect: float, spread: float, alpha: float = ALPHA) -> float:
@@ -54,6 +65,16 @@ def part_seeds(part: Part, measured: Mapping[str, Any], parts_in_claim: int) -> 
         needed = max(needed, seeds_for_power(comparison.smallest_effect, spread,
                                              alpha=ALPHA / parts_in_claim))
     return needed
+
+
+def v1_measured(claim_id: str, sidecar: Mapping[str, Any]) -> dict[str, Any]:
+    """A v1 sidecar's ``measured`` with every :data:`V1_NEAREST` measurement of the claim
+    added: the per-seed location errors of its nearest v1 method, in seed order."""
+    measured = dict(sidecar["measured"])
+    for name, method in V1_NEAREST.get(claim_id, {}).items():
+        per_seed = sidecar["extra"]["per_method"][method]
+        measured[name] = [per_seed[s]["location_error"] for s in sorted(per_seed, key=int)]
+    return measured
 
 
 def claim_seeds(parts: Sequence[Part], measured: Mapping[str, Any]) -> dict[str, int]:

@@ -149,9 +149,15 @@ def _example_a4(rng: Rng, scale: float, n: int) -> dict[str, Any]:
 
 
 def _example_b2(rng: Rng, scale: float, n: int) -> dict[str, Any]:
-    abs_error = (0.1 - scale * 0.01 + 0.0025 * rng.standard_normal(n)).tolist()
-    rel = (np.asarray(abs_error) * (1 + scale * 0.1) + 0.0025 * rng.standard_normal(n)).tolist()
-    return {"rel_location_error": rel, "abs_location_error": abs_error}
+    abs_imputation = (0.1 - scale * 0.01 + 0.0025 * rng.standard_normal(n)).tolist()
+    rel_imputation = (np.asarray(abs_imputation) * (1 + scale * 0.1)
+                      + 0.0025 * rng.standard_normal(n)).tolist()
+    abs_guidance = arm(rng, 1.0, 0.02, n)
+    rel_guidance = (np.asarray(abs_guidance) * (1 + scale * 0.1)
+                    + 0.02 * rng.standard_normal(n)).tolist()
+    return {"abs_imputation_error": abs_imputation, "rel_imputation_error": rel_imputation,
+            "abs_guidance_error": abs_guidance, "rel_guidance_error": rel_guidance,
+            "abs_location_error": abs_imputation, "rel_location_error": rel_guidance}
 
 
 def _example_b3(rng: Rng, scale: float, n: int) -> dict[str, Any]:
@@ -331,24 +337,48 @@ CLAIMS: list[Claim] = [
     Claim(id="GMD-B2", paper="GMD", section="B",
           statement="imputing a location is ill-posed in rel, a direct replacement in abs",
           paper_value="qualitative", notebook="02_root_representation",
-          rule="over seeds: location error rel − abs > 0 (δ 10 % of rel's error) and 0.1 m − abs "
-               "error > 0 (δ 1 cm); Holm over the two parts",
-          parts=(difference_part(name="abs_imputes_better", text="location error rel − abs > 0",
-                                 minuend="rel_location_error", subtrahend="abs_location_error",
-                                 smallest_effect=0.1, relative_to="rel_location_error",
-                                 reason=TENTH, seeds=16),
-                 Part(name="abs_error_below_10cm", text="0.1 m − abs location error > 0",
-                      needs=("abs_location_error",),
-                      compare=lambda m: [Comparison("", [0.1 - v for v in m["abs_location_error"]],
-                                                    0.01)],
-                      smallest_effect_reason="a tenth of the 10 cm threshold", seeds=40)),
-          measurements={"rel_location_error": f"{SEEDS} (m)", "abs_location_error": f"{SEEDS} (m)"},
+          rule="like for like, over seeds: imputation error rel − abs > 0 (δ 10 % of rel's "
+               "error) and 0.1 m − abs imputation error > 0 (δ 1 cm); guidance error rel − abs "
+               "> 0 (δ 10 % of rel's error); both mechanisms act while t ≥ 20 of T = 1000; "
+               "Holm over the three parts",
+          parts=(difference_part(name="abs_imputes_better",
+                                 text="imputation location error rel − abs > 0",
+                                 minuend="rel_imputation_error",
+                                 subtrahend="abs_imputation_error", smallest_effect=0.1,
+                                 relative_to="rel_imputation_error", seeds=1000,
+                                 reason=TENTH + "; no v3 full run yet: powered on the v1 "
+                                        "spread of rel velocity replacement − abs imputation"),
+                 Part(name="abs_imputation_below_10cm",
+                      text="0.1 m − abs imputation location error > 0",
+                      needs=("abs_imputation_error",),
+                      compare=lambda m: [Comparison(
+                          "", [0.1 - v for v in m["abs_imputation_error"]], 0.01)],
+                      smallest_effect_reason="a tenth of the 10 cm threshold; powered on the "
+                                             "v1 spread of abs imputation", seeds=44),
+                 difference_part(name="abs_guides_better",
+                                 text="guidance location error rel − abs > 0",
+                                 minuend="rel_guidance_error", subtrahend="abs_guidance_error",
+                                 smallest_effect=0.1, relative_to="rel_guidance_error",
+                                 seeds=18,
+                                 reason=TENTH + "; powered on the v1 spread of rel guidance − "
+                                        "abs guidance (T = 100)")),
+          measurements={"rel_location_error": f"{SEEDS} (m): rel guidance (v1's name and "
+                                              "meaning, for the v1 rule)",
+                        "abs_location_error": f"{SEEDS} (m): abs imputation (v1's name and "
+                                              "meaning, for the v1 rule)"},
+          new_measurements={"abs_imputation_error": f"{SEEDS} (m): mean distance to waypoint "
+                                                    "and goal, x/z entries replaced",
+                        "rel_imputation_error": f"{SEEDS} (m): the same, root entries of every "
+                                                "frame replaced by a facing path through both",
+                        "abs_guidance_error": f"{SEEDS} (m): the same, L1 goal guidance s = 100",
+                        "rel_guidance_error": f"{SEEDS} (m): the same guidance, rel model"},
           affordable_seeds=3, example=_example_b2),
     Claim(id="GMD-B3", paper="GMD", section="B, Table B.1",
           statement="retrained with abs instead of rel, quality changes with a trade-off",
           paper_value="Ours rel FID 0.305 R@3 0.666 Div 9.861; abs 0.212 0.670 9.440 (real Div "
                       "9.503)", notebook="02_root_representation",
-          rule="Table B.1 'Ours' per seed: FID rel − abs > 0 (δ half the paper's 30.5 % drop of "
+          rule="Table B.1 'Ours' per seed, samples drawn with classifier-free guidance at "
+               "GMD's scale 2.5: FID rel − abs > 0 (δ half the paper's 30.5 % drop of "
                "rel's FID), diversity gap to real rel − abs > 0 (δ half the paper's 82.4 % "
                "shrink of rel's gap), both effects; R@3 abs − rel > −δ (non-inferiority, δ 5 % "
                "of rel's R@3), which alone never makes the claim partial; Holm over the parts",
@@ -376,7 +406,7 @@ CLAIMS: list[Claim] = [
                         "r_precision_top3_abs": SEEDS, "diversity_rel": SEEDS,
                         "diversity_abs": SEEDS,
                         "diversity_real": "diversity of the real (stand-in test) set"},
-          affordable_seeds=3, example=_example_b3),
+          affordable_seeds=5, example=_example_b3),
     Claim(id="GMD-C1", paper="GMD", section="C, Eq. 3–4",
           statement="relative importance of the 3 trajectory elements is 3c²/(260+3c²); c = "
                     "√(260/3) ≈ 9.3 gives 50 %; c = 10 chosen",

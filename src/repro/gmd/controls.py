@@ -27,9 +27,9 @@ from repro.core.tables import markdown_table
 from repro.gmd.emphasis_study import coherence
 from repro.gmd.guidance import goal_error
 from repro.gmd.guidance_schedule import strength_key
+from repro.gmd.location_imputation import REGISTERED_METHODS, location_errors
 from repro.gmd.measurements import jitter_of
 from repro.gmd.models import TrainedGMD
-from repro.gmd.root_representation import location_errors
 from repro.gmd.windows import FeatureSpace, MotionWindows, goal_targets
 from repro.gmd.x0_vs_eps import GoalReachingResult, goal_reaching_experiment, motion_fid
 from repro.motion.features import FEATURE_BLOCKS
@@ -394,40 +394,41 @@ def _located(space: FeatureSpace, x: Tensor, frames: Sequence[int], targets: np.
 def b2_controls(test: MotionWindows, tasks: Mapping[int, Any], seeds: Sequence[int], *,
                 mean_error: float = 0.1, abs_factor: float = 0.9) -> Controls:
     """GMD-B2's controls: constructed samples whose location errors are known, measured with
-    the experiment's ``root_representation.location_errors`` (mean over samples and the two
-    target frames). Each arm is a draw of test trajectories (as many as the seed's task has
-    targets) with the root at the waypoint and goal frames placed at the target plus a
-    Gaussian offset d ~ N(0, σ²I₂), σ = ``mean_error``/√(π/2), so E‖d‖ = ``mean_error``.
+    the experiment's ``location_imputation.location_errors`` (mean over samples and the two
+    target frames). Each arm (``location_imputation.REGISTERED_METHODS``: imputation and
+    guidance in each representation) is a draw of test trajectories (as many as the seed's
+    task has targets) with the root at the waypoint and goal frames placed at the target plus
+    a Gaussian offset d ~ N(0, σ²I₂), σ = ``mean_error``/√(π/2), so E‖d‖ = ``mean_error``.
 
-    Null: both arms at 0.1 m (equal arms; the abs arm exactly at part 2's 10 cm threshold).
-    Positive: the same draws with the abs arm's offsets × 0.9 — abs error 0.09 m: rel − abs =
-    0.01 m = 10 % of rel's (part 1's δ) and 0.1 m − abs = 1 cm (part 2's δ), in expectation.
-    Tests plant larger effects through ``abs_factor``."""
+    Null: every arm at 0.1 m (equal arms; abs imputation exactly at the 10 cm threshold).
+    Positive: the same draws with both abs arms' offsets × 0.9 — abs error 0.09 m: rel − abs =
+    0.01 m = 10 % of rel's (the δ of both difference parts) and 0.1 m − abs = 1 cm (the
+    threshold part's δ), in expectation. Tests plant larger effects through ``abs_factor``.
+    v1's names are filled as the experiment fills them (rel guidance, abs imputation)."""
     space = test.space("trajectory")
     sigma = mean_error / _RAYLEIGH_MEAN
-    null: dict[str, list[float]] = {"rel_location_error": [], "abs_location_error": []}
-    positive: dict[str, list[float]] = {"rel_location_error": [], "abs_location_error": []}
+    null: dict[str, list[float]] = {f"{m}_error": [] for m in REGISTERED_METHODS}
+    positive: dict[str, list[float]] = {f"{m}_error": [] for m in REGISTERED_METHODS}
     for s in seeds:
         task = tasks[s]
         frames = list(task.frames)
-        arms = {}
-        for k, name in enumerate(("rel", "abs")):
+        for k, method in enumerate(REGISTERED_METHODS):
             x = test.trajectory()[_draw(test, task.n, control_seed(s, k, stream=20))]
             offsets = sigma * np.random.default_rng(control_seed(s, k, stream=21)).standard_normal(
                 (task.n, len(frames), 2))
-            arms[name] = (x, offsets)
-        for out, factor in ((null, 1.0), (positive, abs_factor)):
-            for name, scale in (("rel", 1.0), ("abs", factor)):
-                x, offsets = arms[name]
+            for out, factor in ((null, 1.0), (positive, abs_factor)):
+                scale = factor if method.startswith("abs") else 1.0
                 placed = _located(space, x, frames, task.targets, scale * offsets)
-                out[f"{name}_location_error"].append(
-                    float(location_errors(space, placed, task).mean()))
+                out[f"{method}_error"].append(float(location_errors(space, placed, task).mean()))
+    for out in (null, positive):
+        out["rel_location_error"] = out["rel_guidance_error"]
+        out["abs_location_error"] = out["abs_imputation_error"]
     return Controls(null=null, positive=positive,
                     planted={"mean_location_error_m": mean_error, "abs_offset_factor": abs_factor},
                     null_text=(f"test trajectories placed at the targets + Gaussian offsets of "
-                               f"mean length {mean_error:g} m in both arms, independent draws, "
-                               f"{len(seeds)} seed(s)"),
-                    positive_text=(f"the same draws; the abs arm's offsets × {abs_factor:g} "
+                               f"mean length {mean_error:g} m in all four arms, independent "
+                               f"draws, {len(seeds)} seed(s)"),
+                    positive_text=(f"the same draws; both abs arms' offsets × {abs_factor:g} "
                                    f"(mean {abs_factor * mean_error:.3g} m)"))
 
 

@@ -13,12 +13,10 @@ import numpy as np
 import torch
 
 from repro.gmd.guidance_schedule import ObstacleArm, ObstacleSet, StrengthSweep, strength_key
+from repro.gmd.location_imputation import METHODS, ImputationRun, LocationTask
 from repro.gmd.models import TrainedGMD
 from repro.gmd.root_representation import (
-    METHODS,
     ROOT_PARAMETERS,
-    ImputationRun,
-    LocationTask,
     SensitivityResult,
     SensitivitySetup,
     global_root_xz,

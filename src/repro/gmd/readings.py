@@ -57,45 +57,45 @@ def reading_b1(*, round_trip_error: float, joints_error: float, summary: dict,
         rot1=rotation["gap_1"], rotL=rotation[last], growth=growth, real=real, errors=errors)
 
 
-def reading_b2(per_method: dict[str, list[dict[str, float]]], *, seeds: Sequence[int]) -> str:
-    """GMD-B2: abs imputation vs rel guidance, the costs of each route, the abs control.
-    ``per_method[method]``: ``ImputationRun.summary()`` per seed."""
+def reading_b2(per_method: dict[str, list[dict[str, float]]], *, seeds: Sequence[int],
+               stop_t: int) -> str:
+    """GMD-B2: imputation against imputation, guidance against guidance, and what each route
+    costs. ``per_method[method]``: ``ImputationRun.summary()`` per seed; ``stop_t``: the step
+    after which neither mechanism acts."""
     def values(method: str, key: str = "location_error") -> list[float]:
         return [row[key] for row in per_method[method]]
 
     def mean(method: str, key: str = "location_error") -> float:
         return float(np.mean(values(method, key)))
 
-    abs_better = _count(values("abs_imputation"), values("rel_guidance"))
-    control_worse = mean("abs_guidance") > mean("abs_unguided")
-    acceleration = mean("abs_imputation", "root_acceleration") / mean(
-        "abs_unguided", "root_acceleration")
+    imputation_better = _count(values("abs_imputation"), values("rel_imputation"))
+    guidance_better = _count(values("abs_guidance"), values("rel_guidance"))
+    abs_guidance_helps = mean("abs_guidance") < mean("abs_unguided")
+    rel_guidance_helps = mean("rel_guidance") < mean("rel_unguided")
     return render(
-        "**Reading** (this run, seeds {seeds}). Replacing the entries in abs reaches the "
-        "locations with {abs_imp} m against {rel_g} m for guiding a rel model (abs closer on "
-        "{k} of {n} seeds). Imputation acts only while t ≥ the stop step, so the last free "
-        "steps can still move the root (waypoint {wp:.3f} m, goal {goal:.3f} m). abs "
-        "imputation's root acceleration is {acc:.2f}× the unguided samples'{jumps}. The rel "
-        "velocity replacement reaches the targets to {rvr} m only "
-        "by dictating the whole path — straight legs, no turning, one of the infinitely many "
-        "velocity sets that satisfy the constraint. The abs guidance control ends "
-        "{absg} m from the targets against {absu} m unguided{control}",
+        "**Reading** (this run, seeds {seeds}). *Imputation against imputation:* replacing "
+        "the two x/z entries in abs ends {abs_imp} m from the targets, replacing the root "
+        "entries of every frame in rel {rel_imp} m (abs closer on {ki} of {n} seeds). "
+        "{free} The rel imputation dictates the whole root path (every frame's entries are "
+        "replaced); against the unguided samples of the same noise it moves the path "
+        "{rel_off:.3f} m on frames away from the targets, abs imputation {abs_off:.3f} m. "
+        "*Guidance against "
+        "guidance:* abs ends {abs_g} m, rel {rel_g} m from the targets (abs closer on {kg} of "
+        "{n} seeds); against the unguided samples guidance {abs_help} in abs ({abs_u} m "
+        "unguided) and {rel_help} in rel ({rel_u} m).",
         seeds=list(seeds), abs_imp=interval_text(values("abs_imputation")),
-        rel_g=interval_text(values("rel_guidance")), k=abs_better, n=len(seeds),
-        wp=mean("abs_imputation", "waypoint_error"), goal=mean("abs_imputation", "goal_error"),
-        acc=acceleration,
-        jumps=_either(acceleration > 1.0, " (jumps at the imputed frames)", ""),
-        rvr=interval_text(values("rel_velocity_replacement")),
-        absg=interval_text(values("abs_guidance")), absu=interval_text(values("abs_unguided")),
-        control=_either(
-            control_worse,
-            ": guidance made it worse. With s = 100 the gradient through an ε model's x̂0 "
-            "carries 1/√ᾱ_t (largest at the first steps), which amplifies the tiny network's "
-            "errors although x̂0 is clamped as GMD's code clamps it (notebook 01 checks this "
-            "path against GMD's code). So the guidance routes cannot separate the "
-            "representation from the method here; only the imputation route can.",
-            ": guidance helped the abs model too, so the rel/abs gap under guidance can be "
-            "compared with the imputation gap."))
+        rel_imp=interval_text(values("rel_imputation")), ki=imputation_better, n=len(seeds),
+        free=_either(stop_t > 0, render(
+            "Both replacements hold the targets while t ≥ {stop}; what the last {stop} free "
+            "steps move in rel is summed over every earlier frame, in abs it is the entry "
+            "itself.", stop=stop_t), "Both replacements act to the last step (t = 0), so both "
+            "end on their targets up to rounding."),
+        rel_off=mean("rel_imputation", "path_change_off_target"),
+        abs_off=mean("abs_imputation", "path_change_off_target"),
+        abs_g=interval_text(values("abs_guidance")), rel_g=interval_text(values("rel_guidance")),
+        kg=guidance_better, abs_help=_either(abs_guidance_helps, "helped", "did not help"),
+        rel_help=_either(rel_guidance_helps, "helped", "did not help"),
+        abs_u=interval_text(values("abs_unguided")), rel_u=interval_text(values("rel_unguided")))
 
 
 def reading_b3(rows: dict[str, list[dict[str, float]]], real: dict[str, float], *,

@@ -17,29 +17,27 @@ the step i → i+1 is taken in the facing frame of i+1), a change δv at frame i
 shifts every later frame by δv. In abs p_t depends on g_t alone.
 
 This module holds the logic of ``notebooks/02_root_representation.ipynb``, on top of the tiny-GMD
-modules of ``repro.gmd``: the exact round trip and the sensitivity study (GMD-B1),
-location imputation with both representations (GMD-B2) and the notebook's fixed settings
-(:class:`Settings`). Table B.1 (GMD-B3) is ``repro.gmd.table_b1``; the figures are in
-``repro.gmd.figures``. Representations are named as ``motion.humanml3d.REPRESENTATIONS``
+modules of ``repro.gmd``: the exact round trip and the sensitivity study (GMD-B1) and the
+notebook's fixed settings (:class:`Settings`). Location imputation (GMD-B2) is
+``repro.gmd.location_imputation``, Table B.1 (GMD-B3) ``repro.gmd.table_b1``; the figures are
+in ``repro.gmd.figures``. Representations are named as ``motion.humanml3d.REPRESENTATIONS``
 ("relative", "absolute"); "rel"/"abs" (``windows.short_label``) only name measurements.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 from torch import Tensor
 
-from repro.core.diffusion import Guidance, Imputation
-from repro.gmd.guidance import GMD_GUIDANCE_STRENGTH, sample
-from repro.gmd.measurements import jitter_of
-from repro.gmd.models import GMDModelSpec, TrainedGMD
-from repro.gmd.windows import REPRESENTATIONS, DataConfig, FeatureSpace, MotionWindows, short_label
+from repro.gmd import paper_settings
+from repro.gmd.guidance import default_stop_step
+from repro.gmd.models import GMDModelSpec
+from repro.gmd.windows import REPRESENTATIONS, DataConfig, short_label
 from repro.models.evaluator import EvaluatorConfig
 from repro.motion.features import (
     absolute_features_to_joints,
@@ -49,33 +47,20 @@ from repro.motion.features import (
     relative_to_absolute_root,
 )
 
-if TYPE_CHECKING:
-    pass
-
 __all__ = [
-    "METHODS",
     "MOTION_STEPS",
     "ROOT_PARAMETERS",
-    "ImputationRun",
-    "LocationTask",
     "RoundTrip",
     "SensitivityResult",
     "SensitivitySetup",
     "Settings",
-    "abs_location_imputation",
     "global_root_xz",
-    "impute_locations",
     "linearisation_error",
     "load_clips",
-    "location_errors",
-    "location_loss",
-    "location_task",
     "perturbation_displacement",
-    "rel_velocity_replacement",
     "root_jacobian",
     "round_trip",
     "sensitivity_study",
-    "straight_line_velocities",
 ]
 
 #: the root entries a perturbation touches: [0] rotation (ω or a), [1:3] linear (v or p).
@@ -85,6 +70,15 @@ ROOT_PARAMETERS = slice(0, 3)
 #: training loss of 1.58 → 0.81 (step 500) → 0.55 (1000) → 0.47 (1500): still falling at 1000,
 #: but 1500 would cost another ~50 % of the notebook's largest item; 1000 is the compromise.
 MOTION_STEPS = 1000
+#: seeds of the full run. The power plan (the parts' registered ``seeds``) asks GMD-B2 for
+#: 1000+ / 44 / 18 (imputation difference / 10 cm threshold / guidance difference) and GMD-B3
+#: for 5 / 5 / 32 (FID / diversity gap / R@3 non-inferiority). B2 trains two trajectory
+#: models and samples six methods at T = 1000 per seed: it affords 3, as v1 (every part can
+#: then only come out supported or inconclusive). B3 trains two motion models per seed: it
+#: runs the effect parts' 5; the R@3 part can only come out supported or inconclusive
+#: (``Claim.power_note``).
+B2_SEEDS = 3
+B3_SEEDS = 5
 
 
 # ------------------------------------------------------------------------------- round trip
@@ -302,204 +296,25 @@ def linearisation_error(features: np.ndarray, frame: int, deltas: Sequence[float
     return np.asarray(errors)
 
 
-# ------------------------------------------------------------------ GMD-B2: location imputation
-
-#: the location-imputation methods compared in GMD-B2 (see :func:`impute_locations`).
-METHODS = ("abs_unguided", "abs_imputation", "abs_guidance",
-           "rel_unguided", "rel_guidance", "rel_velocity_replacement")
-
-
-@dataclass(frozen=True)
-class LocationTask:
-    """Reach a waypoint at ``waypoint_frame`` and a goal at the last frame (GMD-B2).
-
-    ``targets`` (n, 2, 2): for each sample the world x/z at the waypoint and at the goal,
-    taken from one test window each (places a motion of the data set does reach in time).
-    """
-
-    targets: np.ndarray
-    waypoint_frame: int
-    goal_frame: int
-
-    @property
-    def frames(self) -> tuple[int, int]:
-        return (self.waypoint_frame, self.goal_frame)
-
-    @property
-    def n(self) -> int:
-        return int(self.targets.shape[0])
-
-
-def location_task(test_windows: MotionWindows, n: int, *, seed: int) -> LocationTask:
-    """n waypoint/goal pairs from n test windows drawn with ``seed``: the waypoint frame is
-    the middle frame (frames/2 − 1), the goal frame the last."""
-    frames = test_windows.frames
-    waypoint = frames // 2 - 1
-    if n > len(test_windows):
-        raise ValueError(f"asked for {n} targets from {len(test_windows)} windows")
-    picks = np.random.default_rng(seed).choice(len(test_windows), n, replace=False)
-    space = test_windows.space("trajectory")
-    with torch.no_grad():
-        path = space.root_xz(test_windows.trajectory()[torch.from_numpy(picks)]).numpy()
-    targets = path[:, [waypoint, frames - 1]]
-    return LocationTask(targets.astype(np.float32), waypoint, frames - 1)
-
-
-def location_loss(space: FeatureSpace, task: LocationTask) -> Callable[[Tensor], Tensor]:
-    """G(x̂0) = Σ_{i ∈ {waypoint, goal}} ‖p_xz(i) − target_i‖₁ (m) per sample: GMD's L1 goal
-    function on the un-normalised root of x̂0, summed over the two target frames."""
-    frames = list(task.frames)
-
-    def goal(pred_x0: Tensor) -> Tensor:
-        position = space.root_xz(pred_x0)[:, frames]                       # (B, 2, 2)
-        target = torch.as_tensor(task.targets, dtype=position.dtype, device=position.device)
-        return (position - target).abs().sum(dim=(1, 2))
-
-    return goal
-
-
-def location_errors(space: FeatureSpace, x: Tensor, task: LocationTask) -> np.ndarray:
-    """Euclidean distance (m) of the root x/z to each target, (n, 2): waypoint, goal."""
-    with torch.no_grad():
-        position = space.root_xz(x.detach())[:, list(task.frames)].cpu().numpy()
-    return np.linalg.norm(position - task.targets, axis=-1)
-
-
-def _normalised(space: FeatureSpace, channel: int, values: np.ndarray) -> np.ndarray:
-    return (values - space.mean[channel]) / space.std[channel]
-
-
-def abs_location_imputation(space: FeatureSpace, task: LocationTask,
-                            frames: int) -> Imputation:
-    """abs: the root x/z entries (channels 1, 2) at the two target frames *are* the targets —
-    replace them (GMD's ε-model imputation: x_{t−1} ← q_sample(target, t−1) on the mask)."""
-    if space.representation != "absolute":
-        raise ValueError("abs_location_imputation needs an absolute-root model")
-    mask = torch.zeros(1, space.channels, frames, dtype=torch.bool)
-    target = torch.zeros(task.n, space.channels, frames)
-    for k, frame in enumerate(task.frames):
-        mask[0, 1:3, frame] = True
-        for c in (1, 2):
-            target[:, c, frame] = torch.from_numpy(
-                _normalised(space, c, task.targets[:, k, c - 1]).astype(np.float32))
-    return Imputation(mask, target)
-
-
-def straight_line_velocities(task: LocationTask, frames: int) -> np.ndarray:
-    """One of the infinitely many rel root-velocity sets whose cumulative sum hits both
-    targets: no turning (ω_s = 0, so the facing frame is the world frame) and a constant x/z
-    velocity per leg, v_s = w/i for s < i and (g − w)/(T−1 − i) for i ≤ s < T−1 (the last
-    frame's velocity is never used; it repeats the previous one). Returns (n, frames, 3)."""
-    i, last = task.frames
-    velocity = np.zeros((task.n, frames, 3), dtype=np.float64)
-    waypoint, goal = task.targets[:, 0].astype(np.float64), task.targets[:, 1].astype(np.float64)
-    velocity[:, :i, 1:3] = (waypoint / i)[:, None, :]
-    velocity[:, i:last, 1:3] = ((goal - waypoint) / (last - i))[:, None, :]
-    velocity[:, last:, 1:3] = velocity[:, last - 1:last, 1:3]
-    return velocity
-
-
-def rel_velocity_replacement(space: FeatureSpace, task: LocationTask,
-                             frames: int) -> Imputation:
-    """rel: there is no entry holding p_i. A replacement that guarantees p_i must fix every
-    entry p_i depends on — ω_s and v_s for all s < i — so here channels 0–2 of *every* frame
-    are imputed with :func:`straight_line_velocities` (one arbitrary choice among infinitely
-    many); only the root height (channel 3) is left to the model."""
-    if space.representation != "relative":
-        raise ValueError("rel_velocity_replacement needs a relative-root model")
-    velocity = straight_line_velocities(task, frames)
-    mask = torch.zeros(1, space.channels, frames, dtype=torch.bool)
-    mask[0, 0:3, :] = True
-    target = torch.zeros(task.n, space.channels, frames)
-    for c in range(3):
-        target[:, c, :] = torch.from_numpy(
-            _normalised(space, c, velocity[..., c]).astype(np.float32))
-    return Imputation(mask, target)
-
-
-@dataclass
-class ImputationRun:
-    """One method on one model: the samples (model space) and what was measured."""
-
-    method: str
-    samples: Tensor
-    location_error: np.ndarray        # (n, 2) m: waypoint, goal
-    root_acceleration: float          # m/s², mean over frames (jitter_of, root)
-    path_change: float                # m, mean ‖p_t − p_t(unguided, same seed)‖ over all t
-    path_change_off_target: float     # m, the same over frames ≥ 3 away from both targets
-
-    @property
-    def mean_error(self) -> float:
-        return float(self.location_error.mean())
-
-    def summary(self) -> dict[str, float]:
-        return {"location_error": self.mean_error,
-                "waypoint_error": float(self.location_error[:, 0].mean()),
-                "goal_error": float(self.location_error[:, 1].mean()),
-                "root_acceleration": self.root_acceleration, "path_change": self.path_change,
-                "path_change_off_target": self.path_change_off_target}
-
-
-def impute_locations(models: dict[str, TrainedGMD], task: LocationTask, *, seed: int,
-                     strength: float = GMD_GUIDANCE_STRENGTH) -> dict[str, ImputationRun]:
-    """Every method of :data:`METHODS` from the same seed (same x_T and per-step noise), with
-    GMD's stop step (guidance and imputation act while t ≥ 2 % of T).
-
-    ``models``: {"absolute": absolute-root trajectory model, "relative": relative-root one};
-    a method's name starts with the short label of its model's representation.
-    abs_imputation: :func:`abs_location_imputation`; *_guidance: :func:`location_loss` with
-    strength s (GMD: 100); rel_velocity_replacement: :func:`rel_velocity_replacement`.
-    """
-    runs: dict[str, ImputationRun] = {}
-    for rep in ("absolute", "relative"):
-        trained = models[rep]
-        frames = trained.spec.data.frames
-        if rep == "absolute":
-            hooks = {"abs_unguided": {},
-                     "abs_imputation": {"imputation": abs_location_imputation(
-                         trained.space, task, frames)},
-                     "abs_guidance": {"guidance": Guidance(location_loss(trained.space, task),
-                                                           strength=strength)}}
-        else:
-            hooks = {"rel_unguided": {},
-                     "rel_guidance": {"guidance": Guidance(location_loss(trained.space, task),
-                                                           strength=strength)},
-                     "rel_velocity_replacement": {"imputation": rel_velocity_replacement(
-                         trained.space, task, frames)}}
-        unguided_path = None
-        for method, hook in hooks.items():
-            x = sample(trained, task.n, seed=seed, **hook)
-            with torch.no_grad():
-                path = trained.space.root_xz(x).cpu().numpy()
-            if unguided_path is None:
-                unguided_path = path
-            change = np.linalg.norm(path - unguided_path, axis=-1)          # (n, T)
-            away = np.ones(frames, dtype=bool)
-            for frame in task.frames:
-                away[max(frame - 2, 0):frame + 3] = False
-            runs[method] = ImputationRun(
-                method, x.cpu(), location_errors(trained.space, x, task),
-                float(jitter_of(trained, x, part="root").acceleration),
-                float(change.mean()), float(change[:, away].mean()))
-    return runs
-
-
 # ------------------------------------------------------------------ the notebook's settings
 
 @dataclass(frozen=True)
 class Settings:
     """Every size and step count of notebook 02, fixed before any verdict was seen.
 
-    Full mode: GMD-B2 uses the default tiny trajectory model (``GMDModelSpec()``:
-    ε prediction, UNet1D base 16 × (1, 2, 4), T = 100 cosine, 1000 steps × batch 64, lr 1e-3,
-    48-frame windows) so the absolute-root models are the ones the other GMD notebooks
-    train (shared through ``repro.infra.cache``); GMD-B3 a text-conditioned x0 motion model of the
-    same size (GMD's motion model predicts x0) for ``motion_steps``. Quick mode shrinks
-    everything (a test of the code, never a result).
+    GMD-B2 (full mode) uses the guidance experiments' trajectory model (:meth:`trajectory_spec`:
+    ε prediction, ``paper_settings.TRAJECTORY_ARCHITECTURE``, T = 1000 cosine), sampled with
+    GMD's stop step t = 20 and ±6 clamp of x̂0 (``paper_settings``); GMD-B3 a text-conditioned
+    x0 motion model (GMD's motion model predicts x0) for ``motion_steps``, sampled with
+    classifier-free guidance at GMD's scale (``repro.gmd.cfg``). ``seeds`` (B2) and
+    ``motion_seeds`` (B3) follow the power plan as far as the run affords
+    (``registry_gmd``: the parts' ``seeds``). Quick mode shrinks everything, T included (a
+    test of the code, never a result).
     """
 
     quick: bool
     seeds: int
+    motion_seeds: int
     stand_in_clips: int
     stride: int
     diffusion_steps: int
@@ -513,12 +328,38 @@ class Settings:
     @classmethod
     def for_mode(cls, quick: bool) -> Settings:
         if quick:
-            return cls(quick=True, seeds=1, stand_in_clips=120, stride=8, diffusion_steps=20,
-                       trajectory_steps=20, motion_steps=20, sensitivity_clips=8, targets=8,
-                       evaluation_windows=96, evaluator_steps=30)
-        return cls(quick=False, seeds=3, stand_in_clips=2000, stride=24, diffusion_steps=100,
-                   trajectory_steps=1000, motion_steps=MOTION_STEPS, sensitivity_clips=64,
-                   targets=64, evaluation_windows=256, evaluator_steps=500)
+            return cls(quick=True, seeds=1, motion_seeds=1, stand_in_clips=120, stride=8,
+                       diffusion_steps=20, trajectory_steps=20, motion_steps=20,
+                       sensitivity_clips=8, targets=8, evaluation_windows=96,
+                       evaluator_steps=30)
+        return cls(quick=False, seeds=B2_SEEDS, motion_seeds=B3_SEEDS, stand_in_clips=2000,
+                   stride=24, diffusion_steps=100, trajectory_steps=1000,
+                   motion_steps=MOTION_STEPS, sensitivity_clips=64, targets=64,
+                   evaluation_windows=256, evaluator_steps=500)
+
+    @property
+    def trajectory_diffusion_steps(self) -> int:
+        """T of the B2 trajectory models: GMD's 1000 (quick: ``diffusion_steps``)."""
+        return self.diffusion_steps if self.quick else paper_settings.GUIDANCE_DIFFUSION_STEPS
+
+    @property
+    def guidance_stop_t(self) -> int:
+        """Imputation and guidance act while t ≥ this: GMD's 20 of T = 1000, scaled to a
+        quick run's T (``guidance.default_stop_step``)."""
+        steps = self.trajectory_diffusion_steps
+        if steps == paper_settings.GUIDANCE_DIFFUSION_STEPS:
+            return paper_settings.GUIDANCE_STOP_T
+        return default_stop_step(steps)
+
+    @property
+    def x0_clamp(self) -> float:
+        """GMD's clamp of the ε trajectory model's x̂0 (±6, ``paper_settings.X0_CLAMP``)."""
+        return paper_settings.X0_CLAMP
+
+    def sampling_parameters(self) -> dict[str, float | int]:
+        """What a B2 sidecar records as ``extra.parameters``."""
+        return {"num_timesteps": self.trajectory_diffusion_steps,
+                "guidance_stop_t": self.guidance_stop_t, "x0_clamp": self.x0_clamp}
 
     def data(self, representation: str, data_dir: str | None = None) -> DataConfig:
         """48-frame windows in ``representation`` (one of ``REPRESENTATIONS``)."""
@@ -531,10 +372,18 @@ class Settings:
 
     def trajectory_spec(self, representation: str, seed: int,
                         data_dir: str | None = None) -> GMDModelSpec:
+        """The guidance experiments' trajectory model, from ``paper_settings`` only (to be
+        pointed at the shared trajectory-spec function of the guidance notebooks when it
+        lands): ε prediction, ``TRAJECTORY_ARCHITECTURE``, ``trajectory_diffusion_steps``
+        of the ``GUIDANCE_SCHEDULE``, ``trajectory_steps`` training steps."""
+        architecture = paper_settings.TRAJECTORY_ARCHITECTURE
         return GMDModelSpec(task="trajectory", prediction="epsilon",
-                                data=self.data(representation, data_dir), seed=seed,
-                                diffusion_steps=self.diffusion_steps,
-                                train_steps=self.trajectory_steps)
+                            data=self.data(representation, data_dir), seed=seed,
+                            base_channels=architecture.base_channels,
+                            channel_mults=architecture.channel_mults,
+                            diffusion_steps=self.trajectory_diffusion_steps,
+                            schedule=paper_settings.GUIDANCE_SCHEDULE,
+                            train_steps=self.trajectory_steps)
 
     def motion_spec(self, representation: str, seed: int,
                     data_dir: str | None = None) -> GMDModelSpec:

@@ -17,7 +17,7 @@ import torch
 
 from repro.core.stats import t_interval
 from repro.core.tables import interval_text, markdown_table
-from repro.gmd.guidance import sample
+from repro.gmd.cfg import GMD_CFG_SCALE, sample_classifier_free
 from repro.gmd.models import TrainedGMD
 from repro.gmd.windows import REPRESENTATIONS, MotionWindows, short_label
 from repro.infra.storage import read_json
@@ -116,14 +116,18 @@ def evaluation_set(test_windows: MotionWindows, n: int, *, seed: int) -> Evaluat
 
 
 def generate_for_captions(trained: TrainedGMD, captions: Sequence[str], *, seed: int,
+                          guidance_scale: float = GMD_CFG_SCALE,
                           batch_size: int = 128) -> np.ndarray:
-    """One sample per caption, returned as relative-root features (n, frames, 263) (an abs
-    model's samples are converted with ``absolute_to_relative_root``). Batch k uses the
-    sampling seed 10 000·seed + k, so models sampled with one seed share their noise."""
+    """One sample per caption with classifier-free guidance at ``guidance_scale`` (GMD: 2.5;
+    1 = plain conditional sampling; ``repro.gmd.cfg``), returned as relative-root features
+    (n, frames, 263) (an abs model's samples are converted with ``absolute_to_relative_root``).
+    Batch k uses the sampling seed 10 000·seed + k, so models sampled with one seed share
+    their noise."""
     out = []
     for k, start in enumerate(range(0, len(captions), batch_size)):
         chunk = list(captions[start:start + batch_size])
-        x = sample(trained, len(chunk), seed=10_000 * seed + k, text=chunk)
+        x = sample_classifier_free(trained, len(chunk), seed=10_000 * seed + k, text=chunk,
+                                   scale=guidance_scale)
         with torch.no_grad():
             out.append(trained.space.relative_features(x).cpu().numpy())
     return np.concatenate(out).astype(np.float32)
