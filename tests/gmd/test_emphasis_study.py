@@ -121,3 +121,62 @@ def test_projection_settings_shrink_in_quick_mode() -> None:
     quick, full = ProjectionSettings.for_mode(True), ProjectionSettings.for_mode(False)
     assert full.simulation_samples == 10000 and full.kappa_scan_seeds == 20
     assert all(getattr(quick, f) < getattr(full, f) for f in vars(full))
+
+
+def test_c4_settings_follow_the_power_plan() -> None:
+    from repro.claims.registry import get_claim
+    from repro.gmd.emphasis_study import TABLE_B1_VARIANTS, Settings
+
+    claim = get_claim("GMD-C4")
+    full, quick = Settings.for_mode(False), Settings.for_mode(True)
+    assert [f"{v:g}" for v in full.values] == [p.name.rsplit("_", 1)[1] for p in claim.parts]
+    assert full.seeds == claim.affordable_seeds
+    assert all(v.in_rule for v in full.variants()) and len(full.variants()) == 4
+    outside = full.outside_rule_variants()
+    assert {v.label for v in outside} == {"Emphasis c=10 (orthogonal)",
+                                          "Emphasis c=10 (GMD float32)", "loss scaling k=1"}
+    assert not any(v.in_rule for v in outside if v.method == "emphasis")
+    assert set(TABLE_B1_VARIANTS) <= set(full.variants() + outside)
+    assert full.trained_models == 6 * 6  # the GMD float32 arm trains no model of its own
+    # quick mode runs every code path, small (a test of the code, never a result)
+    assert quick.values == full.values and quick.seeds == 1 and quick.train_steps <= 10
+    assert quick.samples < full.samples and quick.stand_in_clips < full.stand_in_clips
+
+
+def test_sensitivity_variants_build_their_matrices() -> None:
+    orthogonal = Variant("emphasis", 10, kind="orthogonal")
+    assert orthogonal.projection(seed=2).kind == "orthogonal" and not orthogonal.in_rule
+    gmd = Variant("emphasis", 10, precision="float32_gmd")
+    assert gmd.projection(seed=2).precision == "float32_gmd" and gmd.label.endswith("float32)")
+    assert Variant("emphasis", 10) == Variant("emphasis", 10, "gaussian", "float64")
+    with pytest.raises(ValueError):
+        Variant("loss_scaling", 2, kind="orthogonal")
+
+
+def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
+                                                         monkeypatch) -> None:
+    """GMD's float32 construction loads the Gaussian arm's model (same training data) and
+    samples it through GMD's float32 P and P⁻¹; the orthogonal arm trains on its own data."""
+    import dataclasses
+
+    from repro.gmd import emphasis_study
+
+    @dataclasses.dataclass
+    class Loaded:
+        space: object
+
+    trained_on = []
+
+    def fake_load_or_train(spec, data, device="cpu"):
+        trained_on.append(data.fingerprint)
+        return Loaded(windows.space("motion"))
+
+    monkeypatch.setattr(emphasis_study, "load_or_train_gmd", fake_load_or_train)
+    base = GMDModelSpec(task="motion", prediction="x0")
+    arms = [Variant("emphasis", 10), Variant("emphasis", 10, precision="float32_gmd"),
+            Variant("emphasis", 10, kind="orthogonal")]
+    loaded = [emphasis_study.load_or_train_variant(base, v, windows, 1) for v in arms]
+    assert trained_on[0] == trained_on[1] != trained_on[2]
+    assert [m.space.projection.precision for m in loaded] == ["float64", "float32_gmd",
+                                                              "float64"]
+    assert loaded[2].space.projection.kind == "orthogonal"
