@@ -180,3 +180,59 @@ def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
     assert [m.space.projection.precision for m in loaded] == ["float64", "float32_gmd",
                                                               "float64"]
     assert loaded[2].space.projection.kind == "orthogonal"
+
+
+def _fake_results(seeds: int = 4):
+    """A ``Results`` with known per-seed skating and κ (no models)."""
+    from repro.gmd.emphasis_study import Results, Settings
+
+    settings = Settings.for_mode(False)
+    variants, outside = settings.variants(), settings.outside_rule_variants()
+    kappa = [100.0 * (i + 1) for i in range(seeds)]
+    imputed, kappas = {}, {}
+    for v in variants + outside:
+        if v.method == "loss_scaling":
+            skating = [1.0 + 0.01 * i for i in range(seeds)]
+        elif v.kind == "orthogonal":
+            skating = [0.5] * seeds
+        else:  # skating grows with κ; GMD's float32 arm skates 0.1 m/s more
+            skating = [k / 100.0 + (0.1 if v.precision == "float32_gmd" else 0.0) for k in kappa]
+        imputed[v.label] = {"foot_skating": skating}
+        if v.method == "emphasis":
+            kappas[v.label] = [v.value] * seeds if v.kind == "orthogonal" else kappa
+    return Results(list(range(seeds)), variants, imputed, {}, {"foot_skating": [0.05] * seeds},
+                   {}, None, {v.label: [1.0] * seeds for v in variants + outside}, {},
+                   outside_rule=outside, condition_numbers=kappas)
+
+
+def test_kappa_relation_and_outside_rule_summary() -> None:
+    from repro.gmd.emphasis_study import kappa_skating_relation, outside_rule_summary
+
+    results = _fake_results()
+    relation = kappa_skating_relation(results)
+    assert set(relation) == {"2", "10"}
+    assert relation["10"]["rho"] == pytest.approx(1.0) and relation["10"]["n"] == 4
+    assert kappa_skating_relation(_fake_results(seeds=2))["2"]["rho"] is None
+    summary = outside_rule_summary(results)
+    assert set(summary) == {"Emphasis c=10 (orthogonal)", "Emphasis c=10 (GMD float32)"}
+    gmd = summary["Emphasis c=10 (GMD float32)"]
+    assert gmd["arm_minus_gaussian"]["mean"] == pytest.approx(0.1)
+    orthogonal = summary["Emphasis c=10 (orthogonal)"]
+    assert orthogonal["condition_number"] == [10] * 4
+    assert orthogonal["loss_scaling_minus_arm"]["mean"] == pytest.approx(1.015 - 0.5)
+    assert results.kappa_per_value()["10"] == [100.0, 200.0, 300.0, 400.0]
+    assert set(results.per_value("emphasis", "foot_skating")) == {"2", "10"}
+
+
+def test_skating_against_kappa_figure() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from repro.gmd.emphasis_figures import plot_skating_against_kappa
+
+    fig = plot_skating_against_kappa(_fake_results())
+    ax = fig.axes[0]
+    assert ax.get_xscale() == "log" and len(ax.get_lines()) == 4 + 2 + 1  # arms, k = c means, data
+    plt.close(fig)

@@ -61,7 +61,8 @@ __all__ = [
     "Settings", "Targets", "Variant", "coherence", "draw_targets", "from_normalised",
     "ProjectionSettings", "load_or_train_variant", "measure_imputed", "measure_text_to_motion",
     "project_windows",
-    "Results", "TABLE_B1_VARIANTS", "root_velocity_disagreement", "run_experiment",
+    "Results", "TABLE_B1_VARIANTS", "kappa_skating_relation", "outside_rule_summary",
+    "root_velocity_disagreement", "run_experiment",
     "sample_with_trajectory", "text_metrics", "to_normalised",
     "trajectory_error", "window_evaluator",
 ]
@@ -276,7 +277,8 @@ class Settings:
     c at the matched values v ∈ {2, 10} × 6 seeds = 24 text-conditioned x0 motion models in
     the rule (GMD's motion model predicts x0); outside it the orthogonal-matrix sensitivity arm
     at ``sensitivity_values`` (c = 10) and Table B.1's plain model (k = 1), 6 models each
-    (GMD's float32 construction samples the Gaussian arm's models): 36 models, on the 48-frame absolute-root windows the other GMD notebooks use;
+    (GMD's float32 construction samples the Gaussian arm's models): 36 models, on the
+    48-frame absolute-root windows the other GMD notebooks use;
     UNet1D base 16 × (1, 2), T = 50 cosine, ``train_steps`` × batch 64, lr 1e-3
     (``TRAIN_STEPS``: why 1000, not the budget's 120). Quick mode shrinks everything (a test
     of the code, never a result).
@@ -538,3 +540,44 @@ class ProjectionSettings:
                        kappa_scan_seeds=5, kappa_scan_frames=500)
         return cls(simulation_samples=10000, distance_pairs=10000, inverse_frames=5000,
                    kappa_scan_seeds=20, kappa_scan_frames=1000)
+
+
+# ------------------------------------------------------------------------------ κ and the arms
+
+def kappa_skating_relation(results: Results) -> dict[str, dict[str, float | int | None]]:
+    """Spearman's rank correlation between κ(P) and foot skating over the seeds of each
+    Gaussian Emphasis value of the rule ({str(c): {"rho", "p", "n"}}; ρ and p None below
+    three seeds or where either is constant). Descriptive: not part of the rule."""
+    from scipy import stats
+
+    out: dict[str, dict[str, float | int | None]] = {}
+    for value, kappas in results.kappa_per_value().items():
+        skating = results.per_value("emphasis", "foot_skating")[value]
+        rho = p = None
+        if len(kappas) >= 3 and np.ptp(kappas) > 0 and np.ptp(skating) > 0:
+            test = stats.spearmanr(kappas, skating)
+            rho, p = float(test.statistic), float(test.pvalue)
+        out[value] = {"rho": rho, "p": p, "n": len(kappas)}
+    return out
+
+
+def outside_rule_summary(results: Results) -> dict[str, dict[str, Any]]:
+    """Every Emphasis arm outside the rule ({label: ...}): per-seed foot skating and κ(P),
+    and paired over seeds (95 % t-intervals, ``Interval.as_dict``) loss scaling k = c − the
+    arm (the rule's direction) and the arm − the rule's Gaussian arm at the same c."""
+    from repro.core.stats import paired_difference, t_interval
+
+    summary = {}
+    for variant in results.outside_rule:
+        if variant.method != "emphasis":
+            continue
+        arm = results.imputed[variant.label]["foot_skating"]
+        loss = results.imputed[Variant("loss_scaling", variant.value).label]["foot_skating"]
+        gaussian = results.imputed[Variant("emphasis", variant.value).label]["foot_skating"]
+        summary[variant.label] = {
+            "value": variant.value, "kind": variant.kind, "precision": variant.precision,
+            "foot_skating": list(arm), "condition_number": results.condition_numbers[
+                variant.label],
+            "loss_scaling_minus_arm": t_interval(paired_difference(loss, arm)).as_dict(),
+            "arm_minus_gaussian": t_interval(paired_difference(arm, gaussian)).as_dict()}
+    return summary
