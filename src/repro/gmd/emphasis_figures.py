@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from repro.core.stats import t_interval
-from repro.gmd.emphasis import relative_importance
+from repro.gmd.emphasis import GMD_RELEASED_CONDITION_NUMBER, relative_importance
 from repro.gmd.emphasis_study import Results
 from repro.gmd.models import TrainedGMD
 
@@ -224,7 +224,8 @@ def plot_skating_against_kappa(results: Results) -> Figure:
     """GMD-C4: foot skating of every Emphasis model against κ(P) of its matrix, per seed (log
     axes): the rule's Gaussian matrices at each c, and outside the rule the orthogonal matrix
     (κ = c) and GMD's float32 construction (the Gaussian models, GMD's float32 P⁻¹); loss
-    scaling k = c as a dotted line at its mean over seeds, the test windows' skating dashed."""
+    scaling k = c as a dotted line at its mean over seeds, the test windows' skating dashed,
+    κ of GMD's released matrix as a vertical line."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 4.6))
@@ -247,6 +248,8 @@ def plot_skating_against_kappa(results: Results) -> Figure:
                        color=colour, ls=":", lw=1.2, label=f"{variant.label}: mean")
     ax.axhline(float(np.mean(results.ground_truth["foot_skating"])), color="black", ls="--",
                lw=0.8, label="test windows (ground truth)")
+    ax.axvline(GMD_RELEASED_CONDITION_NUMBER, color="grey", ls="-.", lw=1,
+               label=f"κ of GMD's released matrix ({GMD_RELEASED_CONDITION_NUMBER:.0f})")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("condition number κ(P) of the model's Emphasis matrix")
