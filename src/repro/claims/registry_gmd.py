@@ -412,12 +412,12 @@ CLAIMS: list[Claim] = [
     # δ = 10 % of loss scaling's skating the per-seed differences' sd is 9.5 δ (v = 2), 13 δ
     # (v = 10) and up to 24 δ (v = 1), driven by the Emphasis arm (seed sd 0.75–2.6 m/s
     # against loss scaling's 0.04–0.76 m/s; κ of the per-seed Gaussian matrix varies 30×).
-    # 80 % power needs 858 seeds at v = 2 and over 1000 at v = 10 with Holm over two values — over 1000 at every value with four. No affordable
-    # design reaches it; with the 24 models v1 trained, two values × 6 seeds has 2.4–2.5 times
-    # the power of four values × 3 seeds (0.021 / 0.018 against 0.008; tests/claims/
-    # test_power.py), and the parts can only come out supported or inconclusive. v = 1 tests
-    # no emphasis (k = 1 is the plain model, c = 1 a pure mixing); 10 is GMD's released c; 2
-    # the smallest emphasis GMD configured.
+    # 80 % power needs 858 seeds at v = 2 and over 1000 at v = 10 with Holm over two values,
+    # over 1000 at every value with four. No affordable design reaches it; with the 24 models
+    # v1 trained, two values × 6 seeds has 2.4–2.5 times the power of four values × 3 seeds
+    # (0.021 / 0.018 against 0.008; tests/claims/test_power.py), and the parts can only come
+    # out supported or inconclusive. v = 1 tests no emphasis (k = 1 is the plain model, c = 1
+    # a pure mixing); 10 is GMD's released c; 2 the smallest emphasis GMD configured.
     Claim(id="GMD-C4", paper="GMD", section="C.1",
           statement="loss scaling by k weighs the trajectory k²-fold like c = k; over k ∈ "
                     "{1,2,5,10} Emphasis projection beats loss scaling on motion coherence",
