@@ -141,8 +141,9 @@ class Variant:
 
     @property
     def in_rule(self) -> bool:
-        """Whether GMD-C4's rule reads this variant (loss scaling, or the Gaussian float64
-        Emphasis matrix); the others are sensitivity arms."""
+        """Whether this is an arm of the rule's kind (loss scaling, or the paper's Gaussian
+        float64 Emphasis matrix) rather than a sensitivity arm; the values the rule reads are
+        ``Settings.values``."""
         return self.kind == "gaussian" and self.precision == "float64"
 
     @property
