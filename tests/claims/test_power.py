@@ -47,5 +47,28 @@ def test_registered_seeds_are_the_power_calculation_on_the_v1_spreads() -> None:
 
 def test_unaffordable_parts_are_named() -> None:
     note = CLAIMS["GMD-C4"].power_note
-    assert "affords 3 seeds" in note and "only come out supported or inconclusive" in note
+    assert "affords 6 seeds" in note and "only come out supported or inconclusive" in note
     assert CLAIMS["EMG-8"].power_note == ""
+
+
+def test_c4_design_is_the_more_powerful_one_at_v1s_model_count() -> None:
+    """GMD-C4 (v3) tests v ∈ {2, 10} with 6 seeds: the same 24 models as v1's four values × 3
+    seeds, with more power at each value on v1's spreads (δ 10 % of loss scaling's skating),
+    and still short of 80 % (the power note names both parts)."""
+    from repro.claims.power import power_of
+
+    claim = CLAIMS["GMD-C4"]
+    measured = read_json(paths.results_dir() / "claims.json")["sidecars"]["GMD-C4"]["measured"]
+    values = [p.name.rsplit("_", 1)[1] for p in claim.parts]
+    assert values == ["2", "10"] and claim.affordable_seeds * len(values) * 2 == 24
+    for value in values:
+        loss = np.asarray(measured["foot_skating_loss_scaling"][value])
+        spread = float(np.std(loss - np.asarray(measured["foot_skating_emphasis"][value]),
+                              ddof=1))
+        delta = 0.1 * float(loss.mean())
+        chosen = power_of(claim.affordable_seeds, delta, spread, ALPHA / len(values))
+        v1_design = power_of(3, delta, spread, ALPHA / 4)
+        assert chosen > 2 * v1_design
+        assert chosen == pytest.approx({"2": 0.0208, "10": 0.0182}[value], abs=5e-4)
+        assert chosen < 0.8
+    assert all(p.seeds > claim.affordable_seeds for p in claim.parts)

@@ -10,7 +10,7 @@ from repro.claims.registry import get_claim
 from repro.claims.verdicts import PARTIAL, REPRODUCED
 from repro.core import metrics
 from repro.gmd import controls
-from repro.gmd.emphasis_study import coherence
+from repro.gmd.emphasis_study import C4_VALUES, coherence
 from repro.gmd.measurements import evaluator_inputs, jitter_of
 from repro.gmd.models import GMDModelSpec
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
@@ -137,7 +137,7 @@ def test_a4_positive_plants_the_jitter_and_fid_ratios(windows: MotionWindows, ev
 
 def test_c4_decision_sees_a_large_planted_effect(windows: MotionWindows) -> None:
     claim = get_claim("GMD-C4")
-    big = controls.c4_controls(windows, SEEDS, (1, 2, 5, 10), n=8, factor=4.0)
+    big = controls.c4_controls(windows, SEEDS, C4_VALUES, n=8, factor=4.0)
     assert claim.decide(big.positive).verdict == REPRODUCED
     assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
 

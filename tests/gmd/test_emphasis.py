@@ -159,3 +159,50 @@ def test_singular_values_and_drowned_directions() -> None:
     sigma = gaussian.singular_values
     assert sigma.max() / sigma.min() == pytest.approx(gaussian.condition_number, rel=1e-9)
     assert drowned_directions(gaussian, 0.9) > 0             # the smallest σ_i are ≪ 1/3
+
+
+def test_condition_number_of_a_known_matrix() -> None:
+    from repro.gmd.emphasis import condition_number
+
+    # singular values 4 and 0.5 after a rotation: κ = 8
+    angle = 0.3
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    matrix = rotation @ np.diag([4.0, 0.5]) @ rotation.T
+    assert condition_number(matrix) == pytest.approx(8.0, rel=1e-12)
+    assert condition_number(torch.eye(5)) == pytest.approx(1.0)
+    assert condition_number(np.array([[1.0, 2.0], [2.0, 4.0]])) > 1e15  # singular (rounding)
+    with pytest.raises(ValueError):
+        condition_number(np.ones((2, 3)))
+    gaussian = EmphasisProjection(c=10.0, seed=0)
+    sigma = np.linalg.svd(gaussian.matrix.numpy(), compute_uv=False)
+    assert gaussian.condition_number == pytest.approx(sigma.max() / sigma.min(), rel=1e-9)
+
+
+def test_orthogonal_matrix_inverts_exactly_with_kappa_one() -> None:
+    projection = EmphasisProjection(c=1.0, kind="orthogonal", seed=3)
+    assert projection.condition_number == pytest.approx(1.0, abs=1e-12)
+    identity = torch.eye(263, dtype=torch.float64)
+    torch.testing.assert_close(projection.inverse @ projection.matrix, identity, rtol=0,
+                               atol=1e-13)
+    torch.testing.assert_close(projection.inverse, projection.matrix.T, rtol=0, atol=1e-13)
+    # with the emphasis, κ(P) = κ(D) = c exactly: the least a matrix D·M can have
+    assert EmphasisProjection(c=10.0, kind="orthogonal", seed=3).condition_number == \
+        pytest.approx(10.0, rel=1e-12)
+
+
+def test_gmd_float32_construction() -> None:
+    """GMD's code: P in float32 and P⁻¹ = torch.inverse of that float32 matrix."""
+    ours = EmphasisProjection(c=10.0, seed=1)
+    gmd = EmphasisProjection(c=10.0, seed=1, precision="float32_gmd")
+    rounded = ours.matrix.to(torch.float32)
+    assert torch.equal(gmd.matrix, rounded.to(torch.float64))
+    assert torch.equal(gmd.inverse, torch.linalg.inv(rounded).to(torch.float64))
+    assert gmd.condition_number == pytest.approx(ours.condition_number, rel=1e-4)
+    identity = torch.eye(263, dtype=torch.float64)
+    gmd_error = float((gmd.inverse @ gmd.matrix - identity).abs().max())
+    assert 1e-8 < gmd_error < 1e-2  # a float32 inverse of a κ ≈ 10³ matrix
+    assert float((ours.inverse @ ours.matrix - identity).abs().max()) < 1e-11
+    # the default precision leaves the cache configuration as it always was
+    assert "precision" not in ours.as_config() and gmd.as_config()["precision"] == "float32_gmd"
+    with pytest.raises(ValueError):
+        EmphasisProjection(precision="float16")  # type: ignore[arg-type]

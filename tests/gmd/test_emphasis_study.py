@@ -121,3 +121,119 @@ def test_projection_settings_shrink_in_quick_mode() -> None:
     quick, full = ProjectionSettings.for_mode(True), ProjectionSettings.for_mode(False)
     assert full.simulation_samples == 10000 and full.kappa_scan_seeds == 20
     assert all(getattr(quick, f) < getattr(full, f) for f in vars(full))
+
+
+def test_c4_settings_follow_the_power_plan() -> None:
+    from repro.claims.registry import get_claim
+    from repro.gmd.emphasis_study import TABLE_B1_VARIANTS, Settings
+
+    claim = get_claim("GMD-C4")
+    full, quick = Settings.for_mode(False), Settings.for_mode(True)
+    assert [f"{v:g}" for v in full.values] == [p.name.rsplit("_", 1)[1] for p in claim.parts]
+    assert full.seeds == claim.affordable_seeds
+    assert all(v.in_rule for v in full.variants()) and len(full.variants()) == 4
+    outside = full.outside_rule_variants()
+    assert {v.label for v in outside} == {"Emphasis c=10 (orthogonal)",
+                                          "Emphasis c=10 (GMD float32)", "loss scaling k=1"}
+    assert not any(v.in_rule for v in outside if v.method == "emphasis")
+    assert set(TABLE_B1_VARIANTS) <= set(full.variants() + outside)
+    assert full.trained_models == 6 * 6  # the GMD float32 arm trains no model of its own
+    # quick mode runs every code path, small (a test of the code, never a result)
+    assert quick.values == full.values and quick.seeds == 1 and quick.train_steps <= 10
+    assert quick.samples < full.samples and quick.stand_in_clips < full.stand_in_clips
+
+
+def test_sensitivity_variants_build_their_matrices() -> None:
+    orthogonal = Variant("emphasis", 10, kind="orthogonal")
+    assert orthogonal.projection(seed=2).kind == "orthogonal" and not orthogonal.in_rule
+    gmd = Variant("emphasis", 10, precision="float32_gmd")
+    assert gmd.projection(seed=2).precision == "float32_gmd" and gmd.label.endswith("float32)")
+    assert Variant("emphasis", 10) == Variant("emphasis", 10, "gaussian", "float64")
+    with pytest.raises(ValueError):
+        Variant("loss_scaling", 2, kind="orthogonal")
+
+
+def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
+                                                         monkeypatch) -> None:
+    """GMD's float32 construction loads the Gaussian arm's model (same training data) and
+    samples it through GMD's float32 P and P⁻¹; the orthogonal arm trains on its own data."""
+    import dataclasses
+
+    from repro.gmd import emphasis_study
+
+    @dataclasses.dataclass
+    class Loaded:
+        space: object
+
+    trained_on = []
+
+    def fake_load_or_train(spec, data, device="cpu"):
+        trained_on.append(data.fingerprint)
+        return Loaded(windows.space("motion"))
+
+    monkeypatch.setattr(emphasis_study, "load_or_train_gmd", fake_load_or_train)
+    base = GMDModelSpec(task="motion", prediction="x0")
+    arms = [Variant("emphasis", 10), Variant("emphasis", 10, precision="float32_gmd"),
+            Variant("emphasis", 10, kind="orthogonal")]
+    loaded = [emphasis_study.load_or_train_variant(base, v, windows, 1) for v in arms]
+    assert trained_on[0] == trained_on[1] != trained_on[2]
+    assert [m.space.projection.precision for m in loaded] == ["float64", "float32_gmd",
+                                                              "float64"]
+    assert loaded[2].space.projection.kind == "orthogonal"
+
+
+def _fake_results(seeds: int = 4):
+    """A ``Results`` with known per-seed skating and κ (no models)."""
+    from repro.gmd.emphasis_study import Results, Settings
+
+    settings = Settings.for_mode(False)
+    variants, outside = settings.variants(), settings.outside_rule_variants()
+    kappa = [100.0 * (i + 1) for i in range(seeds)]
+    imputed, kappas = {}, {}
+    for v in variants + outside:
+        if v.method == "loss_scaling":
+            skating = [1.0 + 0.01 * i for i in range(seeds)]
+        elif v.kind == "orthogonal":
+            skating = [0.5] * seeds
+        else:  # skating grows with κ; GMD's float32 arm skates 0.1 m/s more
+            skating = [k / 100.0 + (0.1 if v.precision == "float32_gmd" else 0.0) for k in kappa]
+        imputed[v.label] = {"foot_skating": skating}
+        if v.method == "emphasis":
+            kappas[v.label] = [v.value] * seeds if v.kind == "orthogonal" else kappa
+    return Results(list(range(seeds)), variants, imputed, {}, {"foot_skating": [0.05] * seeds},
+                   {}, None, {v.label: [1.0] * seeds for v in variants + outside}, {},
+                   outside_rule=outside, condition_numbers=kappas)
+
+
+def test_kappa_relation_and_outside_rule_summary() -> None:
+    from repro.gmd.emphasis_study import kappa_skating_relation, outside_rule_summary
+
+    results = _fake_results()
+    relation = kappa_skating_relation(results)
+    assert set(relation) == {"2", "10"}
+    assert relation["10"]["rho"] == pytest.approx(1.0) and relation["10"]["n"] == 4
+    assert kappa_skating_relation(_fake_results(seeds=2))["2"]["rho"] is None
+    summary = outside_rule_summary(results)
+    assert set(summary) == {"Emphasis c=10 (orthogonal)", "Emphasis c=10 (GMD float32)"}
+    gmd = summary["Emphasis c=10 (GMD float32)"]
+    assert gmd["arm_minus_gaussian"]["mean"] == pytest.approx(0.1)
+    orthogonal = summary["Emphasis c=10 (orthogonal)"]
+    assert orthogonal["condition_number"] == [10] * 4
+    assert orthogonal["loss_scaling_minus_arm"]["mean"] == pytest.approx(1.015 - 0.5)
+    assert results.kappa_per_value()["10"] == [100.0, 200.0, 300.0, 400.0]
+    assert set(results.per_value("emphasis", "foot_skating")) == {"2", "10"}
+
+
+def test_skating_against_kappa_figure() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from repro.gmd.emphasis_figures import plot_skating_against_kappa
+
+    fig = plot_skating_against_kappa(_fake_results())
+    ax = fig.axes[0]
+    # the four Emphasis arms, loss scaling at k = c, the data and GMD's released κ
+    assert ax.get_xscale() == "log" and len(ax.get_lines()) == 4 + 2 + 2
+    plt.close(fig)

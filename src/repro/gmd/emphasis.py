@@ -20,6 +20,17 @@ square Gaussian matrix is ill-conditioned: the singular values of G/√n spread 
 ≈ 1/n (Edelman), so κ ≈ 2n with a heavy tail, and in float32 the round trip loses
 ~κ(P)·2⁻²⁴ of relative accuracy.
 
+GMD's released code (``init_random_projection``) differs from this construction in precision
+only — besides drawing G unseeded, once per training run, and saving it beside the model: it
+draws G in float32 (``torch.normal``), scales and normalises it in float32 and forms P⁻¹ with
+``torch.inverse`` of the float32 matrix, so its inverse carries the float32 error of
+inverting a matrix of condition number κ (≈ κ·2⁻²⁴ relative). ``precision="float32_gmd"``
+builds that: the seed's G, P rounded to float32, P⁻¹ inverted from it in float32.
+The released matrix itself (``dataset/rand_proj.npy``) is a float32 263×263 array whose rows
+0–2 are ≈ 9.7 times longer than the rest (c = 10 over one draw); its condition number is
+``GMD_RELEASED_CONDITION_NUMBER`` and its shipped float32 inverse leaves
+max|P⁻¹P − I| = 3.5·10⁻⁵.
+
 ``kind="orthogonal"`` replaces G by √n·Q, Q the (sign-fixed, Haar) orthogonal factor of G's
 QR decomposition: its rows have exactly the norm √n that G's rows have on average, so the same
 s applies; with c = 1 it is an exact isometry and has condition number 1.
@@ -43,17 +54,26 @@ from repro.motion.features import EMPHASIS_FEATURES, FEATURE_DIM
 
 Kind = Literal["gaussian", "orthogonal"]
 Normaliser = Literal["sqrt", "printed", "none"]
+Precision = Literal["float64", "float32_gmd"]
 ArrayLike = np.ndarray | Tensor
 
 KINDS = ("gaussian", "orthogonal")
 NORMALISERS = ("sqrt", "printed", "none")
+PRECISIONS = ("float64", "float32_gmd")
 #: GMD's emphasised features: root angle, root x, root z (features 0–2).
 GMD_EMPHASISED = tuple(range(EMPHASIS_FEATURES.start, EMPHASIS_FEATURES.stop))
+#: κ₂ of GMD's released Emphasis matrix (korrawe/guided-motion-diffusion, commit 2f6264a,
+#: ``dataset/rand_proj.npy``, float32, σ_max/σ_min computed in float64): a looked-up fact, one
+#: draw; the c = 10 matrices of seeds 0–199 here have median κ ≈ 5.4·10³, and 24 % of them a κ
+#: below this one.
+GMD_RELEASED_CONDITION_NUMBER = 2997.2
 #: the values of c GMD has configs for (``humanml_motion_proj{1,2,5,10}``); 10 is released.
 GMD_C_VALUES = (1.0, 2.0, 5.0, 10.0)
 
 __all__ = [
-    "GMD_C_VALUES", "GMD_EMPHASISED", "EmphasisProjection", "c_for_importance",
+    "GMD_C_VALUES", "GMD_EMPHASISED", "GMD_RELEASED_CONDITION_NUMBER", "PRECISIONS",
+    "EmphasisProjection", "c_for_importance",
+    "condition_number",
     "distance_ratios", "drowned_directions", "gaussian_matrix", "jl_tail_bound",
     "normalising_factor", "orthogonal_matrix", "per_dimension_variance", "projected_importance",
     "reconstruction_error", "relative_importance", "relative_importance_of",
@@ -143,6 +163,18 @@ def orthogonal_matrix(dim: int, seed: int) -> Tensor:
     return math.sqrt(dim) * q * signs[None, :]
 
 
+def condition_number(matrix: ArrayLike) -> float:
+    """κ₂(A) = σ_max(A)/σ_min(A), the 2-norm condition number, from the singular values in
+    float64 (∞ for a singular matrix). It bounds the relative error the inverse amplifies:
+    ‖δx‖/‖x‖ ≤ κ ‖δy‖/‖y‖ for x = y A⁻¹ (Golub & Van Loan §2.6)."""
+    a = torch.as_tensor(np.asarray(matrix) if isinstance(matrix, np.ndarray) else matrix)
+    if a.dim() != 2 or a.shape[0] != a.shape[1]:
+        raise ValueError(f"condition number needs a square matrix, got {tuple(a.shape)}")
+    sigma = torch.linalg.svdvals(a.to(torch.float64))
+    smallest = float(sigma.min())
+    return math.inf if smallest == 0.0 else float(sigma.max()) / smallest
+
+
 # ------------------------------------------------------------------------------ the projection
 
 class EmphasisProjection:
@@ -156,6 +188,8 @@ class EmphasisProjection:
         kind: ``"gaussian"`` (GMD) or ``"orthogonal"`` (√n·Q, for comparison).
         normaliser: ``"sqrt"`` (GMD's code, 1/√(n − k + k c²)), ``"printed"`` (the
             appendix, 1/(n − k + k c²)) or ``"none"``.
+        precision: ``"float64"`` (P and P⁻¹ formed in float64) or ``"float32_gmd"`` (GMD's
+            released code: P rounded to float32, P⁻¹ inverted from it in float32).
 
     ``matrix`` and ``inverse`` are float64 (dim, dim); ``project``/``unproject`` take numpy
     or torch arrays (..., dim) and compute in the input's dtype (torch: differentiable, on the
@@ -164,7 +198,7 @@ class EmphasisProjection:
 
     def __init__(self, dim: int = FEATURE_DIM, emphasised: Sequence[int] = GMD_EMPHASISED,
                  c: float = 10.0, seed: int = 0, kind: Kind = "gaussian",
-                 normaliser: Normaliser = "sqrt") -> None:
+                 normaliser: Normaliser = "sqrt", precision: Precision = "float64") -> None:
         if dim < 2:
             raise ValueError(f"dim must be at least 2, got {dim}")
         emphasised = tuple(int(i) for i in emphasised)
@@ -177,22 +211,37 @@ class EmphasisProjection:
             raise ValueError(f"c must be a positive number, got {c}")
         if kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
+        if precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, got {precision!r}")
         self.dim, self.emphasised, self.c = int(dim), emphasised, float(c)
         self.seed, self.kind, self.normaliser = int(seed), kind, normaliser
+        self.precision = precision
         self.scale = normalising_factor(c, len(emphasised), dim, normaliser)
         base = gaussian_matrix(dim, seed) if kind == "gaussian" else orthogonal_matrix(dim, seed)
-        self.matrix: Tensor = self.weights[:, None] * base * self.scale
-        self.inverse: Tensor = torch.linalg.inv(self.matrix)
+        matrix = self.weights[:, None] * base * self.scale
+        if precision == "float32_gmd":
+            rounded = matrix.to(torch.float32)
+            self.matrix: Tensor = rounded.to(torch.float64)
+            self.inverse: Tensor = torch.linalg.inv(rounded).to(torch.float64)
+        else:
+            self.matrix = matrix
+            self.inverse = torch.linalg.inv(matrix)
         self._cache: dict[tuple[torch.dtype, torch.device], tuple[Tensor, Tensor]] = {}
 
     def __repr__(self) -> str:
         return (f"EmphasisProjection(dim={self.dim}, emphasised={self.emphasised}, c={self.c}, "
-                f"seed={self.seed}, kind={self.kind!r}, normaliser={self.normaliser!r})")
+                f"seed={self.seed}, kind={self.kind!r}, normaliser={self.normaliser!r}, "
+                f"precision={self.precision!r})")
 
     def as_config(self) -> dict[str, object]:
-        """Everything that determines the matrix (for cache keys)."""
-        return {"dim": self.dim, "emphasised": list(self.emphasised), "c": self.c,
-                "seed": self.seed, "kind": self.kind, "normaliser": self.normaliser}
+        """Everything that determines the matrix (for cache keys); ``precision`` only where it
+        is not the default, so the keys of float64 projections are those they always were."""
+        config: dict[str, object] = {"dim": self.dim, "emphasised": list(self.emphasised),
+                                     "c": self.c, "seed": self.seed, "kind": self.kind,
+                                     "normaliser": self.normaliser}
+        if self.precision != "float64":
+            config["precision"] = self.precision
+        return config
 
     @property
     def weights(self) -> Tensor:
@@ -209,8 +258,9 @@ class EmphasisProjection:
 
     @property
     def condition_number(self) -> float:
-        """κ₂(P) = σ_max/σ_min in float64 (the scale s cancels; D and G set it)."""
-        return float(torch.linalg.cond(self.matrix))
+        """κ₂(P) = σ_max/σ_min in float64 (:func:`condition_number`; the scale s cancels,
+        D and G set it; for the orthogonal kind κ = κ(D) = max(c, 1/c))."""
+        return condition_number(self.matrix)
 
     def _matrices(self, like: Tensor) -> tuple[Tensor, Tensor]:
         key = (like.dtype, like.device)

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from repro.core.stats import t_interval
-from repro.gmd.emphasis import relative_importance
+from repro.gmd.emphasis import GMD_RELEASED_CONDITION_NUMBER, relative_importance
 from repro.gmd.emphasis_study import Results
 from repro.gmd.models import TrainedGMD
 
@@ -21,7 +21,8 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["COHERENCE_PANELS", "plot_coherence", "plot_distances_and_inverse",
-           "plot_relative_importance", "plot_training_losses", "plot_unit_variance"]
+           "plot_relative_importance", "plot_skating_against_kappa", "plot_training_losses",
+           "plot_unit_variance"]
 
 
 def plot_relative_importance(c_grid: np.ndarray, simulated: np.ndarray,
@@ -209,12 +210,53 @@ def plot_coherence(results: Results, values: Sequence[float], *, samples: int) -
     axes[0, 0].legend(fontsize=7)
     ax = axes[1, 3]
     ax.axis("off")
-    ax.text(0, 1, "\n".join(f"{v.label:>22}: {np.mean(results.train_seconds[v.label]):5.1f} s "
-                            f"to load/train" for v in results.variants),
+    ax.text(0, 1, "\n".join(f"{v.label:>27}: {np.mean(results.train_seconds[v.label]):5.1f} s "
+                            f"to load/train" for v in results.variants + results.outside_rule),
             va="top", family="monospace", fontsize=7)
     fig.suptitle(f"GMD-C4: trajectory-conditioned samples, {samples} per seed, mean and 95 % "
                  f"t-interval over seeds {results.seeds} (dots: seeds; log axes clip intervals "
                  f"below 0)", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def plot_skating_against_kappa(results: Results) -> Figure:
+    """GMD-C4: foot skating of every Emphasis model against κ(P) of its matrix, per seed (log
+    axes): the rule's Gaussian matrices at each c, and outside the rule the orthogonal matrix
+    (κ = c) and GMD's float32 construction (the Gaussian models, GMD's float32 P⁻¹); loss
+    scaling k = c as a dotted line at its mean over seeds, the test windows' skating dashed,
+    κ of GMD's released matrix as a vertical line."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4.6))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    arms = [v for v in results.variants + results.outside_rule if v.method == "emphasis"]
+    markers = {("gaussian", "float64"): "o", ("orthogonal", "float64"): "s",
+               ("gaussian", "float32_gmd"): "x"}
+    values = sorted({v.value for v in arms})
+    for variant in arms:
+        colour = colours[values.index(variant.value) % len(colours)]
+        ax.plot(results.condition_numbers[variant.label],
+                results.imputed[variant.label]["foot_skating"],
+                markers[(variant.kind, variant.precision)], color=colour, ms=7,
+                mfc="none" if variant.precision == "float32_gmd" else colour,
+                label=f"{variant.label} ({len(results.seeds)} seeds)")
+    for variant in results.variants:
+        if variant.method == "loss_scaling" and variant.value in values:
+            colour = colours[values.index(variant.value) % len(colours)]
+            ax.axhline(float(np.mean(results.imputed[variant.label]["foot_skating"])),
+                       color=colour, ls=":", lw=1.2, label=f"{variant.label}: mean")
+    ax.axhline(float(np.mean(results.ground_truth["foot_skating"])), color="black", ls="--",
+               lw=0.8, label="test windows (ground truth)")
+    ax.axvline(GMD_RELEASED_CONDITION_NUMBER, color="grey", ls="-.", lw=1,
+               label=f"κ of GMD's released matrix ({GMD_RELEASED_CONDITION_NUMBER:.0f})")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("condition number κ(P) of the model's Emphasis matrix")
+    ax.set_ylabel("foot skating of imputed samples (m/s)")
+    ax.set_title("GMD-C4: skating against the conditioning of P (matrix seed = model seed)",
+                 fontsize=9)
+    ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
     return fig
 

@@ -25,7 +25,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from repro.gmd.emphasis import EmphasisProjection
+from repro.gmd.emphasis import EmphasisProjection, Kind, Precision
 from repro.gmd.guidance import default_stop_step, sample
 from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd, trajectory_loss_weights
 from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows
@@ -46,13 +46,23 @@ ROOT_VELOCITY = slice(193, 196)
 #: come from models that do not yet make motion. The verdict rule is unchanged; the budget is
 #: missed on purpose (≈ 0.06 s per step on one core: ≈ 25 CPU-minutes for 24 models).
 TRAIN_STEPS = 1000
+#: GMD-C4's matched values and seeds in full mode (registry v3; the power plan in the GMD-C4
+#: entry of ``claims.registry_gmd``): 2 and 10 (GMD's released c) with 6 seeds each, the
+#: 24 models v1 spread over four values with 3 seeds.
+C4_VALUES = (2, 10)
+C4_SEEDS = 6
+#: the values at which the sensitivity arms (orthogonal matrix, GMD's float32 construction)
+#: run: GMD's released c = 10.
+SENSITIVITY_VALUES = (10,)
 
 __all__ = [
-    "IMPUTED_FEATURES", "METHODS", "TRAIN_STEPS", "ImputedX0", "ProjectedFeatureSpace",
+    "C4_SEEDS", "C4_VALUES", "IMPUTED_FEATURES", "METHODS", "SENSITIVITY_VALUES", "TRAIN_STEPS",
+    "ImputedX0", "ProjectedFeatureSpace",
     "Settings", "Targets", "Variant", "coherence", "draw_targets", "from_normalised",
     "ProjectionSettings", "load_or_train_variant", "measure_imputed", "measure_text_to_motion",
     "project_windows",
-    "Results", "TABLE_B1_VARIANTS", "root_velocity_disagreement", "run_experiment",
+    "Results", "TABLE_B1_VARIANTS", "kappa_skating_relation", "outside_rule_summary",
+    "root_velocity_disagreement", "run_experiment",
     "sample_with_trajectory", "text_metrics", "to_normalised",
     "trajectory_error", "window_evaluator",
 ]
@@ -106,22 +116,43 @@ def project_windows(windows: MotionWindows, projection: EmphasisProjection) -> M
 @dataclass(frozen=True)
 class Variant:
     """One C.1 configuration: trajectory loss scaling by k (weights k² on features 0:4, GMD's
-    code) or the Emphasis projection with c (features 0–2 emphasised)."""
+    code) or the Emphasis projection with c (features 0–2 emphasised).
+
+    Emphasis variants carry the matrix's ``kind`` and ``precision``
+    (``emphasis.EmphasisProjection``): the rule's arm is the paper's Gaussian matrix in
+    float64; the sensitivity arms outside the rule are ``kind="orthogonal"`` (√n·Q, its own
+    models) and ``precision="float32_gmd"`` (GMD's released float32 construction: the Gaussian
+    arm's model of the same seed, sampled through GMD's float32 P and P⁻¹)."""
 
     method: Method
     value: float
+    kind: Kind = "gaussian"
+    precision: Precision = "float64"
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
         if not self.value > 0:
             raise ValueError(f"value must be positive, got {self.value}")
+        if self.method == "loss_scaling" and (self.kind, self.precision) != ("gaussian",
+                                                                            "float64"):
+            raise ValueError("kind and precision describe an Emphasis matrix; loss scaling "
+                             "has none")
+
+    @property
+    def in_rule(self) -> bool:
+        """Whether this is an arm of the rule's kind (loss scaling, or the paper's Gaussian
+        float64 Emphasis matrix) rather than a sensitivity arm; the values the rule reads are
+        ``Settings.values``."""
+        return self.kind == "gaussian" and self.precision == "float64"
 
     @property
     def label(self) -> str:
         symbol = "k" if self.method == "loss_scaling" else "c"
         name = "loss scaling" if self.method == "loss_scaling" else "Emphasis"
-        return f"{name} {symbol}={self.value:g}"
+        suffix = {("orthogonal", "float64"): " (orthogonal)",
+                  ("gaussian", "float32_gmd"): " (GMD float32)"}
+        return f"{name} {symbol}={self.value:g}" + suffix.get((self.kind, self.precision), "")
 
     def spec(self, base: GMDModelSpec, seed: int) -> GMDModelSpec:
         """``base`` with this seed and, for loss scaling k ≠ 1, GMD's weights k² on 0:4."""
@@ -134,7 +165,8 @@ class Variant:
         """The Emphasis projection of this variant (matrix seed = model seed), or None."""
         if self.method != "emphasis":
             return None
-        return EmphasisProjection(dim=dim, c=self.value, seed=seed)
+        return EmphasisProjection(dim=dim, c=self.value, seed=seed, kind=self.kind,
+                                  precision=self.precision)
 
 
 def load_or_train_variant(base: GMDModelSpec, variant: Variant, windows: MotionWindows,
@@ -150,7 +182,13 @@ def load_or_train_variant(base: GMDModelSpec, variant: Variant, windows: MotionW
     projection = variant.projection(seed, windows.x.shape[1])
     if projection is None:
         return load_or_train_gmd(spec, windows, device=device)
-    data = projected if projected is not None else project_windows(windows, projection)
+    # GMD's float32 construction trains on x·P in float32; the float64 arm's training windows
+    # are x·P rounded to float32, the same data to within float32 rounding: its model is the
+    # float64 arm's, and only P and P⁻¹ at sampling are GMD's
+    trained_on = (projection if variant.precision == "float64" else
+                  dataclasses.replace(variant, precision="float64").projection(
+                      seed, windows.x.shape[1]))
+    data = projected if projected is not None else project_windows(windows, trained_on)
     trained = load_or_train_gmd(spec, data, device=device)
     space = trained.space
     projected_space = ProjectedFeatureSpace(space.task, space.representation, space.mean,
@@ -228,15 +266,23 @@ def root_velocity_disagreement(features: Tensor | np.ndarray) -> np.ndarray:
 
 # ------------------------------------------------------------------------------ the experiment
 
+#: the two models of Table B.1's "Ours (abs)" and "Ours xproj" rows.
+TABLE_B1_VARIANTS = (Variant("loss_scaling", 1), Variant("emphasis", 10))
+
+
 @dataclass(frozen=True)
 class Settings:
     """Every size and step count of GMD-C4 in notebook 03, fixed before any verdict was seen.
 
-    Full mode: 8 variants (loss scaling k and Emphasis c over GMD's values 1, 2, 5, 10) × 3
-    seeds = 24 text-conditioned x0 motion models (GMD's motion model predicts x0) on the
-    48-frame absolute-root windows the other GMD notebooks use; UNet1D base 16 × (1, 2),
-    T = 50 cosine, ``train_steps`` × batch 64, lr 1e-3 (``TRAIN_STEPS``: why 1000, not the
-    budget's 120). Quick mode shrinks everything (a test of the code, never a result).
+    Full mode (registry v3, the power plan in the GMD-C4 entry): loss scaling k and Emphasis
+    c at the matched values v ∈ {2, 10} × 6 seeds = 24 text-conditioned x0 motion models in
+    the rule (GMD's motion model predicts x0); outside it the orthogonal-matrix sensitivity arm
+    at ``sensitivity_values`` (c = 10) and Table B.1's plain model (k = 1), 6 models each
+    (GMD's float32 construction samples the Gaussian arm's models): 36 models, on the
+    48-frame absolute-root windows the other GMD notebooks use;
+    UNet1D base 16 × (1, 2), T = 50 cosine, ``train_steps`` × batch 64, lr 1e-3
+    (``TRAIN_STEPS``: why 1000, not the budget's 120). Quick mode shrinks everything (a test
+    of the code, never a result).
     """
 
     quick: bool
@@ -247,7 +293,8 @@ class Settings:
     train_steps: int
     samples: int
     evaluator_steps: int
-    values: tuple[int, ...] = (1, 2, 5, 10)
+    values: tuple[int, ...] = C4_VALUES
+    sensitivity_values: tuple[int, ...] = SENSITIVITY_VALUES
 
     @classmethod
     def for_mode(cls, quick: bool, *, train_steps: int | None = None) -> Settings:
@@ -257,7 +304,7 @@ class Settings:
             return cls(quick=True, seeds=1, stand_in_clips=200, stride=8, diffusion_steps=20,
                        train_steps=10 if train_steps is None else int(train_steps), samples=32,
                        evaluator_steps=50)
-        return cls(quick=False, seeds=3, stand_in_clips=2000, stride=24, diffusion_steps=50,
+        return cls(quick=False, seeds=C4_SEEDS, stand_in_clips=2000, stride=24, diffusion_steps=50,
                    train_steps=TRAIN_STEPS if train_steps is None else int(train_steps),
                    samples=64, evaluator_steps=500)
 
@@ -274,7 +321,27 @@ class Settings:
                             batch_size=64, lr=1e-3)
 
     def variants(self) -> list[Variant]:
+        """The rule's variants: loss scaling and the Gaussian Emphasis matrix at each value."""
         return [Variant(method, v) for method in METHODS for v in self.values]
+
+    def outside_rule_variants(self) -> list[Variant]:
+        """Arms the rule does not read: the orthogonal matrix and GMD's float32 construction
+        of the Gaussian one at each of ``sensitivity_values``, and Table B.1's models
+        (``TABLE_B1_VARIANTS``: the plain model k = 1) where the values do not include them."""
+        sensitivity = [Variant("emphasis", v, kind=kind, precision=precision)
+                       for v in self.sensitivity_values
+                       for kind, precision in (("orthogonal", "float64"),
+                                               ("gaussian", "float32_gmd"))]
+        rule = self.variants()
+        return sensitivity + [v for v in TABLE_B1_VARIANTS if v not in rule]
+
+    @property
+    def trained_models(self) -> int:
+        """Models the run trains: every variant × seed except GMD's float32 arm, which
+        samples the Gaussian arm's models."""
+        arms = [v for v in self.variants() + self.outside_rule_variants()
+                if v.precision == "float64"]
+        return self.seeds * len(arms)
 
 
 @dataclass
@@ -375,9 +442,12 @@ def window_evaluator(train: MotionWindows, steps: int) -> Any:
 @dataclass
 class Results:
     """GMD-C4 measurements. ``imputed[label][metric]`` and ``text_to_motion[label][metric]``
-    are per-seed lists (seed order of ``seeds``); ``ground_truth[metric]`` per-seed lists of
-    the targets' own values; ``samples[label]`` the first seed's imputed samples (model
-    space); ``train_seconds[label]`` per-seed load-or-train times."""
+    are per-seed lists (seed order of ``seeds``); ``imputed`` covers the rule's ``variants``
+    and the ``outside_rule`` arms; ``ground_truth[metric]`` per-seed lists of the targets' own
+    values; ``condition_numbers[label]`` κ(P) of every Emphasis variant's matrix per seed;
+    ``samples[label]`` the first seed's imputed samples (model space); ``outside_rule`` the
+    arms the rule does not read (``Settings.outside_rule_variants``);
+    ``train_seconds[label]`` per-seed load-or-train times."""
 
     seeds: list[int]
     variants: list[Variant]
@@ -388,31 +458,38 @@ class Results:
     targets: Targets
     train_seconds: dict[str, list[float]]
     models: dict[str, TrainedGMD]
+    outside_rule: list[Variant] = dataclasses.field(default_factory=list)
+    condition_numbers: dict[str, list[float]] = dataclasses.field(default_factory=dict)
 
     def per_value(self, method: Method, metric: str) -> dict[str, list[float]]:
-        """{str(value): per-seed list} of one method's metric (the ledger's layout)."""
+        """{str(value): per-seed list} of one method's metric in the rule's arms (the
+        ledger's layout)."""
         return {f"{v.value:g}": self.imputed[v.label][metric] for v in self.variants
-                if v.method == method}
+                if v.method == method and v.in_rule}
 
-
-#: the two models of Table B.1's "Ours (abs)" and "Ours xproj" rows.
-TABLE_B1_VARIANTS = (Variant("loss_scaling", 1), Variant("emphasis", 10))
+    def kappa_per_value(self) -> dict[str, list[float]]:
+        """{str(c): per-seed κ(P)} of the rule's Gaussian Emphasis matrices."""
+        return {f"{v.value:g}": self.condition_numbers[v.label] for v in self.variants
+                if v.method == "emphasis" and v.in_rule}
 
 
 def run_experiment(settings: Settings, base: GMDModelSpec, train: MotionWindows,
                    test: MotionWindows, evaluator: Any, seeds: Sequence[int], *,
                    device: str | torch.device = "cpu", log=print) -> Results:
-    """Train (or load) every variant for every seed, then measure: trajectory-conditioned
+    """Train (or load) every variant (the rule's and the arms outside it) for every seed,
+    record κ(P) of every Emphasis matrix, then measure: trajectory-conditioned
     samples (root x/z imputed from ``settings.samples`` test windows drawn with the seed, same
     targets and sampling noise for every variant of a seed) and, for the two Table B.1
     models, text-only samples for the same captions."""
     import time
 
-    variants = settings.variants()
+    rule = settings.variants()
+    variants = rule + settings.outside_rule_variants()
     imputed: dict[str, dict[str, list[float]]] = {v.label: {} for v in variants}
     text: dict[str, dict[str, list[float]]] = {v.label: {} for v in TABLE_B1_VARIANTS}
     truth: dict[str, list[float]] = {}
     seconds: dict[str, list[float]] = {v.label: [] for v in variants}
+    kappas: dict[str, list[float]] = {v.label: [] for v in variants if v.method == "emphasis"}
     samples: dict[str, Tensor] = {}
     models: dict[str, TrainedGMD] = {}
     first_targets = None
@@ -426,6 +503,8 @@ def run_experiment(settings: Settings, base: GMDModelSpec, train: MotionWindows,
             start = time.perf_counter()
             trained = load_or_train_variant(base, variant, train, seed, device=device)
             seconds[variant.label].append(time.perf_counter() - start)
+            if variant.label in kappas:
+                kappas[variant.label].append(trained.space.projection.condition_number)
             measured, x = measure_imputed(trained, targets, seed=seed, evaluator=evaluator)
             for name, value in measured.items():
                 imputed[variant.label].setdefault(name, []).append(value)
@@ -437,8 +516,9 @@ def run_experiment(settings: Settings, base: GMDModelSpec, train: MotionWindows,
                     text[variant.label].setdefault(name, []).append(value)
             log(f"seed {seed} {variant.label}: {time.perf_counter() - start:.1f} s, foot "
                 f"skating {measured['foot_skating']:.3f} m/s")
-    return Results(list(seeds), variants, imputed, text, truth, samples, first_targets,
-                   seconds, models)
+    return Results(list(seeds), rule, imputed, text, truth, samples, first_targets,
+                   seconds, models, outside_rule=variants[len(rule):],
+                   condition_numbers=kappas)
 
 
 @dataclass(frozen=True)
@@ -461,3 +541,44 @@ class ProjectionSettings:
                        kappa_scan_seeds=5, kappa_scan_frames=500)
         return cls(simulation_samples=10000, distance_pairs=10000, inverse_frames=5000,
                    kappa_scan_seeds=20, kappa_scan_frames=1000)
+
+
+# ------------------------------------------------------------------------------ κ and the arms
+
+def kappa_skating_relation(results: Results) -> dict[str, dict[str, float | int | None]]:
+    """Spearman's rank correlation between κ(P) and foot skating over the seeds of each
+    Gaussian Emphasis value of the rule ({str(c): {"rho", "p", "n"}}; ρ and p None below
+    three seeds or where either is constant). Descriptive: not part of the rule."""
+    from scipy import stats
+
+    out: dict[str, dict[str, float | int | None]] = {}
+    for value, kappas in results.kappa_per_value().items():
+        skating = results.per_value("emphasis", "foot_skating")[value]
+        rho = p = None
+        if len(kappas) >= 3 and np.ptp(kappas) > 0 and np.ptp(skating) > 0:
+            test = stats.spearmanr(kappas, skating)
+            rho, p = float(test.statistic), float(test.pvalue)
+        out[value] = {"rho": rho, "p": p, "n": len(kappas)}
+    return out
+
+
+def outside_rule_summary(results: Results) -> dict[str, dict[str, Any]]:
+    """Every Emphasis arm outside the rule ({label: ...}): per-seed foot skating and κ(P),
+    and paired over seeds (95 % t-intervals, ``Interval.as_dict``) loss scaling k = c − the
+    arm (the rule's direction) and the arm − the rule's Gaussian arm at the same c."""
+    from repro.core.stats import paired_difference, t_interval
+
+    summary = {}
+    for variant in results.outside_rule:
+        if variant.method != "emphasis":
+            continue
+        arm = results.imputed[variant.label]["foot_skating"]
+        loss = results.imputed[Variant("loss_scaling", variant.value).label]["foot_skating"]
+        gaussian = results.imputed[Variant("emphasis", variant.value).label]["foot_skating"]
+        summary[variant.label] = {
+            "value": variant.value, "kind": variant.kind, "precision": variant.precision,
+            "foot_skating": list(arm), "condition_number": results.condition_numbers[
+                variant.label],
+            "loss_scaling_minus_arm": t_interval(paired_difference(loss, arm)).as_dict(),
+            "arm_minus_gaussian": t_interval(paired_difference(arm, gaussian)).as_dict()}
+    return summary
