@@ -1,6 +1,12 @@
 """The report: REPORT.md and an HTML page built from the claim sidecars, and the committed
 ``results/`` snapshot.
 
+REPORT.md opens with one screen on trust (``claims.trust``: per claim its verdict, parts,
+controls, gates and limits) and the figure of the claims by outcome (``claims.figures``);
+then the verdict table, the verdict changes since registry v1 with the changelog's reasons
+(``claims.changelog``), the papers' errata (``docs/ERRATA.md`` via ``claims.errata``), the
+models, the run times and each claim in full. REPORT.html (``index.html``) has the same.
+
 A quick run's verdicts are never presented as results: its table says "quick run" instead.
 Reports are written atomically; a failed run does not call this (the last good one stays).
 """
@@ -17,6 +23,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from repro.claims import changelog, errata, trust
+from repro.claims.figures import FIGURE_NAME, claims_by_outcome
 from repro.claims.ledger import load_sidecars, part_outcomes, v1_verdict
 from repro.claims.provenance import check_runs, notebooks_section, render_notebooks
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
@@ -126,7 +134,9 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
              "never the paper's absolute numbers.", ""]
     if provenance:
         lines += [f"**Provenance.** {provenance}", ""]
-    lines += [f"| claim | statement | paper | ours | verdict (registry v{REGISTRY_VERSION}) "
+    lines += trust.trust_markdown(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}")
+    lines += ["## Verdicts", "",
+              f"| claim | statement | paper | ours | verdict (registry v{REGISTRY_VERSION}) "
               "| v1 verdict | notebook |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         verdict = f"**{r['verdict']}**" + (f" — {r['parts_short']}" if r.get("parts_short")
@@ -134,6 +144,10 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
         cells = [r["id"], r["statement"], r["paper"], r["ours"], verdict,
                  r.get("v1_verdict", ""), r["notebook"]]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    changes_by_claim = changelog.claim_changes()
+    lines += trust.changes_markdown(trust.verdict_changes(sidecars, changes_by_claim),
+                                    changes_by_claim)
+    lines += errata.errata_markdown(errata.load_errata())
     lines += models_markdown(models_of(sidecars))
     if runs:
         lines += ["", "## Notebook run times", "", "| notebook | seconds |", "|---|---|"]
@@ -169,7 +183,8 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
             "#ccc;padding:4px;vertical-align:top}table{border-collapse:collapse}img{max-width:"
             "100%}</style>")
     body = [f"<h1>Reproduction report{' (QUICK run: not results)' if quick else ''}</h1>",
-            "<table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
+            trust.trust_html(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}"),
+            "<h2>Verdicts</h2><table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
             f"<th>verdict (registry v{REGISTRY_VERSION})</th><th>parts</th><th>v1 verdict</th>"
             "<th>notebook</th>"
             "</tr>"]
@@ -179,6 +194,8 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
                                       "v1_verdict", "notebook"))
                     + "</tr>")
     body.append("</table>")
+    body.append(trust.changes_html(trust.verdict_changes(sidecars, changelog.claim_changes())))
+    body.append(errata.errata_html(errata.load_errata()))
     for claim_id, s in sidecars.items():
         body.append(f"<h2>{esc(claim_id)} — {esc(s['verdict'])} ({esc(s['mode'])})</h2>"
                     f"<p><i>{esc(s['statement'])}</i></p><p>Rule: {esc(s['rule'])}</p>"
@@ -254,6 +271,7 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
             if source.is_file():
                 shutil.copy2(source, figures_out / source.name)
                 figure_names.setdefault(claim_id, []).append(source.name)
+    claims_by_outcome(sidecars, figures_out / FIGURE_NAME)
     rows = _rows(sidecars)
     write_json(report_dir / "claims.json", {"mode": "quick" if quick else "full",
                                             "claims": rows, "sidecars": sidecars,
