@@ -17,7 +17,7 @@ from repro.infra import paths
 
 def test_every_entry_is_complete_and_names_claims_and_tests_that_exist() -> None:
     entries = load_errata()
-    assert len(entries) >= 6
+    assert entries is not None and len(entries) >= 6
     for entry in entries:
         assert entry.claim_ids and set(entry.claim_ids) <= set(CLAIMS), entry.title
         assert entry.tests, entry.title
@@ -28,8 +28,11 @@ def test_every_entry_is_complete_and_names_claims_and_tests_that_exist() -> None
     assert sum(e.is_open for e in entries) == 2
 
 
-def test_the_report_section_renders_each_entry() -> None:
+def test_the_report_section_renders_each_entry(tmp_path) -> None:
     entries = load_errata()
+    assert entries is not None
+    assert load_errata(tmp_path / "missing.md") is None
+    assert "is missing: no errata listed." in "\n".join(errata_markdown(None))
     text = "\n".join(errata_markdown(entries))
     assert text.count("\n- **") == len(entries)
     assert "*Open question:*" in text and "*Correction:*" in text

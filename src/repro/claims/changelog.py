@@ -105,5 +105,9 @@ def changelog_path() -> Path:
 
 
 def claim_changes(path: str | os.PathLike | None = None) -> dict[str, list[Change]]:
-    """:func:`parse_changelog` of ``docs/REGISTRY_CHANGELOG.md`` (or ``path``)."""
-    return parse_changelog(Path(path or changelog_path()).read_text(encoding="utf-8"))
+    """:func:`parse_changelog` of ``docs/REGISTRY_CHANGELOG.md`` (or ``path``); {} when the
+    file is missing (the report's changes then cite no reason, and say so)."""
+    source = Path(path or changelog_path())
+    if not source.is_file():
+        return {}
+    return parse_changelog(source.read_text(encoding="utf-8"))

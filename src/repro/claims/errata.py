@@ -101,17 +101,23 @@ def parse_errata(text: str) -> list[Erratum]:
     return entries
 
 
-def load_errata(path: str | os.PathLike | None = None) -> list[Erratum]:
-    """The entries of ``docs/ERRATA.md`` (or ``path``)."""
-    return parse_errata(Path(path or errata_path()).read_text(encoding="utf-8"))
+def load_errata(path: str | os.PathLike | None = None) -> list[Erratum] | None:
+    """The entries of ``docs/ERRATA.md`` (or ``path``); None when the file is missing (a
+    checkout without docs/: the report then says so)."""
+    source = Path(path or errata_path())
+    if not source.is_file():
+        return None
+    return parse_errata(source.read_text(encoding="utf-8"))
 
 
 def _sentence(text: str) -> str:
     return text if text.endswith((".", "?")) else text + "."
 
 
-def errata_markdown(entries: list[Erratum]) -> list[str]:
+def errata_markdown(entries: list[Erratum] | None) -> list[str]:
     """The report's "Paper errata" section: one short paragraph per entry."""
+    if entries is None:
+        return ["", "## Paper errata", "", f"{errata_path()} is missing: no errata listed.", ""]
     lines = ["", "## Paper errata", "",
              f"{len(entries)} discrepancies in the papers' printed text "
              f"({sum(e.is_open for e in entries)} of them open questions); the source is "
@@ -124,9 +130,11 @@ def errata_markdown(entries: list[Erratum]) -> list[str]:
     return lines + [""]
 
 
-def errata_html(entries: list[Erratum]) -> str:
+def errata_html(entries: list[Erratum] | None) -> str:
     """The same section for REPORT.html."""
     esc = html.escape
+    if entries is None:
+        return f"<h2>Paper errata</h2><p>{esc(str(errata_path()))} is missing.</p>"
     items = []
     for e in entries:
         head = "Open question" if e.is_open else "Correction"

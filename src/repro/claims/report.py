@@ -24,9 +24,16 @@ from pathlib import Path
 from typing import Any
 
 from repro.claims import changelog, errata, trust
+from repro.claims.budgets import (
+    README_BUDGETS_START,
+    bench_timings,
+    run_span_seconds,
+    update_readme_budgets,
+)
 from repro.claims.figures import FIGURE_NAME, claims_by_outcome
 from repro.claims.ledger import load_sidecars, part_outcomes, v1_verdict
 from repro.claims.provenance import check_runs, notebooks_section, render_notebooks
+from repro.claims.readme import replace_block
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.infra import paths
 from repro.infra.storage import read_json, write_json, write_text
@@ -277,7 +284,9 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
                                             "claims": rows, "sidecars": sidecars,
                                             "run_seconds": {r.name: round(r.seconds, 1)
                                                             for r in runs},
-                                            "slowest_seconds": slowest})
+                                            "slowest_seconds": slowest,
+                                            "run_span_seconds": run_span_seconds(build_dir,
+                                                                                 sidecars)})
     write_json(report_dir / "models.json", {"mode": "quick" if quick else "full",
                                             "models": models_of(sidecars)})
     write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names))
@@ -307,23 +316,16 @@ def readme_claims_table(rows: Sequence[dict[str, str]]) -> str:
 
 def update_readme_table(readme: str | os.PathLike, rows: Sequence[dict[str, str]]) -> Path:
     """Rewrite the table between the README's claims-table markers (atomically)."""
-    readme = Path(readme)
-    text = readme.read_text(encoding="utf-8")
-    start, end = text.find(README_TABLE_START), text.find(README_TABLE_END)
-    if start < 0 or end < start:
-        raise ValueError(f"{readme}: no claims-table markers ({README_TABLE_START} ... "
-                         f"{README_TABLE_END})")
-    body_start = text.index("\n", start) + 1
-    return write_text(readme, text[:body_start] + readme_claims_table(rows) + "\n"
-                      + text[end:])
+    return replace_block(readme, README_TABLE_START, README_TABLE_END, readme_claims_table(rows))
 
 
 def write_snapshot(build_dir: str | os.PathLike) -> Path:
     """Replace ``results/`` with the full run's REPORT.md, claims.json, PNG figures and every
     executed notebook rendered to ``notebooks/<name>.html`` (linked from REPORT.md), and
-    the README's verdict table with the same verdicts. ``slowest_seconds`` keeps the slowest
-    wall time of each notebook over the snapshots (``runner.longest_first`` orders by it, so
-    a warm run's times do not hide a cold run's)."""
+    the README's verdict table with the same verdicts and its budgets block with the run's
+    times (``claims.budgets``; ``timings``: the ``make bench`` totals in build/bench).
+    ``slowest_seconds`` keeps the slowest wall time of each notebook over the snapshots
+    (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's)."""
     report_dir = Path(build_dir) / "report"
     target = paths.results_dir()
     staging = Path(tempfile.mkdtemp(prefix=".results.", dir=target.parent))
@@ -331,6 +333,7 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     claims = read_json(report_dir / "claims.json")
     claims["slowest_seconds"] = slowest_of(slowest_seconds(target / "claims.json"),
                                          slowest_seconds(report_dir / "claims.json"))
+    claims["timings"] = bench_timings(paths.build_root() / "bench" / "bench.json")
     write_json(staging / "claims.json", claims)
     shutil.copy2(report_dir / "models.json", staging / "models.json")
     (staging / "figures").mkdir()
@@ -346,5 +349,9 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
         os.replace(target, old)
     os.replace(staging, target)
     shutil.rmtree(old, ignore_errors=True)
-    update_readme_table(paths.REPO_ROOT / "README.md", read_json(target / "claims.json")["claims"])
+    snapshot = read_json(target / "claims.json")
+    update_readme_table(paths.REPO_ROOT / "README.md", snapshot["claims"])
+    readme = paths.REPO_ROOT / "README.md"
+    if README_BUDGETS_START in readme.read_text(encoding="utf-8"):  # older READMEs have none
+        update_readme_budgets(readme, snapshot)
     return target
