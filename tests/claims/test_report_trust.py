@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from conftest import make_context
 
 from repro.claims.changelog import EVERY_CLAIM, claim_changes, ids_in, parse_changelog
@@ -131,3 +132,39 @@ def test_changelog_bullets_are_read_per_claim_newest_first() -> None:
 def test_every_registry_claim_has_a_reason_in_the_changelog() -> None:
     changes = claim_changes()
     assert [claim_id for claim_id in CLAIMS if not changes.get(claim_id)] == []
+
+
+def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("nbconvert")
+    import json
+
+    import nbformat
+
+    from repro.claims.budgets import README_BUDGETS_END, README_BUDGETS_START
+    from repro.claims.report import README_TABLE_END, README_TABLE_START, write_snapshot
+    from repro.infra import paths
+
+    repo = tmp_path / "repo"
+    repo.mkdir()
+    (repo / "README.md").write_text(f"# r\n{README_TABLE_START} -->\n{README_TABLE_END}\n"
+                                    f"{README_BUDGETS_START} -->\n{README_BUDGETS_END}\n")
+    monkeypatch.setattr(paths, "REPO_ROOT", repo)
+    build = tmp_path / "build"
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(build))
+    (build / "bench").mkdir(parents=True)
+    (build / "bench" / "bench.json").write_text(json.dumps({"rows": {"reproduce_full_cold": {
+        "seconds": 3000.0, "exit_code": 0, "commit": "c1"}}}))
+    _record_a3_with_controls(build, models=[])
+    (build / "notebooks").mkdir()
+    nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("# 01")]),
+                   build / "notebooks" / "01_x0_vs_eps.ipynb")
+    write_report(build, quick=False)
+    results = write_snapshot(build)
+    page = (results / "REPORT.html").read_text(encoding="utf-8")
+    assert "How far each verdict can be trusted" in page
+    assert "<a href='notebooks/01_x0_vs_eps.html'>01_x0_vs_eps</a>" in page
+    assert (results / "figures" / "claims_by_outcome.png").is_file()
+    readme = (repo / "README.md").read_text(encoding="utf-8")
+    assert "| cold full `make reproduce` (whole process) (commit c1) | 3000 s (50.0 min) |" \
+        in readme

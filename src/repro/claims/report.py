@@ -320,10 +320,11 @@ def update_readme_table(readme: str | os.PathLike, rows: Sequence[dict[str, str]
 
 
 def write_snapshot(build_dir: str | os.PathLike) -> Path:
-    """Replace ``results/`` with the full run's REPORT.md, claims.json, PNG figures and every
-    executed notebook rendered to ``notebooks/<name>.html`` (linked from REPORT.md), and
-    the README's verdict table with the same verdicts and its budgets block with the run's
-    times (``claims.budgets``; ``timings``: the ``make bench`` totals in build/bench).
+    """Replace ``results/`` with the full run's REPORT.md and REPORT.html, claims.json, PNG
+    figures and every executed notebook rendered to ``notebooks/<name>.html`` (linked from
+    both reports), and the README's verdict table with the same verdicts and its budgets
+    block with the run's times (``claims.budgets``; ``timings``: the ``make bench`` totals in
+    build/bench).
     ``slowest_seconds`` keeps the slowest wall time of each notebook over the snapshots
     (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's)."""
     report_dir = Path(build_dir) / "report"
@@ -342,6 +343,11 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     pages = render_notebooks(Path(build_dir) / "notebooks", staging / "notebooks")
     with open(staging / "REPORT.md", "a", encoding="utf-8") as report:
         report.write(notebooks_section(pages, staging))
+    links = "".join(f"<li><a href='{html.escape(os.path.relpath(page, staging))}'>"
+                    f"{html.escape(page.stem)}</a></li>" for page in pages)
+    page_text = (report_dir / "index.html").read_text(encoding="utf-8")
+    write_text(staging / "REPORT.html", page_text + "\n<h2>Executed notebooks</h2><ul>"
+               + links + "</ul>")
     old = target.with_name(".results.old")
     if old.exists():
         shutil.rmtree(old)
