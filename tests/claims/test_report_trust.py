@@ -40,9 +40,10 @@ def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> No
     a3 = next(line for line in screen.splitlines() if line.startswith("| GMD-A3 |"))
     # a model that fails its gate makes the verdict inconclusive, and the row says why
     assert "**inconclusive**" in a3 and "positive seen, null silent" in a3
-    assert "**1 of 1 fail** (model trajectory-eps)" in a3
+    assert "**1 of 1 fail** (see Models)" in a3
     assert "quality gates" in a3 and "stand-in data, tiny models" in a3
-    assert "| GMD-A1 | **discrepancy in the paper** | 2 supported | — (exact check) |" in screen
+    assert ("| GMD-A1 | **discrepancy in the paper** | 2 supported | — (exact check) | "
+            "— (no model) | none (an exact computation, no trained model) |") in screen
     assert "| GMD-A2 | **not yet tested** |" in screen
     assert "21 claims: 1 inconclusive, 1 discrepancy in the paper, 19 not yet tested" in screen
     assert "![The 21 claims by outcome](figures/claims_by_outcome.png)" in screen
@@ -50,7 +51,7 @@ def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> No
     assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and figure.stat().st_size < 150_000
     page = (tmp_path / "report" / "index.html").read_text(encoding="utf-8")
     assert "How far each verdict can be trusted" in page and "Paper errata" in page
-    assert "<td>1 of 1 fail (model trajectory-eps)</td>" in page
+    assert "<td>1 of 1 fail (see Models)</td>" in page
     assert "src='figures/claims_by_outcome.png'" in page
 
 
@@ -59,6 +60,7 @@ def test_passing_models_and_missing_controls_read_as_such(tmp_path: Path) -> Non
     record_claim(make_context(tmp_path, quick=False), "GMD-A3", A3.planted_example(rng),
                  seeds=list(range(5)), models=[{**FAILED_MODEL, "passed": True}])
     row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
+    assert row.verdict != "quick run (not a result)"
     assert row.controls == "no positive control, no null control"
     assert row.models == "1/1 pass" and "controls" in row.limits
     assert "quality gates" not in row.limits
@@ -168,3 +170,12 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
     readme = (repo / "README.md").read_text(encoding="utf-8")
     assert "| cold full `make reproduce` (whole process) (commit c1) | 3000 s (50.0 min) |" \
         in readme
+
+
+def test_a_quick_run_shows_its_machinery_never_its_verdict(tmp_path: Path) -> None:
+    rng = np.random.default_rng(2)
+    record_claim(make_context(tmp_path, quick=True), "GMD-A3", A3.planted_example(rng),
+                 seeds=[0], models=[FAILED_MODEL])
+    row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
+    assert row.verdict == "quick run (not a result)"
+    assert row.models == "**1 of 1 fail** (see Models)" and row.parts != "—"

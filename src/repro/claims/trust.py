@@ -67,7 +67,7 @@ def controls_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
 
 
 def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
-    """"3/3 pass" or "**1 of 3 fail** (names)" over the sidecar's quality gates (each model's
+    """"3/3 pass" or "**1 of 3 fail**" over the sidecar's quality gates (each model's
     gate is one of them); "none recorded" when a measured claim has none."""
     gates = dict(sidecar.get("quality_gates") or {})
     for model in sidecar.get("models", []):
@@ -76,7 +76,7 @@ def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
         return "— (no model)" if not claim.rests_on_effects else "none recorded"
     failed = [name for name, passed in gates.items() if not passed]
     if failed:
-        return f"**{len(failed)} of {len(gates)} fail** ({', '.join(failed)})"
+        return f"**{len(failed)} of {len(gates)} fail** (see Models)"
     return f"{len(gates)}/{len(gates)} pass"
 
 
@@ -92,7 +92,21 @@ def power_short(claim: Claim) -> str:
             f"{'+' if high >= 1000 else ''} seeds; {claim.affordable_seeds} run)")
 
 
-def limits_text(claim: Claim, sidecar: Mapping[str, Any], controls: str, gates: str) -> str:
+def _controls_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
+    """A measured claim whose controls are missing or failed."""
+    controls = sidecar.get("controls") or {}
+    return claim.rests_on_effects and any(
+        (controls.get(kind) or {}).get("status") != "passed" for kind in ("positive", "null"))
+
+
+def _gates_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
+    """A measured claim with no gate recorded, or with a gate (or model) that failed."""
+    gates = dict(sidecar.get("quality_gates") or {})
+    gates.update({m["name"]: bool(m["passed"]) for m in sidecar.get("models", [])})
+    return claim.rests_on_effects and (not gates or not all(gates.values()))
+
+
+def limits_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
     """What limits the verdict: power, resolution, a control or gate, the stand-in."""
     limits = []
     if power_short(claim):
@@ -100,29 +114,30 @@ def limits_text(claim: Claim, sidecar: Mapping[str, Any], controls: str, gates: 
     below = [p["name"] for p in sidecar.get("parts", []) if p["outcome"] == BELOW_RESOLUTION]
     if below:
         limits.append(f"resolution ({', '.join(below)})")
-    if "**" in controls or "no " in controls:
+    if _controls_short(claim, sidecar):
         limits.append("controls")
-    if "fail" in gates or gates == "none recorded":
+    if _gates_short(claim, sidecar):
         limits.append("quality gates")
     limits.append("stand-in data, tiny models" if claim.rests_on_effects
-                  else "none (exact check of a printed formula)")
+                  else "none (an exact computation, no trained model)")
     return "; ".join(limits)
 
 
 def trust_rows(sidecars: Mapping[str, Mapping[str, Any]]) -> list[TrustRow]:
-    """One row per registry claim, in registry order."""
+    """One row per registry claim, in registry order. A quick run's rows show its parts,
+    controls and gates (a test of the machinery) but never its verdict."""
     rows = []
     for claim in CLAIMS.values():
         sidecar = sidecars.get(claim.id)
-        if sidecar is None or sidecar.get("mode") == "quick":
-            verdict = NOT_TESTED if sidecar is None else QUICK
-            rows.append(TrustRow(claim.id, verdict, "—", "—", "—", power_short(claim) or "—",
+        if sidecar is None:
+            rows.append(TrustRow(claim.id, NOT_TESTED, "—", "—", "—", power_short(claim) or "—",
                                  {}))
             continue
         counts = outcome_counts(sidecar)
         controls, gates = controls_text(claim, sidecar), gates_text(claim, sidecar)
-        rows.append(TrustRow(claim.id, sidecar["verdict"], _parts_text(counts), controls, gates,
-                             limits_text(claim, sidecar, controls, gates), counts))
+        verdict = QUICK if sidecar.get("mode") == "quick" else sidecar["verdict"]
+        rows.append(TrustRow(claim.id, verdict, _parts_text(counts), controls, gates,
+                             limits_text(claim, sidecar), counts))
     return rows
 
 
