@@ -87,14 +87,16 @@ def test_run_executes_only_the_missing_base_seeds(build_root: Path,
     _run(0, planted=True)
     calls = []
 
-    def fake_run(seed: int, *, quick: bool, jobs: int, threads: int | None) -> int:
-        calls.append((seed, quick, jobs))
+    def fake_run(seed: int, *, quick: bool, jobs: int, threads: int | None,
+                 only: list[str] | None) -> int:
+        calls.append((seed, quick, jobs, only))
         _run(seed, planted=True)
         return 0
 
     monkeypatch.setattr(cli, "run_base_seed", fake_run)
-    assert cli.main(["stability", "--base-seeds", "0", "5", "--run", "--jobs", "2"]) == 0
-    assert calls == [(5, False, 2)]
+    assert cli.main(["stability", "--base-seeds", "0", "5", "--run", "--jobs", "2",
+                     "--only", "01"]) == 0
+    assert calls == [(5, False, 2, ["01"])]
     assert (build_root / "report" / "STABILITY.md").is_file()
     monkeypatch.setattr(cli, "run_base_seed", lambda seed, **_: 1)
     assert cli.main(["stability", "--base-seeds", "0", "9", "--run"]) == 1
@@ -118,3 +120,27 @@ def test_bad_combinations_are_refused(build_root: Path) -> None:
     assert cli.main(["stability", "a", "b", "--run"]) == 2
     assert cli.main(["stability", "a", "--base-seeds", "0", "1"]) == 2
     assert cli.main(["stability", "--base-seeds", "0", "-1"]) == 2
+
+
+def test_run_base_seed_reproduces_into_the_seed_folder_on_the_shared_cache(
+        build_root: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import subprocess
+
+    from repro.infra import paths
+
+    seen = {}
+
+    class Done:
+        returncode = 0
+
+    def fake_run(command: list[str], *, env: dict[str, str], check: bool) -> Done:
+        seen.update(command=command, env=env)
+        return Done()
+
+    monkeypatch.delenv("REPRO_CACHE_DIR", raising=False)
+    monkeypatch.setattr(subprocess, "run", fake_run)
+    assert cli.run_base_seed(5, quick=True, jobs=2, threads=1, only=["02"]) == 0
+    assert seen["command"][1:] == ["-m", "repro", "reproduce", "--seed", "5", "--jobs", "2",
+                                   "--threads", "1", "--quick", "--only", "02"]
+    assert seen["env"]["REPRO_BUILD_ROOT"] == str(build_root / "seed5")
+    assert seen["env"]["REPRO_CACHE_DIR"] == str(paths.cache_dir()) == str(build_root / "cache")

@@ -72,7 +72,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_base_seed(seed: int, *, quick: bool, jobs: int, threads: int | None) -> int:
+def run_base_seed(seed: int, *, quick: bool, jobs: int, threads: int | None,
+                  only: list[str] | None = None) -> int:
     """``python -m repro reproduce --seed N`` into :func:`seed_build_dir`'s folder (as its
     ``REPRO_BUILD_ROOT``), on this checkout's model cache (keys hash the seed: sharing is
     safe); returns its exit code."""
@@ -85,7 +86,7 @@ def run_base_seed(seed: int, *, quick: bool, jobs: int, threads: int | None) -> 
     root = seed_build_dir(seed)
     command = [sys.executable, "-m", "repro", "reproduce", "--seed", str(seed), "--jobs",
                str(jobs), *(["--threads", str(threads)] if threads else []),
-               *(["--quick"] if quick else [])]
+               *(["--quick"] if quick else []), *(["--only", *only] if only else [])]
     print(f"base seed {seed}: REPRO_BUILD_ROOT={root} {' '.join(command[1:])}", flush=True)
     env = {**os.environ, "REPRO_BUILD_ROOT": str(root), "REPRO_CACHE_DIR": str(paths.cache_dir())}
     return subprocess.run(command, env=env, check=False).returncode
@@ -104,8 +105,9 @@ def _stability_folders(args: argparse.Namespace) -> tuple[dict[str, Path], dict[
         folders = {label: seed_build_dir(s, quick=args.quick)
                    for label, s in zip(labels, args.base_seeds, strict=True)}
         return folders, dict(zip(labels, args.base_seeds, strict=True))
-    if args.run:
-        raise ValueError("--run needs --base-seeds (it runs each base seed into its folder)")
+    if args.run or args.only:
+        raise ValueError("--run and --only need --base-seeds (each base seed runs into its "
+                         "folder)")
     labels = args.label or [Path(d).name for d in args.build_dirs]
     if len(labels) != len(args.build_dirs) or len(set(labels)) != len(labels):
         raise ValueError(f"need one distinct --label per build folder, got {labels}")
@@ -132,7 +134,7 @@ def _cmd_stability(args: argparse.Namespace) -> int:
                 print(f"{label}: {folder} holds a run already (delete its claims/ to rerun)")
                 continue
             code = run_base_seed(seeds[label], quick=args.quick, jobs=args.jobs,
-                                 threads=args.threads)
+                                 threads=args.threads, only=args.only)
             if code:
                 print(f"error: the run from {label} failed (exit {code}); nothing compared",
                       file=sys.stderr)
@@ -236,6 +238,9 @@ def main(argv: list[str] | None = None) -> int:
                       "whose folder holds no run yet (python -m repro reproduce --seed N)")
     stab.add_argument("--jobs", type=int, default=1, help="with --run: notebooks in parallel")
     stab.add_argument("--threads", type=int, help="with --run: torch threads per notebook")
+    stab.add_argument("--only", nargs="+", metavar="NOTEBOOK_OR_CLAIM",
+                      help="with --run: only these notebooks (the coverage table then shows "
+                      "the others as not executed)")
     stab.add_argument("--quick", action="store_true",
                       help="compare quick runs (a test of the machinery, never a result)")
     stab.add_argument("--snapshot", action="store_true",
