@@ -13,7 +13,7 @@ from conftest import make_context
 from repro.claims.changelog import EVERY_CLAIM, claim_changes, ids_in, parse_changelog
 from repro.claims.ledger import load_sidecars, record_claim
 from repro.claims.registry import CLAIMS
-from repro.claims.report import write_report
+from repro.claims.report import docs_link, write_report
 from repro.claims.trust import power_short, trust_rows, verdict_changes
 
 A3 = CLAIMS["GMD-A3"]
@@ -86,7 +86,11 @@ def test_verdict_changes_cite_the_changelog(tmp_path: Path) -> None:
     text = write_report(tmp_path, quick=False).read_text(encoding="utf-8")
     section = text[text.index("## Verdict changes since registry v1"):]
     assert "- **GMD-A3**: v1 *not reproduced* → v3 *inconclusive*." in section
-    assert "../docs/REGISTRY_CHANGELOG.md#per-claim" in section
+    docs = docs_link(tmp_path / "report")
+    assert f"]({docs}/REGISTRY_CHANGELOG.md#per-claim)" in section
+    assert (tmp_path / "report" / docs / "REGISTRY_CHANGELOG.md").is_file()
+    assert (tmp_path / "report" / docs / "ERRATA.md").is_file()
+    assert f"]({docs}/ERRATA.md)" in text
     assert "both directions tested with Holm" in section
 
 
@@ -151,6 +155,8 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
     repo.mkdir()
     (repo / "README.md").write_text(f"# r\n{README_TABLE_START} -->\n{README_TABLE_END}\n"
                                     f"{README_BUDGETS_START} -->\n{README_BUDGETS_END}\n")
+    (repo / "docs").mkdir()
+    (repo / "docs" / "ERRATA.md").write_bytes((paths.REPO_ROOT / "docs" / "ERRATA.md").read_bytes())
     monkeypatch.setattr(paths, "REPO_ROOT", repo)
     build = tmp_path / "build"
     monkeypatch.setenv("REPRO_BUILD_ROOT", str(build))
@@ -163,6 +169,7 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
                    build / "notebooks" / "01_x0_vs_eps.ipynb")
     write_report(build, quick=False)
     results = write_snapshot(build)
+    assert "[docs/ERRATA.md](../docs/ERRATA.md)" in (results / "REPORT.md").read_text()
     page = (results / "REPORT.html").read_text(encoding="utf-8")
     assert "How far each verdict can be trusted" in page
     assert "<a href='notebooks/01_x0_vs_eps.html'>01_x0_vs_eps</a>" in page

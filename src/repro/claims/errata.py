@@ -114,14 +114,15 @@ def _sentence(text: str) -> str:
     return text if text.endswith((".", "?")) else text + "."
 
 
-def errata_markdown(entries: list[Erratum] | None) -> list[str]:
-    """The report's "Paper errata" section: one short paragraph per entry."""
+def errata_markdown(entries: list[Erratum] | None, docs: str = "../docs") -> list[str]:
+    """The report's "Paper errata" section: one short paragraph per entry; ``docs``: the
+    link from the report's folder to the repository's docs/."""
     if entries is None:
         return ["", "## Paper errata", "", f"{errata_path()} is missing: no errata listed.", ""]
     lines = ["", "## Paper errata", "",
              f"{len(entries)} discrepancies in the papers' printed text "
              f"({sum(e.is_open for e in entries)} of them open questions); the source is "
-             "[docs/ERRATA.md](../docs/ERRATA.md).", ""]
+             f"[docs/ERRATA.md]({docs}/ERRATA.md).", ""]
     for e in entries:
         head = "Open question" if e.is_open else "Correction"
         lines += [f"- **{e.title}** ({e.fields['Paper']}). Printed: "

@@ -130,9 +130,14 @@ def models_markdown(models: list[dict[str, Any]]) -> list[str]:
     return lines + [""]
 
 
+def docs_link(report_dir: Path) -> str:
+    """The relative link from a report's folder to the repository's docs/."""
+    return os.path.relpath(paths.REPO_ROOT / "docs", report_dir)
+
+
 def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
               runs: Sequence[Any], figure_names: dict[str, list[str]],
-              provenance: str = "") -> str:
+              provenance: str = "", docs: str = "../docs") -> str:
     when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = ["# Reproduction report", "",
              f"Generated {when} from "
@@ -153,8 +158,8 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     changes_by_claim = changelog.claim_changes()
     lines += trust.changes_markdown(trust.verdict_changes(sidecars, changes_by_claim),
-                                    changes_by_claim)
-    lines += errata.errata_markdown(errata.load_errata())
+                                    changes_by_claim, docs)
+    lines += errata.errata_markdown(errata.load_errata(), docs)
     lines += models_markdown(models_of(sidecars))
     if runs:
         lines += ["", "## Notebook run times", "", "| notebook | seconds |", "|---|---|"]
@@ -291,7 +296,8 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
                                             "models": models_of(sidecars)})
     write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names))
     return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, quick, runs,
-                                                          figure_names, provenance))
+                                                          figure_names, provenance,
+                                                          docs_link(report_dir)))
 
 
 README_TABLE_START = "<!-- claims-table:start"
@@ -330,7 +336,9 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     report_dir = Path(build_dir) / "report"
     target = paths.results_dir()
     staging = Path(tempfile.mkdtemp(prefix=".results.", dir=target.parent))
-    shutil.copy2(report_dir / "REPORT.md", staging / "REPORT.md")
+    report_text = (report_dir / "REPORT.md").read_text(encoding="utf-8")
+    write_text(staging / "REPORT.md", report_text.replace(f"]({docs_link(report_dir)}/",
+                                                          f"]({docs_link(target)}/"))
     claims = read_json(report_dir / "claims.json")
     claims["slowest_seconds"] = slowest_of(slowest_seconds(target / "claims.json"),
                                          slowest_seconds(report_dir / "claims.json"))

@@ -26,7 +26,6 @@ from repro.claims.verdicts import BELOW_RESOLUTION, OUTCOMES, VERDICTS
 
 NOT_TESTED = "not yet tested"
 QUICK = "quick run (not a result)"
-CHANGELOG_LINK = "../docs/REGISTRY_CHANGELOG.md"
 
 
 @dataclass(frozen=True)
@@ -207,13 +206,15 @@ def verdict_changes(sidecars: Mapping[str, Mapping[str, Any]],
     return out
 
 
-def _cite(change: Change) -> str:
-    return f"[v{change.version}: {change.section}]({CHANGELOG_LINK}#{change.anchor})"
+def _cite(change: Change, docs: str) -> str:
+    return (f"[v{change.version}: {change.section}]({docs}/REGISTRY_CHANGELOG.md"
+            f"#{change.anchor})")
 
 
-def changes_markdown(changes: list[VerdictChange],
-                     changelog: Mapping[str, list[Change]]) -> list[str]:
-    """The "Verdict changes since registry v1" section."""
+def changes_markdown(changes: list[VerdictChange], changelog: Mapping[str, list[Change]],
+                     docs: str = "../docs") -> list[str]:
+    """The "Verdict changes since registry v1" section; ``docs``: the link from the report's
+    folder to the repository's docs/."""
     lines = ["", "## Verdict changes since registry v1", ""]
     if not changes:
         return lines + ["No verdict of this run differs from the frozen version 1 rule's on the "
@@ -221,12 +222,12 @@ def changes_markdown(changes: list[VerdictChange],
     every = changelog.get(EVERY_CLAIM, [])
     lines += [f"{len(changes)} verdicts differ from the frozen version 1 rule's, decided on the "
               "same measurements: each change is a change of rule, for the reasons below "
-              f"(quoted from [the registry changelog]({CHANGELOG_LINK})"
+              f"(quoted from [the registry changelog]({docs}/REGISTRY_CHANGELOG.md)"
               + (f"; the rules of every claim changed too: "
-                 f"{', '.join(dict.fromkeys(_cite(c) for c in every))}" if every else "")
+                 f"{', '.join(dict.fromkeys(_cite(c, docs) for c in every))}" if every else "")
               + ").", ""]
     for c in changes:
-        reasons = " ".join(f"{ch.text} ({_cite(ch)})" for ch in c.changes) or (
+        reasons = " ".join(f"{ch.text} ({_cite(ch, docs)})" for ch in c.changes) or (
             "no bullet of the changelog names this claim: only the rules of every claim "
             "changed.")
         lines.append(f"- **{c.claim_id}**: v1 *{c.v1}* → v{REGISTRY_VERSION} *{c.current}*. "
