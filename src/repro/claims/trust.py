@@ -217,8 +217,9 @@ def changes_markdown(changes: list[VerdictChange], changelog: Mapping[str, list[
     folder to the repository's docs/."""
     lines = ["", "## Verdict changes since registry v1", ""]
     if not changes:
-        return lines + ["No verdict of this run differs from the frozen version 1 rule's on the "
-                        "same measurements (a v1 snapshot has no v1 verdict beside it).", ""]
+        return lines + ["No full-run verdict here differs from the frozen version 1 rule's on "
+                        "the same measurements (quick runs and version 1 sidecars have none to "
+                        "compare).", ""]
     every = changelog.get(EVERY_CLAIM, [])
     lines += [f"{len(changes)} verdicts differ from the frozen version 1 rule's, decided on the "
               "same measurements: each change is a change of rule, for the reasons below "
