@@ -186,3 +186,10 @@ def test_a_quick_run_shows_its_machinery_never_its_verdict(tmp_path: Path) -> No
     row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
     assert row.verdict == "quick run (not a result)"
     assert row.models == "**1 of 1 fail** (see Models)" and row.parts != "—"
+
+
+def test_a_sidecar_of_another_registry_version_says_so() -> None:
+    sidecar = {"verdict": "reproduced", "mode": "full", "registry_version": 1}
+    row = next(r for r in trust_rows({"GMD-A2": sidecar}) if r.claim_id == "GMD-A2")
+    assert row.limits.startswith("decided under registry v1, not v3")
+    assert row.parts == "—"

@@ -106,8 +106,12 @@ def _gates_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
 
 
 def limits_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
-    """What limits the verdict: power, resolution, a control or gate, the stand-in."""
+    """What limits the verdict: power, resolution, a control or gate, the stand-in; first, a
+    sidecar recorded under another registry version (power is the current registry's)."""
     limits = []
+    version = int(sidecar.get("registry_version", 1))
+    if version != REGISTRY_VERSION:
+        limits.append(f"decided under registry v{version}, not v{REGISTRY_VERSION}")
     if power_short(claim):
         limits.append(power_short(claim))
     below = [p["name"] for p in sidecar.get("parts", []) if p["outcome"] == BELOW_RESOLUTION]
