@@ -12,7 +12,7 @@ from conftest import make_context
 
 from repro.claims.changelog import EVERY_CLAIM, claim_changes, ids_in, parse_changelog
 from repro.claims.ledger import load_sidecars, record_claim
-from repro.claims.registry import CLAIMS
+from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.claims.report import docs_link, write_report
 from repro.claims.trust import power_short, trust_rows, verdict_changes
 
@@ -45,7 +45,8 @@ def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> No
     assert ("| GMD-A1 | **discrepancy in the paper** | 2 supported | — (exact check) | "
             "— (no model) | none (an exact computation, no trained model) |") in screen
     assert "| GMD-A2 | **not yet tested** |" in screen
-    assert "21 claims: 1 inconclusive, 1 discrepancy in the paper, 19 not yet tested" in screen
+    assert ("21 claims: 1 inconclusive, 1 discrepancy in the paper, 19 not yet tested "
+            f"(registry v{REGISTRY_VERSION})") in screen
     assert "![The 21 claims by outcome](figures/claims_by_outcome.png)" in screen
     figure = tmp_path / "report" / "figures" / "claims_by_outcome.png"
     assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and figure.stat().st_size < 150_000
@@ -191,5 +192,5 @@ def test_a_quick_run_shows_its_machinery_never_its_verdict(tmp_path: Path) -> No
 def test_a_sidecar_of_another_registry_version_says_so() -> None:
     sidecar = {"verdict": "reproduced", "mode": "full", "registry_version": 1}
     row = next(r for r in trust_rows({"GMD-A2": sidecar}) if r.claim_id == "GMD-A2")
-    assert row.limits.startswith("decided under registry v1, not v3")
+    assert row.limits.startswith(f"decided under registry v1, not v{REGISTRY_VERSION}")
     assert row.parts == "—"
