@@ -1,6 +1,12 @@
 """The report: REPORT.md and an HTML page built from the claim sidecars, and the committed
 ``results/`` snapshot.
 
+REPORT.md opens with one screen on trust (``claims.trust``: per claim its verdict, parts,
+controls, gates and limits) and the figure of the claims by outcome (``claims.figures``);
+then the verdict table, the verdict changes since registry v1 with the changelog's reasons
+(``claims.changelog``), the papers' errata (``docs/ERRATA.md`` via ``claims.errata``), the
+models, the run times and each claim in full. REPORT.html (``index.html``) has the same.
+
 A quick run's verdicts are never presented as results: its table says "quick run" instead.
 Reports are written atomically; a failed run does not call this (the last good one stays).
 """
@@ -17,8 +23,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from repro.claims import changelog, errata, trust
+from repro.claims.budgets import (
+    README_BUDGETS_START,
+    bench_timings,
+    run_span_seconds,
+    update_readme_budgets,
+)
+from repro.claims.figures import FIGURE_NAME, claims_by_outcome
 from repro.claims.ledger import load_sidecars, part_outcomes, v1_verdict
 from repro.claims.provenance import check_runs, notebooks_section, render_notebooks
+from repro.claims.readme import replace_block
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.infra import paths
 from repro.infra.storage import read_json, write_json, write_text
@@ -115,9 +130,14 @@ def models_markdown(models: list[dict[str, Any]]) -> list[str]:
     return lines + [""]
 
 
+def docs_link(report_dir: Path) -> str:
+    """The relative link from a report's folder to the repository's docs/."""
+    return os.path.relpath(paths.REPO_ROOT / "docs", report_dir)
+
+
 def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
               runs: Sequence[Any], figure_names: dict[str, list[str]],
-              provenance: str = "") -> str:
+              provenance: str = "", docs: str = "../docs") -> str:
     when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = ["# Reproduction report", "",
              f"Generated {when} from "
@@ -126,7 +146,9 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
              "never the paper's absolute numbers.", ""]
     if provenance:
         lines += [f"**Provenance.** {provenance}", ""]
-    lines += [f"| claim | statement | paper | ours | verdict (registry v{REGISTRY_VERSION}) "
+    lines += trust.trust_markdown(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}")
+    lines += ["## Verdicts", "",
+              f"| claim | statement | paper | ours | verdict (registry v{REGISTRY_VERSION}) "
               "| v1 verdict | notebook |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         verdict = f"**{r['verdict']}**" + (f" — {r['parts_short']}" if r.get("parts_short")
@@ -134,6 +156,10 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
         cells = [r["id"], r["statement"], r["paper"], r["ours"], verdict,
                  r.get("v1_verdict", ""), r["notebook"]]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    changes_by_claim = changelog.claim_changes()
+    lines += trust.changes_markdown(trust.verdict_changes(sidecars, changes_by_claim),
+                                    changes_by_claim, docs)
+    lines += errata.errata_markdown(errata.load_errata(), docs)
     lines += models_markdown(models_of(sidecars))
     if runs:
         lines += ["", "## Notebook run times", "", "| notebook | seconds |", "|---|---|"]
@@ -169,7 +195,8 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
             "#ccc;padding:4px;vertical-align:top}table{border-collapse:collapse}img{max-width:"
             "100%}</style>")
     body = [f"<h1>Reproduction report{' (QUICK run: not results)' if quick else ''}</h1>",
-            "<table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
+            trust.trust_html(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}"),
+            "<h2>Verdicts</h2><table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
             f"<th>verdict (registry v{REGISTRY_VERSION})</th><th>parts</th><th>v1 verdict</th>"
             "<th>notebook</th>"
             "</tr>"]
@@ -179,6 +206,8 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
                                       "v1_verdict", "notebook"))
                     + "</tr>")
     body.append("</table>")
+    body.append(trust.changes_html(trust.verdict_changes(sidecars, changelog.claim_changes())))
+    body.append(errata.errata_html(errata.load_errata()))
     for claim_id, s in sidecars.items():
         body.append(f"<h2>{esc(claim_id)} — {esc(s['verdict'])} ({esc(s['mode'])})</h2>"
                     f"<p><i>{esc(s['statement'])}</i></p><p>Rule: {esc(s['rule'])}</p>"
@@ -254,17 +283,21 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
             if source.is_file():
                 shutil.copy2(source, figures_out / source.name)
                 figure_names.setdefault(claim_id, []).append(source.name)
+    claims_by_outcome(sidecars, figures_out / FIGURE_NAME)
     rows = _rows(sidecars)
     write_json(report_dir / "claims.json", {"mode": "quick" if quick else "full",
                                             "claims": rows, "sidecars": sidecars,
                                             "run_seconds": {r.name: round(r.seconds, 1)
                                                             for r in runs},
-                                            "slowest_seconds": slowest})
+                                            "slowest_seconds": slowest,
+                                            "run_span_seconds": run_span_seconds(build_dir,
+                                                                                 sidecars)})
     write_json(report_dir / "models.json", {"mode": "quick" if quick else "full",
                                             "models": models_of(sidecars)})
     write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names))
     return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, quick, runs,
-                                                          figure_names, provenance))
+                                                          figure_names, provenance,
+                                                          docs_link(report_dir)))
 
 
 README_TABLE_START = "<!-- claims-table:start"
@@ -289,30 +322,27 @@ def readme_claims_table(rows: Sequence[dict[str, str]]) -> str:
 
 def update_readme_table(readme: str | os.PathLike, rows: Sequence[dict[str, str]]) -> Path:
     """Rewrite the table between the README's claims-table markers (atomically)."""
-    readme = Path(readme)
-    text = readme.read_text(encoding="utf-8")
-    start, end = text.find(README_TABLE_START), text.find(README_TABLE_END)
-    if start < 0 or end < start:
-        raise ValueError(f"{readme}: no claims-table markers ({README_TABLE_START} ... "
-                         f"{README_TABLE_END})")
-    body_start = text.index("\n", start) + 1
-    return write_text(readme, text[:body_start] + readme_claims_table(rows) + "\n"
-                      + text[end:])
+    return replace_block(readme, README_TABLE_START, README_TABLE_END, readme_claims_table(rows))
 
 
 def write_snapshot(build_dir: str | os.PathLike) -> Path:
-    """Replace ``results/`` with the full run's REPORT.md, claims.json, PNG figures and every
-    executed notebook rendered to ``notebooks/<name>.html`` (linked from REPORT.md), and
-    the README's verdict table with the same verdicts. ``slowest_seconds`` keeps the slowest
-    wall time of each notebook over the snapshots (``runner.longest_first`` orders by it, so
-    a warm run's times do not hide a cold run's)."""
+    """Replace ``results/`` with the full run's REPORT.md and REPORT.html, claims.json, PNG
+    figures and every executed notebook rendered to ``notebooks/<name>.html`` (linked from
+    both reports), and the README's verdict table with the same verdicts and its budgets
+    block with the run's times (``claims.budgets``; ``timings``: the ``make bench`` totals in
+    build/bench).
+    ``slowest_seconds`` keeps the slowest wall time of each notebook over the snapshots
+    (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's)."""
     report_dir = Path(build_dir) / "report"
     target = paths.results_dir()
     staging = Path(tempfile.mkdtemp(prefix=".results.", dir=target.parent))
-    shutil.copy2(report_dir / "REPORT.md", staging / "REPORT.md")
+    report_text = (report_dir / "REPORT.md").read_text(encoding="utf-8")
+    write_text(staging / "REPORT.md", report_text.replace(f"]({docs_link(report_dir)}/",
+                                                          f"]({docs_link(target)}/"))
     claims = read_json(report_dir / "claims.json")
     claims["slowest_seconds"] = slowest_of(slowest_seconds(target / "claims.json"),
                                          slowest_seconds(report_dir / "claims.json"))
+    claims["timings"] = bench_timings(paths.build_root() / "bench" / "bench.json")
     write_json(staging / "claims.json", claims)
     shutil.copy2(report_dir / "models.json", staging / "models.json")
     (staging / "figures").mkdir()
@@ -321,6 +351,11 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     pages = render_notebooks(Path(build_dir) / "notebooks", staging / "notebooks")
     with open(staging / "REPORT.md", "a", encoding="utf-8") as report:
         report.write(notebooks_section(pages, staging))
+    links = "".join(f"<li><a href='{html.escape(os.path.relpath(page, staging))}'>"
+                    f"{html.escape(page.stem)}</a></li>" for page in pages)
+    page_text = (report_dir / "index.html").read_text(encoding="utf-8")
+    write_text(staging / "REPORT.html", page_text + "\n<h2>Executed notebooks</h2><ul>"
+               + links + "</ul>")
     old = target.with_name(".results.old")
     if old.exists():
         shutil.rmtree(old)
@@ -328,5 +363,9 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
         os.replace(target, old)
     os.replace(staging, target)
     shutil.rmtree(old, ignore_errors=True)
-    update_readme_table(paths.REPO_ROOT / "README.md", read_json(target / "claims.json")["claims"])
+    snapshot = read_json(target / "claims.json")
+    update_readme_table(paths.REPO_ROOT / "README.md", snapshot["claims"])
+    readme = paths.REPO_ROOT / "README.md"
+    if README_BUDGETS_START in readme.read_text(encoding="utf-8"):  # older READMEs have none
+        update_readme_budgets(readme, snapshot)
     return target

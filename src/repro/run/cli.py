@@ -72,18 +72,77 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_base_seed(seed: int, *, quick: bool, jobs: int, threads: int | None,
+                  only: list[str] | None = None) -> int:
+    """``python -m repro reproduce --seed N`` into :func:`seed_build_dir`'s folder (as its
+    ``REPRO_BUILD_ROOT``), on this checkout's model cache (keys hash the seed: sharing is
+    safe); returns its exit code."""
+    import os
+    import subprocess
+
+    from repro.claims.stability import seed_build_dir
+    from repro.infra import paths
+
+    root = seed_build_dir(seed)
+    command = [sys.executable, "-m", "repro", "reproduce", "--seed", str(seed), "--jobs",
+               str(jobs), *(["--threads", str(threads)] if threads else []),
+               *(["--quick"] if quick else []), *(["--only", *only] if only else [])]
+    print(f"base seed {seed}: REPRO_BUILD_ROOT={root} {' '.join(command[1:])}", flush=True)
+    env = {**os.environ, "REPRO_BUILD_ROOT": str(root), "REPRO_CACHE_DIR": str(paths.cache_dir())}
+    return subprocess.run(command, env=env, check=False).returncode
+
+
+def _stability_folders(args: argparse.Namespace) -> tuple[dict[str, Path], dict[str, int]]:
+    """label → build folder, and label → base seed (when given by --base-seeds)."""
+    from repro.claims.stability import seed_build_dir
+
+    if args.base_seeds:
+        if args.build_dirs or args.label:
+            raise ValueError("give either --base-seeds or build folders (with --label), not both")
+        if len(set(args.base_seeds)) != len(args.base_seeds):
+            raise ValueError(f"--base-seeds must differ, got {args.base_seeds}")
+        labels = [f"seed {s}" for s in args.base_seeds]
+        folders = {label: seed_build_dir(s, quick=args.quick)
+                   for label, s in zip(labels, args.base_seeds, strict=True)}
+        return folders, dict(zip(labels, args.base_seeds, strict=True))
+    if args.run or args.only:
+        raise ValueError("--run and --only need --base-seeds (each base seed runs into its "
+                         "folder)")
+    labels = args.label or [Path(d).name for d in args.build_dirs]
+    if len(labels) != len(args.build_dirs) or len(set(labels)) != len(labels):
+        raise ValueError(f"need one distinct --label per build folder, got {labels}")
+    return dict(zip(labels, map(Path, args.build_dirs), strict=True)), {}
+
+
 def _cmd_stability(args: argparse.Namespace) -> int:
+    from repro.claims.ledger import load_sidecars
     from repro.claims.stability import write_stability
     from repro.infra import paths
 
-    labels = args.label or [Path(d).name for d in args.build_dirs]
-    if len(labels) != len(args.build_dirs) or len(set(labels)) != len(labels):
-        print(f"error: need one distinct --label per build folder, got {labels}", file=sys.stderr)
-        return 2
-    output = (paths.results_dir() / "STABILITY.md" if args.snapshot
-              else Path(args.build_dirs[0]) / "report" / "STABILITY.md")
     try:
-        written = write_stability(dict(zip(labels, args.build_dirs, strict=True)), output)
+        folders, seeds = _stability_folders(args)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    if args.snapshot and args.quick:
+        print("error: quick runs are a test, not a result: no results/STABILITY.md",
+              file=sys.stderr)
+        return 2
+    if args.run:
+        for label, folder in folders.items():
+            if load_sidecars(folder / "claims"):
+                print(f"{label}: {folder} holds a run already (delete its claims/ to rerun)")
+                continue
+            code = run_base_seed(seeds[label], quick=args.quick, jobs=args.jobs,
+                                 threads=args.threads, only=args.only)
+            if code:
+                print(f"error: the run from {label} failed (exit {code}); nothing compared",
+                      file=sys.stderr)
+                return 1
+    output = (paths.results_dir() / "STABILITY.md" if args.snapshot
+              else next(iter(folders.values())) / "report" / "STABILITY.md")
+    try:
+        written = write_stability(folders, output, base_seeds=seeds, quick=args.quick)
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -166,11 +225,24 @@ def main(argv: list[str] | None = None) -> int:
                      help="report claims recorded by several runs side by side, naming each")
     rpt.set_defaults(func=_cmd_report)
 
-    stab = sub.add_parser("stability", help="compare the verdicts of full runs made from "
-                          "different base seeds (reproduce --seed N into another build root)")
-    stab.add_argument("build_dirs", nargs="+", metavar="BUILD_DIR",
-                      help="build folders holding claims/ from full runs")
+    stab = sub.add_parser("stability", help="compare the verdicts of runs made from different "
+                          "base seeds: --base-seeds 0 3 reads build/ and build/seed3/ (--run: "
+                          "runs the missing ones first), or name the build folders")
+    stab.add_argument("build_dirs", nargs="*", metavar="BUILD_DIR",
+                      help="build folders holding claims/ (instead of --base-seeds)")
     stab.add_argument("--label", action="append", help="a name per build folder, in order")
+    stab.add_argument("--base-seeds", nargs="+", type=int, metavar="SEED",
+                      help="base seeds whose runs to compare (build/ for 0, build/seed<N>/ else)")
+    stab.add_argument("--run", action="store_true",
+                      help="with --base-seeds: first run every notebook from each base seed "
+                      "whose folder holds no run yet (python -m repro reproduce --seed N)")
+    stab.add_argument("--jobs", type=int, default=1, help="with --run: notebooks in parallel")
+    stab.add_argument("--threads", type=int, help="with --run: torch threads per notebook")
+    stab.add_argument("--only", nargs="+", metavar="NOTEBOOK_OR_CLAIM",
+                      help="with --run: only these notebooks (the coverage table then shows "
+                      "the others as not executed)")
+    stab.add_argument("--quick", action="store_true",
+                      help="compare quick runs (a test of the machinery, never a result)")
     stab.add_argument("--snapshot", action="store_true",
                       help="write results/STABILITY.md instead of <first build>/report/")
     stab.set_defaults(func=_cmd_stability)

@@ -1,0 +1,147 @@
+"""The papers' errata: ``docs/ERRATA.md`` parsed into entries and rendered into the report.
+
+Each entry is a ``## title`` section with the fields ``Paper``, ``Printed``, ``Correction``
+or ``Open question``, ``Status`` and ``Shown by`` (claim IDs and ``tests/…::test_name``), each
+a ``- **Field:** text`` bullet. The report repeats the file's entries; a test checks that
+every claim and test an entry names exists.
+"""
+
+from __future__ import annotations
+
+import html
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from repro.infra import paths
+
+FIELDS = ("Paper", "Printed", "Correction", "Open question", "Status", "Shown by")
+REQUIRED = ("Paper", "Printed", "Status", "Shown by")
+STATUSES = ("corrected", "open question")
+_FIELD = re.compile(r"^- \*\*(?P<name>[^*]+?):\*\*\s*(?P<text>.*)$")
+_CLAIM_ID = re.compile(r"\b(?:GMD-[A-F]\d|EMG-\d)\b")
+_TEST = re.compile(r"`(?P<path>tests/[\w/]+\.py)::(?P<name>\w+)`")
+
+
+@dataclass(frozen=True)
+class Erratum:
+    """One discrepancy: where, what is printed, the correction or open question, who shows it."""
+
+    title: str
+    fields: dict[str, str]
+
+    @property
+    def status(self) -> str:
+        return self.fields.get("Status", "")
+
+    @property
+    def is_open(self) -> bool:
+        return self.status.startswith("open question")
+
+    @property
+    def claim_ids(self) -> list[str]:
+        return _CLAIM_ID.findall(self.fields.get("Shown by", ""))
+
+    @property
+    def tests(self) -> list[tuple[str, str]]:
+        """(path, test name) of every test the entry names."""
+        return [(m["path"], m["name"]) for m in _TEST.finditer(self.fields.get("Shown by", ""))]
+
+    @property
+    def resolution(self) -> str:
+        """The correction, else the open question."""
+        return self.fields.get("Correction") or self.fields.get("Open question", "")
+
+
+def errata_path() -> Path:
+    return paths.REPO_ROOT / "docs" / "ERRATA.md"
+
+
+def parse_errata(text: str) -> list[Erratum]:
+    """The entries of an ERRATA.md text; raises ValueError naming an entry with a missing or
+    unknown field, or an unknown status."""
+    entries: list[Erratum] = []
+    title: str | None = None
+    fields: dict[str, str] = {}
+    current: str | None = None
+
+    def close() -> None:
+        if title is None:
+            return
+        missing = [f for f in REQUIRED if f not in fields]
+        if not ("Correction" in fields or "Open question" in fields):
+            missing.append("Correction or Open question")
+        if missing:
+            raise ValueError(f"erratum {title!r}: missing {', '.join(missing)}")
+        if not fields["Status"].startswith(STATUSES):
+            raise ValueError(f"erratum {title!r}: status must start with one of {STATUSES}, "
+                             f"got {fields['Status']!r}")
+        entries.append(Erratum(title, dict(fields)))
+
+    for line in text.splitlines():
+        if line.startswith("## "):
+            close()
+            title, fields, current = line[3:].strip(), {}, None
+            continue
+        if title is None:
+            continue
+        match = _FIELD.match(line)
+        if match:
+            current = match["name"].strip()
+            if current not in FIELDS:
+                raise ValueError(f"erratum {title!r}: unknown field {current!r} (fields: "
+                                 f"{', '.join(FIELDS)})")
+            fields[current] = match["text"].strip()
+        elif line.startswith("  ") and current is not None and line.strip():
+            fields[current] += " " + line.strip()
+        elif line.strip():
+            current = None
+    close()
+    return entries
+
+
+def load_errata(path: str | os.PathLike | None = None) -> list[Erratum] | None:
+    """The entries of ``docs/ERRATA.md`` (or ``path``); None when the file is missing (a
+    checkout without docs/: the report then says so)."""
+    source = Path(path or errata_path())
+    if not source.is_file():
+        return None
+    return parse_errata(source.read_text(encoding="utf-8"))
+
+
+def _sentence(text: str) -> str:
+    return text if text.endswith((".", "?")) else text + "."
+
+
+def errata_markdown(entries: list[Erratum] | None, docs: str = "../docs") -> list[str]:
+    """The report's "Paper errata" section: one short paragraph per entry; ``docs``: the
+    link from the report's folder to the repository's docs/."""
+    if entries is None:
+        return ["", "## Paper errata", "", f"{errata_path()} is missing: no errata listed.", ""]
+    lines = ["", "## Paper errata", "",
+             f"{len(entries)} discrepancies in the papers' printed text "
+             f"({sum(e.is_open for e in entries)} of them open questions); the source is "
+             f"[docs/ERRATA.md]({docs}/ERRATA.md).", ""]
+    for e in entries:
+        head = "Open question" if e.is_open else "Correction"
+        lines += [f"- **{e.title}** ({e.fields['Paper']}). Printed: "
+                  f"{_sentence(e.fields['Printed'])} *{head}:* {_sentence(e.resolution)} "
+                  f"*Shown by:* {e.fields['Shown by']}"]
+    return lines + [""]
+
+
+def errata_html(entries: list[Erratum] | None) -> str:
+    """The same section for REPORT.html."""
+    esc = html.escape
+    if entries is None:
+        return f"<h2>Paper errata</h2><p>{esc(str(errata_path()))} is missing.</p>"
+    items = []
+    for e in entries:
+        head = "Open question" if e.is_open else "Correction"
+        items.append(f"<li><b>{esc(e.title)}</b> ({esc(e.fields['Paper'])}). Printed: "
+                     f"{esc(_sentence(e.fields['Printed']))} <i>{head}:</i> "
+                     f"{esc(_sentence(e.resolution))} "
+                     f"<i>Shown by:</i> {esc(e.fields['Shown by'])}</li>")
+    return ("<h2>Paper errata</h2><p>Source: docs/ERRATA.md.</p><ul>" + "".join(items)
+            + "</ul>")

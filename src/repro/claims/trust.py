@@ -1,0 +1,248 @@
+"""How far each verdict can be trusted: the first screen of REPORT.md (issue #19).
+
+Per registry claim, from its sidecar: the verdict; the parts' outcomes counted (supported,
+contradicted, absent, inconclusive, below resolution; ``repro.claims.verdicts``); the controls
+(was the planted effect seen, did the null stay silent); whether the models behind it passed
+their quality gates (``models``, ``quality_gates``); and what limits it — power (the parts a
+full run cannot afford, :attr:`Claim.power_note`), resolution (parts below it), a failed or
+missing control or gate, and the stand-in data. Then the v1 → current verdict changes with
+their reasons from the registry changelog (both verdicts are decided on the same
+measurements, so a change is a change of rule).
+"""
+
+from __future__ import annotations
+
+import html
+from collections import Counter
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from repro.claims.changelog import EVERY_CLAIM, Change
+from repro.claims.claim import Claim
+from repro.claims.ledger import v1_verdict
+from repro.claims.registry import CLAIMS, REGISTRY_VERSION
+from repro.claims.verdicts import BELOW_RESOLUTION, OUTCOMES, VERDICTS
+
+NOT_TESTED = "not yet tested"
+QUICK = "quick run (not a result)"
+
+
+@dataclass(frozen=True)
+class TrustRow:
+    """One claim on the trust screen; every field is short words."""
+
+    claim_id: str
+    verdict: str
+    parts: str
+    controls: str
+    models: str
+    limits: str
+    outcome_counts: dict[str, int]
+
+
+def outcome_counts(sidecar: Mapping[str, Any]) -> dict[str, int]:
+    """How many of the sidecar's parts came out each way (registry order of outcomes)."""
+    counts = Counter(p["outcome"] for p in sidecar.get("parts", []))
+    return {outcome: counts[outcome] for outcome in OUTCOMES if counts[outcome]}
+
+
+def _parts_text(counts: Mapping[str, int]) -> str:
+    return ", ".join(f"{n} {outcome}" for outcome, n in counts.items()) or "—"
+
+
+def controls_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
+    """"positive seen, null silent" and the like; "—" for exact checks (no effect to plant)."""
+    if not claim.rests_on_effects:
+        return "— (exact check)"
+    controls = sidecar.get("controls") or {}
+    words = {"positive": {"passed": "positive seen", "failed": "positive **missed**"},
+             "null": {"passed": "null silent", "failed": "null **fired**"}}
+    out = []
+    for kind in ("positive", "null"):
+        status = (controls.get(kind) or {}).get("status", "missing")
+        out.append(words[kind].get(status, f"no {kind} control"))
+    return ", ".join(out)
+
+
+def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
+    """"3/3 pass" or "**1 of 3 fail**" over the sidecar's quality gates (each model's
+    gate is one of them); "none recorded" when a measured claim has none."""
+    gates = dict(sidecar.get("quality_gates") or {})
+    for model in sidecar.get("models", []):
+        gates.setdefault(f"model {model['name']}", bool(model["passed"]))
+    if not gates:
+        return "— (no model)" if not claim.rests_on_effects else "none recorded"
+    failed = [name for name, passed in gates.items() if not passed]
+    if failed:
+        return f"**{len(failed)} of {len(gates)} fail** (see Models)"
+    return f"{len(gates)}/{len(gates)} pass"
+
+
+def power_short(claim: Claim) -> str:
+    """"power (k of n parts need N–M seeds; S run)" for the parts a full run cannot afford
+    (:attr:`Claim.power_note` names them); "" if none."""
+    short = [p.seeds for p in claim.parts if p.seeds > claim.affordable_seeds]
+    if not short:
+        return ""
+    low, high = min(short), max(short)
+    need = f"{low}" if low == high else f"{low}–{high}"
+    return (f"power ({len(short)} of {len(claim.parts)} parts need {need}"
+            f"{'+' if high >= 1000 else ''} seeds; {claim.affordable_seeds} run)")
+
+
+def _controls_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
+    """A measured claim whose controls are missing or failed."""
+    controls = sidecar.get("controls") or {}
+    return claim.rests_on_effects and any(
+        (controls.get(kind) or {}).get("status") != "passed" for kind in ("positive", "null"))
+
+
+def _gates_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
+    """A measured claim with no gate recorded, or with a gate (or model) that failed."""
+    gates = dict(sidecar.get("quality_gates") or {})
+    gates.update({m["name"]: bool(m["passed"]) for m in sidecar.get("models", [])})
+    return claim.rests_on_effects and (not gates or not all(gates.values()))
+
+
+def limits_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
+    """What limits the verdict: power, resolution, a control or gate, the stand-in; first, a
+    sidecar recorded under another registry version (power is the current registry's)."""
+    limits = []
+    version = int(sidecar.get("registry_version", 1))
+    if version != REGISTRY_VERSION:
+        limits.append(f"decided under registry v{version}, not v{REGISTRY_VERSION}")
+    if power_short(claim):
+        limits.append(power_short(claim))
+    below = [p["name"] for p in sidecar.get("parts", []) if p["outcome"] == BELOW_RESOLUTION]
+    if below:
+        limits.append(f"resolution ({', '.join(below)})")
+    if _controls_short(claim, sidecar):
+        limits.append("controls")
+    if _gates_short(claim, sidecar):
+        limits.append("quality gates")
+    limits.append("stand-in data, tiny models" if claim.rests_on_effects
+                  else "none (an exact computation, no trained model)")
+    return "; ".join(limits)
+
+
+def trust_rows(sidecars: Mapping[str, Mapping[str, Any]]) -> list[TrustRow]:
+    """One row per registry claim, in registry order. A quick run's rows show its parts,
+    controls and gates (a test of the machinery) but never its verdict."""
+    rows = []
+    for claim in CLAIMS.values():
+        sidecar = sidecars.get(claim.id)
+        if sidecar is None:
+            rows.append(TrustRow(claim.id, NOT_TESTED, "—", "—", "—", power_short(claim) or "—",
+                                 {}))
+            continue
+        counts = outcome_counts(sidecar)
+        controls, gates = controls_text(claim, sidecar), gates_text(claim, sidecar)
+        verdict = QUICK if sidecar.get("mode") == "quick" else sidecar["verdict"]
+        rows.append(TrustRow(claim.id, verdict, _parts_text(counts), controls, gates,
+                             limits_text(claim, sidecar), counts))
+    return rows
+
+
+def verdict_counts(rows: list[TrustRow]) -> dict[str, int]:
+    counts = Counter(r.verdict for r in rows)
+    return {v: counts[v] for v in (*VERDICTS, QUICK, NOT_TESTED) if counts[v]}
+
+
+def trust_markdown(rows: list[TrustRow], figure: str | None = None) -> list[str]:
+    """The report's opening screen: counts, the per-claim trust table, the figure's link."""
+    counts = ", ".join(f"{n} {v}" for v, n in verdict_counts(rows).items())
+    lines = ["## How far each verdict can be trusted", "",
+             f"{len(rows)} claims: {counts} (registry v{REGISTRY_VERSION}). Parts: each "
+             "registered part's outcome. Controls: the claim's own rule on a planted effect "
+             "(must be seen) and on no effect (must stay silent). Gates: the models behind the "
+             "measurements against their registered quality gates. A missed control or a "
+             "failed gate makes a verdict inconclusive.", "",
+             "| claim | verdict | parts | controls | gates | limited by |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        cells = [r.claim_id, f"**{r.verdict}**", r.parts, r.controls, r.models, r.limits]
+        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    if figure:
+        lines += ["", f"![The {len(rows)} claims by outcome]({figure})"]
+    return lines + [""]
+
+
+def trust_html(rows: list[TrustRow], figure: str | None = None) -> str:
+    esc = html.escape
+    counts = ", ".join(f"{n} {v}" for v, n in verdict_counts(rows).items())
+    body = [f"<h2>How far each verdict can be trusted</h2><p>{len(rows)} claims: "
+            f"{esc(counts)} (registry v{REGISTRY_VERSION}).</p><table><tr><th>claim</th>"
+            "<th>verdict</th><th>parts</th><th>controls</th><th>gates</th><th>limited by</th>"
+            "</tr>"]
+    for r in rows:
+        cells = [r.claim_id, r.verdict, r.parts, r.controls, r.models, r.limits]
+        body.append("<tr>" + "".join(f"<td>{esc(c.replace('**', ''))}</td>" for c in cells)
+                    + "</tr>")
+    body.append("</table>")
+    if figure:
+        body.append(f"<p><img src='{esc(figure)}' alt='claims by outcome'></p>")
+    return "\n".join(body)
+
+
+@dataclass(frozen=True)
+class VerdictChange:
+    """A claim whose current verdict differs from the frozen v1 rule's on the same
+    measurements, with the changelog bullets that concern it."""
+
+    claim_id: str
+    v1: str
+    current: str
+    changes: list[Change]
+
+
+def verdict_changes(sidecars: Mapping[str, Mapping[str, Any]],
+                    changelog: Mapping[str, list[Change]]) -> list[VerdictChange]:
+    """Every full-run claim whose v1 verdict (kept in its sidecar) differs from its own."""
+    out = []
+    for claim_id in CLAIMS:
+        sidecar = sidecars.get(claim_id)
+        if sidecar is None or sidecar.get("mode") != "full" or "v1" not in sidecar:
+            continue
+        if v1_verdict(dict(sidecar)) != sidecar["verdict"]:
+            out.append(VerdictChange(claim_id, v1_verdict(dict(sidecar)), sidecar["verdict"],
+                                     list(changelog.get(claim_id, []))))
+    return out
+
+
+def _cite(change: Change, docs: str) -> str:
+    return (f"[v{change.version}: {change.section}]({docs}/REGISTRY_CHANGELOG.md"
+            f"#{change.anchor})")
+
+
+def changes_markdown(changes: list[VerdictChange], changelog: Mapping[str, list[Change]],
+                     docs: str = "../docs") -> list[str]:
+    """The "Verdict changes since registry v1" section; ``docs``: the link from the report's
+    folder to the repository's docs/."""
+    lines = ["", "## Verdict changes since registry v1", ""]
+    if not changes:
+        return lines + ["No full-run verdict here differs from the frozen version 1 rule's on "
+                        "the same measurements (quick runs and version 1 sidecars have none to "
+                        "compare).", ""]
+    every = changelog.get(EVERY_CLAIM, [])
+    lines += [f"{len(changes)} verdicts differ from the frozen version 1 rule's, decided on the "
+              "same measurements: each change is a change of rule, for the reasons below "
+              f"(quoted from [the registry changelog]({docs}/REGISTRY_CHANGELOG.md)"
+              + (f"; the rules of every claim changed too: "
+                 f"{', '.join(dict.fromkeys(_cite(c, docs) for c in every))}" if every else "")
+              + ").", ""]
+    for c in changes:
+        reasons = " ".join(f"{ch.text} ({_cite(ch, docs)})" for ch in c.changes) or (
+            "no bullet of the changelog names this claim: only the rules of every claim "
+            "changed.")
+        lines.append(f"- **{c.claim_id}**: v1 *{c.v1}* → v{REGISTRY_VERSION} *{c.current}*. "
+                     f"{reasons}")
+    return lines + [""]
+
+
+def changes_html(changes: list[VerdictChange]) -> str:
+    esc = html.escape
+    items = "".join(f"<li><b>{esc(c.claim_id)}</b>: v1 {esc(c.v1)} → {esc(c.current)}. "
+                    + " ".join(esc(ch.text) for ch in c.changes) + "</li>" for c in changes)
+    return ("<h2>Verdict changes since registry v1</h2>"
+            + (f"<ul>{items}</ul>" if changes else "<p>None.</p>"))

@@ -1,0 +1,87 @@
+"""README's budgets block: #15's budgets against the snapshot's run, written from
+results/claims.json (and the ``make bench`` totals); until a v2+ full run exists it says so."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from repro.claims.budgets import (
+    bench_timings,
+    budgets_markdown,
+    run_span_seconds,
+    update_readme_budgets,
+)
+from repro.infra import paths
+from repro.infra.storage import read_json
+
+
+def test_readme_budgets_block_matches_the_results_snapshot() -> None:
+    snapshot = read_json(paths.results_dir() / "claims.json")
+    readme = (paths.REPO_ROOT / "README.md").read_text(encoding="utf-8")
+    assert budgets_markdown(snapshot) in readme
+
+
+def _snapshot(version: int, **extra: object) -> dict:
+    sidecar = {"registry_version": version, "commit": "abc1234"}
+    return {"mode": "full", "sidecars": {"GMD-A1": sidecar, "EMG-1": sidecar},
+            "run_seconds": {"01_x0_vs_eps": 176.3, "00_stand_in_data": 19.5},
+            "slowest_seconds": {"01_x0_vs_eps": 1292.0, "00_stand_in_data": 19.5}, **extra}
+
+
+def test_a_version_1_snapshot_says_no_v2_run_exists() -> None:
+    text = budgets_markdown(_snapshot(1))
+    assert "**No full run under registry v2 or later exists yet**" in text
+    assert "cold full `make reproduce` ≤ 60 min, warm full `make reproduce` ≤ 4 min" in text
+    assert "|" not in text  # no table of times that were not measured on such a run
+    assert "No full run" in budgets_markdown({**_snapshot(3), "mode": "quick"})
+
+
+def test_a_v3_snapshot_shows_totals_against_budgets_and_per_notebook_times() -> None:
+    timings = {"reproduce_full_cold": {"seconds": 4000.0, "commit": "abc1234"},
+               "reproduce_full_warm": {"seconds": 200.0, "commit": "0ld0ld0"}}
+    text = budgets_markdown(_snapshot(3, timings=timings, run_span_seconds=3990.0))
+    assert "Budgets of #15 against the run in `results/` (commit abc1234):" in text
+    assert ("| cold full `make reproduce` (whole process) | 4000 s (66.7 min) | 3600 | "
+            "**over** |") in text
+    assert ("| warm full `make reproduce` (whole process) (commit 0ld0ld0) | 200 s (3.3 min) | "
+            "240 | within |") in text
+    assert "| `make test`, cold cache | not measured | 300 | — |" in text
+    assert "| this run, from its start to its last recorded claim | 3990 s (66.5 min) |" in text
+    assert "| 00_stand_in_data | 20 | 20 |\n| 01_x0_vs_eps | 176 | 1292 |" in text
+    assert "Sum of this run's notebook times: 196 s (3.3 min)" in text
+
+
+def test_bench_rows_that_failed_or_are_not_budgeted_are_left_out(tmp_path: Path) -> None:
+    bench = tmp_path / "bench.json"
+    bench.write_text(json.dumps({"rows": {
+        "reproduce_full_cold": {"seconds": 3000.04, "exit_code": 0, "commit": "c1",
+                                "measured": "2026-12-01 10:00 UTC"},
+        "reproduce_full_warm": {"seconds": 100.0, "exit_code": 1, "commit": "c1"},
+        "unit_tests": {"seconds": 50.0, "exit_code": 0}}}), encoding="utf-8")
+    assert bench_timings(bench) == {"reproduce_full_cold": {
+        "seconds": 3000.04, "commit": "c1", "measured": "2026-12-01 10:00 UTC"}}
+    assert bench_timings(tmp_path / "missing.json") == {}
+
+
+def test_run_span_reads_the_run_start_and_the_last_claim(tmp_path: Path) -> None:
+    run_id = "20261201T100000.000Z-abc-seed0-full"
+    (tmp_path / "runs" / run_id).mkdir(parents=True)
+    (tmp_path / "runs" / run_id / "run.json").write_text(
+        json.dumps({"started": "2026-12-01T10:00:00+00:00"}), encoding="utf-8")
+    sidecars = {"A": {"run_id": run_id, "recorded_at": "2026-12-01T10:30:00+00:00"},
+                "B": {"run_id": run_id, "recorded_at": "2026-12-01T10:50:30+00:00"}}
+    assert run_span_seconds(tmp_path, sidecars) == 3030.0
+    assert run_span_seconds(tmp_path, {**sidecars, "C": {"run_id": "other"}}) is None
+    assert run_span_seconds(tmp_path, {"A": {"run_id": ""}}) is None
+
+
+def test_update_rewrites_only_the_marked_block(tmp_path: Path) -> None:
+    readme = tmp_path / "README.md"
+    readme.write_text("a\n<!-- budgets:start x -->\n| stale |\n<!-- budgets:end -->\nb\n",
+                      encoding="utf-8")
+    update_readme_budgets(readme, _snapshot(1))
+    text = readme.read_text(encoding="utf-8")
+    assert "| stale |" not in text
+    assert text.startswith("a\n<!-- budgets:start x -->\nBudgets of #15")
+    assert text.endswith("\n<!-- budgets:end -->\nb\n")

@@ -1,0 +1,196 @@
+"""REPORT.md opens with the trust screen (verdict, parts, controls, gates, limits per claim),
+links the figure of the claims by outcome, and lists the v1 → current verdict changes with
+the changelog's reasons; REPORT.html has the same."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import make_context
+
+from repro.claims.changelog import EVERY_CLAIM, claim_changes, ids_in, parse_changelog
+from repro.claims.ledger import load_sidecars, record_claim
+from repro.claims.registry import CLAIMS, REGISTRY_VERSION
+from repro.claims.report import docs_link, write_report
+from repro.claims.trust import power_short, trust_rows, verdict_changes
+
+A3 = CLAIMS["GMD-A3"]
+FAILED_MODEL = {"name": "trajectory-eps", "family": "gmd_trajectory", "gate": {},
+                "passed": False}
+
+
+def _record_a3_with_controls(build: Path, *, models: list[dict]) -> None:
+    rng = np.random.default_rng(0)
+    record_claim(make_context(build, quick=False), "GMD-A3", A3.planted_example(rng),
+                 seeds=list(range(5)), models=models,
+                 controls={"positive": A3.planted_example(rng), "null": A3.null_example(rng)})
+
+
+def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> None:
+    _record_a3_with_controls(tmp_path, models=[FAILED_MODEL])
+    record_claim(make_context(tmp_path, quick=False), "GMD-A1",
+                 {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
+    text = write_report(tmp_path, quick=False).read_text(encoding="utf-8")
+    trust_at, table_at = text.index("## How far each verdict can be trusted"), text.index(
+        "## Verdicts")
+    assert trust_at < table_at < text.index("## Paper errata") < text.index("## Models")
+    screen = text[trust_at:table_at]
+    a3 = next(line for line in screen.splitlines() if line.startswith("| GMD-A3 |"))
+    # a model that fails its gate makes the verdict inconclusive, and the row says why
+    assert "**inconclusive**" in a3 and "positive seen, null silent" in a3
+    assert "**1 of 1 fail** (see Models)" in a3
+    assert "quality gates" in a3 and "stand-in data, tiny models" in a3
+    assert ("| GMD-A1 | **discrepancy in the paper** | 2 supported | — (exact check) | "
+            "— (no model) | none (an exact computation, no trained model) |") in screen
+    assert "| GMD-A2 | **not yet tested** |" in screen
+    assert ("21 claims: 1 inconclusive, 1 discrepancy in the paper, 19 not yet tested "
+            f"(registry v{REGISTRY_VERSION})") in screen
+    assert "![The 21 claims by outcome](figures/claims_by_outcome.png)" in screen
+    figure = tmp_path / "report" / "figures" / "claims_by_outcome.png"
+    assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and figure.stat().st_size < 150_000
+    page = (tmp_path / "report" / "index.html").read_text(encoding="utf-8")
+    assert "How far each verdict can be trusted" in page and "Paper errata" in page
+    assert "<td>1 of 1 fail (see Models)</td>" in page
+    assert "src='figures/claims_by_outcome.png'" in page
+
+
+def test_passing_models_and_missing_controls_read_as_such(tmp_path: Path) -> None:
+    rng = np.random.default_rng(1)
+    record_claim(make_context(tmp_path, quick=False), "GMD-A3", A3.planted_example(rng),
+                 seeds=list(range(5)), models=[{**FAILED_MODEL, "passed": True}])
+    row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
+    assert row.verdict != "quick run (not a result)"
+    assert row.controls == "no positive control, no null control"
+    assert row.models == "1/1 pass" and "controls" in row.limits
+    assert "quality gates" not in row.limits
+
+
+def test_power_limits_name_the_unaffordable_parts() -> None:
+    short = [p for p in A3.parts if p.seeds > A3.affordable_seeds]
+    text = power_short(A3)
+    assert (text.startswith(f"power ({len(short)} of {len(A3.parts)} parts need")
+            if short else text == "")
+    assert power_short(CLAIMS["GMD-A1"]) == ""  # an exact check needs no seeds
+
+
+def test_verdict_changes_cite_the_changelog(tmp_path: Path) -> None:
+    # on data with no effect, the frozen v1 rule says "not reproduced" where v3 cannot decide
+    record_claim(make_context(tmp_path, quick=False), "GMD-A3",
+                 A3.null_example(np.random.default_rng(0)), seeds=[0, 1, 2])
+    sidecars = load_sidecars(tmp_path / "claims")
+    changes = verdict_changes(sidecars, claim_changes())
+    assert [(c.claim_id, c.v1, c.current) for c in changes] == [
+        ("GMD-A3", "not reproduced", "inconclusive")]
+    assert all(ch.version >= 2 for ch in changes[0].changes) and changes[0].changes
+    text = write_report(tmp_path, quick=False).read_text(encoding="utf-8")
+    section = text[text.index("## Verdict changes since registry v1"):]
+    assert "- **GMD-A3**: v1 *not reproduced* → v3 *inconclusive*." in section
+    docs = docs_link(tmp_path / "report")
+    assert f"]({docs}/REGISTRY_CHANGELOG.md#per-claim)" in section
+    assert (tmp_path / "report" / docs / "REGISTRY_CHANGELOG.md").is_file()
+    assert (tmp_path / "report" / docs / "ERRATA.md").is_file()
+    assert f"]({docs}/ERRATA.md)" in text
+    assert "both directions tested with Holm" in section
+
+
+CHANGELOG = """# Registry changelog
+
+## Version 3 (issues #14, #17)
+
+### For every claim
+
+- Gates make a part inconclusive.
+
+### GMD-A3, GMD-F1 (#17: guidance at T = 1000)
+
+- Guidance at T = 1000, as the paper.
+  Continued on a second line.
+
+## Version 2 (issue #13)
+
+### For every claim
+
+- Five outcomes.
+
+### Per claim
+
+- **GMD-A1, A2, C3** (exact checks): unchanged.
+- **EMG-2, EMG-3**: a t-test of 2·kept − baseline.
+- Not a claim bullet.
+"""
+
+
+def test_changelog_bullets_are_read_per_claim_newest_first() -> None:
+    changes = parse_changelog(CHANGELOG)
+    assert [c.version for c in changes["GMD-A3"]] == [3]
+    assert changes["GMD-A3"][0].text == "Guidance at T = 1000, as the paper. Continued on a " \
+        "second line."
+    assert changes["GMD-A3"][0].anchor == "gmd-a3-gmd-f1-17-guidance-at-t--1000"
+    assert {c for c in changes if c.startswith("GMD")} == {"GMD-A1", "GMD-A2", "GMD-A3",
+                                                           "GMD-C3", "GMD-F1"}
+    assert [c.anchor for c in changes[EVERY_CLAIM]] == ["for-every-claim", "for-every-claim-1"]
+    assert changes["EMG-3"][0].section == "Per claim"
+    assert ids_in("GMD-A1, A2, B1") == ["GMD-A1", "GMD-A2", "GMD-B1"]
+    assert ids_in("EMG-5, EMG-6 (#16: MTT-style timelines)") == ["EMG-5", "EMG-6"]
+
+
+def test_every_registry_claim_has_a_reason_in_the_changelog() -> None:
+    changes = claim_changes()
+    assert [claim_id for claim_id in CLAIMS if not changes.get(claim_id)] == []
+
+
+def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("nbconvert")
+    import json
+
+    import nbformat
+
+    from repro.claims.budgets import README_BUDGETS_END, README_BUDGETS_START
+    from repro.claims.report import README_TABLE_END, README_TABLE_START, write_snapshot
+    from repro.infra import paths
+
+    repo = tmp_path / "repo"
+    repo.mkdir()
+    (repo / "README.md").write_text(f"# r\n{README_TABLE_START} -->\n{README_TABLE_END}\n"
+                                    f"{README_BUDGETS_START} -->\n{README_BUDGETS_END}\n")
+    (repo / "docs").mkdir()
+    (repo / "docs" / "ERRATA.md").write_bytes((paths.REPO_ROOT / "docs" / "ERRATA.md").read_bytes())
+    monkeypatch.setattr(paths, "REPO_ROOT", repo)
+    build = tmp_path / "build"
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(build))
+    (build / "bench").mkdir(parents=True)
+    (build / "bench" / "bench.json").write_text(json.dumps({"rows": {"reproduce_full_cold": {
+        "seconds": 3000.0, "exit_code": 0, "commit": "c1"}}}))
+    _record_a3_with_controls(build, models=[])
+    (build / "notebooks").mkdir()
+    nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("# 01")]),
+                   build / "notebooks" / "01_x0_vs_eps.ipynb")
+    write_report(build, quick=False)
+    results = write_snapshot(build)
+    assert "[docs/ERRATA.md](../docs/ERRATA.md)" in (results / "REPORT.md").read_text()
+    page = (results / "REPORT.html").read_text(encoding="utf-8")
+    assert "How far each verdict can be trusted" in page
+    assert "<a href='notebooks/01_x0_vs_eps.html'>01_x0_vs_eps</a>" in page
+    assert (results / "figures" / "claims_by_outcome.png").is_file()
+    readme = (repo / "README.md").read_text(encoding="utf-8")
+    assert "| cold full `make reproduce` (whole process) (commit c1) | 3000 s (50.0 min) |" \
+        in readme
+
+
+def test_a_quick_run_shows_its_machinery_never_its_verdict(tmp_path: Path) -> None:
+    rng = np.random.default_rng(2)
+    record_claim(make_context(tmp_path, quick=True), "GMD-A3", A3.planted_example(rng),
+                 seeds=[0], models=[FAILED_MODEL])
+    row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
+    assert row.verdict == "quick run (not a result)"
+    assert row.models == "**1 of 1 fail** (see Models)" and row.parts != "—"
+
+
+def test_a_sidecar_of_another_registry_version_says_so() -> None:
+    sidecar = {"verdict": "reproduced", "mode": "full", "registry_version": 1}
+    row = next(r for r in trust_rows({"GMD-A2": sidecar}) if r.claim_id == "GMD-A2")
+    assert row.limits.startswith(f"decided under registry v1, not v{REGISTRY_VERSION}")
+    assert row.parts == "—"
