@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from repro.claims.registry import get_claim
@@ -84,3 +85,16 @@ def test_studies_use_the_model_of_each_seed(tiny_pipeline: EnergyMoGenPipeline) 
     study1 = em_studies.composition_study(pipes(1), [1], per_case=1)
     assert study1["semantic"]["conjunction_both_present"] == \
         study["semantic"]["conjunction_both_present"][1:]
+
+
+def test_timeline_rows_measure_every_row_and_the_real_then_clips(
+        tiny_pipeline: EnergyMoGenPipeline) -> None:
+    rows = {"1.0,0.0,0.0": Sampler("sef", (1.0, 0.0, 0.0)),
+            "0.1,0.7,0.2": Sampler("sef", (0.1, 0.7, 0.2))}
+    results = em_studies.timeline_rows(tiny_pipeline, rows, seeds=[0], items_per_seed=4)
+    assert set(results) == {*rows, "real"}
+    for row in results.values():
+        assert set(row) == {"transition_distance_at_transitions", "transition_speed_ratio",
+                            "mean_speed"}
+        assert all(len(v) == 1 and np.isfinite(v[0]) for v in row.values())
+    assert results["real"]["mean_speed"][0] > 0.1        # the "then" clips move
