@@ -24,7 +24,9 @@ def test_paper_tables_have_the_registry_rows() -> None:
         assert key in em_studies.PAPER_TABLE9
     assert all(abs(sum(lam) - 1) < 1e-9 for lam in em_studies.TABLE7_LAMBDAS)
     assert em_studies.PAPER_TABLE9["0.001,0.002"]["r_precision_top3"] == 26.3
-    assert set(get_claim("EMG-5").measurements) == {"r_precision_top3", "transition_distance"}
+    assert set(get_claim("EMG-5").measurements) == {
+        "r_precision_top3", "transition_distance", "transition_distance_at_transitions",
+        "transition_speed_ratio"}
 
 
 def test_oracle_counts_both_arms_waving_as_each_arm_only_for_sets_naming_both() -> None:

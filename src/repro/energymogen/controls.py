@@ -39,11 +39,19 @@ from repro.energymogen.energy import map_similarity
 from repro.energymogen.harness import TextToMotionTest
 from repro.energymogen.latent_count import mpjpe
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, pipeline_for
-from repro.energymogen.studies import pair_index, per_pair_mean, transition_distance_cm
+from repro.energymogen.studies import (
+    pair_index,
+    per_pair_mean,
+    timeline_measurements,
+    transition_distance_cm,
+    transition_speed_ratio,
+)
+from repro.energymogen.timelines import RealThenClips, real_then_clips, timeline_items
 from repro.standin.oracles import detect_concepts
 
 __all__ = ["CONTROL_STREAM", "as_ledger_controls", "augmentation_controls",
-           "composition_controls", "controls_markdown", "energy_map_controls",
+           "amplify_transition_steps", "composition_controls", "controls_markdown",
+           "energy_map_controls", "plant_transitions",
            "latent_count_controls", "scale_movement", "sef_controls", "step_size_controls",
            "swap_motions", "FidCurve", "fid_curve", "permute_motions"]
 
@@ -370,16 +378,59 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
     return out
 
 
-def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float = 1.0
-                 ) -> dict[str, Any]:
-    """EMG-5's controls: the latent, semantic and SEF rows are the seed's ground-truth
-    composition motions with their movement scaled (:func:`scale_movement`, transition
-    distance ∝ factor) and a fraction swapped (:func:`swap_motions`, R@3 linear in it).
+def amplify_transition_steps(features: np.ndarray, transitions: Sequence[int], factor: float
+                             ) -> np.ndarray:
+    """``features`` (T, 263) whose step into each transition frame p is ``factor`` times as
+    large: from p on, features 3:67 (root height, root-relative joints) are shifted by
+    (factor − 1)(x_p − x_{p−1}). Every other step is unchanged, so the distance at the
+    transitions (``studies.transition_distances_at_cm``) scales by ``factor`` exactly."""
+    out = np.array(features, dtype=np.float64, copy=True)
+    for p in sorted(int(q) for q in transitions):
+        out[p:, 3:67] += (factor - 1.0) * (out[p, 3:67] - out[p - 1, 3:67])
+    return out.astype(np.asarray(features).dtype)
 
-    Positive (every part's δ, half the paper's relative effects): transition latent 1,
-    semantic 1.1875 (+18.75 %), SEF 1.1875·(1 − 0.1364); R@3 SEF clean at its movement
-    (R₀), latent R₀/1.2143 (SEF − latent = 21.43 % of latent), semantic 1.2015 × latent's
-    target. Null: all three rows movement 1 and the latent row's swap fraction."""
+
+def plant_transitions(clips: RealThenClips, factor: float) -> tuple[list[np.ndarray], float]:
+    """The clips with both EMG-5 transition measurements ``factor`` × their clean values: the
+    steps at the transitions amplified by f (:func:`amplify_transition_steps`) and the whole
+    movement scaled by ``factor``/f (:func:`scale_movement`), so the distance at the
+    transitions is exactly ``factor`` × and f is found by bisection (the ratio rises
+    monotonically in f) so that the speed ratio is ``factor`` × too. Returns (clips, f)."""
+    clean = list(clips.features)
+    if factor == 1.0:
+        return clean, 1.0
+    target = factor * transition_speed_ratio(clean, clips.transitions)
+
+    def build(f: float) -> list[np.ndarray]:
+        return [scale_movement(amplify_transition_steps(c, p, f), factor / f)
+                for c, p in zip(clean, clips.transitions, strict=True)]
+
+    low, high = 0.0, np.log(1e3)
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        if transition_speed_ratio(build(float(np.exp(mid))), clips.transitions) < target:
+            low = mid
+        else:
+            high = mid
+    f = float(np.exp(0.5 * (low + high)))
+    return build(f), f
+
+
+def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float = 1.0,
+                 timeline_items_per_seed: int = 16) -> dict[str, Any]:
+    """EMG-5's controls: R@3 on the seed's ground-truth composition motions (held-out pairs)
+    with a fraction swapped (:func:`swap_motions`, R@3 linear in it; movement scaled with
+    :func:`scale_movement` as before, for the all-frames distance kept as context); the
+    transition measurements on ground-truth "then" clips of the seed's MTT-style timeline
+    items (``timelines.real_then_clips``, an independent draw per row, kind and seed),
+    measured at their labelled transitions as ``studies.timeline_measurements`` measures.
+
+    Positive (every part's δ, half the paper's relative effects): transition measurements
+    latent 1, semantic 1.1875 (+18.75 %), SEF 1.1875·(1 − 0.1364) × their clean values, both
+    planted exactly (:func:`plant_transitions`); R@3 SEF clean at its movement (R₀), latent
+    R₀/1.2143 (SEF − latent = 21.43 % of latent), semantic 1.2015 × latent's target. Null:
+    all three rows clean (independent draws), movement 1 and the latent row's swap
+    fraction."""
     lat, sem, sef = "1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"
 
     def rows(pipe: EnergyMoGenPipeline, items: Any, seed: int, kind: str
@@ -398,7 +449,27 @@ def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float =
                       "swap": _swap_fraction(*ends[key], targets[key]), "clean": ends[key][0],
                       "swapped": ends[key][1]} for key in movement}
 
-    return _row_plan(source, seeds, 5, rows)
+    out = _row_plan(source, seeds, 5, rows)
+    planted: dict[str, list[float]] = {}
+    for seed in seeds:
+        frames = pipeline_for(source, seed).data.frames
+        items = timeline_items(seed, timeline_items_per_seed, frames)
+        for kind in KINDS:
+            m = out[kind]
+            for index, key in enumerate((lat, sem, sef)):
+                factor = 1.0
+                if kind == "positive":
+                    factor = {lat: 1.0, sem: 1 + 0.1875 * scale,
+                              sef: (1 + 0.1875 * scale) * (1 - 0.1364 * scale)}[key]
+                clips = real_then_clips(items, seed, (CONTROL_STREAM, 5, KINDS.index(kind),
+                                                      index))
+                features, f = plant_transitions(clips, factor)
+                planted.setdefault(f"{kind} {key}", []).append(f)
+                values = timeline_measurements(features, clips.transitions)
+                for metric in ("transition_distance_at_transitions", "transition_speed_ratio"):
+                    m.setdefault(metric, {}).setdefault(key, []).append(values[metric])
+    out["calibration"] = {"rows": out["calibration"], "transition_step_factor": planted}
+    return out
 
 
 # --- EMG-7: MPJPE and generation FID ------------------------------------------------------

@@ -166,13 +166,15 @@ class RealThenClips:
     concepts: tuple[tuple[str, str], ...]
 
 
-def real_then_clips(items: TimelineItems, seed: int) -> RealThenClips:
+def real_then_clips(items: TimelineItems, seed: int, stream: Sequence[int] = (1717,)
+                    ) -> RealThenClips:
     """One generator "then" clip of each item's (A, B), drawn with
-    ``default_rng([seed, 1717, k])`` for item k (heading, start, generator seed)."""
+    ``default_rng([seed, *stream, k])`` for item k (heading, start, generator seed; the
+    controls draw independent sets with streams of their own)."""
     features, transitions, concepts = [], [], []
     with torch.inference_mode():
         for k, item in enumerate(items.items):
-            rng = np.random.default_rng([seed, 1717, k])
+            rng = np.random.default_rng([seed, *stream, k])
             pair = item.concepts[:2]
             durations = tuple(round((CONCEPTS[n].min_duration + _REAL_SEGMENT_MARGIN) * FPS)
                               / FPS for n in pair)
