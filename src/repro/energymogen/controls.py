@@ -218,39 +218,44 @@ def _standardised(values: np.ndarray) -> np.ndarray:
     return (flat - flat.mean()) / flat.std()
 
 
-def energy_map_controls(cases: Mapping[str, Sequence[Mapping[str, Any]]],
+def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]],
                         smooth: Callable[[np.ndarray], np.ndarray], grid: int, *,
                         scale: float = 1.0) -> dict[str, Any]:
-    """EMG-6's controls on the experiment's own composed maps (``case["smooth"]["composed"]``,
-    one per seed and case): the "multi-concept" and "control" maps are replaced by maps whose
-    correlation with the composed map is known, and the similarity is the experiment's
-    ``map_similarity``.
+    """EMG-6's controls on the experiment's own composed maps (``case["smooth"]["composed"]``;
+    ``cases``: kind → one list of cases per seed, as ``energy.map_similarities`` reads): the
+    maps the composed one is compared with — the multi-concept map and the floor's — are
+    replaced by maps whose correlation with it is known, the similarity is the experiment's
+    ``map_similarity`` and, as in the experiment, a seed's value is the mean over its cases.
 
     The stand-in maps: ``smooth`` (the experiment's interpolation and smoothing) of white noise
     on the ``grid``² grid (independent per seed, case and arm), standardised: N₁, N₂. The
     positive control's multi-concept map is a·Â + √(1−a²)·N₁ with Â the standardised composed
     map and a = δ = 0.1, so E r(composed, multi) = a to first order (N₁ independent of Â), and
-    its control map is N₂ (E r = 0): r(multi) − r(control) has mean δ, and the noise a smooth
-    random field puts on a correlation. The null control: multi = N₁, control = N₂.
+    its floor map is N₂ (E r = 0): r(multi) − floor has mean δ, and the noise a smooth random
+    field puts on a correlation. The null control: multi = N₁, floor = N₂.
     """
     delta = 0.1 * scale
     out: dict[str, Any] = {kind: {} for kind in KINDS}
-    for index_kind, (case_kind, found) in enumerate(cases.items()):
+    for index_kind, (case_kind, per_seed) in enumerate(cases.items()):
         for kind in KINDS:
-            multi, control = [], []
-            for index, case in enumerate(found):
+            multi, floor = [], []
+            for index, found in enumerate(per_seed):
                 rng = _rng(index, 6 + 10 * index_kind, kind)
-                composed = np.asarray(case["smooth"]["composed"])
-                noise = [_standardised(smooth(rng.standard_normal((grid, grid))))
-                         for _ in range(2)]
-                a = delta if kind == "positive" else 0.0
-                planted = a * _standardised(composed) + np.sqrt(1 - a ** 2) * noise[0]
-                multi.append(map_similarity(composed, planted))
-                control.append(map_similarity(composed, noise[1]))
+                seed_multi, seed_floor = [], []
+                for case in found:
+                    composed = np.asarray(case["smooth"]["composed"])
+                    noise = [_standardised(smooth(rng.standard_normal((grid, grid))))
+                             for _ in range(2)]
+                    a = delta if kind == "positive" else 0.0
+                    planted = a * _standardised(composed) + np.sqrt(1 - a ** 2) * noise[0]
+                    seed_multi.append(map_similarity(composed, planted))
+                    seed_floor.append(map_similarity(composed, noise[1]))
+                multi.append(float(np.mean(seed_multi)))
+                floor.append(float(np.mean(seed_floor)))
             out[kind][f"{case_kind}_similarity_to_multi"] = multi
-            out[kind][f"{case_kind}_similarity_to_control"] = control
+            out[kind][f"{case_kind}_similarity_floor"] = floor
     out["calibration"] = {"planted_correlation": delta, "grid": grid,
-                          "reason": "δ = 0.1 in Pearson r (registry v2)"}
+                          "reason": "δ = 0.1 in Pearson r (registry v3)"}
     return out
 
 
