@@ -287,7 +287,9 @@ def test_augmentation_controls_see_a_larger_planted_effect(
 
 def test_controls_feed_the_ledger(composition_pipe: EnergyMoGenPipeline) -> None:
     emg5 = ctl.sef_controls(composition_pipe, [0, 1], timeline_items_per_seed=4)
-    measured = {name: emg5["null"][name] for name in get_claim("EMG-5").measurements}
+    claim = get_claim("EMG-5")
+    measured = {name: emg5["null"][name] for name in [*claim.measurements,
+                                                       *claim.new_measurements]}
     decision, stored, _ = decide_claim("EMG-5", measured,
                                        controls=ctl.as_ledger_controls(emg5))
     assert stored["positive"]["status"] in ("passed", "failed")

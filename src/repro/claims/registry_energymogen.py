@@ -368,6 +368,10 @@ CLAIMS: list[Claim] = [
                                              "1.6 (27.3 %); transition power as above",
                       seeds=4)),
           measurements={"r_precision_top3": "'λl,λs,λm' -> per-seed list (held-out pairs)",
+                        "transition_distance": "'λl,λs,λm' -> per-seed list: the all-frames "
+                                               "distance of v1/v2 (context; the v1 rule reads "
+                                               "it)"},
+          new_measurements={
                         "transition_distance_at_transitions":
                             "'λl,λs,λm' -> per-seed list: cm, mean over every boundary frame p "
                             "of the MTT-style timelines of ‖j_p − j_{p−1}‖ averaged over "
@@ -375,10 +379,7 @@ CLAIMS: list[Claim] = [
                         "transition_speed_ratio":
                             "'λl,λs,λm' -> per-seed list: per clip (mean distance at its "
                             "boundaries + ε) / (mean over all its frames + ε), ε = 0.01 cm; "
-                            "mean over clips",
-                        "transition_distance": "'λl,λs,λm' -> per-seed list: the all-frames "
-                                               "distance of v1/v2 (context; the v1 rule reads "
-                                               "it)"},
+                            "mean over clips"},
           affordable_seeds=3, example=_example_emg5),
     Claim(id="EMG-6", paper="EnergyMoGen", section="5.5 Q3; Fig. 5, Fig. 6, appendix F",
           statement="energy maps of a composed motion share high/low-energy regions with the "
@@ -405,11 +406,15 @@ CLAIMS: list[Claim] = [
                         for what, text in (
                             ("similarity_to_multi", "mean over the seed's cases of r(composed, "
                                                     "multi-concept)"),
-                            ("similarity_floor", "the same for one concept alone (floor)"),
-                            ("similarity_ceiling", "the same for a paraphrase of the "
-                                                   "multi-concept text (ceiling; context)"),
                             ("similarity_to_control", "r(composed, unrelated control) (context; "
                                                       "the v1 rule reads it)"))},
+          new_measurements={f"{case}_{what}": f"{SEEDS}: {text}" for case in ("conjunction",
+                                                                              "negation")
+                            for what, text in (
+                                ("similarity_floor", "mean over the seed's cases of r(one "
+                                                     "concept alone, multi-concept) (floor)"),
+                                ("similarity_ceiling", "the same for a paraphrase of the "
+                                                       "multi-concept text (ceiling; context)"))},
           affordable_seeds=5, example=_example_emg6),
     Claim(id="EMG-7", paper="EnergyMoGen", section="D, Table 8",
           statement="a VAE with 7 latent vectors reconstructs best, 5 generates best",

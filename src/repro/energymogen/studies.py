@@ -49,8 +49,8 @@ __all__ = [
     "PAPER_TABLE3", "PAPER_TABLE7", "PAPER_TABLE9", "TABLE7_LAMBDAS", "TABLE9_GAMMAS",
     "agd_relative_change", "composition_metrics", "composition_study", "gamma_key",
     "lambda_key", "markdown_table", "oracle_presence", "run_rows", "timeline_measurements",
-    "timeline_rows", "transition_distance_at_transitions_cm", "transition_distance_cm",
-    "transition_distances_at_cm", "transition_speed_ratio",
+    "timeline_rows", "timeline_table", "transition_distance_at_transitions_cm",
+    "transition_distance_cm", "transition_distances_at_cm", "transition_speed_ratio",
 ]
 
 # --- the paper's rows (R@1, R@3 in %, TMR M2T, M2M, FID, transition distance) ----------------
@@ -464,21 +464,45 @@ def agd_relative_change(pipe: EnergyMoGenPipeline, texts: Sequence[str],
 # ----------------------------------------------------------------------------------------------
 
 
+#: the paper's column a measurement of ours stands beside: Table 3/7/9's transition distance is
+#: STMC's, measured at a timeline's boundaries; our all-frames distance has no paper value
+_PAPER_COLUMN: dict[str, str | None] = {
+    "transition_distance_at_transitions": "transition_distance", "transition_distance": None}
+
+
 def markdown_table(results: Mapping[str, Mapping[str, Sequence[float]]],
                    rows: Sequence[tuple[str, str]], paper: Mapping[str, Mapping[str, float]],
                    columns: Sequence[tuple[str, str]] = (
                        ("r_precision_top1", "R@1 %"), ("r_precision_top3", "R@3 %"),
                        ("tmr_m2t", "M2T"), ("tmr_m2m", "M2M"), ("fid", "FID"),
-                       ("transition_distance", "Trans."))) -> str:
-    """A markdown table: per row (label, key) ours (mean ± 95 % half-width over seeds) and the
-    paper's value in brackets."""
+                       ("transition_distance_at_transitions", "Trans. cm"))) -> str:
+    """A markdown table: per row (label, key) ours (mean ± 95 % half-width over seeds; "—"
+    where the row or the measurement is absent) and the paper's value in brackets (the
+    transition distance at the boundaries beside the paper's transition distance)."""
     header = ["row"] + [f"{c} ours [paper]" for _, c in columns]
     body = []
     for label, key in rows:
         cells: list[object] = [label]
         for metric, _ in columns:
-            ours = interval_text(results[key][metric]) if key in results else "—"
-            theirs = paper.get(key, {}).get(metric)
+            values = results.get(key, {}).get(metric)
+            ours = interval_text(values) if values is not None else "—"
+            paper_metric = _PAPER_COLUMN.get(metric, metric)
+            theirs = paper.get(key, {}).get(paper_metric) if paper_metric else None
             cells.append(f"{ours} [{theirs if theirs is not None else '—'}]")
         body.append(cells)
+    return tables.markdown_table(header, body)
+
+
+def timeline_table(timelines: Mapping[str, Mapping[str, Sequence[float]]],
+                   rows: Sequence[tuple[str, str]]) -> str:
+    """EMG-5's transition measurements per row (``timeline_rows``), the real "then" clips'
+    value beside every row: distance at the boundaries (cm), its ratio to the clip's mean
+    speed, and the mean speed (cm per frame)."""
+    measurements = (("transition_distance_at_transitions", "Trans. at boundaries cm"),
+                    ("transition_speed_ratio", "ratio to mean speed"),
+                    ("mean_speed", "mean speed cm/frame"))
+    header = ["row"] + [f"{label} ours (real)" for _, label in measurements]
+    real = timelines["real"]
+    body = [[label] + [f"{interval_text(timelines[key][m])} ({interval_text(real[m])})"
+                       for m, _ in measurements] for label, key in rows]
     return tables.markdown_table(header, body)
