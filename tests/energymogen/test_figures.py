@@ -67,6 +67,10 @@ def test_notebook_05_figures() -> None:
     timelines = _rows(keys + ["real"], ("transition_distance_at_transitions",))
     fig = figures.sef_tradeoff_figure(results, timelines)
     assert len(fig.axes) == 3                                  # two panels and the colour bar
+    fig = figures.transition_measures_figure(
+        _rows(keys + ["real"], ("transition_distance_at_transitions", "transition_speed_ratio")),
+        [("SEF", "0.1,0.7,0.2"), ("latent only", "1.0,0.0,0.0")])
+    assert len(fig.axes) == 2 and len(fig.axes[0].patches) == 2
     fig = figures.agd_step_size_figure(results)
     heights = [p.get_height() for p in fig.axes[0].patches]
     assert heights == pytest.approx([np.mean(results[gamma_key(g)]["r_precision_top3"])

@@ -34,6 +34,7 @@ __all__ = [
     "composition_examples_figure", "composition_oracle_figure", "energy_maps_figure",
     "jacobian_asymmetry_figure", "latent_count_figure", "map_similarity_figure",
     "reconstructions_figure", "sef_tradeoff_figure", "three_concepts_figure",
+    "transition_measures_figure",
 ]
 
 Results = Mapping[str, Mapping[str, Sequence[float]]]
@@ -261,6 +262,27 @@ def sef_tradeoff_figure(results: Results, timelines: Results) -> Figure:
     fig.suptitle("Text alignment vs transition distance across the 12 λ rows of Table 7 (colour "
                  "= λ_s; named: the Table 3 rows; up-left is better)", fontsize=9)
     fig.colorbar(plt.cm.ScalarMappable(cmap=cmap), ax=axes, label="λ_s")
+    return fig
+
+
+def transition_measures_figure(timelines: Results, rows: Sequence[tuple[str, str]]) -> Figure:
+    """EMG-5's two transition measurements (``studies.timeline_rows``) for ``rows`` (label,
+    key): bars the mean over seeds, dots the seeds, the dashed line the real "then" clips."""
+    panels = (("transition_distance_at_transitions", "distance at the boundaries (cm)"),
+              ("transition_speed_ratio", "ratio to the clip's mean speed (1: as elsewhere)"))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.6))
+    for ax, (metric, title) in zip(axes, panels, strict=True):
+        values = [np.asarray(timelines[key][metric], dtype=float) for _, key in rows]
+        ax.bar(range(len(rows)), [v.mean() for v in values], color="C0", alpha=0.7)
+        for k, v in enumerate(values):
+            ax.plot(np.full(len(v), k), v, "k.", ms=4)
+        ax.axhline(float(np.mean(timelines["real"][metric])), color="k", ls="--", lw=0.8,
+                   label='real "then" clips')
+        ax.set_xticks(range(len(rows)), [label for label, _ in rows], rotation=15, fontsize=8)
+        ax.set_title(title + " (dots: seeds)", fontsize=9)
+    axes[0].legend(fontsize=7)
+    fig.suptitle("EMG-5 on the MTT-style timelines: transitions where they happen", fontsize=10)
+    fig.tight_layout()
     return fig
 
 
