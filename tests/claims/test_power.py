@@ -32,7 +32,8 @@ def test_seeds_for_power_is_the_first_n_with_80_percent() -> None:
 
 def test_registered_seeds_are_the_power_calculation_on_the_v1_spreads() -> None:
     """Every part's ``seeds`` is what ``claim_seeds`` gives on the committed v1 full run (a
-    v3 measurement it lacks: on its nearest v1 measurement, ``power.V1_NEAREST``)."""
+    v3 measurement it lacks: on its nearest v1 measurement, ``power.V1_NEAREST`` and
+    ``power.V1_PROXIES``)."""
     results = read_json(paths.results_dir() / "claims.json")["sidecars"]
     checked = 0
     for claim in CLAIMS.values():

@@ -16,7 +16,14 @@ from repro.energymogen.energy import smooth_energy_map
 from repro.energymogen.harness import TextToMotionTest, build_text_to_motion_test
 from repro.energymogen.latent_count import mpjpe
 from repro.energymogen.pipeline import EnergyMoGenPipeline
-from repro.energymogen.studies import TABLE9_GAMMAS, gamma_key, transition_distance_cm
+from repro.energymogen.studies import (
+    TABLE9_GAMMAS,
+    gamma_key,
+    timeline_measurements,
+    transition_distance_cm,
+    transition_distances_at_cm,
+)
+from repro.energymogen.timelines import real_then_clips, timeline_items
 
 
 def _clip(seed: int = 0) -> np.ndarray:
@@ -71,19 +78,20 @@ def test_negation_draws_have_the_planted_rates() -> None:
     assert 2 * null[:, 0].mean() - base[:, 0].mean() == pytest.approx(0.0, abs=0.02)
 
 
-def _map_cases(seeds: int) -> dict[str, list[dict]]:
+def _map_cases(seeds: int, per_seed: int = 1) -> dict[str, list[list[dict]]]:
     rng = np.random.default_rng(5)
-    return {kind: [{"smooth": {"composed": smooth_energy_map(rng.standard_normal((8, 8)))}}
-                   for _ in range(seeds)] for kind in ("conjunction", "negation")}
+    return {kind: [[{"smooth": {"composed": smooth_energy_map(rng.standard_normal((8, 8)))}}
+                    for _ in range(per_seed)] for _ in range(seeds)]
+            for kind in ("conjunction", "negation")}
 
 
 def test_map_controls_plant_the_registered_correlation_and_the_null_none() -> None:
     out = ctl.energy_map_controls(_map_cases(200), smooth_energy_map, 8)
     for case in ("conjunction", "negation"):
         planted = np.subtract(out["positive"][f"{case}_similarity_to_multi"],
-                              out["positive"][f"{case}_similarity_to_control"])
+                              out["positive"][f"{case}_similarity_floor"])
         null = np.subtract(out["null"][f"{case}_similarity_to_multi"],
-                           out["null"][f"{case}_similarity_to_control"])
+                           out["null"][f"{case}_similarity_floor"])
         # four standard errors: a smooth random field puts much noise on a correlation
         assert planted.mean() == pytest.approx(0.1, abs=4 * planted.std() / np.sqrt(200))
         assert null.mean() == pytest.approx(0.0, abs=4 * null.std() / np.sqrt(200))
@@ -94,6 +102,11 @@ def test_map_controls_are_decided_by_the_rule_with_the_seeds_it_asks_for() -> No
     assert get_claim("EMG-6").decide(out["positive"]).verdict == "reproduced"
     assert get_claim("EMG-6").decide(out["null"]).verdict not in ("reproduced",
                                                                  "partially reproduced")
+
+
+def test_map_controls_average_every_case_of_a_seed() -> None:
+    out = ctl.energy_map_controls(_map_cases(4, per_seed=3), smooth_energy_map, 8)
+    assert all(len(v) == 4 for v in out["positive"].values())
 
 
 class _MatchingEvaluator:
@@ -190,20 +203,43 @@ def test_step_size_controls_see_a_larger_planted_effect(
     assert _not_fired(null)
 
 
+def test_amplified_steps_scale_the_distance_at_the_transitions_only() -> None:
+    items = timeline_items(seed=0, count=2)
+    clips = real_then_clips(items, seed=0)
+    clip, points = clips.features[0], clips.transitions[0]
+    amplified = ctl.amplify_transition_steps(clip, points, 1.5)
+    at = transition_distances_at_cm([clip], [points])
+    assert transition_distances_at_cm([amplified], [points]) == pytest.approx(1.5 * at)
+    other = [p + 3 for p in points]
+    assert transition_distances_at_cm([amplified], [other]) == pytest.approx(
+        transition_distances_at_cm([clip], [other]))
+    planted, factor = ctl.plant_transitions(clips, 1.1875)
+    assert factor > 1.0
+    clean = timeline_measurements(list(clips.features), clips.transitions)
+    moved = timeline_measurements(planted, clips.transitions)
+    for name in ("transition_distance_at_transitions", "transition_speed_ratio"):
+        assert moved[name] == pytest.approx(1.1875 * clean[name], rel=1e-6)
+
+
 def test_sef_controls_plant_the_registered_transition_ratio(
         composition_pipe: EnergyMoGenPipeline) -> None:
-    out = ctl.sef_controls(composition_pipe, SEEDS[:4])
+    out = ctl.sef_controls(composition_pipe, SEEDS[:4], timeline_items_per_seed=8)
     trans = out["positive"]["transition_distance"]
     ratio = np.mean(trans["0.0,1.0,0.0"]) / np.mean(trans["1.0,0.0,0.0"])
     assert ratio == pytest.approx(1.1875, rel=0.05)
     null = out["null"]["transition_distance"]
     assert np.mean(null["0.0,1.0,0.0"]) / np.mean(null["1.0,0.0,0.0"]) == pytest.approx(
         1.0, rel=0.05)
+    for name in ("transition_distance_at_transitions", "transition_speed_ratio"):
+        planted = out["positive"][name]
+        assert set(planted) == {"1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"}
+        assert all(len(v) == 4 for v in planted.values())
 
 
 def test_sef_controls_see_a_larger_planted_effect(composition_pipe: EnergyMoGenPipeline
                                                  ) -> None:
-    positive, null = _verdicts("EMG-5", ctl.sef_controls(composition_pipe, SEEDS, scale=2.0))
+    positive, null = _verdicts("EMG-5", ctl.sef_controls(composition_pipe, SEEDS, scale=2.0,
+                                                         timeline_items_per_seed=8))
     assert positive == "reproduced"
     assert _not_fired(null)
 
@@ -250,9 +286,10 @@ def test_augmentation_controls_see_a_larger_planted_effect(
 
 
 def test_controls_feed_the_ledger(composition_pipe: EnergyMoGenPipeline) -> None:
-    emg5 = ctl.sef_controls(composition_pipe, [0, 1])
-    measured = {"r_precision_top3": emg5["null"]["r_precision_top3"],
-                "transition_distance": emg5["null"]["transition_distance"]}
+    emg5 = ctl.sef_controls(composition_pipe, [0, 1], timeline_items_per_seed=4)
+    claim = get_claim("EMG-5")
+    measured = {name: emg5["null"][name] for name in [*claim.measurements,
+                                                       *claim.new_measurements]}
     decision, stored, _ = decide_claim("EMG-5", measured,
                                        controls=ctl.as_ledger_controls(emg5))
     assert stored["positive"]["status"] in ("passed", "failed")

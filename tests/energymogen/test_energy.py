@@ -9,6 +9,7 @@ import torch
 
 from repro.core.diffusion import GaussianDiffusion
 from repro.energymogen import energy as em_energy
+from repro.energymogen.config import HELD_OUT_PAIRS
 from repro.energymogen.pipeline import EnergyMoGenPipeline, scaled_linear_betas
 from repro.models.latent_denoiser import LatentDenoiser
 
@@ -97,6 +98,12 @@ def test_energy_map_case_on_the_tiny_pipeline(tiny_pipeline: EnergyMoGenPipeline
                                      timesteps=(100,), samples=4, upsample=2, sigma=1.0)
     assert case["smooth"]["composed"].shape == (8, 8)
     assert -1.0 <= case["similarity_to_multi"] <= 1.0
+    assert case["texts"]["ceiling"] != case["texts"]["multi"]
+    assert -1.0 <= case["similarity_floor"] <= 1.0 and -1.0 <= case["similarity_ceiling"] <= 1.0
+    cases = em_energy.energy_map_cases(tiny_pipeline, "conjunction", 0, count=2, grid=4,
+                                       n_noise=1, timesteps=(100,), samples=4, upsample=2,
+                                       sigma=1.0)
+    assert [c["case"] for c in cases] == ["/".join(p) for p in HELD_OUT_PAIRS[:2]]
 
 
 def test_energy_view_study_on_the_tiny_pipeline(tiny_pipeline: EnergyMoGenPipeline) -> None:
@@ -111,3 +118,29 @@ def test_energy_view_study_on_the_tiny_pipeline(tiny_pipeline: EnergyMoGenPipeli
     pooled = np.concatenate([out["asymmetry"]["trained, text"].ravel(),
                              out["asymmetry"]["trained, ∅"].ravel()])
     assert out["jacobian_median"] == pytest.approx(float(np.median(pooled)))
+
+
+def _field(rng: np.random.Generator) -> np.ndarray:
+    return em_energy.smooth_energy_map(rng.standard_normal((8, 8)))
+
+
+def test_floor_and_ceiling_order_on_a_constructed_case() -> None:
+    """Multi-concept map M; its paraphrase M plus a little noise (ceiling); the composition M
+    plus more; each concept a quarter of M in its own noise: floor < composed < ceiling, and
+    the conjunction's floor is the better of the two concepts."""
+    rng = np.random.default_rng(0)
+    multi = _field(rng)
+    smooth = {"multi-concept": multi, "paraphrase": multi + 0.2 * _field(rng),
+              "composed": multi + 0.8 * _field(rng), "concept 1": 0.25 * multi + _field(rng),
+              "concept 2": 0.5 * multi + _field(rng), "control": _field(rng)}
+    sim = em_energy.case_similarities(smooth, "conjunction")
+    assert sim["similarity_floor"] < sim["similarity_to_multi"] < sim["similarity_ceiling"]
+    assert sim["similarity_floor"] == max(sim["similarity_concept_1_to_multi"],
+                                          sim["similarity_concept_2_to_multi"])
+    negation = em_energy.case_similarities(smooth, "negation")
+    assert negation["similarity_floor"] == sim["similarity_concept_1_to_multi"]
+    measured = em_energy.map_similarities({"conjunction": [[sim, sim], [sim]]})
+    assert measured["conjunction_similarity_floor"] == [sim["similarity_floor"]] * 2
+    assert set(measured) == {f"conjunction_{k}" for k in (
+        "similarity_to_multi", "similarity_floor", "similarity_ceiling",
+        "similarity_to_control")}

@@ -47,21 +47,30 @@ def test_notebook_04_figures() -> None:
                                                "b": np.zeros((16, 22, 3))})
     assert len(fig.axes) == 2 and HELD_OUT_PAIRS[0][0] in fig._suptitle.get_text()
     maps = {name: np.random.default_rng(0).normal(size=(8, 8)) for name in (
-        "concept 1", "concept 2", "composed", "multi-concept", "control")}
+        "concept 1", "concept 2", "composed", "multi-concept", "paraphrase", "control")}
     case = {"extent": (1.0, 1.0), "smooth": maps, "texts": {k: "text" for k in (
-        "c1", "c2", "multi", "control")}, "scores": {"composed": np.zeros((4, 2))},
-        "case": "walk_forward/clap", "similarity_to_multi": 0.5, "similarity_to_control": 0.1}
+        "c1", "c2", "multi", "ceiling", "control")}, "scores": {"composed": np.zeros((4, 2))},
+        "case": "walk_forward/clap"}
     fig = figures.energy_maps_figure({"conjunction": case, "negation": case}, 0)
-    assert len(fig.axes) == 10
-    fig = figures.map_similarity_figure({"conjunction": [case, case], "negation": [case]})
-    assert [line.get_ydata()[0] for line in fig.axes[0].lines][:2] == [0.5, 0.5]
+    assert len(fig.axes) == 12
+    measured = {f"{kind}_similarity_{what}": [value, value + 0.05]
+                for kind in ("conjunction", "negation")
+                for what, value in (("floor", 0.2), ("to_multi", 0.5), ("ceiling", 0.8),
+                                    ("to_control", 0.1))}
+    fig = figures.map_similarity_figure(measured)
+    assert list(fig.axes[0].lines[0].get_ydata()) == [0.2, 0.5, 0.8]     # seed 1's line
 
 
 def test_notebook_05_figures() -> None:
     keys = [lambda_key(lam) for lam in TABLE7_LAMBDAS] + [gamma_key(g) for g in TABLE9_GAMMAS]
     results = _rows(keys, ("r_precision_top3", "transition_distance", "both_present"))
-    fig = figures.sef_tradeoff_figure(results)
+    timelines = _rows(keys + ["real"], ("transition_distance_at_transitions",))
+    fig = figures.sef_tradeoff_figure(results, timelines)
     assert len(fig.axes) == 3                                  # two panels and the colour bar
+    fig = figures.transition_measures_figure(
+        _rows(keys + ["real"], ("transition_distance_at_transitions", "transition_speed_ratio")),
+        [("SEF", "0.1,0.7,0.2"), ("latent only", "1.0,0.0,0.0")])
+    assert len(fig.axes) == 2 and len(fig.axes[0].patches) == 2
     fig = figures.agd_step_size_figure(results)
     heights = [p.get_height() for p in fig.axes[0].patches]
     assert heights == pytest.approx([np.mean(results[gamma_key(g)]["r_precision_top3"])

@@ -46,3 +46,10 @@ def test_latent_count_and_augmentation_settings() -> None:
     finetune = augmentation.finetune(3)
     assert (finetune.steps, finetune.lr, finetune.seed, finetune.num_threads) == (
         833, 2.5e-4, 3, 1)
+
+
+def test_emg5_timelines_and_emg6_cases() -> None:
+    assert SEFAblationSettings.for_mode(False).timeline_items == 64
+    assert SEFAblationSettings.for_mode(True).timeline_items == 8
+    assert EnergyViewSettings.for_mode(False).map_cases is None       # every pair and case
+    assert EnergyViewSettings.for_mode(True).map_cases == 2

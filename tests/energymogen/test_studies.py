@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from repro.claims.registry import get_claim
@@ -24,6 +25,8 @@ def test_paper_tables_have_the_registry_rows() -> None:
     assert all(abs(sum(lam) - 1) < 1e-9 for lam in em_studies.TABLE7_LAMBDAS)
     assert em_studies.PAPER_TABLE9["0.001,0.002"]["r_precision_top3"] == 26.3
     assert set(get_claim("EMG-5").measurements) == {"r_precision_top3", "transition_distance"}
+    assert set(get_claim("EMG-5").new_measurements) == {"transition_distance_at_transitions",
+                                                        "transition_speed_ratio"}
 
 
 def test_oracle_counts_both_arms_waving_as_each_arm_only_for_sets_naming_both() -> None:
@@ -84,3 +87,31 @@ def test_studies_use_the_model_of_each_seed(tiny_pipeline: EnergyMoGenPipeline) 
     study1 = em_studies.composition_study(pipes(1), [1], per_case=1)
     assert study1["semantic"]["conjunction_both_present"] == \
         study["semantic"]["conjunction_both_present"][1:]
+
+
+def test_timeline_rows_measure_every_row_and_the_real_then_clips(
+        tiny_pipeline: EnergyMoGenPipeline) -> None:
+    rows = {"1.0,0.0,0.0": Sampler("sef", (1.0, 0.0, 0.0)),
+            "0.1,0.7,0.2": Sampler("sef", (0.1, 0.7, 0.2))}
+    results = em_studies.timeline_rows(tiny_pipeline, rows, seeds=[0], items_per_seed=4)
+    assert set(results) == {*rows, "real"}
+    for row in results.values():
+        assert set(row) == {"transition_distance_at_transitions", "transition_speed_ratio",
+                            "mean_speed"}
+        assert all(len(v) == 1 and np.isfinite(v[0]) for v in row.values())
+    assert results["real"]["mean_speed"][0] > 0.1        # the "then" clips move
+
+
+def test_tables_put_the_transitions_beside_the_paper_and_the_real_clips() -> None:
+    row = {"transition_distance_at_transitions": [1.0, 1.2], "transition_speed_ratio": [1.1, 1.3],
+           "mean_speed": [0.9, 1.1], "transition_distance": [0.5, 0.6]}
+    real = {k: [2 * v for v in values] for k, values in row.items()}
+    results = {"0.1,0.7,0.2": row, "real": real}
+    table = em_studies.markdown_table(results, [("SEF", "0.1,0.7,0.2")],
+                                      em_studies.PAPER_TABLE7,
+                                      [("transition_distance_at_transitions", "T"),
+                                       ("transition_distance", "all"), ("fid", "FID")])
+    assert "[1.6]" in table and "— [0.604]" in table      # the paper's Trans. beside ours only
+    assert table.count("[—]") == 1                          # the all-frames distance: no paper
+    timeline = em_studies.timeline_table(results, [("SEF", "0.1,0.7,0.2")])
+    assert "(2.2 ±" in timeline and "(2.4 ±" in timeline and "SEF" in timeline

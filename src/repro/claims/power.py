@@ -8,7 +8,7 @@ is conservative for the others. The registered ``seeds`` of every part is
 ``seeds_for_power`` at its smallest effect of interest on the spread of the v1 full run in
 ``results/claims.json`` (tests/claims/test_power.py recomputes them); a v3 measurement the v1
 run did not record under its name is powered on the v1 values of its nearest measurement
-(:data:`V1_NEAREST`, :func:`v1_measured`).
+(:data:`V1_NEAREST`, :data:`V1_PROXIES`, :func:`v1_measured`).
 """
 
 from __future__ import annotations
@@ -67,10 +67,25 @@ def part_seeds(part: Part, measured: Mapping[str, Any], parts_in_claim: int) -> 
     return needed
 
 
+#: v3 measurement → the v1 measurement (same sidecar's ``measured``) whose spread it is powered
+#: on. EMG-5 (issue #16): the transitions at the timelines' boundaries → the all-frames
+#: transition distance (its spread relative to its mean is what δ, relative too, meets);
+#: EMG-6: the floor → the unrelated control it replaces as the compared arm.
+V1_PROXIES: dict[str, dict[str, str]] = {
+    "EMG-5": {"transition_distance_at_transitions": "transition_distance",
+              "transition_speed_ratio": "transition_distance"},
+    "EMG-6": {f"{case}_similarity_floor": f"{case}_similarity_to_control"
+              for case in ("conjunction", "negation")},
+}
+
+
 def v1_measured(claim_id: str, sidecar: Mapping[str, Any]) -> dict[str, Any]:
-    """A v1 sidecar's ``measured`` with every :data:`V1_NEAREST` measurement of the claim
-    added: the per-seed location errors of its nearest v1 method, in seed order."""
+    """A v1 sidecar's ``measured`` with the claim's v3 measurements added: each
+    :data:`V1_NEAREST` one as the per-seed location errors of its nearest v1 method (in seed
+    order), each :data:`V1_PROXIES` one as its v1 proxy's values."""
     measured = dict(sidecar["measured"])
+    for name, proxy in V1_PROXIES.get(claim_id, {}).items():
+        measured.setdefault(name, measured[proxy])
     for name, method in V1_NEAREST.get(claim_id, {}).items():
         per_seed = sidecar["extra"]["per_method"][method]
         measured[name] = [per_seed[s]["location_error"] for s in sorted(per_seed, key=int)]

@@ -39,11 +39,25 @@ from repro.energymogen.energy import map_similarity
 from repro.energymogen.harness import TextToMotionTest
 from repro.energymogen.latent_count import mpjpe
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, pipeline_for
-from repro.energymogen.studies import pair_index, per_pair_mean, transition_distance_cm
+from repro.energymogen.planted import (
+    amplify_transition_steps,
+    permute_motions,
+    plant_transitions,
+    scale_movement,
+    swap_motions,
+)
+from repro.energymogen.studies import (
+    pair_index,
+    per_pair_mean,
+    timeline_measurements,
+    transition_distance_cm,
+)
+from repro.energymogen.timelines import real_then_clips, timeline_items
 from repro.standin.oracles import detect_concepts
 
 __all__ = ["CONTROL_STREAM", "as_ledger_controls", "augmentation_controls",
-           "composition_controls", "controls_markdown", "energy_map_controls",
+           "amplify_transition_steps", "composition_controls", "controls_markdown",
+           "energy_map_controls", "plant_transitions",
            "latent_count_controls", "scale_movement", "sef_controls", "step_size_controls",
            "swap_motions", "FidCurve", "fid_curve", "permute_motions"]
 
@@ -210,79 +224,49 @@ def _standardised(values: np.ndarray) -> np.ndarray:
     return (flat - flat.mean()) / flat.std()
 
 
-def energy_map_controls(cases: Mapping[str, Sequence[Mapping[str, Any]]],
+def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]],
                         smooth: Callable[[np.ndarray], np.ndarray], grid: int, *,
                         scale: float = 1.0) -> dict[str, Any]:
-    """EMG-6's controls on the experiment's own composed maps (``case["smooth"]["composed"]``,
-    one per seed and case): the "multi-concept" and "control" maps are replaced by maps whose
-    correlation with the composed map is known, and the similarity is the experiment's
-    ``map_similarity``.
+    """EMG-6's controls on the experiment's own composed maps (``case["smooth"]["composed"]``;
+    ``cases``: kind → one list of cases per seed, as ``energy.map_similarities`` reads): the
+    maps the composed one is compared with — the multi-concept map and the floor's — are
+    replaced by maps whose correlation with it is known, the similarity is the experiment's
+    ``map_similarity`` and, as in the experiment, a seed's value is the mean over its cases.
 
     The stand-in maps: ``smooth`` (the experiment's interpolation and smoothing) of white noise
     on the ``grid``² grid (independent per seed, case and arm), standardised: N₁, N₂. The
     positive control's multi-concept map is a·Â + √(1−a²)·N₁ with Â the standardised composed
     map and a = δ = 0.1, so E r(composed, multi) = a to first order (N₁ independent of Â), and
-    its control map is N₂ (E r = 0): r(multi) − r(control) has mean δ, and the noise a smooth
-    random field puts on a correlation. The null control: multi = N₁, control = N₂.
+    its floor map is N₂ (E r = 0): r(multi) − floor has mean δ, and the noise a smooth random
+    field puts on a correlation. The null control: multi = N₁, floor = N₂.
     """
     delta = 0.1 * scale
     out: dict[str, Any] = {kind: {} for kind in KINDS}
-    for index_kind, (case_kind, found) in enumerate(cases.items()):
+    for index_kind, (case_kind, per_seed) in enumerate(cases.items()):
         for kind in KINDS:
-            multi, control = [], []
-            for index, case in enumerate(found):
+            multi, floor = [], []
+            for index, found in enumerate(per_seed):
                 rng = _rng(index, 6 + 10 * index_kind, kind)
-                composed = np.asarray(case["smooth"]["composed"])
-                noise = [_standardised(smooth(rng.standard_normal((grid, grid))))
-                         for _ in range(2)]
-                a = delta if kind == "positive" else 0.0
-                planted = a * _standardised(composed) + np.sqrt(1 - a ** 2) * noise[0]
-                multi.append(map_similarity(composed, planted))
-                control.append(map_similarity(composed, noise[1]))
+                seed_multi, seed_floor = [], []
+                for case in found:
+                    composed = np.asarray(case["smooth"]["composed"])
+                    noise = [_standardised(smooth(rng.standard_normal((grid, grid))))
+                             for _ in range(2)]
+                    a = delta if kind == "positive" else 0.0
+                    planted = a * _standardised(composed) + np.sqrt(1 - a ** 2) * noise[0]
+                    seed_multi.append(map_similarity(composed, planted))
+                    seed_floor.append(map_similarity(composed, noise[1]))
+                multi.append(float(np.mean(seed_multi)))
+                floor.append(float(np.mean(seed_floor)))
             out[kind][f"{case_kind}_similarity_to_multi"] = multi
-            out[kind][f"{case_kind}_similarity_to_control"] = control
+            out[kind][f"{case_kind}_similarity_floor"] = floor
     out["calibration"] = {"planted_correlation": delta, "grid": grid,
-                          "reason": "δ = 0.1 in Pearson r (registry v2)"}
+                          "reason": "δ = 0.1 in Pearson r (registry v3)"}
     return out
 
 
 # --- EMG-4 / EMG-5: R-precision and transition distance of ground-truth motions ------------
-
-def swap_motions(features: np.ndarray, fraction: float, rng: np.random.Generator,
-                 groups: np.ndarray) -> np.ndarray:
-    """``features`` with each item, with probability ``fraction``, replaced by the motion of a
-    random item of another group (another held-out pair): a text–motion mismatch. R-precision
-    falls linearly in expectation, from the clean value at 0 to the swapped one at 1."""
-    out = np.array(features, copy=True)
-    for i in np.flatnonzero(rng.uniform(size=len(features)) < fraction):
-        others = np.flatnonzero(groups != groups[i])
-        out[i] = features[int(rng.choice(others))]
-    return out
-
-
-def permute_motions(features: np.ndarray, fraction: float, rng: np.random.Generator
-                    ) -> np.ndarray:
-    """``features`` with a random subset (each item with probability ``fraction``) of motions
-    passed round within the subset (a random cycle): every chosen item gets another's motion,
-    and the set of motions is unchanged, so FID (a function of that set) is exactly unchanged
-    while R-precision falls."""
-    out = np.array(features, copy=True)
-    chosen = rng.permutation(np.flatnonzero(rng.uniform(size=len(features)) < fraction))
-    if len(chosen) > 1:
-        out[chosen] = features[np.roll(chosen, 1)]
-    return out
-
-
-def scale_movement(features: np.ndarray, factor: float) -> np.ndarray:
-    """``features`` whose root height and root-relative joints (features 3:67) move ``factor``
-    times as far about their temporal mean: every consecutive-frame displacement of
-    ``metrics.ric_joints`` scales by ``factor``, so the transition distance does exactly."""
-    out = np.array(features, dtype=np.float64, copy=True)
-    block = out[..., 3:67]
-    mean = block.mean(axis=-2, keepdims=True)
-    out[..., 3:67] = mean + factor * (block - mean)
-    return out.astype(np.asarray(features).dtype)
-
+# (the planted sample sets: ``energymogen.planted``)
 
 def row_measurements(pipe: EnergyMoGenPipeline, features: np.ndarray, items: Any, seed: int
                      ) -> dict[str, float]:
@@ -370,16 +354,21 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
     return out
 
 
-def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float = 1.0
-                 ) -> dict[str, Any]:
-    """EMG-5's controls: the latent, semantic and SEF rows are the seed's ground-truth
-    composition motions with their movement scaled (:func:`scale_movement`, transition
-    distance ∝ factor) and a fraction swapped (:func:`swap_motions`, R@3 linear in it).
+def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float = 1.0,
+                 timeline_items_per_seed: int = 16) -> dict[str, Any]:
+    """EMG-5's controls: R@3 on the seed's ground-truth composition motions (held-out pairs)
+    with a fraction swapped (:func:`swap_motions`, R@3 linear in it; movement scaled with
+    :func:`scale_movement` as before, for the all-frames distance kept as context); the
+    transition measurements on ground-truth "then" clips of the seed's MTT-style timeline
+    items (``timelines.real_then_clips``, an independent draw per row, kind and seed),
+    measured at their labelled transitions as ``studies.timeline_measurements`` measures.
 
-    Positive (every part's δ, half the paper's relative effects): transition latent 1,
-    semantic 1.1875 (+18.75 %), SEF 1.1875·(1 − 0.1364); R@3 SEF clean at its movement
-    (R₀), latent R₀/1.2143 (SEF − latent = 21.43 % of latent), semantic 1.2015 × latent's
-    target. Null: all three rows movement 1 and the latent row's swap fraction."""
+    Positive (every part's δ, half the paper's relative effects): transition measurements
+    latent 1, semantic 1.1875 (+18.75 %), SEF 1.1875·(1 − 0.1364) × their clean values, both
+    planted exactly (:func:`plant_transitions`); R@3 SEF clean at its movement (R₀), latent
+    R₀/1.2143 (SEF − latent = 21.43 % of latent), semantic 1.2015 × latent's target. Null:
+    all three rows clean (independent draws), movement 1 and the latent row's swap
+    fraction."""
     lat, sem, sef = "1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"
 
     def rows(pipe: EnergyMoGenPipeline, items: Any, seed: int, kind: str
@@ -398,7 +387,27 @@ def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float =
                       "swap": _swap_fraction(*ends[key], targets[key]), "clean": ends[key][0],
                       "swapped": ends[key][1]} for key in movement}
 
-    return _row_plan(source, seeds, 5, rows)
+    out = _row_plan(source, seeds, 5, rows)
+    planted: dict[str, list[float]] = {}
+    for seed in seeds:
+        frames = pipeline_for(source, seed).data.frames
+        items = timeline_items(seed, timeline_items_per_seed, frames)
+        for kind in KINDS:
+            m = out[kind]
+            for index, key in enumerate((lat, sem, sef)):
+                factor = 1.0
+                if kind == "positive":
+                    factor = {lat: 1.0, sem: 1 + 0.1875 * scale,
+                              sef: (1 + 0.1875 * scale) * (1 - 0.1364 * scale)}[key]
+                clips = real_then_clips(items, seed, (CONTROL_STREAM, 5, KINDS.index(kind),
+                                                      index))
+                features, f = plant_transitions(clips, factor)
+                planted.setdefault(f"{kind} {key}", []).append(f)
+                values = timeline_measurements(features, clips.transitions)
+                for metric in ("transition_distance_at_transitions", "transition_speed_ratio"):
+                    m.setdefault(metric, {}).setdefault(key, []).append(values[metric])
+    out["calibration"] = {"rows": out["calibration"], "transition_step_factor": planted}
+    return out
 
 
 # --- EMG-7: MPJPE and generation FID ------------------------------------------------------

@@ -6,7 +6,9 @@
   :func:`denoiser_jacobian_asymmetry`)? All three on the pipeline: :func:`energy_view_study`.
 - **EMG-6** (Sec. 5.5, Fig. 5–6) — denoising-loss energy maps on a 2-D slice of latent space
   (:func:`latent_plane`, :func:`energy_landscape`, :func:`smooth_energy_map`,
-  :func:`map_similarity`; one conjunction or negation case: :func:`energy_map_case`).
+  :func:`map_similarity`; one conjunction or negation case: :func:`energy_map_case`, every
+  case of a seed: :func:`energy_map_cases`, the per-seed numbers between floor and ceiling:
+  :func:`map_similarities`).
 - **EMG-9** (Eq. 12) — FID against the Gaussian closed form (:func:`fid_formula_errors`).
 
 The pipeline checked here (models, sampling) is ``repro.energymogen.pipeline``, its data
@@ -34,10 +36,12 @@ from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, denoiser_kw
 from repro.models.latent_denoiser import LatentDenoiser
 
 __all__ = [
-    "LatentPlane", "denoiser_jacobian_asymmetry", "energy_landscape", "energy_linearity_error",
-    "energy_map_case", "energy_view_study", "fid_formula_errors", "float64_copy",
-    "jacobian_asymmetry", "langevin_step_errors", "latent_plane", "line_integral_energy",
-    "map_similarity", "smooth_energy_map",
+    "MAP_KINDS", "LatentPlane", "denoiser_jacobian_asymmetry", "energy_landscape",
+    "energy_linearity_error", "energy_map_case", "energy_map_cases", "energy_view_study",
+    "fid_formula_errors", "float64_copy", "jacobian_asymmetry", "langevin_step_errors",
+    "case_similarities", "latent_plane", "line_integral_energy", "map_similarities",
+    "map_similarity",
+    "smooth_energy_map",
 ]
 
 
@@ -363,6 +367,32 @@ def _control_concept(kept: str, pair: tuple[str, str], start: int) -> str:
     return options[start % len(options)]
 
 
+def case_similarities(smooth: Mapping[str, np.ndarray],
+                      kind: Literal["conjunction", "negation"]) -> dict[str, float]:
+    """Pearson r of the maps of one case (``smooth``: "composed", "concept 1", "concept 2",
+    "multi-concept", "paraphrase", "control"): composed ~ multi; the floor, one concept alone
+    ~ multi (conjunction: the better of the two concepts; negation: concept 1, c_i before
+    negating); the ceiling, the paraphrase ~ multi; composed ~ control; each concept ~ multi."""
+    to_multi = {name: map_similarity(smooth[name], smooth["multi-concept"])
+                for name in ("composed", "concept 1", "concept 2", "paraphrase")}
+    floor = (max(to_multi["concept 1"], to_multi["concept 2"]) if kind == "conjunction"
+             else to_multi["concept 1"])
+    return {"similarity_to_multi": to_multi["composed"], "similarity_floor": floor,
+            "similarity_ceiling": to_multi["paraphrase"],
+            "similarity_concept_1_to_multi": to_multi["concept 1"],
+            "similarity_concept_2_to_multi": to_multi["concept 2"],
+            "similarity_to_control": map_similarity(smooth["composed"], smooth["control"])}
+
+
+def _paraphrase(text: str, draw: Callable[[], str], tries: int = 50) -> str:
+    """Another wording of ``text``: the first of ``draw()``'s texts that differs from it."""
+    for _ in range(tries):
+        other = draw()
+        if other != text:
+            return other
+    raise ValueError(f"no paraphrase of {text!r} in {tries} draws")
+
+
 def energy_map_case(pipe: EnergyMoGenPipeline, kind: Literal["conjunction", "negation"],
                     case_index: int, seed: int, *, grid: int = 16, n_noise: int = 4,
                     timesteps: Sequence[int] = (100, 300, 500, 700, 900), samples: int = 16,
@@ -385,7 +415,13 @@ def energy_map_case(pipe: EnergyMoGenPipeline, kind: Literal["conjunction", "neg
       condition shares (in the quick test run, an untrained model, raw maps correlated
       ≥ 0.999 whatever the text; we fixed this measure then, before any full run); raw-map
       similarities are returned too (``raw_similarity_*``, ``smooth_raw``).
-    - similarity: Pearson correlation of the smoothed conditional maps.
+    - similarity: Pearson correlation of the smoothed conditional maps; ``similarity_to_multi``
+      (composed ~ multi) sits between a **floor**, one concept alone ~ multi (conjunction: the
+      better of concept 1 and concept 2; negation: c_i, the text before negating), and a
+      **ceiling**, a paraphrase of the multi-concept text ~ multi (another caption of the
+      pair; negation: another wording of the kept concept) — how alike two texts of one
+      meaning are on this slice (registry v3); ``similarity_to_control`` (an unrelated text)
+      is context.
     """
     rng = np.random.default_rng([seed, 606, 0 if kind == "conjunction" else 1])
     s = pipe.config.guidance_scale
@@ -401,6 +437,7 @@ def energy_map_case(pipe: EnergyMoGenPipeline, kind: Literal["conjunction", "neg
 
         texts = {"c1": concept_text(pair[0], rng), "c2": concept_text(pair[1], rng),
                  "multi": caption(pair), "control": caption(control_pair)}
+        texts["ceiling"] = _paraphrase(texts["multi"], lambda: caption(pair))
         composed = {"∅": -1.0, "c1": 1.0, "c2": 1.0}
         sampler = Sampler("latent")
         label = {"case": "/".join(pair), "control": "/".join(control_pair)}
@@ -410,6 +447,7 @@ def energy_map_case(pipe: EnergyMoGenPipeline, kind: Literal["conjunction", "neg
         control = _control_concept(kept, pair, case_index)
         texts = {"c1": pair_caption(pair, rng), "c2": concept_text(negated, rng),
                  "multi": concept_text(kept, rng), "control": concept_text(control, rng)}
+        texts["ceiling"] = _paraphrase(texts["multi"], lambda: concept_text(kept, rng))
         composed = {"∅": 1.0, "c1": 1.0, "c2": -1.0}
         sampler = Sampler("latent", weights=(s, -s))
         label = {"case": f"{'/'.join(pair)} not {negated}", "control": control}
@@ -425,7 +463,7 @@ def energy_map_case(pipe: EnergyMoGenPipeline, kind: Literal["conjunction", "neg
     conditions.update({k: pipe.encode([t]) for k, t in texts.items()})
     combinations = {"concept 1": {"c1": 1.0}, "concept 2": {"c2": 1.0}, "composed": composed,
                     "multi-concept": {"multi": 1.0}, "control": {"control": 1.0},
-                    "unconditional": {"∅": 1.0}}
+                    "paraphrase": {"ceiling": 1.0}, "unconditional": {"∅": 1.0}}
     energies = energy_landscape(pipe.denoiser, pipe.diffusion, grid_latents.to(pipe.device),
                                 conditions, combinations, timesteps=timesteps,
                                 n_noise=n_noise, seed=seed)
@@ -438,13 +476,41 @@ def energy_map_case(pipe: EnergyMoGenPipeline, kind: Literal["conjunction", "neg
                      ).numpy() for name, z in generated.items()}
     return {"kind": kind, "texts": texts, **label, "u": u, "v": v, "raw": raw,
             "smooth_raw": smooth_raw, "smooth": smooth, "scores": scores,
-            "extent": plane.extent,
-            "similarity_to_multi": map_similarity(smooth["composed"], smooth["multi-concept"]),
-            "similarity_to_control": map_similarity(smooth["composed"], smooth["control"]),
+            "extent": plane.extent, **case_similarities(smooth, kind),
             "raw_similarity_to_multi": map_similarity(smooth_raw["composed"],
                                                       smooth_raw["multi-concept"]),
             "raw_similarity_to_control": map_similarity(smooth_raw["composed"],
                                                         smooth_raw["control"])}
+
+
+MAP_KINDS: tuple[str, str] = ("conjunction", "negation")
+
+
+def energy_map_cases(pipe: EnergyMoGenPipeline, kind: Literal["conjunction", "negation"],
+                     seed: int, *, count: int | None = None, **kwargs: Any
+                     ) -> list[dict[str, Any]]:
+    """:func:`energy_map_case` for every held-out pair (conjunction) or every
+    :data:`NEGATION_CASES` entry (negation) of one seed — or the first ``count`` of them (a
+    quick run) — on that seed's model, noise and texts."""
+    total = len(HELD_OUT_PAIRS) if kind == "conjunction" else len(NEGATION_CASES)
+    return [energy_map_case(pipe, kind, k, seed, **kwargs)
+            for k in range(total if count is None else min(count, total))]
+
+
+#: what :func:`map_similarities` averages per seed: measurement suffix → case key
+_SIMILARITIES = {"similarity_to_multi": "similarity_to_multi",
+                 "similarity_floor": "similarity_floor",
+                 "similarity_ceiling": "similarity_ceiling",
+                 "similarity_to_control": "similarity_to_control"}
+
+
+def map_similarities(cases_by_seed: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]]
+                     ) -> dict[str, list[float]]:
+    """EMG-6's measurements: per kind and seed, the mean over that seed's cases of composed ~
+    multi, the floor, the ceiling and composed ~ control (``{kind}_{suffix}`` → per-seed
+    list). ``cases_by_seed``: kind → one list of :func:`energy_map_case` results per seed."""
+    return {f"{kind}_{suffix}": [float(np.mean([c[key] for c in cases])) for cases in per_seed]
+            for kind, per_seed in cases_by_seed.items() for suffix, key in _SIMILARITIES.items()}
 
 
 # ----------------------------------------------------------------------------------------------

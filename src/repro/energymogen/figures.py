@@ -34,6 +34,7 @@ __all__ = [
     "composition_examples_figure", "composition_oracle_figure", "energy_maps_figure",
     "jacobian_asymmetry_figure", "latent_count_figure", "map_similarity_figure",
     "reconstructions_figure", "sef_tradeoff_figure", "three_concepts_figure",
+    "transition_measures_figure",
 ]
 
 Results = Mapping[str, Mapping[str, Sequence[float]]]
@@ -123,13 +124,14 @@ def composition_examples_figure(examples: Mapping[str, np.ndarray]) -> Figure:
     return fig
 
 
-_MAP_COLUMNS = ("concept 1", "concept 2", "composed", "multi-concept", "control")
+_MAP_COLUMNS = ("concept 1", "concept 2", "composed", "multi-concept", "paraphrase",
+                "control")
 
 
 def energy_maps_figure(cases: Mapping[str, Mapping[str, Any]], seed: int) -> Figure:
     """EMG-6 as Fig. 5/6: one row per kind (``energy.energy_map_case`` results of one seed),
     the smoothed conditional maps of every condition with that row's samples."""
-    fig, axes = plt.subplots(2, 5, figsize=(17, 6.6))
+    fig, axes = plt.subplots(2, len(_MAP_COLUMNS), figsize=(20, 6.6))
     for row, kind in enumerate(("conjunction", "negation")):
         case = cases[kind]
         extent = [-case["extent"][0], case["extent"][0], -case["extent"][1], case["extent"][1]]
@@ -144,7 +146,7 @@ def energy_maps_figure(cases: Mapping[str, Mapping[str, Any]], seed: int) -> Fig
             ax.contour(case["smooth"][name], levels=levels, colors="k", linewidths=0.3,
                        extent=extent, origin="lower")
             key = {"concept 1": "c1", "concept 2": "c2", "multi-concept": "multi",
-                   "control": "control"}.get(name)
+                   "paraphrase": "ceiling", "control": "control"}.get(name)
             text = case["texts"][key] if key else (
                 "Eq. 7 (unit weights)" if kind == "conjunction" else "Eq. 8 (w = 1)")
             if name in case["scores"]:
@@ -160,20 +162,30 @@ def energy_maps_figure(cases: Mapping[str, Mapping[str, Any]], seed: int) -> Fig
     return fig
 
 
-def map_similarity_figure(cases: Mapping[str, Sequence[Mapping[str, Any]]]) -> Figure:
-    """EMG-6's number: composed~multi against composed~control, one line per seed."""
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+def map_similarity_figure(measured: Mapping[str, Sequence[float]]) -> Figure:
+    """EMG-6's numbers (``energy.map_similarities``): per kind, the floor (one concept alone ~
+    multi), composed ~ multi and the ceiling (a paraphrase ~ multi), one line per seed (each
+    seed the mean over its cases); composed ~ unrelated control as grey crosses."""
+    fig, ax = plt.subplots(figsize=(8, 3.8))
+    ticks, labels = [], []
     for k, kind in enumerate(("conjunction", "negation")):
-        multi = [c["similarity_to_multi"] for c in cases[kind]]
-        control = [c["similarity_to_control"] for c in cases[kind]]
-        for a, b in zip(multi, control, strict=True):
-            ax.plot([2 * k, 2 * k + 1], [a, b], "-", color="grey", lw=0.8)
-        ax.plot(np.full(len(multi), 2 * k), multi, "o", color="C0")
-        ax.plot(np.full(len(control), 2 * k + 1), control, "s", color="C3")
-    ax.set_xticks(range(4), ["conj.: composed~multi", "conj.: composed~control",
-                             "neg.: composed~multi", "neg.: composed~control"], fontsize=8)
-    ax.set_ylabel("Pearson r of smoothed maps")
-    ax.set_title("EMG-6: one line per seed (case and trained model)", fontsize=10)
+        x = 4 * k + np.arange(3)
+        values = np.array([measured[f"{kind}_similarity_{what}"]
+                           for what in ("floor", "to_multi", "ceiling")])      # (3, seeds)
+        for seed_values in values.T:
+            ax.plot(x, seed_values, "-", color="grey", lw=0.8)
+        for xi, row, marker, colour in zip(x, values, ("v", "o", "^"), ("C3", "C0", "C2"),
+                                           strict=True):
+            ax.plot(np.full(row.size, xi), row, marker, color=colour)
+        control = measured[f"{kind}_similarity_to_control"]
+        ax.plot(np.full(len(control), x[1] + 0.25), control, "x", color="0.5")
+        ticks += list(x)
+        labels += [f"{kind[:4]}.: floor\n(one concept)", f"{kind[:4]}.: composed",
+                   f"{kind[:4]}.: ceiling\n(paraphrase)"]
+    ax.set_xticks(ticks, labels, fontsize=8)
+    ax.set_ylabel("Pearson r with the multi-concept map")
+    ax.set_title("EMG-6: one line per seed (mean over its cases); grey ×: composed ~ unrelated "
+                 "control", fontsize=9)
     return fig
 
 
@@ -215,8 +227,10 @@ def _mean_sem(results: Results, key: str, metric: str) -> tuple[float, float]:
     return float(values.mean()), float(half)
 
 
-def sef_tradeoff_figure(results: Results) -> Figure:
-    """EMG-5: R@3 against transition distance over Table 7's λ rows, ours beside the paper's."""
+def sef_tradeoff_figure(results: Results, timelines: Results) -> Figure:
+    """EMG-5: R@3 (``results``: the held-out pairs) against the transition distance at the
+    MTT-style timelines' boundaries (``timelines``: ``studies.timeline_rows``, its ``real``
+    row a dashed line) over Table 7's λ rows, ours beside the paper's."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     keys = [lambda_key(lam) for lam in TABLE7_LAMBDAS]
     marks = {"1.0,0.0,0.0": "latent only", "0.0,1.0,0.0": "semantic only",
@@ -226,7 +240,7 @@ def sef_tradeoff_figure(results: Results) -> Figure:
         for key, lam in zip(keys, TABLE7_LAMBDAS, strict=True):
             colour = cmap(lam[1])
             if source == "ours":
-                (x, dx) = _mean_sem(results, key, "transition_distance")
+                (x, dx) = _mean_sem(timelines, key, "transition_distance_at_transitions")
                 (y, dy) = _mean_sem(results, key, "r_precision_top3")
                 ax.errorbar(x, y, xerr=dx, yerr=dy, fmt="o", color=colour, ms=7, capsize=2)
             else:
@@ -236,14 +250,39 @@ def sef_tradeoff_figure(results: Results) -> Figure:
             if key in marks:
                 ax.annotate(marks[key], (x, y), fontsize=8, xytext=(4, 3),
                             textcoords="offset points", fontweight="bold")
-        ax.set_xlabel("transition distance, cm (ours: all consecutive frames)" if source == "ours"
-                      else "transition distance (paper: STMC, ×100)")
+        if source == "ours" and "real" in timelines:
+            ax.axvline(float(np.mean(timelines["real"]["transition_distance_at_transitions"])),
+                       color="k", ls="--", lw=0.8, label="real \"then\" clips")
+            ax.legend(fontsize=7, loc="lower right")
+        ax.set_xlabel("transition distance at the timelines' boundaries, cm (ours)"
+                      if source == "ours" else "transition distance (paper: STMC, ×100)")
         ax.set_ylabel("R@3 (%)")
         ax.set_title("ours (mean ± s.e. over seeds)" if source == "ours" else "paper (Table 7)",
                      fontsize=10)
     fig.suptitle("Text alignment vs transition distance across the 12 λ rows of Table 7 (colour "
                  "= λ_s; named: the Table 3 rows; up-left is better)", fontsize=9)
     fig.colorbar(plt.cm.ScalarMappable(cmap=cmap), ax=axes, label="λ_s")
+    return fig
+
+
+def transition_measures_figure(timelines: Results, rows: Sequence[tuple[str, str]]) -> Figure:
+    """EMG-5's two transition measurements (``studies.timeline_rows``) for ``rows`` (label,
+    key): bars the mean over seeds, dots the seeds, the dashed line the real "then" clips."""
+    panels = (("transition_distance_at_transitions", "distance at the boundaries (cm)"),
+              ("transition_speed_ratio", "ratio to the clip's mean speed (1: as elsewhere)"))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.6))
+    for ax, (metric, title) in zip(axes, panels, strict=True):
+        values = [np.asarray(timelines[key][metric], dtype=float) for _, key in rows]
+        ax.bar(range(len(rows)), [v.mean() for v in values], color="C0", alpha=0.7)
+        for k, v in enumerate(values):
+            ax.plot(np.full(len(v), k), v, "k.", ms=4)
+        ax.axhline(float(np.mean(timelines["real"][metric])), color="k", ls="--", lw=0.8,
+                   label='real "then" clips')
+        ax.set_xticks(range(len(rows)), [label for label, _ in rows], rotation=15, fontsize=8)
+        ax.set_title(title + " (dots: seeds)", fontsize=9)
+    axes[0].legend(fontsize=7)
+    fig.suptitle("EMG-5 on the MTT-style timelines: transitions where they happen", fontsize=10)
+    fig.tight_layout()
     return fig
 
 

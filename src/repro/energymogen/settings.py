@@ -33,7 +33,9 @@ class EnergyViewSettings:
     only, not recorded) reruns EMG-2/3 at ``scale_check_scales`` on the first
     ``scale_check_seeds`` seeds with fewer items; EMG-6's maps: a ``map_grid``² grid,
     ``map_noise_draws`` noise draws, ``map_samples`` generated latents per row (the full
-    values are ``energy.energy_map_case``'s defaults).
+    values are ``energy.energy_map_case``'s defaults), ``map_cases`` cases per kind and seed
+    (None: every held-out pair and every negation case, registry v3; quick runs take the
+    first two).
     """
 
     quick: bool
@@ -45,6 +47,7 @@ class EnergyViewSettings:
     map_grid: int
     map_noise_draws: int
     map_samples: int
+    map_cases: int | None = None
     jacobian_timesteps: tuple[int, ...] = (100, 300, 500, 700, 900)
     linearity_timesteps: tuple[int, ...] = (100, 500, 900)
     scale_check_scales: tuple[float, ...] = (1.5, 5.0)
@@ -57,7 +60,7 @@ class EnergyViewSettings:
         if quick:
             return cls(quick=True, pipeline=pipeline_config(True), seeds=1, emg1_samples=3,
                        negation_items_per_case=6, scale_check=False, map_grid=6,
-                       map_noise_draws=1, map_samples=6)
+                       map_noise_draws=1, map_samples=6, map_cases=2)
         return cls(quick=False, pipeline=pipeline_config(False), seeds=5, emg1_samples=8,
                    negation_items_per_case=16, scale_check=True, map_grid=16,
                    map_noise_draws=4, map_samples=16)
@@ -65,15 +68,20 @@ class EnergyViewSettings:
 
 @dataclass(frozen=True)
 class SEFAblationSettings:
-    """Notebook 05 (EMG-4, EMG-5): the pipeline and the number of seeds."""
+    """Notebook 05 (EMG-4, EMG-5): the pipeline, the number of seeds and the MTT-style
+    timeline items per seed on which EMG-5's transitions are measured (``timelines``; 64 in
+    full runs, our choice: 1–3 boundaries each, about 150 transitions per row and seed, one
+    item in eight of MTT's 500; 8 in quick runs)."""
 
     quick: bool
     pipeline: PipelineConfig
     seeds: int
+    timeline_items: int
 
     @classmethod
     def for_mode(cls, quick: bool) -> SEFAblationSettings:
-        return cls(quick=quick, pipeline=pipeline_config(quick), seeds=1 if quick else 3)
+        return cls(quick=quick, pipeline=pipeline_config(quick), seeds=1 if quick else 3,
+                   timeline_items=8 if quick else 64)
 
 
 @dataclass(frozen=True)

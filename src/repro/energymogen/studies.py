@@ -7,8 +7,12 @@ used by 08's augmentation study).
 - **measurements** — on one batch of composed motion (:func:`composition_metrics`): oracle
   presence per concept (``repro.standin.oracles``), R@1/R@3, TMR-style M2T/M2M, FID, transition
   distance, foot skating, jitter.
+- **transitions where they happen** (EMG-5, registry v3): :func:`transition_distances_at_cm`
+  (TEACH/STMC's distance at a timeline's boundary frames) and :func:`transition_speed_ratio`
+  (the same over the clip's own mean speed, which standing still does not win);
 - **studies** over seeds, one pipeline or one trained model per seed
   (``pipeline.SeedPipelines``): :func:`run_rows` (the rows of Tables 3, 7, 9: EMG-4, EMG-5),
+  :func:`timeline_rows` (Table 7's rows on the MTT-style timelines, ``timelines``: EMG-5),
   :func:`composition_study` (EMG-2/3: conjunction and negation, Eq. 7–9, oracle-measured),
   :func:`agd_relative_change` (how far AGD, Eq. 4, moves the text embedding).
 - **reporting** — :func:`markdown_table` (ours beside the paper's values).
@@ -37,14 +41,16 @@ from repro.energymogen.data import (
     negation_items,
 )
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
+from repro.energymogen.timelines import real_then_clips, timeline_items
 from repro.models.latent_denoiser import CrossAttentionControl
 from repro.standin.oracles import detect_concepts
 
 __all__ = [
     "PAPER_TABLE3", "PAPER_TABLE7", "PAPER_TABLE9", "TABLE7_LAMBDAS", "TABLE9_GAMMAS",
     "agd_relative_change", "composition_metrics", "composition_study", "gamma_key",
-    "lambda_key", "markdown_table", "oracle_presence", "run_rows",
-    "transition_distance_cm",
+    "lambda_key", "markdown_table", "oracle_presence", "run_rows", "timeline_measurements",
+    "timeline_rows", "timeline_table", "transition_distance_at_transitions_cm",
+    "transition_distance_cm", "transition_distances_at_cm", "transition_speed_ratio",
 ]
 
 # --- the paper's rows (R@1, R@3 in %, TMR M2T, M2M, FID, transition distance) ----------------
@@ -118,13 +124,86 @@ def transition_distance_cm(features: np.ndarray) -> float:
     """Transition distance (TEACH/STMC) at every frame, in cm: mean over frames t and joints
     of ‖j_t − j_{t−1}‖ on root-relative, heading-free joints (``metrics.ric_joints``).
 
-    Our choice: a simultaneous composition has no timeline and so no transition frame; we
-    average STMC's per-transition quantity over all consecutive frames (×100, the scale of
-    STMC's and the paper's tables).
+    Registry v2's measurement, context since v3: averaged over all consecutive frames it is
+    the body's mean speed, so it rewards standing still (issue #16: real data scored worse
+    than every generated row). EMG-5 now reads :func:`transition_distance_at_transitions_cm`
+    and :func:`transition_speed_ratio` on the MTT-style timelines.
     """
     features = np.asarray(features)
     frames = np.arange(1, features.shape[-2])
     return 100.0 * metrics.transition_distance(metrics.ric_joints(features), frames)
+
+
+#: our choice: the speed floor of :func:`transition_speed_ratio` (cm per frame, 2 mm/s at
+#: 20 fps), far below any stand-in concept's mean joint speed: a clip standing still scores 1,
+#: as a clip moving evenly does, never below it
+SPEED_FLOOR_CM = 0.01
+
+
+def _per_frame_displacement_cm(features: np.ndarray) -> np.ndarray:
+    """(T − 1,) mean over joints of ‖j_t − j_{t−1}‖ (cm) on ``metrics.ric_joints`` (root-
+    relative, heading-free: STMC's local joints); entry t − 1 is the step into frame t."""
+    joints = metrics.ric_joints(np.asarray(features))
+    return 100.0 * np.linalg.norm(np.diff(joints, axis=-3), axis=-1).mean(axis=-1)
+
+
+def _check_transitions(frames: int, points: Sequence[int]) -> np.ndarray:
+    points = np.asarray(points, dtype=int).reshape(-1)
+    if points.size == 0:
+        raise ValueError("an item has no transition frame")
+    if np.any(points < 1) or np.any(points >= frames):
+        raise ValueError(f"transition frames must lie in 1..{frames - 1}, got {points}")
+    return points
+
+
+def transition_distances_at_cm(features: Sequence[np.ndarray],
+                               transitions: Sequence[Sequence[int]]) -> np.ndarray:
+    """Every transition's distance (cm), items concatenated: at transition frame p of item i,
+    the mean over joints of ‖j_p − j_{p−1}‖ on root-relative, heading-free joints (TEACH's
+    distance as STMC's ``mtt/stmc_metrics.py`` computes it, at the timeline's boundaries)."""
+    if len(features) != len(transitions):
+        raise ValueError(f"{len(features)} motions for {len(transitions)} transition lists")
+    out = []
+    for clip, points in zip(features, transitions, strict=True):
+        step = _per_frame_displacement_cm(clip)
+        out.append(step[_check_transitions(len(step) + 1, points) - 1])
+    return np.concatenate(out)
+
+
+def transition_distance_at_transitions_cm(features: Sequence[np.ndarray],
+                                          transitions: Sequence[Sequence[int]]) -> float:
+    """Transition distance (cm) as STMC reports it: the mean over every transition of every
+    item (:func:`transition_distances_at_cm`; STMC's tables print it ×100 of metres)."""
+    return float(transition_distances_at_cm(features, transitions).mean())
+
+
+def transition_speed_ratio(features: Sequence[np.ndarray],
+                           transitions: Sequence[Sequence[int]],
+                           floor_cm: float = SPEED_FLOOR_CM) -> float:
+    """Smoothness that does not reward standing still: per item, (mean displacement at its
+    transitions + ε) / (mean displacement over all its frames + ε), ε = ``floor_cm``; the
+    mean over items. 1: the body moves through the transitions as it moves elsewhere in the
+    same clip; > 1: a jump at the transitions; a clip standing still scores 1, not 0."""
+    if len(features) != len(transitions):
+        raise ValueError(f"{len(features)} motions for {len(transitions)} transition lists")
+    ratios = []
+    for clip, points in zip(features, transitions, strict=True):
+        step = _per_frame_displacement_cm(clip)
+        at = step[_check_transitions(len(step) + 1, points) - 1]
+        ratios.append((at.mean() + floor_cm) / (step.mean() + floor_cm))
+    return float(np.mean(ratios))
+
+
+def timeline_measurements(features: Sequence[np.ndarray], transitions: Sequence[Sequence[int]]
+                          ) -> dict[str, float]:
+    """EMG-5's two registered transition measurements on one batch (registry v3):
+    ``transition_distance_at_transitions`` (cm) and ``transition_speed_ratio``, with the mean
+    speed (cm per frame over all frames) beside them."""
+    return {"transition_distance_at_transitions":
+            transition_distance_at_transitions_cm(features, transitions),
+            "transition_speed_ratio": transition_speed_ratio(features, transitions),
+            "mean_speed": float(np.mean([_per_frame_displacement_cm(f).mean()
+                                         for f in features]))}
 
 
 def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints: np.ndarray,
@@ -201,6 +280,41 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
             out["real"].setdefault(metric, []).append(value)
         if log is not None:
             log(f"seed {seed}: {len(done)} samplers in {time.perf_counter() - start:.1f} s")
+    return out
+
+
+def timeline_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequence[int],
+                  *, items_per_seed: int, log: Callable[[str], None] | None = None
+                  ) -> dict[str, dict[str, list[float]]]:
+    """EMG-5's transition measurements on the MTT-style timelines (``timelines``): row →
+    metric → per-seed list (:func:`timeline_measurements`).
+
+    Per seed, ``items_per_seed`` items (``timelines.timeline_items(seed, …)``); every row
+    samples one clip per item from its three texts (A, B, C: the n = 3 concepts of Eq. 7 and
+    Eq. 9) and the joined text (c_{1,n}), with the seed's model and noise, and is measured at
+    the item's transition frames. Row ``"real"``: the generator's "then" clips of each item's
+    A then B at the transitions their labels give (``timelines.real_then_clips``).
+    """
+    out: dict[str, dict[str, list[float]]] = {name: {} for name in [*rows, "real"]}
+    for seed in seeds:
+        pipe = pipeline_for(source, seed)
+        items = timeline_items(seed, items_per_seed, pipe.data.frames)
+        done: dict[Sampler, dict[str, float]] = {}
+        start = time.perf_counter()
+        for name, sampler in rows.items():
+            key = sampler.canonical()
+            if key not in done:
+                latents = pipe.sample(key, items.concept_texts, items.multi_texts, seed,
+                                      batch=len(items))
+                done[key] = timeline_measurements(list(pipe.decode(latents)), items.transitions)
+            for metric, value in done[key].items():
+                out[name].setdefault(metric, []).append(value)
+        real = real_then_clips(items, seed)
+        for metric, value in timeline_measurements(real.features, real.transitions).items():
+            out["real"].setdefault(metric, []).append(value)
+        if log is not None:
+            log(f"seed {seed}: timelines, {len(done)} samplers in "
+                f"{time.perf_counter() - start:.1f} s")
     return out
 
 
@@ -350,21 +464,45 @@ def agd_relative_change(pipe: EnergyMoGenPipeline, texts: Sequence[str],
 # ----------------------------------------------------------------------------------------------
 
 
+#: the paper's column a measurement of ours stands beside: Table 3/7/9's transition distance is
+#: STMC's, measured at a timeline's boundaries; our all-frames distance has no paper value
+_PAPER_COLUMN: dict[str, str | None] = {
+    "transition_distance_at_transitions": "transition_distance", "transition_distance": None}
+
+
 def markdown_table(results: Mapping[str, Mapping[str, Sequence[float]]],
                    rows: Sequence[tuple[str, str]], paper: Mapping[str, Mapping[str, float]],
                    columns: Sequence[tuple[str, str]] = (
                        ("r_precision_top1", "R@1 %"), ("r_precision_top3", "R@3 %"),
                        ("tmr_m2t", "M2T"), ("tmr_m2m", "M2M"), ("fid", "FID"),
-                       ("transition_distance", "Trans."))) -> str:
-    """A markdown table: per row (label, key) ours (mean ± 95 % half-width over seeds) and the
-    paper's value in brackets."""
+                       ("transition_distance_at_transitions", "Trans. cm"))) -> str:
+    """A markdown table: per row (label, key) ours (mean ± 95 % half-width over seeds; "—"
+    where the row or the measurement is absent) and the paper's value in brackets (the
+    transition distance at the boundaries beside the paper's transition distance)."""
     header = ["row"] + [f"{c} ours [paper]" for _, c in columns]
     body = []
     for label, key in rows:
         cells: list[object] = [label]
         for metric, _ in columns:
-            ours = interval_text(results[key][metric]) if key in results else "—"
-            theirs = paper.get(key, {}).get(metric)
+            values = results.get(key, {}).get(metric)
+            ours = interval_text(values) if values is not None else "—"
+            paper_metric = _PAPER_COLUMN.get(metric, metric)
+            theirs = paper.get(key, {}).get(paper_metric) if paper_metric else None
             cells.append(f"{ours} [{theirs if theirs is not None else '—'}]")
         body.append(cells)
+    return tables.markdown_table(header, body)
+
+
+def timeline_table(timelines: Mapping[str, Mapping[str, Sequence[float]]],
+                   rows: Sequence[tuple[str, str]]) -> str:
+    """EMG-5's transition measurements per row (``timeline_rows``), the real "then" clips'
+    value beside every row: distance at the boundaries (cm), its ratio to the clip's mean
+    speed, and the mean speed (cm per frame)."""
+    measurements = (("transition_distance_at_transitions", "Trans. at boundaries cm"),
+                    ("transition_speed_ratio", "ratio to mean speed"),
+                    ("mean_speed", "mean speed cm/frame"))
+    header = ["row"] + [f"{label} ours (real)" for _, label in measurements]
+    real = timelines["real"]
+    body = [[label] + [f"{interval_text(timelines[key][m])} ({interval_text(real[m])})"
+                       for m, _ in measurements] for label, key in rows]
     return tables.markdown_table(header, body)
