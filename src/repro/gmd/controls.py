@@ -26,7 +26,7 @@ from repro.core.tables import markdown_table
 from repro.gmd.emphasis_study import coherence
 from repro.gmd.guidance import goal_error
 from repro.gmd.guidance_schedule import strength_key
-from repro.gmd.measurements import jitter_of
+from repro.gmd.measurements import foot_skating_of, jitter_of
 from repro.gmd.root_representation import location_errors
 from repro.gmd.windows import FeatureSpace, MotionWindows, goal_targets
 from repro.gmd.x0_vs_eps import motion_fid
@@ -342,6 +342,25 @@ def _planted_path(space: FeatureSpace, x: Tensor, targets: np.ndarray, *, jerk_f
     return space.normalise(features)
 
 
+def _coherence(space: FeatureSpace, x: Tensor) -> tuple[float, float]:
+    """(mean joint jerk m/s³, foot skating m/s) of motion-task samples, as ``whole_body``."""
+    return float(jitter_of(space, x).jerk), float(foot_skating_of(space, x))
+
+
+def _smoother_body(space: FeatureSpace, x: Tensor, jerk_factor: float) -> Tensor:
+    """Motions whose joint jerk is ``jerk_factor`` × theirs, by a horizontal scale of the
+    body (:func:`scale_world`, heights and contacts kept) of the size that gives that ratio
+    (bisection: a horizontal scale f lowers the jerk by less than f, so f ≤ ``jerk_factor``
+    and the foot skating, × f exactly, falls at least as much)."""
+    target = _coherence(space, x)[0] * jerk_factor
+
+    def jerk_drop(shrink: float) -> float:
+        return -_coherence(space, scale_world(space, x, 1 - shrink, horizontal_only=True))[0]
+
+    shrink = calibrate_increasing(jerk_drop, -target, high=1 - jerk_factor, iterations=40)
+    return scale_world(space, x, 1 - shrink, horizontal_only=True)
+
+
 def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[float], *,
                 goals: int, min_distance: float, margin: float = 1.0) -> Controls:
     """GMD-F1's controls: test trajectories toward the experiment's goals stand in for the
@@ -353,7 +372,11 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
     errors × 0.5 and jerk × 1.5; the stop-20 arm with jerk × 1 and goal errors × 1.2.
     Positive (every part beyond its threshold by δ): goal errors × 0.45 (0.5·unguided −
     guided = 5 % of unguided), jerk × 1.4 (10 %), the stop-20 arm's jerk × 0.95 (5 % of stop
-    0) and goal errors × 1.15 (5 %). The worst of the three strengths is taken over
+    0) and goal errors × 1.15 (5 %). Whole body (test motion windows): the null's stop-0 and
+    stop-20 arms are two independent draws; the positive's stop-20 arm is the stop-0 draw
+    itself made smoother by :func:`_smoother_body` (joint jerk × 0.95 exactly, foot skating
+    lower by at least as much), paired as the experiment's two stops are (same x_T and
+    noise). The worst of the three strengths is taken over
     independent arms, so the planted effect on "worst" is at most δ. Tests plant larger
     effects through ``margin`` (a multiple of every δ)."""
     space = test.space("trajectory")
@@ -365,7 +388,9 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                "goal_error_by_strength": {strength_key(v): [] for v in (0, *strengths)},
                "jitter_by_strength": {strength_key(v): [] for v in (0, *strengths)},
                "jitter_stop_0": [], "jitter_stop_20": [], "goal_error_stop_0": [],
-               "goal_error_stop_20": []} for kind in sizes}
+               "goal_error_stop_20": [], "joint_jerk_stop_0": [], "joint_jerk_stop_20": [],
+               "foot_skating_stop_0": [], "foot_skating_stop_20": []} for kind in sizes}
+    motion = test.space("motion")
 
     def measure(x: Tensor, targets: np.ndarray) -> tuple[float, float]:
         return (float(goal_error(space, x, targets).mean()), float(jitter_of(space, x).jerk))
@@ -392,6 +417,14 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                                          goal_factor=stop_goal_f), targets)
             m["goal_error_stop_20"].append(g)
             m["jitter_stop_20"].append(j)
+        bodies = [test.x[_draw(test, goals, control_seed(s, k, stream=31))] for k in (0, 1)]
+        for kind, (_, _, stop_jerk_f, _) in sizes.items():
+            stop_20 = bodies[1] if kind == "null" else _smoother_body(motion, bodies[0],
+                                                                       stop_jerk_f)
+            for key, x in (("stop_0", bodies[0]), ("stop_20", stop_20)):
+                coherent = _coherence(motion, x)
+                out[kind][f"joint_jerk_{key}"].append(coherent[0])
+                out[kind][f"foot_skating_{key}"].append(coherent[1])
     null_f, pos_f = sizes["null"], sizes["positive"]
     return Controls(null=out["null"], positive=out["positive"],
                     planted={"null": dict(zip(("goal", "jerk", "stop_jerk", "stop_goal"), null_f,
