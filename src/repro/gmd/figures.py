@@ -478,6 +478,29 @@ def plot_stop_sweep(stop_goal: dict[str, dict[int, list[float]]],
     return fig
 
 
+def plot_whole_body_stop(coherence: dict[str, dict[int, list[float]]], seeds: Sequence[int], *,
+                         stops: Sequence[int] = (0, 20), num_timesteps: int = 1000) -> Figure:
+    """GMD-F1's whole-body coherence: joint jerk and foot skating of the second stage's motions
+    per seed (lines join a seed's paired stops), ``coherence[metric][stop]`` per-seed values
+    for metrics "joint_jerk" (m/s³) and "foot_skating" (m/s)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
+    where = np.arange(len(stops))
+    for ax, (metric, ylabel) in zip(axes, (("joint_jerk", "joint jerk (m/s³)"),
+                                           ("foot_skating", "foot skating (m/s)")), strict=True):
+        table = np.array([coherence[metric][g] for g in stops])          # (stops, seeds)
+        for k, s in enumerate(seeds):
+            ax.plot(where, table[:, k], "o-", lw=1, ms=4, alpha=0.8, label=f"seed {s}")
+        ax.plot(where, table.mean(axis=1), "k_", ms=20, mew=2, label="mean")
+        ax.set_xticks(where, [f"stop at t = {g}\nof {num_timesteps}" for g in stops])
+        ax.set(ylabel=ylabel, title=f"whole body (second stage): {ylabel.split(' (')[0]}")
+        ax.title.set_fontsize(9)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
 def plot_obstacles(space: FeatureSpace, arms: Sequence[ObstacleArm], obstacles: ObstacleSet,
                    goals: np.ndarray, per_arm: dict[str, dict[str, list[float]]], *,
                    strength: float, seed: int, seeds: Sequence[int], shown: int = 4) -> Figure:
