@@ -175,3 +175,17 @@ def test_guided_sampling_at_t_1000_stops_at_t_20() -> None:
     shift = path.guidance_shift.abs().flatten(1).amax(1).numpy()
     steps = np.asarray(path.timesteps)
     assert np.all(shift[steps >= 20] > 0) and np.all(shift[steps < 20] == 0)
+
+
+def test_clamp_sensitivity_repeats_the_guided_run_under_each_bound(small_spec,
+                                                                   cache: Path) -> None:
+    from repro.gmd.x0_vs_eps import CLAMPS, clamp_sensitivity
+
+    trained = load_or_train_gmd(small_spec())
+    targets = np.array([[0.5, 1.0], [0.0, 2.0]], dtype=np.float32)
+    registered = goal_reaching_experiment(trained, targets, seed=4, strength=10.0)
+    errors = clamp_sensitivity({("epsilon", 4): trained}, {("epsilon", 4): registered}, [4])
+    assert list(errors) == list(CLAMPS)
+    for label, bound in CLAMPS.items():
+        again = goal_reaching_experiment(trained, targets, seed=4, strength=10.0, clip_x0=bound)
+        assert errors[label][0] == pytest.approx(float(again.error_guided.mean()), rel=1e-5)

@@ -327,14 +327,22 @@ def clamp_sensitivity(trajectory_models: dict[tuple[str, int], TrainedGMD],
                       results: dict[tuple[str, int], GoalReachingResult], seeds: Sequence[int],
                       ) -> dict[str, list[float]]:
     """The ε trajectory model's guided goal error (m, per seed) under each of ``CLAMPS`` (same
-    goals and noise as ``results``, which used the registered "gmd")."""
+    goals, noise, strength and stop as ``results``, which used the registered "gmd"; only the
+    guided run is repeated)."""
     errors: dict[str, list[float]] = {}
     for s in seeds:
         registered = results[("epsilon", s)]
+        model = trajectory_models[("epsilon", s)]
         for label, bound in CLAMPS.items():
-            result = registered if bound == "gmd" else goal_reaching_experiment(
-                trajectory_models[("epsilon", s)], registered.targets, seed=s, clip_x0=bound)
-            errors.setdefault(label, []).append(float(result.error_guided.mean()))
+            if bound == "gmd":
+                error = registered.error_guided
+            else:
+                guided = sample(model, len(registered.targets), seed=s, clip_x0=bound,
+                                guidance=goal_guidance(model, registered.targets,
+                                                       strength=registered.strength),
+                                stop_guidance_at=registered.stop_guidance_at)
+                error = goal_error(model, guided, registered.targets)
+            errors.setdefault(label, []).append(float(np.mean(error)))
     return errors
 
 
