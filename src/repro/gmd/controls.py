@@ -435,8 +435,12 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                     null_text=(f"{goals} test trajectories per arm (independent draws, "
                                f"{len(seeds)} seed(s)), every part at its threshold: guided "
                                f"goal error × {null_f[0]:g}, jerk × {null_f[1]:g}; stop 20: jerk "
-                               f"× {null_f[2]:g}, goal error × {null_f[3]:g} (exact)"),
+                               f"× {null_f[2]:g}, goal error × {null_f[3]:g} (exact); whole "
+                               f"body: {goals} test motion windows per stop, independent draws"),
                     positive_text=(f"the same draws beyond every threshold by δ: guided goal "
                                    f"error × {pos_f[0]:.3g}, jerk × {pos_f[1]:.3g}; stop 20: "
-                                   f"jerk × {pos_f[2]:.3g}, goal error × {pos_f[3]:.3g} (exact)"))
+                                   f"jerk × {pos_f[2]:.3g}, goal error × {pos_f[3]:.3g} (exact); "
+                                   f"whole body: the stop-0 motion windows, joint jerk × "
+                                   f"{pos_f[2]:.3g} (exact), foot skating lower by at least as "
+                                   f"much"))
 

@@ -479,10 +479,11 @@ def plot_stop_sweep(stop_goal: dict[str, dict[int, list[float]]],
 
 
 def plot_whole_body_stop(coherence: dict[str, dict[int, list[float]]], seeds: Sequence[int], *,
-                         stops: Sequence[int] = (0, 20), num_timesteps: int = 1000) -> Figure:
+                         stops: dict[int, int], num_timesteps: int = 1000) -> Figure:
     """GMD-F1's whole-body coherence: joint jerk and foot skating of the second stage's motions
-    per seed (lines join a seed's paired stops), ``coherence[metric][stop]`` per-seed values
-    for metrics "joint_jerk" (m/s³) and "foot_skating" (m/s)."""
+    per seed (lines join a seed's paired stops), ``coherence[metric][gmd stop]`` per-seed
+    values for metrics "joint_jerk" (m/s³) and "foot_skating" (m/s); ``stops``: GMD's stop
+    (of 1000) → the trajectory model's (of ``num_timesteps``)."""
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
@@ -493,7 +494,7 @@ def plot_whole_body_stop(coherence: dict[str, dict[int, list[float]]], seeds: Se
         for k, s in enumerate(seeds):
             ax.plot(where, table[:, k], "o-", lw=1, ms=4, alpha=0.8, label=f"seed {s}")
         ax.plot(where, table.mean(axis=1), "k_", ms=20, mew=2, label="mean")
-        ax.set_xticks(where, [f"stop at t = {g}\nof {num_timesteps}" for g in stops])
+        ax.set_xticks(where, [f"stop at t = {t}\nof {num_timesteps}" for t in stops.values()])
         ax.set(ylabel=ylabel, title=f"whole body (second stage): {ylabel.split(' (')[0]}")
         ax.title.set_fontsize(9)
         ax.legend(fontsize=7)
