@@ -15,7 +15,9 @@ from repro.claims.verdicts import INCONCLUSIVE, PAPER_DISCREPANCY, REPRODUCED
 
 A3_GOOD = {"goal_error_x0": [0.5, 0.6, 0.55, 0.52, 0.58],
            "goal_error_eps": [0.1, 0.12, 0.11, 0.1, 0.13],
+           "best_gain_survival_eps": [0.9, 0.95, 0.92, 0.93, 0.91],
            "guided_change_survival_eps": [0.9, 0.95, 0.92, 0.93, 0.91],
+           "best_gain_survival_x0": [0.3, 0.2, 0.25, 0.22, 0.28],
            "guided_change_survival_x0": [0.3, 0.2, 0.25, 0.22, 0.28]}
 
 
@@ -27,7 +29,7 @@ def test_sidecar_carries_both_versions_parts_and_missing_controls(tmp_path: Path
     assert sidecar["verdict"] == decision.verdict
     assert sidecar["v1"]["verdict"] == REPRODUCED and sidecar["v1"]["registry_version"] == 1
     assert [p["name"] for p in sidecar["parts"]] == ["eps_reaches_goal_better",
-                                                     "eps_keeps_more_guided_change"]
+                                                     "eps_keeps_more_of_best_gain"]
     assert sidecar["controls"]["positive"]["status"] == "missing"
     assert sidecar["controls"]["null"]["status"] == "missing"
     assert "affords 3 seeds" in sidecar["power_note"]

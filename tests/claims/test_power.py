@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from repro.claims.power import MAX_SEEDS, claim_seeds, power_of, seeds_for_power, v1_measured
+from repro.claims.power import (
+    MAX_SEEDS,
+    POWER_WITHOUT_V1_RUN,
+    part_seeds,
+    power_of,
+    seeds_for_power,
+    v1_measured,
+)
 from repro.claims.registry import CLAIMS
 from repro.claims.verdicts import ALPHA, Comparison, Part, decide_parts
 from repro.infra import paths
@@ -31,16 +38,25 @@ def test_seeds_for_power_is_the_first_n_with_80_percent() -> None:
 
 
 def test_registered_seeds_are_the_power_calculation_on_the_v1_spreads() -> None:
-    """Every part's ``seeds`` is what ``claim_seeds`` gives on the committed v1 full run (a
-    v3 measurement it lacks: on its nearest v1 measurement, ``power.V1_NEAREST`` and
-    ``power.V1_PROXIES``)."""
+    """Every part's ``seeds`` is what ``claim_seeds`` gives on the committed v1 full run (a v3
+    measurement it lacks: on its nearest v1 one, ``power.V1_NEAREST`` / ``V1_PROXIES``); a
+    part whose measurements v1 did not record (``POWER_WITHOUT_V1_RUN``) is powered from the
+    δ/σ registered with its source."""
     results = read_json(paths.results_dir() / "claims.json")["sidecars"]
     checked = 0
     for claim in CLAIMS.values():
         if not claim.parts:
             continue
         assert results[claim.id].get("mode") == "full"
-        expected = claim_seeds(claim.parts, v1_measured(claim.id, results[claim.id]))
+        measured = v1_measured(claim.id, results[claim.id])
+        from_v1 = [p for p in claim.parts if (claim.id, p.name) not in POWER_WITHOUT_V1_RUN]
+        expected = {p.name: part_seeds(p, measured, len(claim.parts))
+                    for p in from_v1}
+        for p in claim.parts:
+            if (claim.id, p.name) in POWER_WITHOUT_V1_RUN:
+                ratio, source = POWER_WITHOUT_V1_RUN[(claim.id, p.name)]
+                assert source
+                expected[p.name] = seeds_for_power(ratio, 1.0, alpha=ALPHA / len(claim.parts))
         assert {p.name: p.seeds for p in claim.parts} == expected, claim.id
         checked += len(claim.parts)
     assert checked >= 30

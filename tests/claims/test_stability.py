@@ -66,7 +66,9 @@ def test_nested_measurements_are_compared_per_row() -> None:
 
 def test_not_reproduced_claims_show_their_parts(tmp_path: Path) -> None:
     a3 = {"goal_error_x0": [0.5, 0.6, 0.55], "goal_error_eps": [0.1, 0.12, 0.11],
+          "best_gain_survival_eps": [0.9, 0.95, 0.92],
           "guided_change_survival_eps": [0.9, 0.95, 0.92],
+          "best_gain_survival_x0": [0.95, 0.99, 0.97],
           "guided_change_survival_x0": [0.95, 0.99, 0.97]}
     for label in ("a", "b"):
         record_claim(make_context(tmp_path / label, quick=False), "GMD-A3", a3, seeds=[0, 1, 2])
@@ -75,4 +77,4 @@ def test_not_reproduced_claims_show_their_parts(tmp_path: Path) -> None:
     text = stability_markdown(rows, ["a", "b"])
     assert rows[0].verdicts["a"] != "reproduced"
     assert "eps_reaches_goal_better: supported" in text
-    assert "eps_keeps_more_guided_change:" in rows[0].parts["b"]
+    assert "eps_keeps_more_of_best_gain:" in rows[0].parts["b"]

@@ -59,3 +59,7 @@ def test_guidance_schedule_figures() -> None:
     stops = {0: 0, 20: 2}
     table = {"arm": {0: [1.0, 2.0], 20: [1.5, 2.5]}}
     assert len(figures.plot_stop_sweep(table, table, stops, seeds).axes) == 3
+    body = {"joint_jerk": {0: [60.0, 70.0], 20: [58.0, 69.0]},
+            "foot_skating": {0: [0.5, 0.6], 20: [0.45, 0.58]}}
+    fig = figures.plot_whole_body_stop(body, seeds, stops={0: 0, 20: 20}, num_timesteps=1000)
+    assert len(fig.axes) == 2 and "t = 20\nof 1000" in fig.axes[0].get_xticklabels()[1].get_text()

@@ -147,14 +147,46 @@ def test_recorded_steps_show_where_guidance_acts(trained: TrainedGMD) -> None:
     assert np.all(sweep.shift_size[active, 1] > 0)
 
 
-def test_settings_share_notebook_01s_trajectory_model() -> None:
+def test_settings_share_notebook_01s_guidance_trajectory_model() -> None:
     from repro.gmd.x0_vs_eps import Settings as ModelSettings
 
     for quick in (True, False):
         settings = gs.Settings.for_mode(quick)
         model = ModelSettings.for_mode(quick)
-        assert settings.spec() == model.spec("trajectory", "epsilon", model.data(None))
+        assert settings.spec() == model.guidance_trajectory_spec("epsilon", model.data(None))
+        assert settings.motion_spec() == model.spec("motion", "x0", model.data(None))
     full = gs.Settings.for_mode(False)
-    assert full.stops() == {0: 0, 20: 2, 50: 5, 200: 20}
+    assert full.num_timesteps == 1000 and full.gmd_stop == 20
+    assert full.stops() == {0: 0, 20: 20, 50: 50, 200: 200}  # GMD's own steps, no mapping
     assert set(full.rule_strengths) <= set(full.strengths) and 0 in full.strengths
-    assert gs.Settings.for_mode(True).stops() == {0: 0, 20: 0, 50: 1, 200: 4}
+    assert gs.Settings.for_mode(True).stops() == {0: 0, 20: 1, 50: 2, 200: 10}  # T = 50
+
+
+@pytest.fixture(scope="module")
+def motion(tmp_path_factory: pytest.TempPathFactory) -> TrainedGMD:
+    root = write_dataset(tmp_path_factory.mktemp("stand_in_motion"), n_clips=10, seed=3)
+    cache = tmp_path_factory.mktemp("cache_motion")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("REPRO_CACHE_DIR", str(cache))
+        spec = GMDModelSpec(task="motion", prediction="x0",
+                            data=DataConfig(data_dir=str(root), frames=FRAMES, stride=8),
+                            base_channels=8, channel_mults=(1, 2), diffusion_steps=10,
+                            train_steps=3, batch_size=8)
+        return load_or_train_gmd(spec)
+
+
+def test_second_stage_puts_the_body_on_the_imputed_trajectory(trained: TrainedGMD,
+                                                              motion: TrainedGMD) -> None:
+    sweep = gs.sweep_strengths(trained, GOALS, [10.0], seed=0, stop=0)
+    trajectories = sweep.samples[0]
+    body = gs.whole_body(motion, trained.space, trajectories, GOALS, seed=0, gmd_stop=0)
+    assert body.motions.shape == (3, 263, FRAMES) and body.motion_stop == 0
+    np.testing.assert_allclose(motion.space.root_positions(body.motions),
+                               trained.space.root_positions(trajectories), atol=1e-4)
+    np.testing.assert_allclose(body.goal_error, sweep.goal_error[0], atol=1e-4)
+    assert body.joint_jerk > 0
+    # GMD's stop t = 20 of 1000 is 2 % of the motion model's T = 10: round(0.2) = 0 steps free;
+    # stop 200 of 1000 leaves the last 2 steps free, so the root may leave the imputed path
+    free = gs.whole_body(motion, trained.space, trajectories, GOALS, seed=0, gmd_stop=200)
+    assert free.motion_stop == 2
+    assert not torch.allclose(free.motions[:, :4], body.motions[:, :4], atol=1e-4)

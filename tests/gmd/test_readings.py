@@ -5,23 +5,35 @@ from __future__ import annotations
 
 from repro.gmd import readings
 
-CLAMPS = ("ours: ±max|x|", "GMD's constant: ±6", "no clamp")
-
 
 def _clamp(ours: float, gmds: float, x0: float) -> str:
-    errors = dict(zip(CLAMPS, ([ours], [gmds], [1e5]), strict=True))
+    errors = dict(zip(readings.CLAMP_LABELS, ([gmds], [ours], [1e5]), strict=True))
     return readings.reading_clamp(errors, bound=11.3, unguided_eps=3.0, guided_x0=x0,
                                   seeds=[0])
 
 
 def test_clamp_reading_follows_the_numbers() -> None:
     text = _clamp(5.8, 2.5, 0.8)
-    assert "±11.3" in text and "5.8 m against 3 m unguided" in text
-    assert "makes the ε model *worse*" in text and "±6 it helps the ε model" in text
-    assert "does not hinge" in text
+    assert "±11.3" in text and "(5.8 m)" in text and "2.5 m against 3 m unguided" in text
+    assert "makes the ε model *worse*" in text and "(registered) guidance helps" in text
+    assert "x0 model reaches the goals better" in text and "does not hinge" in text
     text = _clamp(2.0, 0.5, 0.8)   # the x0 model is not better under GMD's bound
-    assert "hinges on our one free choice" in text and "does not hinge" not in text
+    assert "rests on taking GMD's bound" in text and "does not hinge" not in text
     assert "worse" not in text
+
+
+def test_a3_reading_says_where_the_closest_approach_lies() -> None:
+    text = readings.reading_a3(stop=20, num_timesteps=1000,
+                               best_step={"x0": 240.0, "epsilon": 30.0},
+                               survival={"x0": 0.7, "epsilon": 0.95},
+                               stop_step_survival={"x0": 1.0, "epsilon": 1.0})
+    assert "t ≥ 20 of T = 1000" in text and "t ≈ 240" in text and "keeps 0.70" in text
+    assert "both closest approaches lie before the stop step" in text
+    late = readings.reading_a3(stop=20, num_timesteps=1000,
+                               best_step={"x0": 3.0, "epsilon": 30.0},
+                               survival={"x0": 0.7, "epsilon": 0.95},
+                               stop_step_survival={"x0": 1.0, "epsilon": 1.0})
+    assert "after the stop step" in late
 
 
 def _runs(abs_guidance: float) -> dict[str, list[dict[str, float]]]:

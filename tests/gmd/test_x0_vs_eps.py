@@ -16,7 +16,12 @@ from repro.gmd.models import (
     load_or_train_gmd,
 )
 from repro.gmd.windows import DataConfig, FeatureSpace
-from repro.gmd.x0_vs_eps import goal_error_kept, goal_reaching_experiment, guided_change_survival
+from repro.gmd.x0_vs_eps import (
+    best_gain_survival,
+    goal_error_kept,
+    goal_reaching_experiment,
+    guided_change_survival,
+)
 
 FRAMES = 16  # = conftest.FRAMES: the windows of the small_config fixture
 
@@ -33,7 +38,7 @@ def test_goal_reaching_experiment_and_measurements(small_spec, cache: Path) -> N
     jitter = jitter_of(trained, result.unguided)
     assert jitter.acceleration > 0 and jitter.jerk > 0
     # the same seed without guidance is the same sample
-    again = sample(trained, 3, seed=0)
+    again = sample(trained, 3, seed=0, clip_x0="gmd")
     assert torch.allclose(again, result.unguided)
 
 
@@ -101,3 +106,86 @@ def test_settings_build_the_specs_notebook_01_always_trained() -> None:
     assert Settings.for_mode(False, train_steps=50).train_steps == 50
     assert full.data("/some/folder") == DataConfig(data_dir="/some/folder", frames=48)
     assert quick.evaluator_config("id").steps == 30 and full.evaluator_config("id").steps == 500
+
+
+def test_best_gain_survival_on_a_hand_made_path() -> None:
+    """Unguided final error 3 m; the guided x̂0 comes within 1 m (best gain 2 m) at its closest
+    approach and the guided sample ends at 2.5 m (final gain 0.5 m): survival 0.25."""
+    unguided = [3.0, 3.0]
+    x0_path = [[4.0, 4.0], [1.5, 0.5], [2.0, 2.0], [2.5, 2.5]]   # steps T−1 … 0, two goals
+    assert best_gain_survival(unguided, x0_path, [2.0, 3.0]) == pytest.approx(0.25)
+    assert best_gain_survival(unguided, x0_path, [1.0, 1.0]) == pytest.approx(1.0)
+    assert best_gain_survival(unguided, x0_path, [3.0, 3.0]) == pytest.approx(0.0)
+    assert best_gain_survival(unguided, x0_path, [4.0, 4.0]) == pytest.approx(-0.5)
+    # the minimum is over the batch-mean curve: one goal's lucky step does not count alone
+    assert best_gain_survival([3.0, 3.0], [[0.0, 4.0], [2.0, 2.0]], [2.5, 2.5]) == pytest.approx(
+        0.5)
+    assert np.isnan(best_gain_survival([1.0], [[2.0], [1.5]], [1.0]))  # never a gain
+
+
+def test_goal_reaching_result_reads_the_survival_from_its_own_path(small_spec,
+                                                                   cache: Path) -> None:
+    trained = load_or_train_gmd(small_spec())
+    targets = np.array([[0.5, 1.0], [0.0, 2.0]], dtype=np.float32)
+    result = goal_reaching_experiment(trained, targets, seed=1, strength=10.0)
+    assert result.clip_x0 == 6.0  # GMD's clamp of an ε model's x̂0, registered
+    expected = best_gain_survival(result.error_unguided, result.x0_error_guided,
+                                  result.error_guided)
+    assert result.survival == pytest.approx(expected, nan_ok=True)
+    assert result.best_gain == pytest.approx(result.error_unguided.mean()
+                                             - result.x0_error_guided.mean(axis=1).min())
+    assert result.best_step in set(result.timesteps.tolist())
+
+
+def test_guidance_trajectory_spec_is_gmds_diffusion_and_stops_at_20() -> None:
+    from repro.gmd import paper_settings
+    from repro.gmd.guidance import default_stop_step, guidance_parameters
+    from repro.gmd.x0_vs_eps import Settings, guidance_trajectory_spec
+
+    full = Settings.for_mode(False)
+    spec = full.guidance_trajectory_spec("epsilon", full.data(None), seed=2)
+    assert spec == full.spec("trajectory", "epsilon", full.data(None), seed=2).replace(
+        diffusion_steps=1000, schedule="cosine")
+    assert spec == guidance_trajectory_spec(False, seed=2)
+    assert spec.diffusion_steps == paper_settings.GUIDANCE_DIFFUSION_STEPS
+    assert default_stop_step(1000) == paper_settings.GUIDANCE_STOP_T == 20
+    assert default_stop_step(50) == 1 and default_stop_step(100) == 2
+    quick = guidance_trajectory_spec(True, "x0")
+    assert quick.diffusion_steps == 50 and quick.prediction == "x0"
+    eps = TrainedGMD(torch.nn.Linear(1, 1), spec.diffusion(), None, spec)  # type: ignore[arg-type]
+    assert guidance_parameters(eps) == {"num_timesteps": 1000, "guidance_stop_t": 20,
+                                        "x0_clamp": 6.0}
+    x0 = TrainedGMD(torch.nn.Linear(1, 1), spec.diffusion(), None,  # type: ignore[arg-type]
+                    spec.replace(prediction="x0"))
+    assert guidance_parameters(x0, stop=0)["x0_clamp"] is None
+
+
+def test_guided_sampling_at_t_1000_stops_at_t_20() -> None:
+    """At T = 1000 the guidance shift is non-zero down to t = 20 and zero below it."""
+    from repro.core.diffusion import Guidance
+
+    spec = GMDModelSpec(prediction="x0", diffusion_steps=1000, data=DataConfig(frames=FRAMES))
+    diffusion = spec.diffusion()
+    space = FeatureSpace("trajectory", "absolute", np.zeros(4, np.float32),
+                         np.ones(4, np.float32))
+    trained = TrainedGMD(_ExactGaussianDenoiser(diffusion, "x0"), diffusion, space, spec)
+    goal = Guidance(lambda x0: (space.root_xz(x0)[:, -1] - 1.0).abs().mean(-1), strength=1.0)
+    _, path = sample(trained, 2, seed=0, guidance=goal, return_trajectory=True,
+                     trajectory_timesteps=range(30))
+    shift = path.guidance_shift.abs().flatten(1).amax(1).numpy()
+    steps = np.asarray(path.timesteps)
+    assert np.all(shift[steps >= 20] > 0) and np.all(shift[steps < 20] == 0)
+
+
+def test_clamp_sensitivity_repeats_the_guided_run_under_each_bound(small_spec,
+                                                                   cache: Path) -> None:
+    from repro.gmd.x0_vs_eps import CLAMPS, clamp_sensitivity
+
+    trained = load_or_train_gmd(small_spec())
+    targets = np.array([[0.5, 1.0], [0.0, 2.0]], dtype=np.float32)
+    registered = goal_reaching_experiment(trained, targets, seed=4, strength=10.0)
+    errors = clamp_sensitivity({("epsilon", 4): trained}, {("epsilon", 4): registered}, [4])
+    assert list(errors) == list(CLAMPS)
+    for label, bound in CLAMPS.items():
+        again = goal_reaching_experiment(trained, targets, seed=4, strength=10.0, clip_x0=bound)
+        assert errors[label][0] == pytest.approx(float(again.error_guided.mean()), rel=1e-5)

@@ -79,6 +79,23 @@ V1_PROXIES: dict[str, dict[str, str]] = {
 }
 
 
+#: parts whose measurements no v1 full run recorded (registry v3): the δ/σ their registered
+#: ``seeds`` come from (``power.seeds_for_power(δ/σ, 1)`` at α/parts), with where σ comes from.
+#: The first v3 full run's spreads replace these.
+POWER_WITHOUT_V1_RUN: dict[tuple[str, str], tuple[float, str]] = {
+    ("GMD-A3", "eps_keeps_more_of_best_gain"): (
+        0.1 / (np.sqrt(2) * 0.06709583156114049),
+        "v1 recorded the same share outside the rule (extra goal_error_kept_from_best, T = 100): "
+        "x0 arm 0.79 / 0.74 / 0.66, sd 0.067; the ε arm's is undefined (its guidance never "
+        "gained), so σ of the difference is taken as √2 × 0.067 (two arms of that spread)"),
+    ("GMD-F1", "stop_at_20_more_coherent"): (
+        0.05 * 127713.5697 / 0.03613,
+        "no whole-body measurement in v1; the nearest is v1's root jerk stop 0 − stop 20 "
+        "(δ 5 % of 1.277×10⁵ m/s³ over σ 0.036 m/s³, T = 100, where the stop moved 2 of 100 "
+        "steps): 2 seeds, which says nothing about T = 1000"),
+}
+
+
 def v1_measured(claim_id: str, sidecar: Mapping[str, Any]) -> dict[str, Any]:
     """A v1 sidecar's ``measured`` with the claim's v3 measurements added: each
     :data:`V1_NEAREST` one as the per-seed location errors of its nearest v1 method (in seed

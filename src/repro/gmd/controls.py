@@ -2,7 +2,8 @@
 
 Each function runs the *same measurement code* as its experiment, on the same number of seeds
 and items, on inputs whose truth is known: an exact model (GMD-A3) or the stand-in data
-themselves (GMD-A4, C4) as the "model". The **null** control draws both arms from the same
+themselves (GMD-A4, C4) as the "model" (GMD-A3's, with exact and planted models, are in
+``repro.gmd.controls_a3``). The **null** control draws both arms from the same
 source with independent randomness per seed (no effect); the **positive** control takes the
 null's inputs and plants every part's effect at its registered size δ
 (``repro.claims.registry_gmd``), by an exact transformation wherever one exists (radial
@@ -13,30 +14,26 @@ controls=...)`` decides both with the claim's own rule.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import torch
-from torch import Tensor, nn
+from torch import Tensor
 
-from repro.core.diffusion import GaussianDiffusion
 from repro.core.tables import markdown_table
 from repro.gmd.emphasis_study import coherence
 from repro.gmd.guidance import goal_error
 from repro.gmd.guidance_schedule import strength_key
 from repro.gmd.location_imputation import REGISTERED_METHODS, location_errors
-from repro.gmd.measurements import jitter_of
-from repro.gmd.models import TrainedGMD
+from repro.gmd.measurements import foot_skating_of, jitter_of
 from repro.gmd.windows import FeatureSpace, MotionWindows, goal_targets
-from repro.gmd.x0_vs_eps import GoalReachingResult, goal_reaching_experiment, motion_fid
+from repro.gmd.x0_vs_eps import motion_fid
 from repro.motion.features import FEATURE_BLOCKS
 
-__all__ = ["CONTROL_SEED_BASE", "Controls", "ExactGaussianDenoiser", "a3_controls",
-           "a4_controls", "b2_controls", "c4_controls", "calibrate_increasing", "control_seed",
-           "controls_markdown", "exact_model", "f1_controls", "plant_undone_guidance",
+__all__ = ["CONTROL_SEED_BASE", "Controls", "a4_controls", "b2_controls", "c4_controls",
+           "calibrate_increasing", "control_seed", "controls_markdown", "f1_controls",
            "scale_world"]
 
 #: control randomness lives far from the experiments' seeds (0, 1, 2, …)
@@ -137,110 +134,6 @@ def _offset_unread_features(space: FeatureSpace, x: Tensor, size: float,
     std = torch.as_tensor(space.std[_NOT_JOINTS], dtype=features.dtype)
     features[..., _NOT_JOINTS] += size * std * direction.to(features.dtype)
     return space.normalise(features)
-
-
-# --- GMD-A3: an exact model, guidance undone in the planted arm ----------------------------
-
-class ExactGaussianDenoiser(nn.Module):
-    """The exact x0 predictor for data whose every channel is ~ N(0, Σ) over frames, Σ the
-    squared-exponential kernel exp(−(i−j)²/2ℓ²) (smooth paths, unit variance):
-    x̂0 = E[x0 | x_t] = √ᾱ_t Σ (ᾱ_t Σ + (1−ᾱ_t) I)⁻¹ x_t. A goal on one frame then moves every
-    frame (as a learned model's does). Its x0 and ε parametrisations are the same model."""
-
-    def __init__(self, diffusion: GaussianDiffusion, frames: int,
-                 length_scale: float | None = None) -> None:
-        super().__init__()
-        scale = frames / 4 if length_scale is None else length_scale
-        index = torch.arange(frames, dtype=torch.float64)
-        kernel = torch.exp(-0.5 * ((index[:, None] - index[None, :]) / scale) ** 2)
-        alpha_bar = torch.as_tensor(diffusion.alphas_cumprod, dtype=torch.float64)
-        eye = torch.eye(frames, dtype=torch.float64)
-        posterior = torch.stack([a.sqrt() * kernel @ torch.linalg.inv(a * kernel + (1 - a) * eye)
-                                 for a in alpha_bar])
-        self.register_buffer("posterior", posterior.float())  # (T_diffusion, frames, frames)
-        self.unused = nn.Parameter(torch.zeros(1))  # TrainedGMD reads its device from one
-
-    def forward(self, x: Tensor, t: Tensor, **_: Any) -> Tensor:
-        return torch.einsum("bij,bcj->bci", self.posterior[t], x)
-
-
-def exact_model(trained: TrainedGMD) -> TrainedGMD:
-    """The exact smooth-Gaussian x0 model (:class:`ExactGaussianDenoiser`) with ``trained``'s
-    diffusion, feature space and window length."""
-    frames = trained.spec.data.frames
-    return TrainedGMD(ExactGaussianDenoiser(trained.diffusion, frames), trained.diffusion,
-                      trained.space, trained.spec.replace(prediction="x0"))
-
-
-def plant_undone_guidance(result: GoalReachingResult, *, goal_factor: float,
-                          survival_drop: float, frame: int = -1) -> GoalReachingResult:
-    """``result`` with its guided final sample changed so that, exactly, every goal error is
-    ``goal_factor`` × its own (the goal frame's root moved radially away from its goal) and
-    the guided-change survival is ``survival_drop`` lower (the guided change Δ_final of the
-    other frames shrunk by the factor λ that solves the survival's linear equation)."""
-    space = result.space
-    with torch.no_grad():
-        guided = space.root_xz(result.guided).double()
-        unguided = space.root_xz(result.unguided).double()
-        stop = (space.root_xz(result.x0_guided_at_stop)
-                - space.root_xz(result.x0_unguided_at_stop)).double()
-    frames = guided.shape[1]
-    last = frame % frames
-    targets = torch.as_tensor(result.targets, dtype=torch.float64)
-    planted = guided.clone()
-    planted[:, last] = targets + goal_factor * (guided[:, last] - targets)
-    rest = [f for f in range(frames) if f != last]
-    change = guided - unguided
-    survival = float((change * stop).sum() / (stop * stop).sum())
-    kept_last = float(((planted[:, last] - unguided[:, last]) * stop[:, last]).sum())
-    share = ((survival - survival_drop) * float((stop * stop).sum()) - kept_last) / float(
-        (change[:, rest] * stop[:, rest]).sum())
-    planted[:, rest] = unguided[:, rest] + share * change[:, rest]
-    features = space.unnormalise(result.guided).clone()
-    features[..., [_ROOT_X, _ROOT_Z]] = planted.to(features.dtype)
-    x = space.normalise(features)
-    return dataclasses.replace(result, guided=x, error_guided=goal_error(space, x, result.targets,
-                                                                         frame))
-
-
-def _a3_measured(x0: Sequence[GoalReachingResult], eps: Sequence[GoalReachingResult],
-                 ) -> dict[str, list[float]]:
-    """The notebook's GMD-A3 measurements (batch-mean goal error, survival) of two arms."""
-    return {"goal_error_x0": [float(r.error_guided.mean()) for r in x0],
-            "goal_error_eps": [float(r.error_guided.mean()) for r in eps],
-            "guided_change_survival_x0": [float(r.survival) for r in x0],
-            "guided_change_survival_eps": [float(r.survival) for r in eps]}
-
-
-def a3_controls(models: dict[tuple[str, str, int], TrainedGMD], test: MotionWindows,
-                seeds: Sequence[int], *, goals: int, min_distance: float,
-                goal_factor: float = TENTH_FACTOR, survival_drop: float = 0.1) -> Controls:
-    """GMD-A3's controls: the exact model guided toward the experiment's goals per seed.
-
-    Null: both arms are the exact model with independent sampling noise (x0 and ε of an exact
-    model are the same, so no effect). Positive: the same runs with the x0 arm's final guided
-    sample changed by :func:`plant_undone_guidance` — goal errors × 1/0.9 (x0 − ε = 10 % of
-    x0's goal error, part 1's δ, in expectation) and survival − 0.1 (part 2's δ); tests plant
-    larger effects through ``goal_factor`` and ``survival_drop``."""
-    x0_runs, eps_runs = [], []
-    for s in seeds:
-        exact = exact_model(models[("trajectory", "x0", s)])
-        targets = goal_targets(test, goals, seed=s, min_distance=min_distance)
-        eps_runs.append(goal_reaching_experiment(exact, targets, seed=control_seed(s, 0),
-                                                 clip_x0=None))
-        x0_runs.append(goal_reaching_experiment(exact, targets, seed=control_seed(s, 1),
-                                                clip_x0=None))
-    planted = [plant_undone_guidance(r, goal_factor=goal_factor, survival_drop=survival_drop)
-               for r in x0_runs]
-    return Controls(null=_a3_measured(x0_runs, eps_runs),
-                    positive=_a3_measured(planted, eps_runs),
-                    planted={"goal_error_factor_x0": goal_factor,
-                             "survival_drop_x0": survival_drop,
-                             "model": "exact smooth-Gaussian x0 model, independent noise per arm"},
-                    null_text=(f"the exact smooth-Gaussian model guided toward the same goals "
-                               f"in both arms, independent noise, {len(seeds)} seed(s)"),
-                    positive_text=(f"the same runs; the x0 arm's goal errors × {goal_factor:.3g} "
-                                   f"and its survival − {survival_drop:g} (exact)"))
 
 
 # --- GMD-A4: the data as the model, jitter and FID planted in the ε arm ---------------------
@@ -450,6 +343,25 @@ def _planted_path(space: FeatureSpace, x: Tensor, targets: np.ndarray, *, jerk_f
     return space.normalise(features)
 
 
+def _coherence(space: FeatureSpace, x: Tensor) -> tuple[float, float]:
+    """(mean joint jerk m/s³, foot skating m/s) of motion-task samples, as ``whole_body``."""
+    return float(jitter_of(space, x).jerk), float(foot_skating_of(space, x))
+
+
+def _smoother_body(space: FeatureSpace, x: Tensor, jerk_factor: float) -> Tensor:
+    """Motions whose joint jerk is ``jerk_factor`` × theirs, by a horizontal scale of the
+    body (:func:`scale_world`, heights and contacts kept) of the size that gives that ratio
+    (bisection: a horizontal scale f lowers the jerk by less than f, so f ≤ ``jerk_factor``
+    and the foot skating, × f exactly, falls at least as much)."""
+    target = _coherence(space, x)[0] * jerk_factor
+
+    def jerk_drop(shrink: float) -> float:
+        return -_coherence(space, scale_world(space, x, 1 - shrink, horizontal_only=True))[0]
+
+    shrink = calibrate_increasing(jerk_drop, -target, high=1 - jerk_factor, iterations=40)
+    return scale_world(space, x, 1 - shrink, horizontal_only=True)
+
+
 def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[float], *,
                 goals: int, min_distance: float, margin: float = 1.0) -> Controls:
     """GMD-F1's controls: test trajectories toward the experiment's goals stand in for the
@@ -461,7 +373,11 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
     errors × 0.5 and jerk × 1.5; the stop-20 arm with jerk × 1 and goal errors × 1.2.
     Positive (every part beyond its threshold by δ): goal errors × 0.45 (0.5·unguided −
     guided = 5 % of unguided), jerk × 1.4 (10 %), the stop-20 arm's jerk × 0.95 (5 % of stop
-    0) and goal errors × 1.15 (5 %). The worst of the three strengths is taken over
+    0) and goal errors × 1.15 (5 %). Whole body (test motion windows): the null's stop-0 and
+    stop-20 arms are two independent draws; the positive's stop-20 arm is the stop-0 draw
+    itself made smoother by :func:`_smoother_body` (joint jerk × 0.95 exactly, foot skating
+    lower by at least as much), paired as the experiment's two stops are (same x_T and
+    noise). The worst of the three strengths is taken over
     independent arms, so the planted effect on "worst" is at most δ. Tests plant larger
     effects through ``margin`` (a multiple of every δ)."""
     space = test.space("trajectory")
@@ -473,7 +389,9 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                "goal_error_by_strength": {strength_key(v): [] for v in (0, *strengths)},
                "jitter_by_strength": {strength_key(v): [] for v in (0, *strengths)},
                "jitter_stop_0": [], "jitter_stop_20": [], "goal_error_stop_0": [],
-               "goal_error_stop_20": []} for kind in sizes}
+               "goal_error_stop_20": [], "joint_jerk_stop_0": [], "joint_jerk_stop_20": [],
+               "foot_skating_stop_0": [], "foot_skating_stop_20": []} for kind in sizes}
+    motion = test.space("motion")
 
     def measure(x: Tensor, targets: np.ndarray) -> tuple[float, float]:
         return (float(goal_error(space, x, targets).mean()), float(jitter_of(space, x).jerk))
@@ -500,6 +418,14 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                                          goal_factor=stop_goal_f), targets)
             m["goal_error_stop_20"].append(g)
             m["jitter_stop_20"].append(j)
+        bodies = [test.x[_draw(test, goals, control_seed(s, k, stream=31))] for k in (0, 1)]
+        for kind, (_, _, stop_jerk_f, _) in sizes.items():
+            stop_20 = bodies[1] if kind == "null" else _smoother_body(motion, bodies[0],
+                                                                       stop_jerk_f)
+            for key, x in (("stop_0", bodies[0]), ("stop_20", stop_20)):
+                coherent = _coherence(motion, x)
+                out[kind][f"joint_jerk_{key}"].append(coherent[0])
+                out[kind][f"foot_skating_{key}"].append(coherent[1])
     null_f, pos_f = sizes["null"], sizes["positive"]
     return Controls(null=out["null"], positive=out["positive"],
                     planted={"null": dict(zip(("goal", "jerk", "stop_jerk", "stop_goal"), null_f,
@@ -510,8 +436,12 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                     null_text=(f"{goals} test trajectories per arm (independent draws, "
                                f"{len(seeds)} seed(s)), every part at its threshold: guided "
                                f"goal error × {null_f[0]:g}, jerk × {null_f[1]:g}; stop 20: jerk "
-                               f"× {null_f[2]:g}, goal error × {null_f[3]:g} (exact)"),
+                               f"× {null_f[2]:g}, goal error × {null_f[3]:g} (exact); whole "
+                               f"body: {goals} test motion windows per stop, independent draws"),
                     positive_text=(f"the same draws beyond every threshold by δ: guided goal "
                                    f"error × {pos_f[0]:.3g}, jerk × {pos_f[1]:.3g}; stop 20: "
-                                   f"jerk × {pos_f[2]:.3g}, goal error × {pos_f[3]:.3g} (exact)"))
+                                   f"jerk × {pos_f[2]:.3g}, goal error × {pos_f[3]:.3g} (exact); "
+                                   f"whole body: the stop-0 motion windows, joint jerk × "
+                                   f"{pos_f[2]:.3g} (exact), foot skating lower by at least as "
+                                   f"much"))
 

@@ -261,7 +261,8 @@ def plot_goal_reaching(results: dict, spaces: dict, seeds: list[int], *,
                        paths_shown: int = 5) -> Figure:
     """GMD-A3: the first seed's guided (solid) and unguided (dotted) root paths of both
     trajectory models toward their goals (×), and the goal error of x̂0 over sampling for
-    every seed (the stop step dashed). ``results[(prediction, seed)]``:
+    every seed (the stop step dashed; the closest approach ● and the final sample ■ are
+    what the best-gain survival compares). ``results[(prediction, seed)]``:
     ``GoalReachingResult``; ``spaces[prediction]``: the first seed's model's feature space."""
     import matplotlib.pyplot as plt
 
@@ -291,9 +292,13 @@ def plot_goal_reaching(results: dict, spaces: dict, seeds: list[int], *,
                     lw=1.4, label=label)
             ax.plot(result.timesteps, result.x0_error_unguided.mean(axis=1), color=colour,
                     lw=0.8, ls=":")
+            ax.plot(result.best_step, result.best_step_error, "o", color=colour, ms=4)
+            ax.plot(0, result.error_guided.mean(), "s", color=colour, ms=4)
     ax.axvline(results[("x0", first)].stop_guidance_at, color="grey", lw=0.8, ls="--")
-    ax.set(xlabel="denoising step t (T−1 → 0)", ylabel="goal error of x̂0 (m)", yscale="log",
-           title="goal error over sampling (solid guided, dotted unguided; dashed: stop step)")
+    ax.set_xscale("symlog", linthresh=10)
+    ax.set(xlabel="denoising step t (T−1 → 0, log beyond 10)", ylabel="goal error of x̂0 (m)",
+           yscale="log", title="goal error over sampling (solid guided, dotted unguided; ● "
+                               "closest approach, ■ final; dashed: stop step)")
     ax.title.set_fontsize(8)
     ax.invert_xaxis()
     ax.legend(fontsize=8)
@@ -467,6 +472,30 @@ def plot_stop_sweep(stop_goal: dict[str, dict[int, list[float]]],
     axes[0].set_title("goal error vs stop step (mean; dots: seeds)", fontsize=9)
     axes[1].set_title("coherence vs stop step", fontsize=9)
     axes[2].set_title("paired: jerk relative to guiding down to t = 0", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def plot_whole_body_stop(coherence: dict[str, dict[int, list[float]]], seeds: Sequence[int], *,
+                         stops: dict[int, int], num_timesteps: int = 1000) -> Figure:
+    """GMD-F1's whole-body coherence: joint jerk and foot skating of the second stage's motions
+    per seed (lines join a seed's paired stops), ``coherence[metric][gmd stop]`` per-seed
+    values for metrics "joint_jerk" (m/s³) and "foot_skating" (m/s); ``stops``: GMD's stop
+    (of 1000) → the trajectory model's (of ``num_timesteps``)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
+    where = np.arange(len(stops))
+    for ax, (metric, ylabel) in zip(axes, (("joint_jerk", "joint jerk (m/s³)"),
+                                           ("foot_skating", "foot skating (m/s)")), strict=True):
+        table = np.array([coherence[metric][g] for g in stops])          # (stops, seeds)
+        for k, s in enumerate(seeds):
+            ax.plot(where, table[:, k], "o-", lw=1, ms=4, alpha=0.8, label=f"seed {s}")
+        ax.plot(where, table.mean(axis=1), "k_", ms=20, mew=2, label="mean")
+        ax.set_xticks(where, [f"stop at t = {t}\nof {num_timesteps}" for t in stops.values()])
+        ax.set(ylabel=ylabel, title=f"whole body (second stage): {ylabel.split(' (')[0]}")
+        ax.title.set_fontsize(9)
+        ax.legend(fontsize=7)
     fig.tight_layout()
     return fig
 

@@ -2,8 +2,14 @@
 
 GMD's goal functions G act on the un-normalised x̂0 — L1 (p = 1), averaged over the target
 entries as GMD does — and enter sampling through ``diffusion.Guidance``
-(μ̃ = μ − s·Σ_t·∇_{x_t} G(x̂0)); guidance (and imputation) stop at t = 20 of T = 1000,
-scaled here to the same fraction of a model's T (``default_stop_step``).
+(μ̃ = μ − s·Σ_t·∇_{x_t} G(x̂0)); guidance (and imputation) stop at t = 20 of T = 1000
+(``paper_settings.GUIDANCE_STOP_T``). A model with another T (quick mode, the T = 100 motion
+models) stops at the same fraction of its T (``default_stop_step``).
+
+Sampling is ancestral DDPM over every step, as GMD's: its ``create_gaussian_diffusion``
+respaces only with ``use_ddim`` (default False), so nothing is respaced here either. GMD
+clamps an ε model's x̂0 to ±``clip_range`` = 6 (default of its ``DiffusionOptions``;
+``paper_settings.X0_CLAMP``): ``clip_x0="gmd"``.
 """
 
 from __future__ import annotations
@@ -17,36 +23,70 @@ from torch import Tensor
 
 from repro.core.diffusion import Guidance, Imputation, SampleTrajectory
 from repro.gmd.models import TrainedGMD
+from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_STOP_T, X0_CLAMP
 from repro.gmd.windows import FeatureSpace
 
 __all__ = [
     "GMD_GUIDANCE_STRENGTH",
     "GMD_STOP_FRACTION",
+    "Clamp",
     "default_stop_step",
     "goal_error",
     "goal_guidance",
     "goal_reaching_loss",
+    "guidance_parameters",
     "obstacle_loss",
+    "resolve_clamp",
     "sample",
     "waypoint_loss",
 ]
 
 #: GMD stops guidance at t = 20 of T = 1000 (appendix F): 2 % of the steps.
-GMD_STOP_FRACTION = 20 / 1000
+GMD_STOP_FRACTION = GUIDANCE_STOP_T / GUIDANCE_DIFFUSION_STEPS
 #: GMD's guidance strength s (appendix F; REFERENCE.md "Guidance").
 GMD_GUIDANCE_STRENGTH = 100.0
 
 
+#: an x̂0 clamp: a bound, None (never), "auto" (an ε model at ±its x0_bound) or "gmd" (an ε
+#: model at GMD's ±6, an x0 model never)
+Clamp = float | None | Literal["auto", "gmd"]
+
+
 def default_stop_step(num_timesteps: int) -> int:
-    """GMD's stop step t = 20 of T = 1000 (guidance acts while t ≥ 20), scaled to T."""
+    """GMD's stop step: t = ``GUIDANCE_STOP_T`` = 20 at T = 1000 (guidance acts while t ≥ 20);
+    at another T the same fraction of the steps, round(0.02·T) (e.g. 1 at the quick T = 50)."""
+    if num_timesteps == GUIDANCE_DIFFUSION_STEPS:
+        return GUIDANCE_STOP_T
     return int(round(GMD_STOP_FRACTION * num_timesteps))
+
+
+def resolve_clamp(trained: TrainedGMD, clip_x0: Clamp) -> float | None:
+    """The x̂0 bound ``sample`` uses: "gmd" → ±``X0_CLAMP`` for an ε model (GMD's
+    ``process_xstart`` clamps an ε model's x̂0 to ±clip_range = 6), none for an x0 model;
+    "auto" → ±``trained.x0_bound`` for an ε model; a number or None as given."""
+    if clip_x0 == "gmd":
+        return X0_CLAMP if trained.spec.prediction == "epsilon" else None
+    if clip_x0 == "auto":
+        return trained.x0_bound if trained.spec.prediction == "epsilon" else None
+    return None if clip_x0 is None else float(clip_x0)
+
+
+def guidance_parameters(trained: TrainedGMD, *, stop: int | None = None,
+                        clip_x0: Clamp = "gmd") -> dict[str, float | int | None]:
+    """The settings a guided run used, for a sidecar's ``extra["parameters"]``:
+    ``num_timesteps`` (T), ``guidance_stop_t`` (guidance while t ≥ it) and ``x0_clamp``
+    (the bound on an ε model's x̂0, None for none)."""
+    return {"num_timesteps": int(trained.num_timesteps),
+            "guidance_stop_t": default_stop_step(trained.num_timesteps) if stop is None
+            else int(stop),
+            "x0_clamp": resolve_clamp(trained, clip_x0)}
 
 
 def sample(trained: TrainedGMD, n: int, *, seed: int, guidance: Guidance | None = None,
            imputation: Imputation | None = None, stop_guidance_at: int | None = None,
            return_trajectory: bool = False, trajectory_timesteps: Sequence[int] | None = None,
            text: str | Sequence[str] | None = None, noise: Tensor | None = None,
-           clip_x0: float | None | Literal["auto"] = "auto",
+           clip_x0: Clamp = "auto",
            ) -> Tensor | tuple[Tensor, SampleTrajectory]:
     """n samples (n, C, frames) in model space by ancestral sampling (``p_sample_loop``).
 
@@ -55,11 +95,11 @@ def sample(trained: TrainedGMD, n: int, *, seed: int, guidance: Guidance | None 
     ``stop_guidance_at`` defaults to GMD's 2 % of T (``default_stop_step``). ``text``: one
     caption or n (text-conditioned models only).
 
-    ``clip_x0`` "auto": an ε model's x̂0 is clamped to ±``trained.x0_bound`` (the largest
-    |value| of its training windows), as GMD clamps its ε trajectory model's x̂0 (to ±6 in
-    its normalisation; an x0 model is not clamped). Without it an ε model diverges at the
-    first step of the cosine schedule, where x̂0 = (x_T − √(1−ᾱ) ε̂)/√ᾱ multiplies the error
-    of ε̂ by 1/√ᾱ_{T−1} (≈ 2000 at T = 100). A number clamps any model, None never.
+    ``clip_x0`` (``resolve_clamp``): "gmd" clamps an ε model's x̂0 to GMD's ±6, "auto" to
+    ±``trained.x0_bound`` (the largest |value| of its training windows); an x0 model is not
+    clamped by either, as in GMD. Without a clamp an ε model diverges at the first step of
+    the cosine schedule, where x̂0 = (x_T − √(1−ᾱ) ε̂)/√ᾱ multiplies the error of ε̂ by
+    1/√ᾱ_{T−1} (≈ 2000 at T = 100). A number clamps any model, None never.
     """
     if n < 1:
         raise ValueError(f"n must be >= 1, got {n}")
@@ -71,11 +111,10 @@ def sample(trained: TrainedGMD, n: int, *, seed: int, guidance: Guidance | None 
         kwargs["force_unconditional"] = True
     stop = default_stop_step(trained.num_timesteps) if stop_guidance_at is None else int(
         stop_guidance_at)
-    if clip_x0 == "auto":
-        clip_x0 = trained.x0_bound if trained.spec.prediction == "epsilon" else None
     return trained.diffusion.p_sample_loop(
         trained.model, shape, model_kwargs=kwargs, seed=seed, guidance=guidance,
-        imputation=imputation, stop_guidance_at=stop, clip_x0=clip_x0, device=trained.device,
+        imputation=imputation, stop_guidance_at=stop, clip_x0=resolve_clamp(trained, clip_x0),
+        device=trained.device,
         noise=noise, return_trajectory=return_trajectory,
         trajectory_timesteps=trajectory_timesteps)
 
@@ -133,7 +172,6 @@ def goal_guidance(trained: TrainedGMD, target_xz: Tensor | np.ndarray | Sequence
     """Classifier guidance toward ``target_xz`` at ``frame`` (default the last): μ̃ = μ −
     s·Σ_t·∇_{x_t}½‖p_xz(x̂0) − target‖₁ (GMD, s = 100)."""
     return Guidance(goal_reaching_loss(trained.space, target_xz, frame), strength=strength)
-
 
 
 def goal_error(trained: TrainedGMD | FeatureSpace, x: Tensor,

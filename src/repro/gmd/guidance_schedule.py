@@ -9,12 +9,15 @@ imputation, which could lead through an obstacle.
 This module adds what notebook 06 needs on top of ``repro.gmd.guidance`` (whose sampler and goal
 functions it reuses unchanged):
 
-- ``model_stop_step``: GMD's stop step mapped to a model with fewer steps (same fraction of T);
+- ``model_stop_step``: GMD's stop step mapped to a model with another T (same fraction of T:
+  the identity at GMD's T = 1000; used for quick mode and the T = 100 motion model);
 - ``sweep_strengths``: one sampling call for many strengths at once (a per-sample strength is
   exactly a guidance of strength 1 on Σ_b s_b·G_b, because samples do not interact), with
   the same x_T for every strength;
 - goal-keypoint and point-to-point imputation targets (GMD's two imputations, absolute root);
-- per-sample circular obstacles: a hinge cost, penetration depth, collisions.
+- per-sample circular obstacles: a hinge cost, penetration depth, collisions;
+- GMD's second stage (``whole_body``): the x0 motion model with a guided trajectory imputed
+  into its root channels, for the whole-body coherence of GMD-F1.
 """
 
 from __future__ import annotations
@@ -27,18 +30,21 @@ import torch
 from torch import Tensor
 
 from repro.core.diffusion import Guidance, Imputation
-from repro.gmd.guidance import goal_error, goal_reaching_loss, sample
-from repro.gmd.measurements import jitter_of
+from repro.gmd.guidance import Clamp, goal_error, goal_reaching_loss, sample
+from repro.gmd.measurements import foot_skating_of, jitter_of
 from repro.gmd.models import GMDModelSpec, TrainedGMD
+from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_STOP_T
 from repro.gmd.windows import FeatureSpace
 from repro.gmd.x0_vs_eps import Settings as ModelSettings
 
 __all__ = [
     "GMD_NUM_TIMESTEPS",
+    "ROOT_CHANNELS",
     "ObstacleArm",
     "ObstacleSet",
     "Settings",
     "StrengthSweep",
+    "WholeBody",
     "goal_keypoint_imputation",
     "model_stop_step",
     "obstacle_experiment",
@@ -49,11 +55,13 @@ __all__ = [
     "shared_start_noise",
     "strength_key",
     "sweep_strengths",
+    "trajectory_imputation",
     "weighted_guidance",
+    "whole_body",
 ]
 
 #: GMD's number of diffusion steps (Table D.1): its "t = 20" is a step of T = 1000.
-GMD_NUM_TIMESTEPS = 1000
+GMD_NUM_TIMESTEPS = GUIDANCE_DIFFUSION_STEPS
 #: model channels of the world root x and z in the absolute-root trajectory view (angle, x, z, y)
 X_CHANNEL, Z_CHANNEL = 1, 2
 
@@ -195,12 +203,13 @@ class StrengthSweep:
 def sweep_strengths(trained: TrainedGMD, targets_xz: np.ndarray,
                     strengths: Sequence[float], *, seed: int, stop: int,
                     impute_goal: bool = False, frame: int = -1,
-                    record_steps: bool = False) -> StrengthSweep:
+                    record_steps: bool = False, clip_x0: Clamp = "gmd") -> StrengthSweep:
     """Sample the goals (n, 2) once per strength in one batch, with GMD's goal guidance
     (``goal_reaching_loss``: ½‖root_xz(x̂0)[frame] − goal‖₁) and, if ``impute_goal``,
     the goal keypoint imputed too; both act while t ≥ ``stop`` (model steps).
 
-    Same x_T for every strength (``shared_start_noise``); the per-step noise comes from
+    ``clip_x0`` "gmd" (registered): an ε model's x̂0 clamped to GMD's ±6. Same x_T for every
+    strength (``shared_start_noise``); the per-step noise comes from
     ``seed`` and the batch position, so two calls with the same strengths, goals and seed but
     another ``stop`` are paired sample by sample (imputation draws extra noise while active,
     which pairs only calls with the same active steps).
@@ -217,8 +226,8 @@ def sweep_strengths(trained: TrainedGMD, targets_xz: np.ndarray,
     imputation = goal_keypoint_imputation(trained, all_targets, frame=frame) if impute_goal \
         else None
     out = sample(trained, n * groups, seed=seed, guidance=guidance, imputation=imputation,
-                     stop_guidance_at=stop, return_trajectory=record_steps,
-                     noise=shared_start_noise(trained, n, groups, seed=seed))
+                 stop_guidance_at=stop, return_trajectory=record_steps, clip_x0=clip_x0,
+                 noise=shared_start_noise(trained, n, groups, seed=seed))
     x = (out[0] if record_steps else out).cpu()
     error = goal_error(trained.space, x, all_targets, frame).reshape(groups, n)
     samples = x.reshape(groups, n, *x.shape[1:])
@@ -235,6 +244,63 @@ def sweep_strengths(trained: TrainedGMD, targets_xz: np.ndarray,
         sweep.shift_size = shift.abs().mean(dim=2).double().numpy()
         sweep.state_size = state.abs().amax(dim=2).double().numpy()
     return sweep
+
+
+# ---------------------------------------------------------------------------------------------
+# GMD's second stage: the whole body under a guided trajectory
+# ---------------------------------------------------------------------------------------------
+
+#: the root channels (heading angle, x, z, y) shared by the trajectory and motion features
+ROOT_CHANNELS = slice(0, 4)
+
+
+def trajectory_imputation(motion: TrainedGMD, trajectory_space: FeatureSpace,
+                          trajectories: Tensor) -> Imputation:
+    """Impute trajectories (B, 4, T) of ``trajectory_space`` as the root channels (angle, x, z,
+    y) of ``motion``'s samples, every frame (GMD's two-stage generation: "generate trajectory
+    first, then use it to impute to generate motion", ``gen_two_stages``). Both feature
+    spaces must be absolute-root; each normalises with its own statistics."""
+    space = motion.space
+    if space.task != "motion" or space.representation != "absolute":
+        raise ValueError("the second stage needs the absolute-root motion model")
+    _check_absolute(trajectory_space)
+    root = trajectory_space.unnormalise(trajectories.detach().cpu())           # (B, T, 4)
+    features = root.new_zeros(*root.shape[:2], space.channels)
+    features[..., ROOT_CHANNELS] = root
+    target = space.normalise(features)                                         # (B, C, T)
+    mask = torch.zeros_like(target, dtype=torch.bool)
+    mask[:, ROOT_CHANNELS, :] = True
+    return Imputation(mask, torch.where(mask, target, torch.zeros_like(target)))
+
+
+@dataclass
+class WholeBody:
+    """The second stage's motions (B, 263, T) under ``trajectories`` (B, 4, T), with the
+    imputation acting while t ≥ ``motion_stop`` (the motion model's steps), and their
+    whole-body coherence: mean joint jerk (m/s³) and foot skating (m/s) of the recovered
+    joints, and the goal error (m) of the motions' own root at the last frame."""
+
+    motion_stop: int
+    trajectories: Tensor
+    motions: Tensor
+    joint_jerk: float
+    foot_skating: float
+    goal_error: np.ndarray
+
+
+def whole_body(motion: TrainedGMD, trajectory_space: FeatureSpace, trajectories: Tensor,
+               targets_xz: np.ndarray, *, seed: int, gmd_stop: int) -> WholeBody:
+    """GMD's second stage for guided trajectories: the motion model samples with the
+    trajectories imputed into its root channels (:func:`trajectory_imputation`) while t ≥
+    GMD's stop ``gmd_stop`` (of T = 1000) on the motion model's own T (``model_stop_step``:
+    the same fraction of its steps; GMD stops guidance and imputation at t = 20 in both
+    stages). Same ``seed``, same x_T and per-step noise for every ``gmd_stop``."""
+    stop = model_stop_step(gmd_stop, motion.num_timesteps)
+    x = sample(motion, len(trajectories), seed=seed, stop_guidance_at=stop,
+               imputation=trajectory_imputation(motion, trajectory_space, trajectories)).cpu()
+    return WholeBody(stop, trajectories.cpu(), x, float(jitter_of(motion, x).jerk),
+                     float(foot_skating_of(motion, x)),
+                     goal_error(motion.space, x, np.asarray(targets_xz, dtype=np.float32)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -322,7 +388,7 @@ class ObstacleArm:
 def obstacle_experiment(trained: TrainedGMD, targets_xz: np.ndarray,
                         obstacles: ObstacleSet, strengths: Sequence[float], *, seed: int,
                         stop: int, obstacle_weight: float = 1.0,
-                        frame: int = -1) -> list[ObstacleArm]:
+                        frame: int = -1, clip_x0: Clamp = "gmd") -> list[ObstacleArm]:
     """Goal reaching past one obstacle per goal, in one sampling call (same x_T for all arms):
 
     - "unguided";
@@ -331,7 +397,7 @@ def obstacle_experiment(trained: TrainedGMD, targets_xz: np.ndarray,
       "goal + obstacle + p2p" (the same plus the straight start→goal line imputed, which GMD
       avoids because the line can cross the obstacle).
 
-    Guidance and imputation act while t ≥ ``stop``.
+    Guidance and imputation act while t ≥ ``stop``; ``clip_x0`` as in ``sweep_strengths``.
     """
     targets = np.asarray(targets_xz, dtype=np.float32).reshape(-1, 2)
     n = len(targets)
@@ -356,8 +422,8 @@ def obstacle_experiment(trained: TrainedGMD, targets_xz: np.ndarray,
     imputation = point_to_point_imputation(trained, all_targets,
                                            active=np.repeat([p[3] for p in plan], n))
     x = sample(trained, n * groups, seed=seed, guidance=weighted_guidance(combined, strength),
-                   imputation=imputation, stop_guidance_at=stop,
-                   noise=shared_start_noise(trained, n, groups, seed=seed)).cpu()
+               imputation=imputation, stop_guidance_at=stop, clip_x0=clip_x0,
+               noise=shared_start_noise(trained, n, groups, seed=seed)).cpu()
     error = goal_error(trained.space, x, all_targets, frame).reshape(groups, n)
     depth = penetration_depth(trained.space, x, all_obstacles).reshape(groups, n)
     samples = x.reshape(groups, n, *x.shape[1:])
@@ -375,11 +441,14 @@ def obstacle_experiment(trained: TrainedGMD, targets_xz: np.ndarray,
 class Settings:
     """Every grid and size of notebook 06, fixed before any verdict was seen.
 
-    The trajectory ε model is notebook 01's (``x0_vs_eps.Settings``: same spec, so the cached
-    weights are shared). ``strengths`` draw the curve, ``rule_strengths`` are the claimed range
-    the rule reads; ``gmd_stops`` are GMD's stop steps (of T = 1000) mapped to the model's T by
-    :func:`model_stop_step`; the stop sweep runs at ``stop_sweep_strengths``. Quick mode
-    shrinks the model and the goal counts (a test of the code, never a result).
+    The trajectory ε model is notebook 01's guidance model (``x0_vs_eps.Settings.
+    guidance_trajectory_spec``: GMD's T = 1000 cosine, one cache key with GMD-A3's), the
+    second stage's motion model notebook 01's x0 motion model (``motion_spec``). ``strengths``
+    draw the curve, ``rule_strengths`` are the claimed range the rule reads; ``gmd_stops``
+    are GMD's stop steps of T = 1000, which are the model's own at T = 1000 (quick mode's
+    T = 50 takes the same fraction, :func:`model_stop_step`); the stop sweep runs at
+    ``stop_sweep_strengths``. Quick mode shrinks the model and the goal counts (a test of
+    the code, never a result).
     """
 
     quick: bool
@@ -393,7 +462,7 @@ class Settings:
     gmd_strength: int = 100
     gmd_stops: tuple[int, ...] = (0, 20, 50, 200)
     #: GMD's stop step t = 20 (of 1000).
-    gmd_stop: int = 20
+    gmd_stop: int = GUIDANCE_STOP_T
     stop_sweep_strengths: tuple[int, ...] = (3, 100)
     obstacle_weight: float = 1.0
     #: goals whose guided paths the example figures draw.
@@ -406,10 +475,19 @@ class Settings:
             return cls(quick=True, seeds=seeds, goals=4, obstacle_goals=4, model=model)
         return cls(quick=False, seeds=seeds, goals=32, obstacle_goals=16, model=model)
 
+    @property
+    def num_timesteps(self) -> int:
+        """T of the trajectory model (GMD's 1000; quick mode 50)."""
+        return self.model.guidance_diffusion_steps
+
     def spec(self, data_dir: str | None = None) -> GMDModelSpec:
-        """Notebook 01's trajectory ε model (seed 0; ``replace(seed=…)`` per seed)."""
-        return self.model.spec("trajectory", "epsilon", self.model.data(data_dir))
+        """Notebook 01's guidance ε trajectory model (seed 0; ``replace(seed=…)`` per seed)."""
+        return self.model.guidance_trajectory_spec("epsilon", self.model.data(data_dir))
+
+    def motion_spec(self, data_dir: str | None = None) -> GMDModelSpec:
+        """Notebook 01's x0 motion model, GMD's second stage (seed 0)."""
+        return self.model.spec("motion", "x0", self.model.data(data_dir))
 
     def stops(self) -> dict[int, int]:
-        """{GMD stop step: the model's stop step} for ``gmd_stops``."""
-        return {g: model_stop_step(g, self.model.diffusion_steps) for g in self.gmd_stops}
+        """{GMD stop step: the trajectory model's stop step} for ``gmd_stops``."""
+        return {g: model_stop_step(g, self.num_timesteps) for g in self.gmd_stops}

@@ -1,8 +1,10 @@
 """Notebook 01 (GMD appendix A, A.1): x0 vs ε prediction under goal guidance (GMD-A3, A4).
 
 A guided and an unguided run from the same seed (same x_T, same per-step noise) give the goal
-error of the final sample and of x̂0 at every step, and the *survival* of the guided change
-after the stop step (``guided_change_survival``, the registered GMD-A3 measurement).
+error of the final sample and of x̂0 at every step, and the share of the best guided gain that
+is kept at the end (``best_gain_survival``, the registered GMD-A3 measurement of registry v3).
+The guidance experiments' trajectory models run GMD's diffusion, T = 1000 cosine
+(``Settings.guidance_trajectory_spec``, read by notebooks 01, 02 and 06).
 """
 
 from __future__ import annotations
@@ -19,19 +21,51 @@ from repro.core import metrics
 from repro.core.diffusion import SampleTrajectory
 from repro.gmd.guidance import (
     GMD_GUIDANCE_STRENGTH,
+    Clamp,
     default_stop_step,
     goal_error,
     goal_guidance,
+    resolve_clamp,
     sample,
 )
 from repro.gmd.measurements import evaluator_inputs, foot_skating_of, jitter_of
 from repro.gmd.models import GMDModelSpec, TrainedGMD
+from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_SCHEDULE
 from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows, Task, goal_targets
 from repro.models.evaluator import Evaluator, EvaluatorConfig
 
-__all__ = ["CLAMPS", "PREDICTIONS", "GoalReachingResult", "SampleQuality", "Settings",
-           "clamp_sensitivity", "goal_error_kept", "goal_reaching_experiment",
-           "goal_reaching_study", "guided_change_survival", "motion_fid", "sample_quality"]
+__all__ = ["CLAMPS", "PREDICTIONS", "QUICK_GUIDANCE_DIFFUSION_STEPS", "GoalReachingResult",
+           "SampleQuality", "Settings", "best_gain_survival", "clamp_sensitivity",
+           "goal_error_kept", "goal_reaching_experiment", "goal_reaching_study",
+           "guidance_trajectory_spec", "guided_change_survival", "motion_fid", "sample_quality"]
+
+
+def best_gain_survival(unguided_final_error: np.ndarray | Sequence[float],
+                       guided_x0_error: np.ndarray | Sequence[Sequence[float]],
+                       guided_final_error: np.ndarray | Sequence[float]) -> float:
+    """The share of the best guided gain kept at the end (GMD-A3, registry v3).
+
+    Two runs from the same seed (same x_T, same per-step noise), one guided (G), one not (U);
+    goal errors are distances (m) of the last-frame root x/z to the goal, averaged over the
+    batch's goals (ē). With ē_U the unguided final sample's, ē_G(t) the guided x̂0's at each
+    sampling step t = T−1 … 0 (``guided_x0_error`` (S, n)) and ē_G the guided final sample's:
+
+        best gain  = ē_U − min_t ē_G(t)     (the closest approach of x̂0 to the goal)
+        final gain = ē_U − ē_G
+        survival   = final gain / best gain
+
+    1 = the final sample is as near the goal as x̂0 ever came; 0 = it ends where the unguided
+    sample does (all the guided gain undone); < 0 = guidance left it farther away. NaN when
+    the best gain is ≤ 0 (x̂0 never came nearer than the unguided sample: nothing to keep).
+    The minimum is over the batch-mean curve, not per goal, so the noise of single goals does
+    not pull the best gain up.
+    """
+    unguided = float(np.mean(unguided_final_error))
+    curve = np.asarray(guided_x0_error, dtype=np.float64)
+    best = unguided - float(curve.reshape(curve.shape[0], -1).mean(axis=1).min())
+    if not best > 0.0:
+        return float("nan")
+    return (unguided - float(np.mean(guided_final_error))) / best
 
 
 def guided_change_survival(space: TrainedGMD | FeatureSpace, x0_guided_at_stop: Tensor,
@@ -96,9 +130,32 @@ class GoalReachingResult:
     x0_guided_at_stop: Tensor
     x0_unguided_at_stop: Tensor
 
+    clip_x0: float | None = None
+
     @property
     def survival(self) -> float:
-        """``guided_change_survival`` of this pair of runs (the registered measurement)."""
+        """``best_gain_survival`` of this pair of runs (the registered measurement, v3)."""
+        return best_gain_survival(self.error_unguided, self.x0_error_guided, self.error_guided)
+
+    @property
+    def best_gain(self) -> float:
+        """ē_U − min_t ē_G(t) (m): how much nearer the goal the guided x̂0 came at its best."""
+        return float(self.error_unguided.mean() - self.best_step_error)
+
+    @property
+    def final_gain(self) -> float:
+        """ē_U − ē_G (m): how much nearer the goal the guided final sample is."""
+        return float(self.error_unguided.mean() - self.error_guided.mean())
+
+    @property
+    def best_step(self) -> int:
+        """The step t at which the guided x̂0's batch-mean goal error is lowest."""
+        return int(self.timesteps[int(np.argmin(self.x0_error_guided.mean(axis=1)))])
+
+    @property
+    def stop_step_survival(self) -> float:
+        """``guided_change_survival`` from the stop step (registry v2's measurement, kept
+        outside the rule)."""
         return guided_change_survival(self.space, self.x0_guided_at_stop,
                                       self.x0_unguided_at_stop, self.guided, self.unguided)
 
@@ -126,10 +183,10 @@ def _x0_errors(space: FeatureSpace, trajectory: SampleTrajectory, targets: np.nd
 def goal_reaching_experiment(trained: TrainedGMD, targets_xz: np.ndarray, *, seed: int,
                              strength: float = GMD_GUIDANCE_STRENGTH,
                              stop_guidance_at: int | None = None, frame: int = -1,
-                             clip_x0: float | None | Literal["auto"] = "auto",
-                             ) -> GoalReachingResult:
+                             clip_x0: Clamp = "gmd") -> GoalReachingResult:
     """Sample len(targets) motions toward their targets (one per sample) with goal guidance
-    and without, from the same seed, recording x̂0's goal error at every step."""
+    and without, from the same seed, recording x̂0's goal error at every step. ``clip_x0``
+    "gmd" (registered): an ε model's x̂0 clamped to GMD's ±6, an x0 model's not."""
     targets = np.asarray(targets_xz, dtype=np.float32).reshape(-1, 2)
     stop = default_stop_step(trained.num_timesteps) if stop_guidance_at is None else int(
         stop_guidance_at)
@@ -149,8 +206,8 @@ def goal_reaching_experiment(trained: TrainedGMD, targets_xz: np.ndarray, *, see
         error_guided=goal_error(trained, guided, targets, frame),
         error_unguided=goal_error(trained, unguided, targets, frame), error_at_stop=x0_guided[k],
         timesteps=steps, x0_error_guided=x0_guided, x0_error_unguided=x0_unguided,
-        x0_guided_at_stop=guided_path.pred_x0[k], x0_unguided_at_stop=unguided_path.pred_x0[k])
-
+        x0_guided_at_stop=guided_path.pred_x0[k], x0_unguided_at_stop=unguided_path.pred_x0[k],
+        clip_x0=resolve_clamp(trained, clip_x0))
 
 
 # ------------------------------------------------------------------------ notebook 01's settings
@@ -164,6 +221,10 @@ class Settings:
     256 generated windows per seed; the package's evaluator with its default size. Quick mode
     shrinks everything (a test of the code, never a result). ``train_steps`` may be overridden
     (the notebook's papermill parameter; None = the mode's default).
+
+    The guidance experiments' trajectory models (GMD-A3, B2, F1) are the same trajectory
+    specs with ``guidance_diffusion_steps`` = GMD's T = 1000 (``paper_settings``); quick mode
+    uses T = ``QUICK_GUIDANCE_DIFFUSION_STEPS`` (50, stop at 1 = 2 % of T).
     """
 
     quick: bool
@@ -179,6 +240,8 @@ class Settings:
     min_goal_distance: float = 0.5
     #: random draws of x_t and ε per t for the Eq. 1 vs Eq. 2 check (GMD-A1).
     posterior_samples: int = 256
+    #: T of the guidance experiments' trajectory models (GMD's 1000; quick mode 50).
+    guidance_diffusion_steps: int = GUIDANCE_DIFFUSION_STEPS
 
     @classmethod
     def for_mode(cls, quick: bool, *, seeds: int = 3, train_steps: int | None = None
@@ -186,7 +249,8 @@ class Settings:
         if quick:
             return cls(quick=True, seeds=seeds, stand_in_clips=120, frames=24,
                        train_steps=20 if train_steps is None else int(train_steps),
-                       batch_size=32, diffusion_steps=20, goals=4, generated=32)
+                       batch_size=32, diffusion_steps=20, goals=4, generated=32,
+                       guidance_diffusion_steps=QUICK_GUIDANCE_DIFFUSION_STEPS)
         return cls(quick=False, seeds=seeds, stand_in_clips=2000, frames=48,
                    train_steps=1000 if train_steps is None else int(train_steps),
                    batch_size=64, diffusion_steps=100, goals=32, generated=256)
@@ -204,11 +268,31 @@ class Settings:
                             train_steps=self.train_steps, batch_size=self.batch_size,
                             diffusion_steps=self.diffusion_steps, seed=seed)
 
+    def guidance_trajectory_spec(self, prediction: Literal["x0", "epsilon"], data: DataConfig,
+                                 seed: int = 0) -> GMDModelSpec:
+        """The trajectory model of the guidance experiments (GMD-A3 in notebook 01, GMD-F1 in
+        06, GMD-B2 in 02: one cache key): ``spec("trajectory", …)`` with GMD's diffusion,
+        T = ``guidance_diffusion_steps`` (1000) and the ``GUIDANCE_SCHEDULE`` (cosine)."""
+        return self.spec("trajectory", prediction, data, seed).replace(
+            diffusion_steps=self.guidance_diffusion_steps, schedule=GUIDANCE_SCHEDULE)
+
     def evaluator_config(self, data_id: str) -> EvaluatorConfig:
         """The package's evaluator (tiny in quick mode), named after the training windows."""
         if self.quick:
             return EvaluatorConfig(dim=16, hidden=32, steps=30, data_id=data_id)
         return EvaluatorConfig(data_id=data_id)
+
+
+#: the quick mode's T for the guidance trajectory models (a test of the code, never a result)
+QUICK_GUIDANCE_DIFFUSION_STEPS = 50
+
+
+def guidance_trajectory_spec(quick: bool, prediction: Literal["x0", "epsilon"] = "epsilon",
+                             data_dir: str | None = None, seed: int = 0) -> GMDModelSpec:
+    """``Settings.for_mode(quick).guidance_trajectory_spec`` on the mode's windows: the T = 1000
+    trajectory model every guidance experiment shares (GMD's trajectory model predicts ε)."""
+    settings = Settings.for_mode(quick)
+    return settings.guidance_trajectory_spec(prediction, settings.data(data_dir), seed)
 
 
 # ---------------------------------------------------------------------- the GMD-A3/A4 studies
@@ -217,40 +301,49 @@ class Settings:
 PREDICTIONS = {"x0": "x0", "epsilon": "eps"}
 
 
-def goal_reaching_study(models: dict[tuple[str, str, int], TrainedGMD], test: MotionWindows,
-                        seeds: Sequence[int], *, goals: int, min_distance: float,
+def goal_reaching_study(trajectory_models: dict[tuple[str, int], TrainedGMD],
+                        test: MotionWindows, seeds: Sequence[int], *, goals: int,
+                        min_distance: float, clip_x0: Clamp = "gmd",
                         ) -> dict[tuple[str, int], GoalReachingResult]:
     """Per seed, ``goals`` goal locations from the test windows (``goal_targets``) and both
-    trajectory models' :func:`goal_reaching_experiment` toward them, keyed (prediction, seed).
-    ``models`` keyed (task, prediction, seed)."""
+    guidance trajectory models' :func:`goal_reaching_experiment` toward them, keyed
+    (prediction, seed) like ``trajectory_models``."""
     results = {}
     for s in seeds:
         targets = goal_targets(test, goals, seed=s, min_distance=min_distance)
         for prediction in PREDICTIONS:
             results[(prediction, s)] = goal_reaching_experiment(
-                models[("trajectory", prediction, s)], targets, seed=s)
+                trajectory_models[(prediction, s)], targets, seed=s, clip_x0=clip_x0)
     return results
 
 
-def clamp_sensitivity(models: dict[tuple[str, str, int], TrainedGMD],
+#: the x̂0 clamps of the ε model: GMD's ±6 (registered), ± the largest |value| of the training
+#: windows (registry v2's) and none; the last two are a sensitivity check outside the rule.
+CLAMPS: dict[str, Clamp] = {"GMD's ±6 (registered)": "gmd", "±max|x| of the training windows":
+                            "auto", "no clamp": None}
+
+
+def clamp_sensitivity(trajectory_models: dict[tuple[str, int], TrainedGMD],
                       results: dict[tuple[str, int], GoalReachingResult], seeds: Sequence[int],
                       ) -> dict[str, list[float]]:
-    """The ε trajectory model's guided goal error (m, per seed) with the registered x̂0 clamp
-    (± max |x| of its training windows), with GMD's constant ±6 and with none (same goals and
-    noise as ``results``): a sensitivity check outside the rule."""
+    """The ε trajectory model's guided goal error (m, per seed) under each of ``CLAMPS`` (same
+    goals, noise, strength and stop as ``results``, which used the registered "gmd"; only the
+    guided run is repeated)."""
     errors: dict[str, list[float]] = {}
     for s in seeds:
         registered = results[("epsilon", s)]
+        model = trajectory_models[("epsilon", s)]
         for label, bound in CLAMPS.items():
-            result = registered if bound == "registered" else goal_reaching_experiment(
-                models[("trajectory", "epsilon", s)], registered.targets, seed=s, clip_x0=bound)
-            errors.setdefault(label, []).append(float(result.error_guided.mean()))
+            if bound == "gmd":
+                error = registered.error_guided
+            else:
+                guided = sample(model, len(registered.targets), seed=s, clip_x0=bound,
+                                guidance=goal_guidance(model, registered.targets,
+                                                       strength=registered.strength),
+                                stop_guidance_at=registered.stop_guidance_at)
+                error = goal_error(model, guided, registered.targets)
+            errors.setdefault(label, []).append(float(np.mean(error)))
     return errors
-
-
-#: the x̂0 clamps of the sensitivity check: ours (registered), GMD's constant, none.
-CLAMPS: dict[str, float | None | str] = {"ours: ±max|x|": "registered",
-                                         "GMD's constant: ±6": 6.0, "no clamp": None}
 
 
 def motion_fid(space: TrainedGMD | FeatureSpace, x: Tensor, evaluator: Evaluator,
