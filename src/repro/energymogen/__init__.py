@@ -8,7 +8,8 @@ Modules, each importing only those above it in this list (and lower layers):
 pipeline, its stages and sampling) · ``harness`` (the text-to-motion test set and generation
 metrics shared by EMG-7 and EMG-8) · ``energy`` (EMG-1, 6, 9) · ``gradient_field`` (EMG-1's
 per-t residual Jacobian asymmetry and loop integrals) · ``fid_checks`` (EMG-9's fixed cases) ·
-``studies`` (EMG-2, 3, 4, 5) · ``latent_count`` (EMG-7) · ``augmentation`` (EMG-8) ·
+``timelines`` (EMG-5's MTT-style timelines and the real "then" clips) · ``studies`` (EMG-2,
+3, 4, 5) · ``planted`` (the planted transition effects of EMG-5's controls) · ``latent_count`` (EMG-7) · ``augmentation`` (EMG-8) ·
 ``controls`` (the positive and null controls of EMG-2 to 8) · ``model_gates`` (the quality
 gates of the VAE, latent denoiser and evaluator) · ``settings`` (quick/full
 settings per notebook) · ``figures`` (the notebooks' figures).
