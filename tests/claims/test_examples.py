@@ -90,13 +90,16 @@ def test_identical_quantised_arms_are_below_resolution(claim_id: str) -> None:
     assert decision.verdict == INCONCLUSIVE
 
 
-def test_emg_8_one_clip_in_256_is_below_resolution_not_contradicted() -> None:
-    base = [0.97265625, 0.984375, 0.96484375]
+def test_emg_8_one_clip_in_384_is_below_resolution_not_contradicted() -> None:
+    base = [216 / 384, 228 / 384, 210 / 384]       # the shared-concept test: 384 clips
     measured = {"r_precision_top3_baseline": base,
-                "r_precision_top3_augmented": [b - 1 / 256 for b in base],
+                "r_precision_top3_augmented": [b - 1 / 384 for b in base],
                 "fid_baseline": [0.104, 0.107, 0.108], "fid_augmented": [0.106, 0.107, 0.109]}
     decision = get_claim("EMG-8").decide(measured)
     assert decision.checks["r_precision_improves"] == BELOW_RESOLUTION
+    measured["r_precision_top3_augmented"] = [b - 2 / 384 for b in base]   # two clips: not
+    assert get_claim("EMG-8").decide(measured).checks["r_precision_improves"] != \
+        BELOW_RESOLUTION
 
 
 def test_gmd_b3_r_precision_tie_alone_is_not_partial() -> None:
