@@ -15,6 +15,7 @@ from repro.energymogen.harness import (
     R_PRECISION_BATCH,
     TextToMotionTest,
     generation_metrics,
+    ground_truth_r_precision,
     grouped_r_precision,
     load_or_build_shared_concept_test,
     load_or_build_text_to_motion_test,
@@ -133,3 +134,11 @@ def test_generation_metrics_use_the_grouped_batches(
                                    tiny_pipeline.evaluator.embed_motions(features,
                                                                          shared.lengths))
     assert measured["r_precision_top3"] == pytest.approx(float(expected[2]))
+
+
+def test_ground_truth_r_precision_batches_as_the_test_does(
+        tiny_pipeline: EnergyMoGenPipeline, shared: TextToMotionTest) -> None:
+    value = ground_truth_r_precision(tiny_pipeline, shared, 0)
+    text = tiny_pipeline.evaluator.embed_texts(shared.texts(0))
+    motion = tiny_pipeline.evaluator.embed_motions(shared.features, shared.lengths)
+    assert value == pytest.approx(float(grouped_r_precision(text, motion)[2]))

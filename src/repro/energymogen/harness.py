@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from repro.core import metrics
 from repro.energymogen.config import ARM_CONCEPTS, LOWER_CONCEPTS, PipelineConfig
 from repro.energymogen.data import draw_training_like_clips, stand_in_clip, trained_pairs
 from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler
@@ -35,7 +36,8 @@ from repro.standin.oracles import detect_concepts
 
 __all__ = [
     "R_PRECISION_BATCH", "TextToMotionTest", "build_shared_concept_test",
-    "build_text_to_motion_test", "generation_metrics", "grouped_r_precision",
+    "build_text_to_motion_test", "generation_metrics", "ground_truth_r_precision",
+    "grouped_r_precision",
     "grouped_r_precision_metrics",
     "load_or_build_shared_concept_test", "load_or_build_text_to_motion_test", "oracle_accuracy",
     "shared_concept_anchors",
@@ -193,6 +195,18 @@ def generation_metrics(variant: EnergyMoGenPipeline, test: TextToMotionTest,
         out.update(grouped_r_precision_metrics(variant, features, test, texts))
     out["oracle_accuracy"] = oracle_accuracy(variant.joints(features), test.concepts)
     return out
+
+
+def ground_truth_r_precision(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
+                             seed: int) -> float:
+    """R@3 of the test clips themselves against their captions drawn with ``seed``, batched
+    as the test batches generated motions (its own batches when grouped, else random batches
+    of 32): the test's ceiling with ``pipe``'s evaluator."""
+    text = pipe.evaluator.embed_texts(test.texts(seed))
+    motion = pipe.evaluator.embed_motions(test.features, test.lengths)
+    rates = (grouped_r_precision(text, motion) if test.grouped
+             else metrics.r_precision(text, motion, R_PRECISION_BATCH, 3, seed))
+    return float(rates[2])
 
 
 def grouped_r_precision_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray,
