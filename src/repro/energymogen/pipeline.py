@@ -13,6 +13,10 @@ from the data of ``repro.energymogen.data`` and the configuration of
   *training seed* seeds the VAE and the denoiser (:func:`load_pipeline`'s ``train_seed``,
   :func:`retrain_pipeline`), while the data, the frozen text encoder and the evaluator stay
   those of ``data_seed``; :class:`SeedPipelines` gives one trained model per evaluation seed.
+  With a ``convergence.TrainingPlan`` (``load_pipeline``'s ``plan``) the VAE and the denoiser
+  train to convergence on held-out validation clips with a step cap, and the pipeline keeps
+  each model's ``convergence.TrainingRecord`` (``EnergyMoGenPipeline.training``); without one
+  they train ``config``'s fixed step counts, with the cache keys they always had.
 - **sampling** — DDIM on latents with ε from ``repro.energymogen.compose``: single text
   (optionally with AGD, Eq. 3–4), latent-aware conjunction/negation (Eq. 7/8), semantic-aware
   composition (Eq. 9), SEF (Eq. 10); decoding to features and joints.
