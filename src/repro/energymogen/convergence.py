@@ -59,10 +59,12 @@ class TrainingPlan:
         """Full: the caps of ``docs/pilot_emg_vae.md`` (VAE) and 4× the fixed 2500 denoiser
         steps (no denoiser pilot yet), 128 validation clips, validation every 250 steps
         (≈ 2–3 % of the training time), the TRAINING.md defaults patience 5 and δ 1 %. Quick:
-        tiny caps and patience 2, a test of the code path only."""
+        caps at the quick configuration's fixed step counts (40 VAE, 80 denoiser steps, so quick
+        runs cost what they did), two evaluations each, patience 2: a test of the code path
+        only."""
         if quick:
-            return cls(validation_clips=16, vae_step_cap=60, vae_validate_every=20,
-                       denoiser_step_cap=120, denoiser_validate_every=40, patience=2)
+            return cls(validation_clips=16, vae_step_cap=40, vae_validate_every=20,
+                       denoiser_step_cap=80, denoiser_validate_every=40, patience=2)
         return cls(validation_clips=128, vae_step_cap=FULL_VAE_STEP_CAP, vae_validate_every=250,
                    denoiser_step_cap=10000, denoiser_validate_every=250)
 
