@@ -21,8 +21,10 @@ __all__ = ["FULL_VAE_STEP_CAP", "TrainingPlan", "TrainingRecord", "cached_traini
 
 
 
-#: the full-mode VAE step cap: from the one-thread pilot of ``docs/pilot_emg_vae.md``
-FULL_VAE_STEP_CAP = 12000
+#: the full-mode VAE step cap: what 20 CPU-minutes buy on one thread (0.1015 CPU-s per step,
+#: rounded down to 250), as the rule of ``docs/pilot_emg_vae.md`` says when the pilot VAE
+#: (N = 5) did not reach its gate within them
+FULL_VAE_STEP_CAP = 11750
 
 
 @dataclass(frozen=True)
