@@ -90,13 +90,16 @@ def test_identical_quantised_arms_are_below_resolution(claim_id: str) -> None:
     assert decision.verdict == INCONCLUSIVE
 
 
-def test_emg_8_one_clip_in_256_is_below_resolution_not_contradicted() -> None:
-    base = [0.97265625, 0.984375, 0.96484375]
+def test_emg_8_one_clip_in_384_is_below_resolution_not_contradicted() -> None:
+    base = [216 / 384, 228 / 384, 210 / 384]       # the shared-concept test: 384 clips
     measured = {"r_precision_top3_baseline": base,
-                "r_precision_top3_augmented": [b - 1 / 256 for b in base],
+                "r_precision_top3_augmented": [b - 1 / 384 for b in base],
                 "fid_baseline": [0.104, 0.107, 0.108], "fid_augmented": [0.106, 0.107, 0.109]}
     decision = get_claim("EMG-8").decide(measured)
     assert decision.checks["r_precision_improves"] == BELOW_RESOLUTION
+    measured["r_precision_top3_augmented"] = [b - 2 / 384 for b in base]   # two clips: not
+    assert get_claim("EMG-8").decide(measured).checks["r_precision_improves"] != \
+        BELOW_RESOLUTION
 
 
 def test_gmd_b3_r_precision_tie_alone_is_not_partial() -> None:
@@ -109,3 +112,19 @@ def test_gmd_b3_r_precision_tie_alone_is_not_partial() -> None:
     decision = get_claim("GMD-B3").decide(measured)
     assert decision.checks["abs_r_precision_not_worse"] == SUPPORTED
     assert decision.verdict not in (REPRODUCED, PARTIAL)
+
+
+def test_emg_7_says_when_the_run_cannot_separate_n_at_the_registered_power() -> None:
+    """Issue #16: if the stand-in cannot separate N at the registered power, the verdict says
+    so. With the seeds a full run affords (fewer than either part's power calculation asks
+    for) and no difference between the N, no part is called absent or contradicted: each is
+    inconclusive, and its reason names the missing power."""
+    claim = get_claim("EMG-7")
+    assert all(part.seeds > claim.affordable_seeds for part in claim.parts)
+    assert "affords 3 seeds" in claim.power_note
+    for draw in range(5):
+        measured = claim.null_example(np.random.default_rng(draw))
+        for part in claim.decide(measured).parts:
+            assert part.outcome == INCONCLUSIVE, part.reason
+            assert f"of the {next(p.seeds for p in claim.parts if p.name == part.name)} " \
+                   "the power calculation asks for" in part.reason

@@ -11,7 +11,7 @@ from repro.claims.registry import get_claim
 from repro.energymogen import augmentation as ag
 from repro.energymogen.config import FRAMES, HELD_OUT_PAIRS, PipelineConfig
 from repro.energymogen.harness import TextToMotionTest, load_or_build_text_to_motion_test
-from repro.energymogen.pipeline import EnergyMoGenPipeline, load_pipeline
+from repro.energymogen.pipeline import EnergyMoGenPipeline, SeedPipelines, load_pipeline
 
 
 def test_pairs_sizes_and_schedule() -> None:
@@ -55,13 +55,32 @@ def test_finetuning_starts_from_the_pretrained_denoiser(tiny) -> None:
     before = [p.detach().clone() for p in pipe.denoiser.parameters()]
     rows = ag.caption_rows(pipe, pipe.data.train_features[:8], pipe.data.train_captions[:8])
     config = ag.finetune_config(pipe.config, seed=0)
-    tuned = ag.load_or_finetune(pipe, rows, config)
-    again = ag.load_or_finetune(pipe, rows, config)          # from the cache
+    tuned, record = ag.load_or_finetune(pipe, rows, config)
+    again, cached = ag.load_or_finetune(pipe, rows, config)  # from the cache
+    assert record.steps == cached.steps == config.steps and record.train_seconds > 0
     for p, q in zip(pipe.denoiser.parameters(), before, strict=True):
         assert torch.equal(p, q)
     assert any(not torch.equal(p, q) for p, q in zip(tuned.parameters(), before, strict=True))
     for p, q in zip(tuned.parameters(), again.parameters(), strict=True):
         assert torch.equal(p, q)
+
+
+def test_finetuning_takes_a_third_of_the_steps_the_pretrained_denoiser_used(tiny) -> None:
+    pipe, _ = tiny
+    assert ag.pipeline_finetune_config(pipe, 0).steps == round(
+        pipe.training["denoiser"].steps / 3)
+    assert ag.finetune_config(pipe.config, 0, pretraining_steps=30).steps == 10
+
+
+def test_every_seed_fine_tunes_its_own_pretrained_model(tiny) -> None:
+    """Pretraining seeds vary (issue #16): seed s composes and fine-tunes from the models of
+    training seed data_seed + s, not from one pretrained model shared by every seed."""
+    pipe, test = tiny
+    seeds = SeedPipelines(pipe, log=None)
+    results = ag.augmentation_study(seeds, test, [0, 1], size=4)
+    assert results["pretrained_train_seeds"] == [TINY.data_seed, TINY.data_seed + 1]
+    assert [r.steps for r in results["training"]["control"]] == [
+        ag.pipeline_finetune_config(seeds(s), s).steps for s in (0, 1)]
 
 
 def test_study_feeds_the_rule(tiny) -> None:

@@ -7,13 +7,19 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import TINY_PIPELINE
 
 from repro.claims.ledger import decide_claim
 from repro.claims.registry import get_claim
 from repro.energymogen import controls as ctl
 from repro.energymogen.data import composition_items, stand_in_clip
 from repro.energymogen.energy import smooth_energy_map
-from repro.energymogen.harness import TextToMotionTest, build_text_to_motion_test
+from repro.energymogen.harness import (
+    TextToMotionTest,
+    build_text_to_motion_test,
+    grouped_r_precision,
+    load_or_build_shared_concept_test,
+)
 from repro.energymogen.latent_count import mpjpe
 from repro.energymogen.pipeline import EnergyMoGenPipeline
 from repro.energymogen.studies import (
@@ -295,3 +301,15 @@ def test_controls_feed_the_ledger(composition_pipe: EnergyMoGenPipeline) -> None
     assert stored["positive"]["status"] in ("passed", "failed")
     assert stored["null"]["status"] in ("passed", "failed")
     assert "controls" not in stored["positive"]["measured"]
+
+
+def test_t2m_measurements_rank_within_a_grouped_tests_own_batches(
+        tiny_pipeline: EnergyMoGenPipeline) -> None:
+    """EMG-8's controls measure R@3 as its study does: on the shared-concept test, within the
+    test's batches of clips that share a concept."""
+    shared = load_or_build_shared_concept_test(TINY_PIPELINE, 64)
+    reference = ctl._reference(tiny_pipeline, shared)
+    measured = ctl.t2m_measurements(tiny_pipeline, shared, shared.features, 0, reference)
+    expected = grouped_r_precision(tiny_pipeline.evaluator.embed_texts(shared.texts(0)),
+                                   reference)[2]
+    assert measured["r_precision_top3"] == pytest.approx(float(expected))

@@ -1,9 +1,10 @@
 """The quality-gate measurements of the EnergyMoGen models (repro.energymogen.model_gates): each
 on "models" with a known answer — the data itself passes its own gate, a constant or noise model
-fails — and the records built from the model cache."""
+fails — and the records built from the pipeline's training records."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -14,6 +15,7 @@ from conftest import TINY_AUGMENTATION_PIPELINE, TINY_PIPELINE
 from repro.core.gates import gate_results, gates_markdown
 from repro.energymogen import augmentation as ag
 from repro.energymogen import model_gates as mg
+from repro.energymogen.convergence import TrainingRecord
 from repro.energymogen.harness import (
     TextToMotionTest,
     generation_metrics,
@@ -94,31 +96,48 @@ def test_evaluator_gate_separates_a_perfect_from_a_noise_evaluator(tiny) -> None
         "passed"]
 
 
-def test_records_come_from_the_cache_entries(tiny) -> None:
+def test_records_come_from_the_pipeline(tiny) -> None:
     pipe, test = tiny
     real = mg.real_concept_recall(pipe, test)
     vae, denoiser = mg.pipeline_records(pipe, test, real)
     assert vae["family"] == "vae" and denoiser["family"] == "latent_denoiser"
-    assert vae["steps"] == TINY_PIPELINE.vae_steps
+    assert vae["steps"] == TINY_PIPELINE.vae_steps == pipe.training["vae"].steps
     assert denoiser["steps"] == TINY_PIPELINE.denoiser_steps
     assert vae["train_seconds"] > 0 and denoiser["train_seconds"] > 0
-    assert vae["validation_curve"] and denoiser["validation_curve"]
+    assert vae["converged"] is None and vae["validation_curve"] == []   # no validation
     assert vae["parameters"] == sum(p.numel() for p in pipe.vae.parameters())
     assert vae["name"] != denoiser["name"]
     evaluator = mg.evaluator_record(pipe, test)
     assert evaluator["steps"] == TINY_PIPELINE.evaluator_steps
-    assert evaluator["validation_curve"]
+    assert evaluator["training_losses"]
     text = gates_markdown([vae, denoiser, evaluator])
     for metric in ("reconstruction_mpjpe", "concept_preservation", "single_text_accuracy",
                    "r_precision_top3"):
         assert metric in text
-    assert mg.cached_training("motion_vae", {"model": {"no": "such model"}})["steps"] is None
+
+
+def test_the_gate_record_is_the_pipelines_training_record(tiny) -> None:
+    """Whatever the pipeline says of its training is what the record shows: nothing is read
+    from the cache folders behind it."""
+    pipe, test = tiny
+    said = TrainingRecord(steps=7, step_cap=9, train_seconds=1.5, converged=True,
+                          stop_reason="plateau", validation_curve=((0, 2.0), (7, 1.0)),
+                          losses=(1.0,))
+    other = replace(pipe, training={"vae": said, "denoiser": said})
+    values = {"reconstruction_mpjpe": 0.01, "concept_preservation": 1.0}
+    record = mg.vae_record(other, values, 1.0)
+    assert (record["steps"], record["train_seconds"], record["converged"]) == (7, 1.5, True)
+    assert record["validation_curve"] == [2.0, 1.0] and record["training"]["step_cap"] == 9
+    denoiser = mg.denoiser_record(other, {"single_text_accuracy": 1.0}, 1.0)
+    assert denoiser["steps"] == 7 and denoiser["training"]["stop_reason"] == "plateau"
 
 
 def test_augmentation_records_take_the_study_values(tiny) -> None:
     pipe, test = tiny
     results = {"t2m": {row: {"oracle_accuracy": [value]} for row, value in
-                       (("pretrained", 0.25), ("control", 0.5), ("augmented", 0.75))}}
+                       (("pretrained", 0.25), ("control", 0.5), ("augmented", 0.75))},
+               "training": {row: [pipe.training["denoiser"]] for row in ("control",
+                                                                         "augmented")}}
     records = mg.augmentation_records(pipe, test, results, [0])
     values = {row: [r["gate"]["single_text_accuracy"]["value"] for r in records[row]]
               for row in ("pretrained", "control", "augmented")}
@@ -127,15 +146,14 @@ def test_augmentation_records_take_the_study_values(tiny) -> None:
     assert len(set(names)) == len(names) == 4
 
 
-def test_fine_tuned_denoisers_are_found_in_the_cache(emg_cache: object) -> None:
+def test_fine_tuned_denoisers_carry_their_own_training(emg_cache: object) -> None:
     pipe = load_pipeline(TINY_AUGMENTATION_PIPELINE, log=None)
     test = load_or_build_text_to_motion_test(TINY_AUGMENTATION_PIPELINE, 32)
     results = ag.augmentation_study(pipe, test, [0], size=8)
     records = mg.augmentation_records(pipe, test, results, [0])
-    steps = ag.finetune_config(pipe.config, 0).steps
+    steps = ag.pipeline_finetune_config(pipe, 0).steps
     for row in ("control", "augmented"):
         (record,) = records[row]
         assert record["steps"] == steps and record["train_seconds"] > 0
-        assert record["validation_curve"]
         value = record["gate"]["single_text_accuracy"]["value"]
         assert value == results["t2m"][row]["oracle_accuracy"][0]

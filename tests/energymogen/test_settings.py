@@ -8,6 +8,7 @@ import inspect
 import pytest
 
 from repro.energymogen.config import pipeline_config
+from repro.energymogen.convergence import TrainingPlan
 from repro.energymogen.energy import energy_map_case
 from repro.energymogen.latent_count import LATENT_COUNTS
 from repro.energymogen.settings import (
@@ -42,6 +43,10 @@ def test_latent_count_and_augmentation_settings() -> None:
     assert full.counts == LATENT_COUNTS and full.test_clips == 256 and full.threads == 1
     assert LatentCountSettings.for_mode(True).test_clips == 64
     augmentation = AugmentationSettings.for_mode(False)
+    assert augmentation.test_clips == 384 == 12 * 32 and augmentation.gate_test_clips == 256
+    for quick in (False, True):    # 07 and 08 train the same models
+        assert (LatentCountSettings.for_mode(quick).plan
+                == AugmentationSettings.for_mode(quick).plan == TrainingPlan.for_mode(quick))
     assert augmentation.composed_set_size == 342
     finetune = augmentation.finetune(3)
     assert (finetune.steps, finetune.lr, finetune.seed, finetune.num_threads) == (

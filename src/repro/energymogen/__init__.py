@@ -4,7 +4,8 @@ imports repro.gmd.
 Modules, each importing only those above it in this list (and lower layers):
 ``compose`` (Eq. 3–4, 7–10 on ε) · ``config`` (the concept pool, held-out pairs,
 ``PipelineConfig``) · ``data`` (stand-in data, composition and negation test items) ·
-``text_stage`` (the frozen text encoder, the stand-in for CLIP) · ``pipeline`` (the trained
+``text_stage`` (the frozen text encoder, the stand-in for CLIP) · ``convergence`` (the
+training plan to convergence and each model's training record) · ``pipeline`` (the trained
 pipeline, its stages and sampling) · ``harness`` (the text-to-motion test set and generation
 metrics shared by EMG-7 and EMG-8) · ``energy`` (EMG-1, 6, 9) · ``gradient_field`` (EMG-1's
 per-t residual Jacobian asymmetry and loop integrals) · ``fid_checks`` (EMG-9's fixed cases) ·
@@ -12,6 +13,7 @@ per-t residual Jacobian asymmetry and loop integrals) · ``fid_checks`` (EMG-9's
 3, 4, 5) · ``planted`` (the planted transition effects of EMG-5's controls) · ``latent_count`` (EMG-7) · ``augmentation`` (EMG-8) ·
 ``controls`` (the positive and null controls of EMG-2 to 8) · ``model_gates`` (the quality
 gates of the VAE, latent denoiser and evaluator) · ``settings`` (quick/full
-settings per notebook) · ``figures`` (the notebooks' figures).
+settings per notebook) · ``figures`` (the notebooks' figures) · ``training_report`` (the
+notebooks' training tables and validation curves).
 
 Layers: docs/DESIGN.md."""

@@ -27,9 +27,12 @@ on the HumanML3D test set (Table 1). On the stand-in data:
   of the held-out pairs, ``data.composition_items``): oracle accuracy and both-present
   rate, R@3 and FID as ``studies.composition_metrics``.
 
-A seed s redraws the composed set (pairs, texts, noise), seeds fine-tuning (batches,
-timesteps, noise, text dropout) and the evaluation noise and captions; the pretrained models
-are the pipeline's, shared by every seed.
+A seed s takes the pretrained models of its own training seed (``pipeline.SeedPipelines``:
+VAE and denoiser retrained with ``data_seed + s``, issue #16: "pretraining seeds varied", so
+the seeds replicate pretraining too), redraws the composed set (pairs, texts, noise) with
+them, seeds fine-tuning (batches, timesteps, noise, text dropout) and the evaluation noise and
+captions. The text-to-motion test is the shared-concept test of
+``harness.build_shared_concept_test`` (off the ceiling of the random-batch test).
 """
 
 from __future__ import annotations
@@ -48,9 +51,16 @@ from repro.core.stats import paired_difference
 from repro.core.tables import interval_text
 from repro.core.training import TrainConfig, torch_threads
 from repro.energymogen.config import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPTS, PipelineConfig
+from repro.energymogen.convergence import TrainingRecord, cached_training_record
 from repro.energymogen.data import composition_items, concept_text
 from repro.energymogen.harness import TextToMotionTest, generation_metrics
-from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, encode_latents
+from repro.energymogen.pipeline import (
+    EnergyMoGenPipeline,
+    PipelineSource,
+    Sampler,
+    encode_latents,
+    pipeline_for,
+)
 from repro.energymogen.studies import composition_metrics, oracle_presence
 from repro.infra import cache
 from repro.models.latent_denoiser import LatentDenoiser, train_latent_denoiser
@@ -64,7 +74,7 @@ __all__ = [
     "COMPML_FRACTION", "ROWS", "ComposedSet", "Rows", "augmentation_study", "caption_rows",
     "composable_pairs", "compose_set", "composed_set_size", "concatenate_rows",
     "finetune_config", "held_out_composed_metrics", "joined_caption", "load_or_finetune",
-    "rows_markdown",
+    "pipeline_finetune_config", "rows_markdown",
 ]
 
 #: CompML motions per HumanML3D motion: 5000 / 14616 (Sec. 5.1; appendix G.1).
@@ -172,21 +182,33 @@ def concatenate_rows(*parts: Rows) -> Rows:
                 torch.cat([pad(p.mask) for p in parts]))
 
 
-def finetune_config(config: PipelineConfig, seed: int,
-                    threads: int | None = 1) -> TrainConfig:
+def finetune_config(config: PipelineConfig, seed: int, threads: int | None = 1,
+                    pretraining_steps: int | None = None) -> TrainConfig:
     """Fine-tuning as appendix A's ratios (our reading): steps = round(pretraining steps / 3)
-    (100K after 300K), lr = pretraining lr / 2 (5·10⁻⁵ vs 10⁻⁴); batch, EMA 0.999, 10 % text
-    dropout as pretraining. ``threads`` only changes speed (not in cache keys)."""
-    return TrainConfig(steps=max(1, round(config.denoiser_steps / 3)),
+    (100K after 300K; ``pretraining_steps`` = the steps the pretrained denoiser used, default
+    ``config.denoiser_steps``), lr = pretraining lr / 2 (5·10⁻⁵ vs 10⁻⁴); batch, EMA 0.999,
+    10 % text dropout as pretraining. ``threads`` only changes speed (not in cache keys)."""
+    steps = config.denoiser_steps if pretraining_steps is None else int(pretraining_steps)
+    return TrainConfig(steps=max(1, round(steps / 3)),
                        batch_size=config.denoiser_batch, lr=config.denoiser_lr / 2,
                        ema_decay=0.999, cond_dropout=0.1, seed=seed, num_threads=threads)
 
 
+def pipeline_finetune_config(pipe: EnergyMoGenPipeline, seed: int,
+                             threads: int | None = 1) -> TrainConfig:
+    """:func:`finetune_config` of ``pipe``'s pretrained denoiser: a third of the steps it used
+    (its ``training`` record; ``config.denoiser_steps`` when it has none)."""
+    record = pipe.training.get("denoiser")
+    return finetune_config(pipe.config, seed, threads,
+                           None if record is None else record.steps)
+
+
 def load_or_finetune(pipe: EnergyMoGenPipeline, rows: Rows,
-                     train_config: TrainConfig) -> LatentDenoiser:
+                     train_config: TrainConfig) -> tuple[LatentDenoiser, TrainingRecord]:
     """A copy of ``pipe.denoiser`` fine-tuned on ``rows`` (cache kind
-    ``emg_finetuned_denoiser``, keyed by the pretrained weights, the rows and the config);
-    the pipeline's denoiser is left untouched."""
+    ``emg_finetuned_denoiser``, keyed by the pretrained weights, the rows and the config) and
+    its training record (``convergence.cached_training_record`` of that entry); the
+    pipeline's denoiser is left untouched."""
     base = pipe.denoiser
     key = {"base": array_fingerprint(*base.state_dict().values()),
            "model": base.config(), "train": train_config.to_config(),
@@ -201,8 +223,9 @@ def load_or_finetune(pipe: EnergyMoGenPipeline, rows: Rows,
         return train_latent_denoiser(model, pipe.diffusion, rows.latents, rows.tokens,
                                      rows.mask, train_config).for_cache()
 
-    return cache.load_or_train("emg_finetuned_denoiser", key, build, train,
-                               device=pipe.device).eval()
+    denoiser = cache.load_or_train("emg_finetuned_denoiser", key, build, train,
+                                   device=pipe.device).eval()
+    return denoiser, cached_training_record("emg_finetuned_denoiser", key, train_config.steps)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -220,56 +243,61 @@ def held_out_composed_metrics(variant: EnergyMoGenPipeline, seed: int) -> dict[s
     return composition_metrics(variant, features, variant.joints(features), items, seed)
 
 
-def augmentation_study(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
+def augmentation_study(source: PipelineSource, test: TextToMotionTest,
                        seeds: Sequence[int], *, size: int, threads: int | None = 1,
                        log: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """Per seed: compose a set of ``size``, fine-tune control and augmented, measure every
-    row of :data:`ROWS` on both tests, all with ``threads`` torch threads. Returns
-    ``{"t2m": {row: {metric: per-seed list}}, "held_out": {row: {...}}, "composed": {metric:
-    per-seed list}, "example": ComposedSet of the first seed, "seconds": {...},
-    "finetune_data": {row: per-seed fingerprint of the fine-tuning rows (the ``data`` of the
-    row's cache key, ``model_gates.augmentation_records``)}}``;
-    composed-set metrics: oracle both-present rate overall and on held-out pairs, per-concept
-    accuracy."""
+    """Per seed s, from the pretrained pipeline of s (``pipeline_for(source, s)``; a single
+    pipeline is one pretrained model for every seed): compose a set of ``size``, fine-tune
+    control and augmented, measure every row of :data:`ROWS` on both tests, all with
+    ``threads`` torch threads. Returns ``{"t2m": {row: {metric: per-seed list}},
+    "held_out": {row: {...}}, "composed": {metric: per-seed list}, "example": ComposedSet of
+    the first seed, "seconds": {...}, "training": {row: per-seed ``TrainingRecord`` of the
+    fine-tuned denoisers}, "pretrained_train_seeds": per-seed training seed}``; composed-set
+    metrics: the oracles' both-present rate on the set itself, overall and on held-out
+    pairs, and their per-concept accuracy."""
     out: dict[str, Any] = {"t2m": {r: {} for r in ROWS}, "held_out": {r: {} for r in ROWS},
                            "composed": {}, "seconds": {"compose": [], "control": [],
                                                        "augmented": [], "evaluate": []},
-                           "finetune_data": {"control": [], "augmented": []}}
+                           "training": {"control": [], "augmented": []},
+                           "pretrained_train_seeds": []}
     with torch_threads(threads):
-        _augment_and_measure(pipe, test, seeds, size, threads, log, out)
+        _augment_and_measure(source, test, seeds, size, threads, log, out)
     return out
 
 
-def _augment_and_measure(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
+def _composed_stats(composed: ComposedSet) -> dict[str, float]:
+    held = {frozenset(p) for p in HELD_OUT_PAIRS}
+    presence = composed.presence()
+    on_held = np.array([frozenset(c) in held for c in composed.concepts])
+    return {"both_present": float(presence.all(1).mean()),
+            "oracle_accuracy": float(presence.mean()),
+            "held_out_pair_fraction": float(on_held.mean()),
+            "both_present_held_out_pairs": float(presence[on_held].all(1).mean())
+            if on_held.any() else float("nan")}
+
+
+def _augment_and_measure(source: PipelineSource, test: TextToMotionTest,
                          seeds: Sequence[int], size: int, threads: int | None,
                          log: Callable[[str], None] | None, out: dict[str, Any]) -> None:
-    base_rows = caption_rows(pipe, pipe.data.train_features, pipe.data.train_captions)
-    held = {frozenset(p) for p in HELD_OUT_PAIRS}
     for seed in seeds:
+        pipe = pipeline_for(source, seed)
+        out["pretrained_train_seeds"].append(int(pipe.train_seed))
+        base_rows = caption_rows(pipe, pipe.data.train_features, pipe.data.train_captions)
         start = time.perf_counter()
         composed = compose_set(pipe, size, seed)
-        if "example" not in out:
-            out["example"] = composed
-        presence = composed.presence()
-        on_held = np.array([frozenset(c) in held for c in composed.concepts])
-        stats = {"both_present": float(presence.all(1).mean()),
-                 "oracle_accuracy": float(presence.mean()),
-                 "held_out_pair_fraction": float(on_held.mean()),
-                 "both_present_held_out_pairs": float(presence[on_held].all(1).mean())
-                 if on_held.any() else float("nan")}
-        for key, value in stats.items():
+        out.setdefault("example", composed)
+        for key, value in _composed_stats(composed).items():
             out["composed"].setdefault(key, []).append(value)
         out["seconds"]["compose"].append(time.perf_counter() - start)
         composed_rows = caption_rows(pipe, composed.features, [(t,) for t in composed.texts])
-        config = finetune_config(pipe.config, seed, threads)
+        config = pipeline_finetune_config(pipe, seed, threads)
         denoisers: dict[str, LatentDenoiser] = {"pretrained": pipe.denoiser}
         for row, rows in (("control", base_rows),
                           ("augmented", concatenate_rows(base_rows, composed_rows))):
             start = time.perf_counter()
-            denoisers[row] = load_or_finetune(pipe, rows, config)
+            denoisers[row], record = load_or_finetune(pipe, rows, config)
             out["seconds"][row].append(time.perf_counter() - start)
-            out["finetune_data"][row].append(
-                array_fingerprint(rows.latents, rows.tokens, rows.mask))
+            out["training"][row].append(record)
         start = time.perf_counter()
         for row in ROWS:
             variant = replace(pipe, denoiser=denoisers[row])
@@ -279,8 +307,8 @@ def _augment_and_measure(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                     out[part][row].setdefault(metric, []).append(float(value))
         out["seconds"]["evaluate"].append(time.perf_counter() - start)
         if log is not None:
-            log(f"seed {seed}: " + ", ".join(f"{k} {v[-1]:.1f} s"
-                                             for k, v in out["seconds"].items()))
+            log(f"seed {seed} (pretrained with train seed {pipe.train_seed}): " + ", ".join(
+                f"{k} {v[-1]:.1f} s" for k, v in out["seconds"].items()))
 
 
 def rows_markdown(results: Mapping[str, Mapping[str, Sequence[float]]],

@@ -36,7 +36,7 @@ from repro.core import metrics, tables
 from repro.energymogen.config import LOWER_CONCEPTS
 from repro.energymogen.data import composition_items, negation_items, stand_in_clip
 from repro.energymogen.energy import map_similarity
-from repro.energymogen.harness import TextToMotionTest
+from repro.energymogen.harness import TextToMotionTest, grouped_r_precision
 from repro.energymogen.latent_count import mpjpe
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, pipeline_for
 from repro.energymogen.planted import (
@@ -433,10 +433,12 @@ def t2m_measurements(pipe: EnergyMoGenPipeline, test: TextToMotionTest, features
                      seed: int, reference: np.ndarray) -> dict[str, float]:
     """FID against the test clips (``reference``: their evaluator embeddings) and R@3
     (fraction) of the test captions drawn with ``seed``, computed exactly as
-    ``evaluator.evaluate_generated`` computes those two (the same calls)."""
+    ``harness.generation_metrics`` computes those two (the same calls: random batches, or the
+    test's own batches when it is grouped, ``harness.grouped_r_precision``)."""
     gen = pipe.evaluator.embed_motions(features, test.lengths)
     text = pipe.evaluator.embed_texts(test.texts(seed))
-    r = metrics.r_precision(text, gen, 32, 3, seed)
+    r = (grouped_r_precision(text, gen) if test.grouped
+         else metrics.r_precision(text, gen, 32, 3, seed))
     return {"fid": metrics.fid(gen, reference), "r_precision_top3": float(r[2])}
 
 

@@ -40,8 +40,9 @@ from repro.standin.concepts import CONCEPTS
 from repro.standin.generator import GENERATOR_VERSION, ClipSpec, generate_clip
 
 __all__ = [
-    "CompositionItems", "CompositionPool", "NegationItems", "StandInData",
-    "build_composition_pool", "build_stand_in_data", "composition_items", "concept_text",
+    "VALIDATION_KEY", "CompositionItems", "CompositionPool", "HeldOutClips", "NegationItems",
+    "StandInData", "build_composition_pool", "draw_training_like_clips",
+    "load_or_build_validation_clips", "build_stand_in_data", "composition_items", "concept_text",
     "load_or_build_data", "load_or_build_test_pool", "negation_items", "pair_caption",
     "stand_in_clip", "trained_pairs",
 ]
@@ -243,6 +244,69 @@ def load_or_build_test_pool(config: PipelineConfig, name: str) -> CompositionPoo
         storage.write_json(meta, {"captions": [list(c) for c in pool.captions],
                                   "concepts": [list(c) for c in pool.concepts]})
         return pool
+
+
+# ----------------------------------------------------------------------------------------------
+# Held-out clips of the training distribution (validation, the text-to-motion test set)
+# ----------------------------------------------------------------------------------------------
+
+#: random keys of the validation clips start here (training clips: 0..n_train−1; the
+#: text-to-motion test set, ``harness``: 2·10⁶ + i): disjoint by construction.
+VALIDATION_KEY = 3 * 10 ** 6
+
+
+@dataclass(frozen=True)
+class HeldOutClips:
+    """Clips drawn as the training clips under keys no training clip has: features (M, T,
+    263) unnormalised, three captions and the concept names of each clip."""
+
+    features: np.ndarray
+    captions: tuple[tuple[str, ...], ...]
+    concepts: tuple[tuple[str, ...], ...]
+
+    def __len__(self) -> int:
+        return int(self.features.shape[0])
+
+
+def draw_training_like_clips(config: PipelineConfig, count: int, key: int) -> HeldOutClips:
+    """``count`` clips drawn as :func:`build_stand_in_data` draws training clips (a single
+    concept with probability ``single_fraction``, else a trained pair; random heading and
+    start), clip i from ``default_rng([data_seed, key + i])``."""
+    pool, pairs = LOWER_CONCEPTS + ARM_CONCEPTS, trained_pairs()
+    feats, captions, concepts = [], [], []
+    with torch.inference_mode():
+        for i in range(count):
+            rng = np.random.default_rng([config.data_seed, key + i])
+            if rng.uniform() < config.single_fraction:
+                names: tuple[str, ...] = (pool[int(rng.integers(len(pool)))],)
+            else:
+                names = pairs[int(rng.integers(len(pairs)))]
+            features, _, caps = stand_in_clip(names, config.frames, rng)
+            feats.append(features)
+            captions.append(tuple(caps))
+            concepts.append(names)
+    return HeldOutClips(np.stack(feats).astype(np.float32), tuple(captions), tuple(concepts))
+
+
+def load_or_build_validation_clips(config: PipelineConfig, count: int) -> HeldOutClips:
+    """The validation clips of the convergence criterion (``pipeline.TrainingPlan``): the
+    stand-in for HumanML3D's validation split, :func:`draw_training_like_clips` from
+    :data:`VALIDATION_KEY`; never a gradient step, never a test (cache kind
+    ``emg_validation``)."""
+    key = {"data": config.data_dict(), "count": int(count), "key_offset": VALIDATION_KEY,
+           "format": 1}
+    directory = cache.cached_artifact_dir("emg_validation", key)
+    with cache.artifact_lock(directory):
+        arrays, meta = directory / "features.npy", directory / "meta.json"
+        if arrays.exists() and meta.exists():
+            text = storage.read_json(meta)
+            return HeldOutClips(np.load(arrays), tuple(tuple(c) for c in text["captions"]),
+                                tuple(tuple(c) for c in text["concepts"]))
+        clips = draw_training_like_clips(config, count, VALIDATION_KEY)
+        storage.write_json(meta, {"captions": [list(c) for c in clips.captions],
+                                  "concepts": [list(c) for c in clips.concepts]})
+        storage.write_npy(arrays, clips.features)
+        return clips
 
 
 # ----------------------------------------------------------------------------------------------

@@ -1,8 +1,10 @@
 """EMG-7: the number N of latent vectors of the motion VAE (EnergyMoGen appendix D, Table 8).
 
 The sweep N ∈ {1, 3, 5, 7} retrains the VAE and the latent denoiser of the shared pipeline
-(``repro.energymogen``) with *everything else identical*: the same data, widths, steps,
-learning rates and schedule (``PipelineConfig`` with only ``latent_count`` replaced), the same
+(``repro.energymogen``) with *everything else identical*: the same data, widths, training plan
+(with the pipeline's ``convergence.TrainingPlan`` every N trains to its own plateau under the
+same step cap, issue #16: "every N's VAE trained to its gate"), learning rates and schedule
+(``PipelineConfig`` with only ``latent_count`` replaced), the same
 frozen text encoder (the stand-in for CLIP, which the paper keeps fixed for every N) and the
 same evaluator. A *training seed* s seeds the VAE (initialisation, batches, reparameterisation
 noise) and the denoiser (initialisation, batches, timesteps, noise, text dropout); the data do
@@ -176,12 +178,16 @@ def latent_count_study(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
     generation, all with ``threads`` torch threads (``core.training.torch_threads``). Returns
     ``{"reconstruction": {str(N): {metric: per-seed list}},
     "generation": {...}, "real": {metric: per-seed list}, "seconds": {str(N): per-seed
-    training seconds (0 when cached)}}``."""
-    out: dict[str, Any] = {"reconstruction": {}, "generation": {}, "real": {}, "seconds": {}}
+    stage seconds (0 for ``pipe`` itself)}, "training": {str(N): per-seed {"vae", "denoiser"}
+    training records (``convergence.TrainingRecord.to_dict``: steps used, cap, converged,
+    validation curve)}}``."""
+    out: dict[str, Any] = {"reconstruction": {}, "generation": {}, "real": {}, "seconds": {},
+                           "training": {}}
     for n in counts:
         for part in ("reconstruction", "generation"):
             out[part][str(n)] = {}
         out["seconds"][str(n)] = []
+        out["training"][str(n)] = []
     with torch_threads(threads):
         _measure_counts(pipe, test, counts, seeds, out, threads, log)
     return out
@@ -195,6 +201,8 @@ def _measure_counts(pipe: EnergyMoGenPipeline, test: TextToMotionTest, counts: S
             variant = load_or_train_variant(pipe, n, seed, threads=threads, log=log)
             out["seconds"][str(n)].append(sum(variant.timings.values())
                                           if variant is not pipe else 0.0)
+            out["training"][str(n)].append({part: record.to_dict() for part, record
+                                            in variant.training.items()})
             for part, measure in (("reconstruction", reconstruction_metrics),
                                   ("generation", generation_metrics)):
                 for metric, value in measure(variant, test, seed).items():

@@ -18,16 +18,15 @@ evaluator ever trained on), and one record builder per family (``core.gates.mode
 
 Our choice: a model is measured with seed ``train_seed − data_seed`` (the evaluation seed whose
 model it is, ``pipeline.train_seed_for``), so one model gets one gate value in every notebook.
-Steps, training seconds and the loss curve come from the model's cache entry (``config.json``'s
-``train.steps``, ``metrics.json``'s ``seconds`` and losses); the curve is the *training* loss the
-cache keeps (no held-out validation loss is stored).
+Steps, training seconds, whether it converged and the held-out validation curve come from the
+pipeline (``EnergyMoGenPipeline.training``: the records ``pipeline.load_pipeline`` read from
+exactly the models' own cache entries, ``convergence.TrainingRecord``); a model trained without
+validation has an empty curve. Fine-tuned denoisers (EMG-8) pass their own record.
 """
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict
 from typing import Any
 
 import torch
@@ -36,21 +35,13 @@ from torch import nn
 from repro.core import metrics
 from repro.core.gates import model_record
 from repro.core.training import torch_threads
-from repro.energymogen.augmentation import finetune_config
+from repro.energymogen.convergence import TrainingRecord
 from repro.energymogen.harness import TextToMotionTest, oracle_accuracy
 from repro.energymogen.latent_count import load_or_train_variant, mpjpe
-from repro.energymogen.pipeline import (
-    EnergyMoGenPipeline,
-    Sampler,
-    denoiser_kwargs,
-    denoiser_train_config,
-    vae_kwargs,
-    vae_train_config,
-)
-from repro.infra import cache, paths, storage
+from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
 
 __all__ = [
-    "cached_training", "denoiser_gate_values", "denoiser_record", "evaluator_gate_values",
+    "denoiser_gate_values", "denoiser_record", "evaluator_gate_values",
     "evaluator_record", "gate_seed", "parameter_count",
     "augmentation_records", "latent_count_records", "pipeline_records", "real_concept_recall",
     "vae_gate_values", "vae_record",
@@ -65,37 +56,6 @@ def gate_seed(pipe: EnergyMoGenPipeline) -> int:
 def parameter_count(model: nn.Module) -> int:
     """Number of parameters of ``model``."""
     return int(sum(p.numel() for p in model.parameters()))
-
-
-def _normalised(value: Any) -> Any:
-    return json.loads(cache.canonical_json(value))
-
-
-def cached_training(kind: str, match: Mapping[str, Any]) -> dict[str, Any]:
-    """What the cache stores of the training of the entry of ``kind`` whose ``config.json``
-    holds every item of ``match`` (e.g. the model kwargs and the training config): ``steps``
-    (``train.steps`` or ``evaluator.steps``), ``train_seconds`` and ``losses`` (the training
-    loss curve of ``metrics.json``). None/[] where no single entry matches or a field is
-    absent (several entries differing only in their data leave the seconds unknown)."""
-    want = _normalised(dict(match))
-    root = paths.cache_dir() / kind
-    found = []
-    for config_file in sorted(root.glob("*/config.json")) if root.is_dir() else []:
-        stored = storage.read_json(config_file)
-        if all(stored.get(k) == v for k, v in want.items()):
-            metrics_file = config_file.parent / "metrics.json"
-            found.append((stored, storage.read_json(metrics_file)
-                          if metrics_file.exists() else {}))
-    if not found:
-        return {"steps": None, "train_seconds": None, "losses": []}
-    stored, stored_metrics = found[0]
-    train = stored.get("train") or stored.get("evaluator") or {}
-    losses = stored_metrics.get("losses", [])
-    if isinstance(losses, Mapping):
-        losses = losses.get("loss", [])
-    seconds = stored_metrics.get("seconds") if len(found) == 1 else None
-    return {"steps": train.get("steps"), "train_seconds": seconds,
-            "losses": [float(v) for v in losses]}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -148,60 +108,57 @@ def evaluator_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 
 def _record(*, name: str, family: str, values: Mapping[str, float],
             reference: Mapping[str, float], model: nn.Module,
-            training: Mapping[str, Any]) -> dict[str, Any]:
-    return model_record(name=name, family=family, values=values, reference=reference,
-                        parameters=parameter_count(model), steps=training["steps"],
-                        train_seconds=training["train_seconds"],
-                        validation_curve=list(training["losses"]))
+            training: TrainingRecord | None) -> dict[str, Any]:
+    record = model_record(
+        name=name, family=family, values=values, reference=reference,
+        parameters=parameter_count(model), steps=None if training is None else training.steps,
+        train_seconds=None if training is None else training.train_seconds,
+        validation_curve=[] if training is None else [v for _, v in training.validation_curve],
+        converged=None if training is None else training.converged)
+    if training is not None:
+        record["training"] = training.to_dict()
+    return record
 
 
 def vae_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float],
                real_recall: float) -> dict[str, Any]:
     """The ``vae`` record of ``pipe.vae`` (N latents, training seed): ``values`` of
     :func:`vae_gate_values` (or the same measurement from a study), reference
-    ``concept_preservation`` = ``real_recall`` (:func:`real_concept_recall`)."""
-    config = pipe.config
-    train = vae_train_config(config, pipe.train_seed).to_config()
-    training = cached_training("motion_vae", {"model": vae_kwargs(config), "train": train})
-    return _record(name=f"EMG VAE N={config.latent_count} train seed {pipe.train_seed}",
+    ``concept_preservation`` = ``real_recall`` (:func:`real_concept_recall`); training from
+    ``pipe.training["vae"]``."""
+    return _record(name=f"EMG VAE N={pipe.config.latent_count} train seed {pipe.train_seed}",
                    family="vae", values=values,
                    reference={"concept_preservation": real_recall}, model=pipe.vae,
-                   training=training)
+                   training=pipe.training.get("vae"))
 
 
 def denoiser_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float], real_recall: float,
-                    *, name: str | None = None, kind: str = "emg_latent_denoiser",
-                    train_config: Mapping[str, Any] | None = None,
-                    data: str | None = None) -> dict[str, Any]:
-    """The ``latent_denoiser`` record of ``pipe.denoiser``: ``values`` of
-    :func:`denoiser_gate_values` (or ``harness.generation_metrics``'s ``oracle_accuracy`` as
-    ``single_text_accuracy``), reference = ``real_recall``. A fine-tuned denoiser (EMG-8)
-    passes its ``name``, cache ``kind``, training config and the ``data`` fingerprint of its
-    cache key where known."""
-    config = pipe.config
-    train = (denoiser_train_config(config, pipe.train_seed).to_config()
-             if train_config is None else dict(train_config))
-    match = {"model": pipe.denoiser.config() if kind != "emg_latent_denoiser"
-             else denoiser_kwargs(config), "train": train}
-    if data is not None:
-        match["data"] = data
-    training = cached_training(kind, match)
-    return _record(name=name or (f"EMG latent denoiser N={config.latent_count} train seed "
+                    *, name: str | None = None, denoiser: nn.Module | None = None,
+                    training: TrainingRecord | None = None) -> dict[str, Any]:
+    """The ``latent_denoiser`` record of ``pipe.denoiser`` (training from
+    ``pipe.training["denoiser"]``), or of a fine-tuned ``denoiser`` (EMG-8) with its own
+    ``name`` and ``training``: ``values`` of :func:`denoiser_gate_values` (or
+    ``harness.generation_metrics``'s ``oracle_accuracy`` as ``single_text_accuracy``),
+    reference = ``real_recall``."""
+    if denoiser is None:
+        denoiser, training = pipe.denoiser, pipe.training.get("denoiser")
+    return _record(name=name or (f"EMG latent denoiser N={pipe.config.latent_count} train seed "
                                  f"{pipe.train_seed}"),
                    family="latent_denoiser", values=values,
-                   reference={"single_text_accuracy": real_recall}, model=pipe.denoiser,
+                   reference={"single_text_accuracy": real_recall}, model=denoiser,
                    training=training)
 
 
 def evaluator_record(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dict[str, Any]:
-    """The ``evaluator`` record (:func:`evaluator_gate_values` with seed 0); its cache keeps
-    no training seconds."""
-    training = cached_training("evaluator", {"evaluator": asdict(pipe.evaluator.config)})
-    if not training["losses"]:
-        training["losses"] = [float(v) for v in pipe.evaluator.losses]
-    return _record(name="EMG evaluator", family="evaluator",
-                   values=evaluator_gate_values(pipe, test), reference={},
-                   model=pipe.evaluator, training=training)
+    """The ``evaluator`` record (:func:`evaluator_gate_values` with seed 0): its configured
+    steps and training losses (the evaluator trains for a fixed number of steps, without
+    validation; its cache keeps no training seconds)."""
+    record = model_record(name="EMG evaluator", family="evaluator",
+                          values=evaluator_gate_values(pipe, test), reference={},
+                          parameters=parameter_count(pipe.evaluator),
+                          steps=pipe.evaluator.config.steps, train_seconds=None)
+    record["training_losses"] = [float(v) for v in pipe.evaluator.losses]
+    return record
 
 
 def pipeline_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
@@ -220,8 +177,8 @@ def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
     ``latent_count.latent_count_study``'s ``results``, from the values it measured (its
     reconstruction ``mpjpe`` and ``oracle_accuracy``, its generation ``oracle_accuracy`` at
     the seed that is the model's training seed, and the real clips' ``oracle_accuracy``); the
-    models are reloaded from the cache (``latent_count.load_or_train_variant``) only for their
-    sizes."""
+    models are reloaded from the cache (``latent_count.load_or_train_variant``) for their
+    sizes and training records."""
     records = []
     for i, seed in enumerate(seeds):
         real_recall = float(results["real"]["oracle_accuracy"][i])
@@ -237,27 +194,28 @@ def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
     return records
 
 
-def augmentation_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
-                         results: Mapping[str, Any], seeds: Sequence[int], *,
-                         threads: int | None = 1) -> dict[str, list[dict[str, Any]]]:
-    """EMG-8: records of the VAE (measured here), the pretrained denoiser (its value of
-    ``augmentation.augmentation_study`` at seed :func:`gate_seed` when that seed ran, else
-    measured here) and the control and augmented denoisers of every seed (fine-tuned with
-    that seed and measured at it by the study). Returns ``{"vae": [...], "pretrained": [...],
-    "control": [...], "augmented": [...]}``."""
-    real_recall = real_concept_recall(pipe, test)
+def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
+                         results: Mapping[str, Any], seeds: Sequence[int]
+                         ) -> dict[str, list[dict[str, Any]]]:
+    """EMG-8: per seed s, the records of the pretrained pipeline of s (``pipeline_for``: its
+    VAE measured here on ``gate_test``; its denoiser with the value
+    ``augmentation.augmentation_study`` measured at s) and of the control and augmented
+    denoisers fine-tuned from it (the study's values and training records). Returns
+    ``{"vae": [...], "pretrained": [...], "control": [...], "augmented": [...]}``."""
     t2m = results["t2m"]
-    own = gate_seed(pipe)
-    pretrained = ({"single_text_accuracy": t2m["pretrained"]["oracle_accuracy"][
-        list(seeds).index(own)]} if own in seeds else denoiser_gate_values(pipe, test, own))
-    out = {"vae": [vae_record(pipe, vae_gate_values(pipe, test), real_recall)],
-           "pretrained": [denoiser_record(pipe, pretrained, real_recall)]}
-    for row in ("control", "augmented"):
-        out[row] = [denoiser_record(
-            pipe, {"single_text_accuracy": t2m[row]["oracle_accuracy"][i]}, real_recall,
-            name=f"EMG {row} denoiser (fine-tuned from train seed {pipe.train_seed}, seed {sd})",
-            kind="emg_finetuned_denoiser",
-            train_config=finetune_config(pipe.config, sd, threads).to_config(),
-            data=results.get("finetune_data", {}).get(row, [None] * len(seeds))[i])
-            for i, sd in enumerate(seeds)]
+    out: dict[str, list[dict[str, Any]]] = {"vae": [], "pretrained": [], "control": [],
+                                            "augmented": []}
+    for i, seed in enumerate(seeds):
+        pipe = pipeline_for(source, seed)
+        real_recall = real_concept_recall(pipe, gate_test)
+        out["vae"].append(vae_record(pipe, vae_gate_values(pipe, gate_test), real_recall))
+        out["pretrained"].append(denoiser_record(
+            pipe, {"single_text_accuracy": t2m["pretrained"]["oracle_accuracy"][i]},
+            real_recall))
+        for row in ("control", "augmented"):
+            out[row].append(denoiser_record(      # fine-tuned: the pretrained architecture
+                pipe, {"single_text_accuracy": t2m[row]["oracle_accuracy"][i]}, real_recall,
+                name=f"EMG {row} denoiser (fine-tuned from train seed {pipe.train_seed}, "
+                     f"seed {seed})",
+                denoiser=pipe.denoiser, training=results["training"][row][i]))
     return out

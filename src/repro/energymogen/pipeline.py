@@ -13,6 +13,10 @@ from the data of ``repro.energymogen.data`` and the configuration of
   *training seed* seeds the VAE and the denoiser (:func:`load_pipeline`'s ``train_seed``,
   :func:`retrain_pipeline`), while the data, the frozen text encoder and the evaluator stay
   those of ``data_seed``; :class:`SeedPipelines` gives one trained model per evaluation seed.
+  With a ``convergence.TrainingPlan`` (``load_pipeline``'s ``plan``) the VAE and the denoiser
+  train to convergence on held-out validation clips with a step cap, and the pipeline keeps
+  each model's ``convergence.TrainingRecord`` (``EnergyMoGenPipeline.training``); without one
+  they train ``config``'s fixed step counts, with the cache keys they always had.
 - **sampling** — DDIM on latents with ε from ``repro.energymogen.compose``: single text
   (optionally with AGD, Eq. 3–4), latent-aware conjunction/negation (Eq. 7/8), semantic-aware
   composition (Eq. 9), SEF (Eq. 10); decoding to features and joints.
@@ -38,21 +42,35 @@ from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import TrainConfig
 from repro.energymogen.compose import Condition, Mode, make_composed_eps_fn
 from repro.energymogen.config import PipelineConfig
-from repro.energymogen.data import CompositionItems, StandInData, load_or_build_data
+from repro.energymogen.convergence import TrainingPlan, TrainingRecord, cached_training_record
+from repro.energymogen.data import (
+    CompositionItems,
+    HeldOutClips,
+    StandInData,
+    load_or_build_data,
+    load_or_build_validation_clips,
+)
 from repro.energymogen.text_stage import TextStage, train_text_stage
 from repro.infra import cache
 from repro.models.evaluator import Evaluator, EvaluatorConfig, load_or_train_evaluator
 from repro.models.latent_denoiser import LatentDenoiser, train_latent_denoiser
-from repro.models.vae import MotionVAE, VAETrainConfig, array_fingerprint, load_or_train_vae
+from repro.models.vae import (
+    MotionVAE,
+    VAETrainConfig,
+    array_fingerprint,
+    load_or_train_vae,
+    vae_cache_key,
+)
 from repro.motion.features import features_to_joints
 from repro.standin.text import TextEncoder, Vocabulary
 
 __all__ = [
-    "DenoiserRows", "EnergyMoGenPipeline", "PipelineSource", "Sampler", "SamplerMode",
-    "SeedPipelines", "VAEStage", "denoiser_cache_key", "denoiser_kwargs", "denoiser_rows",
-    "denoiser_train_config", "encode_latents", "latent_diffusion", "load_pipeline",
-    "pipeline_for", "retrain_pipeline", "scaled_linear_betas", "train_denoiser_stage",
-    "train_seed_for", "train_vae_stage", "vae_kwargs", "vae_train_config",
+    "DenoiserRows", "DenoiserStage", "EnergyMoGenPipeline", "PipelineSource", "Sampler",
+    "SamplerMode", "SeedPipelines", "VAEStage", "denoiser_cache_key", "denoiser_kwargs",
+    "denoiser_rows", "denoiser_train_config", "encode_latents", "latent_diffusion",
+    "load_pipeline", "pipeline_for", "retrain_pipeline", "scaled_linear_betas",
+    "train_denoiser_stage", "train_seed_for", "train_vae_stage", "vae_kwargs",
+    "vae_train_config", "validation_clips", "validation_rows",
 ]
 
 #: how a :class:`Sampler` gets its ε̂: the unconditional model, or a composition mode of
@@ -116,6 +134,11 @@ class EnergyMoGenPipeline:
     timings: dict[str, float] = field(default_factory=dict)
     #: the seed the VAE and denoiser were trained with (:func:`load_pipeline`); None: data_seed
     train_seed: int | None = None
+    #: how the VAE and the denoiser were trained (None: ``config``'s fixed step counts)
+    plan: TrainingPlan | None = None
+    #: the training records of ``"vae"`` and ``"denoiser"`` (their cache entries'
+    #: metrics.json, :class:`convergence.TrainingRecord`)
+    training: dict[str, TrainingRecord] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.train_seed is None:
@@ -250,38 +273,62 @@ class VAEStage:
 
     ``latents`` (M, N, d, CPU) are the scaled means of the training clips, ``latent_scale``
     = 1/std of the unscaled means (our choice, as Stable Diffusion's scale factor: the
-    diffusion sees unit-variance latents), ``seconds`` the wall time of the stage.
+    diffusion sees unit-variance latents), ``seconds`` the wall time of the stage,
+    ``training`` the record of its cache entry (:func:`convergence.cached_training_record`).
     """
 
     vae: MotionVAE
     latent_scale: float
     latents: Tensor
     seconds: float
+    training: TrainingRecord
 
 
-def vae_train_config(config: PipelineConfig, train_seed: int,
-                     threads: int | None = None) -> VAETrainConfig:
-    """The VAE's training configuration: ``config``'s steps, batch and lr, seeded with
-    ``train_seed`` (initialisation, batches, reparameterisation noise). ``threads`` only
-    changes speed (not in the cache key)."""
-    return VAETrainConfig(steps=config.vae_steps, batch_size=config.vae_batch, lr=config.vae_lr,
-                          seed=int(train_seed), num_threads=threads)
+def vae_train_config(config: PipelineConfig, train_seed: int, threads: int | None = None,
+                     plan: TrainingPlan | None = None) -> VAETrainConfig:
+    """The VAE's training configuration: ``config``'s batch and lr, seeded with
+    ``train_seed`` (initialisation, batches, reparameterisation noise); ``config.vae_steps``
+    steps, or with a ``plan`` its step cap and convergence fields. ``threads`` only changes
+    speed (not in the cache key)."""
+    if plan is None:
+        return VAETrainConfig(steps=config.vae_steps, batch_size=config.vae_batch,
+                              lr=config.vae_lr, seed=int(train_seed), num_threads=threads)
+    return VAETrainConfig(steps=plan.vae_step_cap, batch_size=config.vae_batch,
+                          lr=config.vae_lr, seed=int(train_seed), num_threads=threads,
+                          validate_every=plan.vae_validate_every, patience=plan.patience,
+                          min_delta=plan.min_delta)
+
+
+def validation_clips(config: PipelineConfig, plan: TrainingPlan | None) -> HeldOutClips | None:
+    """The plan's validation clips (``data.load_or_build_validation_clips``); None without a
+    plan."""
+    return None if plan is None else load_or_build_validation_clips(config,
+                                                                     plan.validation_clips)
 
 
 def train_vae_stage(data: StandInData, config: PipelineConfig, train_seed: int,
-                    device: str | torch.device = "cpu", *,
-                    threads: int | None = None) -> VAEStage:
+                    device: str | torch.device = "cpu", *, threads: int | None = None,
+                    plan: TrainingPlan | None = None) -> VAEStage:
     """The motion VAE of ``config`` trained with ``train_seed`` on the normalised training
     features (``load_or_train_vae``: cache kind ``motion_vae``, keyed by :func:`vae_kwargs`,
-    :func:`vae_train_config` and the data), and the scaled training latents."""
+    :func:`vae_train_config` and the data; with a ``plan``, to convergence on the normalised
+    validation clips, whose fingerprint enters the key), and the scaled training latents."""
     start = time.perf_counter()
-    lengths = np.full(len(data.train_features), data.frames)
-    vae = load_or_train_vae(
-        data.normalise(data.train_features), lengths, model_kwargs=vae_kwargs(config),
-        config=vae_train_config(config, train_seed, threads), device=device).eval()
+    motions = data.normalise(data.train_features)
+    lengths = np.full(len(motions), data.frames)
+    clips = validation_clips(config, plan)
+    validation = None if clips is None else (data.normalise(clips.features),
+                                             np.full(len(clips), data.frames))
+    train_config = vae_train_config(config, train_seed, threads, plan)
+    vae = load_or_train_vae(motions, lengths, model_kwargs=vae_kwargs(config),
+                            config=train_config, device=device, validation=validation).eval()
+    training = cached_training_record(
+        "motion_vae", vae_cache_key(motions, lengths, model_kwargs=vae_kwargs(config),
+                                    config=train_config, validation=validation),
+        train_config.steps)
     mu = encode_latents(vae, data, data.train_features, device)
     scale = float(1.0 / mu.std())
-    return VAEStage(vae, scale, (mu * scale).cpu(), time.perf_counter() - start)
+    return VAEStage(vae, scale, (mu * scale).cpu(), time.perf_counter() - start, training)
 
 
 @dataclass(frozen=True)
@@ -294,11 +341,9 @@ class DenoiserRows:
     mask: Tensor
 
 
-def denoiser_rows(data: StandInData, latents: Tensor, text_encoder: TextEncoder,
+def _caption_rows(latents: Tensor, captions: Sequence[Sequence[str]], text_encoder: TextEncoder,
                   vocab: Vocabulary, config: PipelineConfig) -> DenoiserRows:
-    """One row per caption of each training clip: its scaled latent (``latents`` (M_clips,
-    N, d)) and the caption's frozen token features, cut to the longest caption."""
-    rows = [(i, c) for i, caps in enumerate(data.train_captions) for c in caps]
+    rows = [(i, c) for i, caps in enumerate(captions) for c in caps]
     ids, text_lengths = vocab.encode_batch([c for _, c in rows], config.max_text_len)
     with torch.no_grad():
         tokens, mask = text_encoder.tokens(torch.from_numpy(ids), text_lengths)
@@ -307,62 +352,112 @@ def denoiser_rows(data: StandInData, latents: Tensor, text_encoder: TextEncoder,
                         mask[:, :width].cpu().contiguous())
 
 
-def denoiser_train_config(config: PipelineConfig, train_seed: int,
-                          threads: int | None = None) -> TrainConfig:
+def denoiser_rows(data: StandInData, latents: Tensor, text_encoder: TextEncoder,
+                  vocab: Vocabulary, config: PipelineConfig) -> DenoiserRows:
+    """One row per caption of each training clip: its scaled latent (``latents`` (M_clips,
+    N, d)) and the caption's frozen token features, cut to the longest caption."""
+    return _caption_rows(latents, data.train_captions, text_encoder, vocab, config)
+
+
+def validation_rows(data: StandInData, clips: HeldOutClips, vae: VAEStage, text: TextStage,
+                    config: PipelineConfig, device: str | torch.device = "cpu"
+                    ) -> DenoiserRows:
+    """The denoiser's validation rows: one per caption of each validation clip, its latent
+    scaled as the training latents (``vae.latent_scale``)."""
+    mu = encode_latents(vae.vae, data, clips.features, device)
+    return _caption_rows((mu * vae.latent_scale).cpu(), clips.captions, text.text_encoder,
+                         text.vocab, config)
+
+
+def denoiser_train_config(config: PipelineConfig, train_seed: int, threads: int | None = None,
+                          plan: TrainingPlan | None = None) -> TrainConfig:
     """The denoiser's training configuration (appendix A: AdamW, EMA 0.999, text dropped 10 %
     of the time), seeded with ``train_seed`` (initialisation, batches, timesteps, noise,
-    dropout). ``threads`` only changes speed (not in the cache key)."""
-    return TrainConfig(steps=config.denoiser_steps, batch_size=config.denoiser_batch,
+    dropout); ``config.denoiser_steps`` steps, or with a ``plan`` its cap and convergence
+    fields (validation loss on the EMA weights). ``threads`` only changes speed."""
+    if plan is None:
+        return TrainConfig(steps=config.denoiser_steps, batch_size=config.denoiser_batch,
+                           lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
+                           seed=int(train_seed), num_threads=threads)
+    return TrainConfig(steps=plan.denoiser_step_cap, batch_size=config.denoiser_batch,
                        lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
-                       seed=int(train_seed), num_threads=threads)
+                       seed=int(train_seed), num_threads=threads,
+                       validate_every=plan.denoiser_validate_every, patience=plan.patience,
+                       min_delta=plan.min_delta)
 
 
 def denoiser_cache_key(config: PipelineConfig, train_config: TrainConfig,
-                       rows: DenoiserRows) -> dict[str, Any]:
-    """The cache key (kind ``emg_latent_denoiser``) of :func:`train_denoiser_stage`."""
-    return {"model": denoiser_kwargs(config), "train": train_config.to_config(),
-            "schedule": "scaled_linear(0.00085, 0.012)", "T": config.num_timesteps,
-            "data": array_fingerprint(rows.latents, rows.tokens, rows.mask), "format": 1}
+                       rows: DenoiserRows,
+                       validation: DenoiserRows | None = None) -> dict[str, Any]:
+    """The cache key (kind ``emg_latent_denoiser``) of :func:`train_denoiser_stage`; the
+    validation rows' fingerprint only when there are some."""
+    key = {"model": denoiser_kwargs(config), "train": train_config.to_config(),
+           "schedule": "scaled_linear(0.00085, 0.012)", "T": config.num_timesteps,
+           "data": array_fingerprint(rows.latents, rows.tokens, rows.mask), "format": 1}
+    if validation is not None:
+        key["validation"] = array_fingerprint(validation.latents, validation.tokens,
+                                              validation.mask)
+    return key
 
 
-def train_denoiser_stage(data: StandInData, config: PipelineConfig, latents: Tensor,
+@dataclass(frozen=True)
+class DenoiserStage:
+    """A trained latent denoiser (eval mode), the stage's seconds and its training record."""
+
+    denoiser: LatentDenoiser
+    seconds: float
+    training: TrainingRecord
+
+
+def train_denoiser_stage(data: StandInData, config: PipelineConfig, vae: VAEStage,
                          text: TextStage, train_seed: int, device: str | torch.device = "cpu",
-                         *, threads: int | None = None) -> tuple[LatentDenoiser, float]:
+                         *, threads: int | None = None,
+                         plan: TrainingPlan | None = None) -> DenoiserStage:
     """The latent ε-denoiser trained with ``train_seed`` on :func:`denoiser_rows` of the
-    scaled ``latents`` of a VAE (:attr:`VAEStage.latents`) and the frozen ``text`` encoder,
-    :func:`latent_diffusion` (cache kind ``emg_latent_denoiser``, :func:`denoiser_cache_key`).
-    Returns (denoiser in eval mode, seconds)."""
+    scaled latents of ``vae`` and the frozen ``text`` encoder, :func:`latent_diffusion`
+    (cache kind ``emg_latent_denoiser``, :func:`denoiser_cache_key`); with a ``plan``, to
+    convergence on :func:`validation_rows` of the plan's validation clips."""
     start = time.perf_counter()
-    rows = denoiser_rows(data, latents, text.text_encoder, text.vocab, config)
-    train_config = denoiser_train_config(config, train_seed, threads)
+    rows = denoiser_rows(data, vae.latents, text.text_encoder, text.vocab, config)
+    clips = validation_clips(config, plan)
+    validation = None if clips is None else validation_rows(data, clips, vae, text, config,
+                                                            device)
+    train_config = denoiser_train_config(config, train_seed, threads, plan)
     diffusion = latent_diffusion(config)
+    key = denoiser_cache_key(config, train_config, rows, validation)
 
     def build_denoiser() -> nn.Module:
         torch.manual_seed(int(train_seed))
         return LatentDenoiser(**denoiser_kwargs(config))
 
     def train_denoiser(model: nn.Module) -> tuple[nn.Module, dict]:
+        held_out = None if validation is None else (validation.latents, validation.tokens,
+                                                    validation.mask)
         return train_latent_denoiser(model, diffusion, rows.latents, rows.tokens, rows.mask,
-                                     train_config).for_cache()
+                                     train_config, validation=held_out).for_cache()
 
-    denoiser = cache.load_or_train("emg_latent_denoiser",
-                                   denoiser_cache_key(config, train_config, rows),
-                                   build_denoiser, train_denoiser, device=device).eval()
-    return denoiser, time.perf_counter() - start
+    denoiser = cache.load_or_train("emg_latent_denoiser", key, build_denoiser, train_denoiser,
+                                   device=device).eval()
+    return DenoiserStage(denoiser, time.perf_counter() - start,
+                         cached_training_record("emg_latent_denoiser", key, train_config.steps))
 
 
 def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
                   log: Callable[[str], None] | None = print,
-                  train_seed: int | None = None) -> EnergyMoGenPipeline:
+                  train_seed: int | None = None,
+                  plan: TrainingPlan | None = None) -> EnergyMoGenPipeline:
     """Data, VAE, text encoder, denoiser and evaluator for ``config`` (each trained on a cache
-    miss, loaded otherwise); ``timings`` holds the seconds of every stage.
+    miss, loaded otherwise); ``timings`` holds the seconds of every stage, ``training`` the
+    records of the VAE and the denoiser.
 
     ``train_seed`` (None: ``config.data_seed``) seeds the VAE (:func:`train_vae_stage`) and
     the latent denoiser (:func:`train_denoiser_stage`); the data (``data_seed``), the frozen
     text encoder (:func:`train_text_stage`, always ``data_seed`` against the ``data_seed``
     VAE, the stand-in for a pretrained CLIP) and the evaluator (the measuring instrument) do
-    not depend on it. ``train_seed = data_seed`` is the default pipeline (the same cache
-    entries as before training seeds existed).
+    not depend on it. ``train_seed = data_seed`` is the default pipeline. ``plan`` (None:
+    the fixed step counts of ``config``) trains the VAEs and the denoiser to convergence
+    (:class:`convergence.TrainingPlan`); it is kept on the pipeline, so
+    :func:`retrain_pipeline` and :class:`SeedPipelines` train as it says.
 
     - VAE: trained on the normalised training features (``load_or_train_vae``);
     - latent scale: 1/std of the training latent means (:class:`VAEStage`);
@@ -385,16 +480,16 @@ def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
     data = load_or_build_data(config)
     stage("data", time.perf_counter() - start)
 
-    reference_vae = train_vae_stage(data, config, config.data_seed, device)
-    vae = reference_vae if seed == config.data_seed else train_vae_stage(data, config, seed,
-                                                                         device)
+    reference_vae = train_vae_stage(data, config, config.data_seed, device, plan=plan)
+    vae = reference_vae if seed == config.data_seed else train_vae_stage(
+        data, config, seed, device, plan=plan)
     stage("vae", reference_vae.seconds + (vae.seconds if vae is not reference_vae else 0.0))
 
     text = train_text_stage(data, config, reference_vae.latents, config.data_seed)
     stage("text_encoder", text.seconds)
 
-    denoiser, seconds = train_denoiser_stage(data, config, vae.latents, text, seed, device)
-    stage("denoiser", seconds)
+    denoiser = train_denoiser_stage(data, config, vae, text, seed, device, plan=plan)
+    stage("denoiser", denoiser.seconds)
 
     start = time.perf_counter()
     all_features = np.concatenate([data.train_features, data.test_features])
@@ -404,35 +499,41 @@ def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
     reference = evaluator.embed_motions(data.test_features,
                                         np.full(len(data.test_features), data.frames))
     stage("evaluator", time.perf_counter() - start)
-    return EnergyMoGenPipeline(config, data, vae.vae, text.text_encoder, text.vocab, denoiser,
-                               latent_diffusion(config), evaluator, vae.latent_scale, reference,
-                               device, timings, train_seed=seed)
+    return EnergyMoGenPipeline(config, data, vae.vae, text.text_encoder, text.vocab,
+                               denoiser.denoiser, latent_diffusion(config), evaluator,
+                               vae.latent_scale, reference, device, timings, train_seed=seed,
+                               plan=plan, training={"vae": vae.training,
+                                                    "denoiser": denoiser.training})
 
 
 def retrain_pipeline(pipe: EnergyMoGenPipeline, train_seed: int, *,
                      config: PipelineConfig | None = None, threads: int | None = None,
                      log: Callable[[str], None] | None = None) -> EnergyMoGenPipeline:
     """``pipe`` with the VAE and latent denoiser of ``config`` (default ``pipe.config``)
-    trained with ``train_seed`` — :func:`train_vae_stage` then :func:`train_denoiser_stage`,
-    the steps of :func:`load_pipeline` — sharing ``pipe``'s data, frozen text encoder,
-    vocabulary and evaluator (loaded from the cache when present; never a shortcut, so
-    ``retrain_pipeline(load_pipeline(c), s)`` has the models of ``load_pipeline(c,
-    train_seed=s)``). ``config`` may change model sizes or steps, not the data or the text
-    encoder. ``timings`` holds ``{"vae", "denoiser"}`` seconds."""
+    trained with ``train_seed`` and ``pipe.plan`` — :func:`train_vae_stage` then
+    :func:`train_denoiser_stage`, the steps of :func:`load_pipeline` — sharing ``pipe``'s
+    data, frozen text encoder, vocabulary and evaluator (loaded from the cache when present;
+    never a shortcut, so ``retrain_pipeline(load_pipeline(c), s)`` has the models of
+    ``load_pipeline(c, train_seed=s)``). ``config`` may change model sizes or steps, not the
+    data or the text encoder. ``timings`` holds ``{"vae", "denoiser"}`` seconds, ``training``
+    their records."""
     config = pipe.config if config is None else config
     if config.data_dict() != pipe.config.data_dict():
         raise ValueError("retrain_pipeline keeps the pipeline's data: config.data_dict() "
                          "must not change")
     text = TextStage(pipe.text_encoder, pipe.vocab, 0.0)
-    vae = train_vae_stage(pipe.data, config, train_seed, pipe.device, threads=threads)
-    denoiser, seconds = train_denoiser_stage(pipe.data, config, vae.latents, text, train_seed,
-                                             pipe.device, threads=threads)
-    timings = {"vae": vae.seconds, "denoiser": seconds}
+    vae = train_vae_stage(pipe.data, config, train_seed, pipe.device, threads=threads,
+                          plan=pipe.plan)
+    denoiser = train_denoiser_stage(pipe.data, config, vae, text, train_seed, pipe.device,
+                                    threads=threads, plan=pipe.plan)
+    timings = {"vae": vae.seconds, "denoiser": denoiser.seconds}
     if log is not None:
-        log(f"training seed {train_seed}: VAE {vae.seconds:.1f} s, denoiser {seconds:.1f} s")
-    return replace(pipe, config=config, vae=vae.vae, denoiser=denoiser,
+        log(f"training seed {train_seed}: VAE {vae.seconds:.1f} s, denoiser "
+            f"{denoiser.seconds:.1f} s")
+    return replace(pipe, config=config, vae=vae.vae, denoiser=denoiser.denoiser,
                    diffusion=latent_diffusion(config), latent_scale=vae.latent_scale,
-                   timings=timings, train_seed=int(train_seed))
+                   timings=timings, train_seed=int(train_seed),
+                   training={"vae": vae.training, "denoiser": denoiser.training})
 
 
 def train_seed_for(config: PipelineConfig, seed: int) -> int:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from repro.core.training import TrainConfig
 from repro.energymogen.augmentation import composed_set_size, finetune_config
 from repro.energymogen.config import PipelineConfig, pipeline_config
+from repro.energymogen.convergence import TrainingPlan
 from repro.energymogen.latent_count import LATENT_COUNTS
 
 __all__ = ["AugmentationSettings", "EnergyViewSettings", "LatentCountSettings",
@@ -88,43 +89,54 @@ class SEFAblationSettings:
 class LatentCountSettings:
     """Notebook 07 (EMG-7): the N swept, the training seeds, the size of the held-out
     text-to-motion test set (256 clips: 8 R-precision batches of 32, FID of 32-d embeddings
-    from 256 samples; 64 in quick runs) and the torch threads."""
+    from 256 samples; 64 in quick runs), the torch threads and the training plan: every N's
+    VAE and denoiser trained to convergence (``convergence.TrainingPlan.for_mode``; the VAE's
+    cap from the pilot of docs/pilot_emg_vae.md), so each N's VAE can reach its gate."""
 
     quick: bool
     pipeline: PipelineConfig
     seeds: int
     test_clips: int
+    plan: TrainingPlan
     counts: tuple[int, ...] = LATENT_COUNTS
     threads: int = ONE_THREAD
 
     @classmethod
     def for_mode(cls, quick: bool) -> LatentCountSettings:
         return cls(quick=quick, pipeline=pipeline_config(quick), seeds=1 if quick else 3,
-                   test_clips=64 if quick else 256)
+                   test_clips=64 if quick else 256, plan=TrainingPlan.for_mode(quick))
 
 
 @dataclass(frozen=True)
 class AugmentationSettings:
-    """Notebook 08 (EMG-8): seeds, the held-out text-to-motion test set (as notebook 07's),
-    torch threads; the composed set's size and the fine-tuning follow from the pipeline
-    (``augmentation.composed_set_size``, ``augmentation.finetune_config``)."""
+    """Notebook 08 (EMG-8): seeds (each with its own pretrained models,
+    ``pipeline.SeedPipelines``), the rule's test set — the shared-concept test of
+    ``harness.build_shared_concept_test``, 384 clips: one R-precision batch of 32 per concept
+    of the pool (12), 64 clips (2 batches) in quick runs —, the random-batch test set on which
+    the models' gates are measured (as notebook 07's: 256 clips, 64 quick), torch threads and
+    the training plan (notebook 07's); the composed set's size and the fine-tuning follow from
+    the pipeline (``augmentation.composed_set_size``, ``augmentation.finetune_config``)."""
 
     quick: bool
     pipeline: PipelineConfig
     seeds: int
     test_clips: int
+    gate_test_clips: int
+    plan: TrainingPlan
     threads: int = ONE_THREAD
 
     @classmethod
     def for_mode(cls, quick: bool) -> AugmentationSettings:
         return cls(quick=quick, pipeline=pipeline_config(quick), seeds=1 if quick else 3,
-                   test_clips=64 if quick else 256)
+                   test_clips=64 if quick else 384, gate_test_clips=64 if quick else 256,
+                   plan=TrainingPlan.for_mode(quick))
 
     @property
     def composed_set_size(self) -> int:
         """CompML's size relative to HumanML3D's, of the pipeline's training clips."""
         return composed_set_size(self.pipeline)
 
-    def finetune(self, seed: int) -> TrainConfig:
-        """The fine-tuning configuration of ``seed`` (appendix A's ratios)."""
-        return finetune_config(self.pipeline, seed, self.threads)
+    def finetune(self, seed: int, pretraining_steps: int | None = None) -> TrainConfig:
+        """The fine-tuning configuration of ``seed`` (appendix A's ratios): a third of the
+        pretrained denoiser's ``pretraining_steps`` (default the configured steps)."""
+        return finetune_config(self.pipeline, seed, self.threads, pretraining_steps)

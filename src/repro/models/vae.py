@@ -56,6 +56,7 @@ __all__ = [
     "lengths_to_mask",
     "load_or_train_vae",
     "train_vae",
+    "vae_cache_key",
     "vae_validation_loss",
 ]
 
@@ -410,6 +411,24 @@ def array_fingerprint(*arrays: Tensor | np.ndarray) -> str:
                              with_layout=True)
 
 
+def vae_cache_key(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray | Sequence[int],
+                  *, model_kwargs: dict[str, Any], config: VAETrainConfig,
+                  validation: tuple[Tensor | np.ndarray,
+                                    Tensor | np.ndarray | Sequence[int]] | None = None
+                  ) -> dict[str, Any]:
+    """The cache key (kind ``motion_vae``) of :func:`load_or_train_vae`: model kwargs,
+    training config, data fingerprint, format; the validation data's fingerprint only when
+    given."""
+    key = {"model": dict(model_kwargs), "train": config.to_config(),
+           "data": array_fingerprint(np.asarray(motions, dtype=np.float32),
+                                     np.asarray(lengths, dtype=np.int64)),
+           "format": _FORMAT_VERSION}
+    if validation is not None:
+        key["validation"] = array_fingerprint(np.asarray(validation[0], dtype=np.float32),
+                                              np.asarray(validation[1], dtype=np.int64))
+    return key
+
+
 def load_or_train_vae(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray | Sequence[int],
                       *, model_kwargs: dict[str, Any] | None = None,
                       config: VAETrainConfig | None = None, retrain: bool = False,
@@ -424,13 +443,8 @@ def load_or_train_vae(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray
     """
     model_kwargs = dict(model_kwargs or {})
     config = config or VAETrainConfig()
-    cache_config = {"model": model_kwargs, "train": config.to_config(),
-                    "data": array_fingerprint(np.asarray(motions, dtype=np.float32),
-                                              np.asarray(lengths, dtype=np.int64)),
-                    "format": _FORMAT_VERSION}
-    if validation is not None:
-        cache_config["validation"] = array_fingerprint(
-            np.asarray(validation[0], dtype=np.float32), np.asarray(validation[1], dtype=np.int64))
+    cache_config = vae_cache_key(motions, lengths, model_kwargs=model_kwargs, config=config,
+                                 validation=validation)
 
     def build() -> MotionVAE:
         torch.manual_seed(config.seed)

@@ -1,0 +1,118 @@
+"""Training the EnergyMoGen pipeline's VAE and latent denoiser to convergence (issue #14).
+
+:class:`TrainingPlan` says how (``repro.core.training``'s plateau criterion on a held-out
+validation loss, with a step cap; docs/TRAINING.md); :class:`TrainingRecord` is what a trained
+model's own cache entry says of its training (steps used, seconds, validation curve, whether
+it converged), read by exactly its key (:func:`cached_training_record`), never by scanning the
+cache. ``pipeline.load_pipeline`` keeps one record per trained model on the pipeline, and
+``model_gates`` takes them from there.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from repro.infra import cache, paths, storage
+
+__all__ = ["FULL_VAE_STEP_CAP", "TrainingPlan", "TrainingRecord", "cached_training_record"]
+
+
+
+
+#: the full-mode VAE step cap: what 20 CPU-minutes buy on one thread (0.1015 CPU-s per step,
+#: rounded down to 250), as the rule of ``docs/pilot_emg_vae.md`` says when the pilot VAE
+#: (N = 5) did not reach its gate within them
+FULL_VAE_STEP_CAP = 11750
+
+
+@dataclass(frozen=True)
+class TrainingPlan:
+    """Convergence training of the VAE and the latent denoiser (``repro.core.training``'s
+    plateau criterion): the validation loss on ``validation_clips`` held-out clips of the
+    training distribution (``data.load_or_build_validation_clips``, the stand-in for
+    HumanML3D's validation split) every ``*_validate_every`` steps; stop after ``patience``
+    evaluations without a relative gain of ``min_delta``, or at the ``*_step_cap``.
+
+    With a plan the caps replace ``PipelineConfig.vae_steps``/``denoiser_steps`` and the
+    convergence fields and the validation data enter the cache keys; without one (None)
+    training is as before, with the same keys. :meth:`for_mode` gives the notebooks' plans.
+    """
+
+    validation_clips: int
+    vae_step_cap: int
+    vae_validate_every: int
+    denoiser_step_cap: int
+    denoiser_validate_every: int
+    patience: int = 5
+    min_delta: float = 0.01
+
+    def __post_init__(self) -> None:
+        for name in ("validation_clips", "vae_step_cap", "vae_validate_every",
+                     "denoiser_step_cap", "denoiser_validate_every", "patience"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if not 0.0 <= self.min_delta < 1.0:
+            raise ValueError(f"min_delta must be in [0, 1), got {self.min_delta}")
+
+    @classmethod
+    def for_mode(cls, quick: bool) -> TrainingPlan:
+        """Full: the caps of ``docs/pilot_emg_vae.md`` (VAE) and 4× the fixed 2500 denoiser
+        steps (no denoiser pilot yet), 128 validation clips, validation every 250 steps
+        (≈ 2–3 % of the training time), the TRAINING.md defaults patience 5 and δ 1 %. Quick:
+        caps at the quick configuration's fixed step counts (40 VAE, 80 denoiser steps, so quick
+        runs cost what they did), two evaluations each, patience 2: a test of the code path
+        only."""
+        if quick:
+            return cls(validation_clips=16, vae_step_cap=40, vae_validate_every=20,
+                       denoiser_step_cap=80, denoiser_validate_every=40, patience=2)
+        return cls(validation_clips=128, vae_step_cap=FULL_VAE_STEP_CAP, vae_validate_every=250,
+                   denoiser_step_cap=10000, denoiser_validate_every=250)
+
+
+@dataclass(frozen=True)
+class TrainingRecord:
+    """How one model of the pipeline was trained, from its own cache entry (the metrics.json
+    written beside its weights): ``steps`` used, ``step_cap``, ``train_seconds`` (None when
+    the entry keeps none), ``converged`` (None: trained without validation), ``stop_reason``,
+    the held-out ``validation_curve`` [(step, loss)] (empty without validation) and the
+    per-step training ``losses``."""
+
+    steps: int | None
+    step_cap: int | None
+    train_seconds: float | None
+    converged: bool | None
+    stop_reason: str | None
+    validation_curve: tuple[tuple[int, float], ...]
+    losses: tuple[float, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"steps": self.steps, "step_cap": self.step_cap,
+                "train_seconds": self.train_seconds, "converged": self.converged,
+                "stop_reason": self.stop_reason,
+                "validation_curve": [list(p) for p in self.validation_curve]}
+
+
+def cached_training_record(kind: str, key: Mapping[str, Any],
+                           step_cap: int | None) -> TrainingRecord:
+    """The :class:`TrainingRecord` of the cache entry of ``kind`` under exactly ``key`` (its
+    metrics.json: ``losses``, ``seconds``, ``convergence``); ``step_cap`` is the configured
+    step count (the steps used when the run did not validate)."""
+    metrics_file = paths.cache_dir() / kind / cache.config_hash(dict(key)) / "metrics.json"
+    stored = storage.read_json(metrics_file) if metrics_file.exists() else {}
+    losses = stored.get("losses", [])
+    if isinstance(losses, Mapping):
+        losses = losses.get("loss", [])
+    convergence = stored.get("convergence")
+    if convergence is None:
+        return TrainingRecord(steps=len(losses) or step_cap, step_cap=step_cap,
+                              train_seconds=stored.get("seconds"), converged=None,
+                              stop_reason=None, validation_curve=(),
+                              losses=tuple(float(v) for v in losses))
+    return TrainingRecord(
+        steps=int(convergence["steps_used"]), step_cap=int(convergence["step_cap"]),
+        train_seconds=stored.get("seconds"), converged=bool(convergence["converged"]),
+        stop_reason=convergence["stop_reason"],
+        validation_curve=tuple((int(a), float(b)) for a, b in convergence["validation"]),
+        losses=tuple(float(v) for v in losses))
