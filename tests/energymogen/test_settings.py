@@ -26,6 +26,7 @@ SETTINGS = (EnergyViewSettings, SEFAblationSettings, LatentCountSettings, Augmen
 def test_every_notebook_uses_the_shared_pipeline(settings: type, quick: bool) -> None:
     chosen = settings.for_mode(quick)
     assert chosen.quick is quick and chosen.pipeline == pipeline_config(quick)
+    assert chosen.plan == TrainingPlan.for_mode(quick)  # one trained pipeline for 04/05/07/08
     assert (chosen.seeds == 1) if quick else (chosen.seeds >= 3)
 
 

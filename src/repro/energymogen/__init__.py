@@ -10,7 +10,8 @@ pipeline, its stages and sampling) · ``harness`` (the text-to-motion test set a
 metrics shared by EMG-7 and EMG-8) · ``energy`` (EMG-1, 6, 9) · ``gradient_field`` (EMG-1's
 per-t residual Jacobian asymmetry and loop integrals) · ``fid_checks`` (EMG-9's fixed cases) ·
 ``timelines`` (EMG-5's MTT-style timelines and the real "then" clips) · ``studies`` (EMG-2,
-3, 4, 5) · ``planted`` (the planted transition effects of EMG-5's controls) · ``latent_count`` (EMG-7) · ``augmentation`` (EMG-8) ·
+3, 4, 5) · ``planted`` (the planted transition effects of EMG-5's controls) ·
+``latent_count`` (EMG-7) · ``augmentation`` (EMG-8) ·
 ``controls`` (the positive and null controls of EMG-2 to 8) · ``model_gates`` (the quality
 gates of the VAE, latent denoiser and evaluator) · ``settings`` (quick/full
 settings per notebook) · ``figures`` (the notebooks' figures) · ``training_report`` (the

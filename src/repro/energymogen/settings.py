@@ -36,11 +36,13 @@ class EnergyViewSettings:
     ``map_noise_draws`` noise draws, ``map_samples`` generated latents per row (the full
     values are ``energy.energy_map_case``'s defaults), ``map_cases`` cases per kind and seed
     (None: every held-out pair and every negation case, registry v3; quick runs take the
-    first two).
+    first two). ``plan``: the training plan of every EnergyMoGen notebook (the same trained
+    pipeline as 05, 07 and 08).
     """
 
     quick: bool
     pipeline: PipelineConfig
+    plan: TrainingPlan
     seeds: int
     emg1_samples: int
     negation_items_per_case: int
@@ -59,10 +61,12 @@ class EnergyViewSettings:
     @classmethod
     def for_mode(cls, quick: bool) -> EnergyViewSettings:
         if quick:
-            return cls(quick=True, pipeline=pipeline_config(True), seeds=1, emg1_samples=3,
+            return cls(quick=True, pipeline=pipeline_config(True),
+                       plan=TrainingPlan.for_mode(True), seeds=1, emg1_samples=3,
                        negation_items_per_case=6, scale_check=False, map_grid=6,
                        map_noise_draws=1, map_samples=6, map_cases=2)
-        return cls(quick=False, pipeline=pipeline_config(False), seeds=5, emg1_samples=8,
+        return cls(quick=False, pipeline=pipeline_config(False),
+                   plan=TrainingPlan.for_mode(False), seeds=5, emg1_samples=8,
                    negation_items_per_case=16, scale_check=True, map_grid=16,
                    map_noise_draws=4, map_samples=16)
 
@@ -72,16 +76,19 @@ class SEFAblationSettings:
     """Notebook 05 (EMG-4, EMG-5): the pipeline, the number of seeds and the MTT-style
     timeline items per seed on which EMG-5's transitions are measured (``timelines``; 64 in
     full runs, our choice: 1–3 boundaries each, about 150 transitions per row and seed, one
-    item in eight of MTT's 500; 8 in quick runs)."""
+    item in eight of MTT's 500; 8 in quick runs) and the training plan (every EnergyMoGen
+    notebook's: one trained pipeline)."""
 
     quick: bool
     pipeline: PipelineConfig
+    plan: TrainingPlan
     seeds: int
     timeline_items: int
 
     @classmethod
     def for_mode(cls, quick: bool) -> SEFAblationSettings:
-        return cls(quick=quick, pipeline=pipeline_config(quick), seeds=1 if quick else 3,
+        return cls(quick=quick, pipeline=pipeline_config(quick),
+                   plan=TrainingPlan.for_mode(quick), seeds=1 if quick else 3,
                    timeline_items=8 if quick else 64)
 
 
