@@ -27,7 +27,7 @@ from repro.standin.dataset import clip_ids, read_clip
 from repro.standin.generator import sample_clip_spec
 
 __all__ = ["CoOccurrence", "caption_co_occurrence", "dataset_labels", "partial_caption_pilot",
-           "pilot_table"]
+           "partial_share", "pilot_table"]
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,15 @@ def caption_co_occurrence(labels: Iterable[Mapping[str, Any]],
                         columns=columns, captions=counts[keep].astype(int),
                         shares=holds[keep] / counts[keep, None],
                         with_other=other[keep] / counts[keep])
+
+
+def partial_share(labels: Iterable[Mapping[str, Any]]) -> tuple[float | None, int]:
+    """(share of the captions of multi-concept clips that name only some of their concepts,
+    how many such captions); (None, 0) when there are none."""
+    partial = [len(names) < len(label["concepts"]) for label in labels
+               if len(label.get("concepts", [])) > 1
+               for names in label.get("caption_concepts") or [label["concepts"]] * 3]
+    return (float(np.mean(partial)) if partial else None), len(partial)
 
 
 def dataset_labels(root: str | Path) -> list[dict[str, Any]]:
