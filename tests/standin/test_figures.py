@@ -9,6 +9,7 @@ import pytest
 from repro.infra.paths import data_stubs_dir
 from repro.motion.features import FEATURE_BLOCKS, FEATURE_DIM, Conformance
 from repro.standin import figures
+from repro.standin.cooccurrence import caption_co_occurrence
 from repro.standin.dataset import DatasetConfig, read_clip
 
 
@@ -85,8 +86,6 @@ def test_conformance_table_names_the_exact_frames() -> None:
 
 
 def test_co_occurrence_heatmap_and_its_reading() -> None:
-    from repro.standin.cooccurrence import caption_co_occurrence
-
     labels = [{"concepts": ["walk_forward", "clap"],
                "caption_concepts": [["walk_forward"], ["walk_forward", "clap"], ["clap"]]},
               {"concepts": ["walk_forward"], "caption_concepts": [["walk_forward"]] * 3}]

@@ -5,14 +5,18 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from repro.infra import storage
+from repro.motion.humanml3d import validate_dataset
 from repro.standin import generator as g
 from repro.standin import oracles
 from repro.standin.concepts import CONCEPTS
 from repro.standin.cooccurrence import caption_co_occurrence, partial_caption_pilot
+from repro.standin.dataset import write_dataset
 
 
 @pytest.fixture(scope="module")
@@ -117,3 +121,15 @@ def test_the_pilot_spans_more_with_a_larger_share() -> None:
     assert low["mean_with_other"] == 0 and low["multi_clips_with_a_complete_caption"] == 1
     assert high["mean_with_other"] > 0.15
     assert 0.75 < high["multi_clips_with_a_complete_caption"] < 1
+
+
+def test_a_v3_dataset_passes_the_263_d_validator_and_stores_caption_concepts(
+        tmp_path: Path) -> None:
+    out = write_dataset(tmp_path / "v3", n_clips=16, seed=3)
+    assert not [p for p in validate_dataset(out) if p.severity == "error"]
+    assert storage.read_json(out / "dataset.json")["generator_version"] == "3"
+    for path in sorted((out / "labels").glob("*.json")):
+        label = storage.read_json(path)
+        captions = (out / "texts" / f"{path.stem}.txt").read_text().splitlines()
+        assert len(label["caption_concepts"]) == len(captions) == 3
+        assert all(set(n) <= set(label["concepts"]) for n in label["caption_concepts"])
