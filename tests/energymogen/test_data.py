@@ -23,6 +23,7 @@ from repro.energymogen.data import (
     negation_items,
 )
 from repro.energymogen.pipeline import EnergyMoGenPipeline
+from repro.standin.concepts import CONCEPTS
 
 
 def test_data_holds_out_pairs(tiny_pipeline: EnergyMoGenPipeline) -> None:
@@ -34,7 +35,8 @@ def test_data_holds_out_pairs(tiny_pipeline: EnergyMoGenPipeline) -> None:
     words = {w for caps in data.train_captions for c in caps for w in c.lower().split()}
     assert all(w.strip(".,") in tiny_pipeline.vocab for w in words)
     tokens, mask = tiny_pipeline.encode(["a person waves the left hand.", "someone claps."])
-    assert tokens.shape[:2] == mask.shape and mask.sum(1).tolist() == [6, 2]
+    # MiniLM's WordPiece tokens with [CLS] and [SEP]: "... hand ." and "someone clap ##s ."
+    assert tokens.shape[:2] == mask.shape and mask.sum(1).tolist() == [9, 6]
 
 
 def test_items_are_drawn_by_seed(tiny_pipeline: EnergyMoGenPipeline) -> None:
@@ -72,3 +74,20 @@ def test_sets_of_three_pools(tiny_pipeline: EnergyMoGenPipeline, tmp_path: Path,
     assert load_or_build_test_pool(pipe.config, "pairs").concepts == pipe.data.test_concepts
     with pytest.raises(ValueError, match="unknown test set 'fours'"):
         load_or_build_test_pool(pipe.config, "fours")
+
+
+def test_test_pool_captions_name_every_concept_and_training_ones_may_not(
+        tiny_pipeline: EnergyMoGenPipeline) -> None:
+    """Generator v3's partial captions reach the training clips, never the test pool, whose
+    captions are the items' joined texts."""
+    def names(caption: str, concept: str) -> bool:
+        return any(form in caption for pair in CONCEPTS[concept].phrases for form in pair)
+
+    data = tiny_pipeline.data
+    for captions, concepts in zip(data.test_captions, data.test_concepts, strict=True):
+        assert all(names(c, n) for c in captions for n in concepts), captions
+    partial = [not all(names(c, n) for n in concepts)
+               for captions, concepts in zip(data.train_captions, data.train_concepts,
+                                             strict=True) if len(concepts) > 1
+               for c in captions]
+    assert 0 < sum(partial) < len(partial)

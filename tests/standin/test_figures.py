@@ -9,6 +9,7 @@ import pytest
 from repro.infra.paths import data_stubs_dir
 from repro.motion.features import FEATURE_BLOCKS, FEATURE_DIM, Conformance
 from repro.standin import figures
+from repro.standin.cooccurrence import caption_co_occurrence
 from repro.standin.dataset import DatasetConfig, read_clip
 
 
@@ -82,3 +83,17 @@ def test_conformance_table_names_the_exact_frames() -> None:
     lines = figures.conformance_table(result).splitlines()
     assert lines[0] == "| block | max error, all frames | frames 0–88 |"
     assert lines[-1] == "| rot_6d | 1.3e-02 | 7.7e-06 |"
+
+
+def test_co_occurrence_heatmap_and_its_reading() -> None:
+    labels = [{"concepts": ["walk_forward", "clap"],
+               "caption_concepts": [["walk_forward"], ["walk_forward", "clap"], ["clap"]]},
+              {"concepts": ["walk_forward"], "caption_concepts": [["walk_forward"]] * 3}]
+    table = caption_co_occurrence(labels, ["walk_forward", "clap"])
+    fig = figures.co_occurrence_heatmap(table)
+    assert len(fig.axes) == 2                                   # the map and its colour bar
+    text = figures.co_occurrence_reading(table, 2 / 3, 0.5)
+    assert "62% on average" in text and "least walk_forward at 25%" in text
+    assert "most clap at 100%" in text and "66.7%" in text and "50%" in text
+    empty = caption_co_occurrence([], ["clap"])
+    assert figures.co_occurrence_reading(empty, None, 0.5).startswith("No caption")

@@ -111,11 +111,13 @@ def test_simultaneous_composition_takes_each_part_from_its_owner() -> None:
 
 
 def test_three_simultaneous_concepts_each_own_their_parts_and_all_are_captioned() -> None:
-    spec = g.ClipSpec(("squat", "wave_left", "wave_right"), "simultaneous", 3.2)
+    spec = g.ClipSpec(("squat", "wave_left", "wave_right"), "simultaneous", 3.2,
+                      partial_caption_share=0.0)
     clip = g.generate_clip(spec, 5)
     squat = g.generate_clip(single("squat", 3.2), 5)
     assert clip.labels["body_parts"] == {"root": "squat", "legs": "squat", "torso": "squat",
                                          "left_arm": "wave_left", "right_arm": "wave_right"}
+    assert clip.labels["caption_concepts"] == [list(spec.concepts)] * 3
     assert not np.allclose(clip.joints[:, 20], squat.joints[:, 20], atol=0.05)  # left wrist
     assert len(clip.captions) == 3
     for caption in clip.captions:

@@ -11,7 +11,8 @@ import numpy as np
 from repro.standin.generator import GENERATOR_VERSION, generate_clip, sample_clip_spec
 
 #: sha256 of a few clips' joints (rounded to 0.1 mm) and captions, per generator version.
-PINNED = {"2": "93057da6342131fe41b20f0eb4f1cf853804b16e48011517b0d67b9ac54d6e42"}
+PINNED = {"2": "93057da6342131fe41b20f0eb4f1cf853804b16e48011517b0d67b9ac54d6e42",
+          "3": "6202039df6cf505ca28e795efedc9deef22593f64ecb0a0542b5866376843e4f"}
 
 
 def _fingerprint() -> str:

@@ -37,7 +37,12 @@ from repro.motion.features import FPS, joints_to_features
 from repro.motion.humanml3d import compute_statistics
 from repro.standin.captions import SUBJECTS
 from repro.standin.concepts import CONCEPTS
-from repro.standin.generator import GENERATOR_VERSION, ClipSpec, generate_clip
+from repro.standin.generator import (
+    GENERATOR_VERSION,
+    PARTIAL_CAPTION_SHARE,
+    ClipSpec,
+    generate_clip,
+)
 
 __all__ = [
     "VALIDATION_KEY", "CompositionItems", "CompositionPool", "HeldOutClips", "NegationItems",
@@ -76,18 +81,21 @@ def concept_text(name: str, rng: np.random.Generator) -> str:
     return f"{subject} {phrases[int(rng.integers(len(phrases)))][0]}."
 
 
-def stand_in_clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generator
+def stand_in_clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generator,
+                  partial_caption_share: float = PARTIAL_CAPTION_SHARE
                   ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
     """One generated clip of ``concepts`` (one: single; two: simultaneous) as the pipeline's
     data are drawn (random heading and start, :data:`RHYTHM_OVERRIDES`, generator seed from
-    ``rng``): (features (frames, 263), canonical joints (frames, 22, 3), 3 captions)."""
+    ``rng``; captions partial at ``partial_caption_share``, generator v3): (features (frames,
+    263), canonical joints (frames, 22, 3), 3 captions)."""
     params: dict[str, Any] = {"initial_heading": float(rng.uniform(-np.pi, np.pi)),
                               "start_xz": [float(v) for v in rng.uniform(-1.0, 1.0, 2)]}
     for name in concepts:
         if name in RHYTHM_OVERRIDES:
             params[name] = dict(RHYTHM_OVERRIDES[name])
     kind = "single" if len(concepts) == 1 else "simultaneous"
-    spec = ClipSpec(concepts, kind, frames / FPS, params)
+    spec = ClipSpec(concepts, kind, frames / FPS, params,
+                    partial_caption_share=partial_caption_share)
     clip = generate_clip(spec, int(rng.integers(2 ** 31)))
     features, joints = joints_to_features(clip.joints)
     if features.shape[0] != frames:
@@ -108,13 +116,14 @@ class CompositionPool:
 def build_composition_pool(sets: Sequence[tuple[str, ...]], per_set: int, data_seed: int,
                            stream: int, frames: int = FRAMES) -> CompositionPool:
     """``per_set`` simultaneous clips of every set; clip k of set p is drawn with
-    ``default_rng([data_seed, stream + p, k])`` (:func:`stand_in_clip`)."""
+    ``default_rng([data_seed, stream + p, k])`` (:func:`stand_in_clip`). Their captions name
+    every concept of the set (no partial captions): they are the test items' joined texts."""
     feats, joints, captions, concepts = [], [], [], []
     with torch.inference_mode():
         for p, names in enumerate(sets):
             for k in range(per_set):
                 rng = np.random.default_rng([data_seed, stream + p, k])
-                f, j, c = stand_in_clip(tuple(names), frames, rng)
+                f, j, c = stand_in_clip(tuple(names), frames, rng, partial_caption_share=0.0)
                 feats.append(f)
                 joints.append(j)
                 captions.append(tuple(c))

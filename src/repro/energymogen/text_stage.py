@@ -2,14 +2,16 @@
 
 ``config.text_encoder`` chooses it:
 
-- "learned" (the default): a word-embedding + BiGRU encoder
+- "minilm" (the default, issue #16): all-MiniLM-L6-v2 with pretrained weights
+  (``repro.models.frozen_text``), frozen, with its own WordPiece tokenizer in place of the
+  vocabulary; nothing is trained or cached. The denoiser reads its 384-wide token states
+  (``config.text_dim`` = 384) in its cross-attention, and AGD (Eq. 3–4) refines those token
+  states; its pooled unit vectors (``FrozenTextEncoder.forward`` / ``encode``) serve where one
+  vector per text is needed.
+- "learned" (``config.with_learned_text``): a word-embedding + BiGRU encoder
   (``repro.standin.text.TextEncoder``), pretrained contrastively (symmetric InfoNCE,
   CLIP-style) against linear maps of a VAE's scaled training latents and then frozen; never
   the evaluator's. Cached as kind ``emg_text_encoder`` (:func:`text_encoder_cache_key`).
-- "minilm" (opt-in, issue #16): all-MiniLM-L6-v2 with pretrained weights
-  (``repro.models.frozen_text``), frozen, with its own WordPiece tokenizer in place of the
-  vocabulary; nothing is trained or cached. The denoiser then reads its 384-wide token
-  states (``config.text_dim`` = 384), and its key changes through them.
 """
 
 from __future__ import annotations

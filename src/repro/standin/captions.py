@@ -14,7 +14,8 @@ from repro.standin.concepts import CONCEPTS
 if TYPE_CHECKING:
     from repro.standin.generator import ClipSpec
 
-__all__ = ["SUBJECTS", "humanml3d_text_line", "sample_captions", "tag_caption"]
+__all__ = ["SUBJECTS", "humanml3d_text_line", "sample_captions", "sample_named_captions",
+           "tag_caption"]
 
 SUBJECTS = ("a person", "someone", "a man", "a woman", "the person", "a human")
 _TEMPLATES = {
@@ -111,27 +112,63 @@ def humanml3d_text_line(caption: str, start: float = 0.0, end: float = 0.0) -> s
     return f"{caption}#{tokens}#{float(start)}#{float(end)}"
 
 
-def sample_captions(spec: ClipSpec, rng: np.random.Generator, count: int = 3) -> list[str]:
-    """Up to ``count`` different captions of ``spec``, drawn with ``rng``: a template of the
-    composition ("{S} {A} while {b}.", "{S} {A}, then {B}.", ...) filled with a subject and
-    one paraphrase (third person or gerund) per concept. Every generated clip gets 3."""
-    phrases = [CONCEPTS[name].phrases for name in spec.concepts]
-    templates = _TEMPLATES_THREE if len(phrases) == 3 else _TEMPLATES[spec.composition]
-    found: list[str] = []
-    for _ in range(50 * count):
-        template = templates[int(rng.integers(len(templates)))]
-        subject = SUBJECTS[int(rng.integers(len(SUBJECTS)))]
-        chosen = [p[int(rng.integers(len(p)))] for p in phrases]
-        fill = {"S": subject, "A": chosen[0][0], "a": chosen[0][1]}
-        if len(chosen) > 1:
-            fill.update(B=chosen[1][0], b=chosen[1][1])
-        if len(chosen) > 2:
-            fill.update(C=chosen[2][0], c=chosen[2][1])
-        caption = template.format(**fill)
-        if caption not in found:
-            found.append(caption)
-        if len(found) == count:
-            break
+def _proper_subsets(names: tuple[str, ...]) -> list[tuple[str, ...]]:
+    """Every non-empty proper subset of ``names``, each in ``names``' order."""
+    return [tuple(n for k, n in enumerate(names) if mask >> k & 1)
+            for mask in range(1, 2 ** len(names) - 1)]
+
+
+def _caption_of(names: tuple[str, ...], composition: str, rng: np.random.Generator) -> str:
+    """One caption naming ``names``: a template of ``composition`` (of three names, MTT's sets
+    of three; of one, "{S} {A}.") filled with a subject and one paraphrase per concept."""
+    phrases = [CONCEPTS[name].phrases for name in names]
+    if len(names) == 3:
+        templates = _TEMPLATES_THREE
+    else:
+        templates = _TEMPLATES["single" if len(names) == 1 else composition]
+    template = templates[int(rng.integers(len(templates)))]
+    subject = SUBJECTS[int(rng.integers(len(SUBJECTS)))]
+    chosen = [p[int(rng.integers(len(p)))] for p in phrases]
+    fill = {"S": subject, "A": chosen[0][0], "a": chosen[0][1]}
+    if len(chosen) > 1:
+        fill.update(B=chosen[1][0], b=chosen[1][1])
+    if len(chosen) > 2:
+        fill.update(C=chosen[2][0], c=chosen[2][1])
+    return template.format(**fill)
+
+
+def sample_named_captions(spec: ClipSpec, rng: np.random.Generator, count: int = 3,
+                          partial_share: float = 0.0) -> list[tuple[str, tuple[str, ...]]]:
+    """Up to ``count`` different captions of ``spec`` with the concepts each one names.
+
+    Each caption of a clip with several concepts is, with probability ``partial_share``, a
+    *partial* caption: it names a non-empty proper subset of the concepts, drawn uniformly
+    (HumanML3D's annotators name what stands out, not everything). The decision is made per
+    caption before its words are drawn, so the partial share of the returned captions is
+    ``partial_share`` in expectation. With ``partial_share == 0`` no extra random number is
+    drawn: the captions are those of :func:`sample_captions`.
+    """
+    if not 0.0 <= partial_share <= 1.0:
+        raise ValueError(f"partial_share must be in [0, 1], got {partial_share}")
+    names = tuple(spec.concepts)
+    subsets = _proper_subsets(names)
+    found: list[tuple[str, tuple[str, ...]]] = []
+    seen: set[str] = set()
+    for _ in range(count):
+        named = names
+        if partial_share > 0 and subsets and rng.uniform() < partial_share:
+            named = subsets[int(rng.integers(len(subsets)))]
+        for _ in range(50):
+            caption = _caption_of(named, spec.composition, rng)
+            if caption not in seen:
+                seen.add(caption)
+                found.append((caption, named))
+                break
     return found
 
 
+def sample_captions(spec: ClipSpec, rng: np.random.Generator, count: int = 3) -> list[str]:
+    """Up to ``count`` different captions of ``spec`` naming all its concepts, drawn with
+    ``rng``: a template of the composition ("{S} {A} while {b}.", "{S} {A}, then {B}.", ...)
+    filled with a subject and one paraphrase (third person or gerund) per concept."""
+    return [caption for caption, _ in sample_named_captions(spec, rng, count)]

@@ -14,13 +14,15 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 
-from repro.core.tables import markdown_table
+from repro.core.tables import markdown_table, render
 from repro.motion import plotting
 from repro.motion.features import FEATURE_BLOCKS, Conformance
+from repro.standin.cooccurrence import CoOccurrence
 from repro.standin.dataset import DatasetConfig, StoredClip, clip_ids, read_clip
 
-__all__ = ["Settings", "agreement_tables", "block_std_rows", "concept_filmstrips",
-           "conformance_table", "first_composed_clip", "root_paths", "shown_clips"]
+__all__ = ["Settings", "agreement_tables", "block_std_rows", "co_occurrence_heatmap",
+           "co_occurrence_reading", "concept_filmstrips", "conformance_table",
+           "first_composed_clip", "root_paths", "shown_clips"]
 
 
 @dataclass(frozen=True)
@@ -139,3 +141,47 @@ def conformance_table(result: Conformance) -> str:
         ["block", "max error, all frames", f"frames 0–{last}"],
         [(name, f"{every:.1e}", f"{exact:.1e}")
          for name, (every, exact) in result.block_errors.items()])
+
+
+def co_occurrence_heatmap(table: CoOccurrence) -> plt.Figure:
+    """Rows: concepts; cell (A, B): the share of the captions naming A alone whose clip holds
+    B (``cooccurrence.caption_co_occurrence``; the diagonal is 1 and left blank)."""
+    if not table.rows:
+        raise ValueError("no caption names a single concept")
+    shares = table.shares.copy()
+    for a, name in enumerate(table.rows):
+        shares[a, table.columns.index(name)] = np.nan
+    fig, ax = plt.subplots(figsize=(0.45 * len(table.columns) + 3, 0.4 * len(table.rows) + 2))
+    image = ax.imshow(shares, cmap="viridis", vmin=0, vmax=max(np.nanmax(shares), 1e-9))
+    ax.set_xticks(range(len(table.columns)), table.columns, rotation=90)
+    ax.set_yticks(range(len(table.rows)),
+                  [f"{name} (n={n})" for name, n in zip(table.rows, table.captions, strict=True)])
+    ax.set_xlabel("concept the clip also holds")
+    ax.set_ylabel("concept a caption names alone")
+    fig.colorbar(image, ax=ax, label="share of those captions")
+    ax.set_title("what the clips of a single-concept text hold")
+    fig.tight_layout()
+    return fig
+
+
+def co_occurrence_reading(table: CoOccurrence, measured_share: float | None,
+                          stated_share: float) -> str:
+    """One paragraph read off the table: how often a single-concept caption's clip holds
+    another concept (mean, least and most), and the partial share measured against the
+    generator's setting."""
+    if not table.rows:
+        return "No caption names a single concept: nothing to read."
+    least, most = int(np.argmin(table.with_other)), int(np.argmax(table.with_other))
+    text = render(
+        "Of the captions that name one concept, {mean:.0%} on average come from a clip that "
+        "holds another concept too (least {least} at {least_share:.0%}, most {most} at "
+        "{most_share:.0%}; over {n} captions).", mean=float(table.with_other.mean()),
+        least=table.rows[least], least_share=float(table.with_other[least]),
+        most=table.rows[most], most_share=float(table.with_other[most]),
+        n=int(table.captions.sum()))
+    if measured_share is not None:
+        text += " " + render(
+            "Captions of multi-concept clips that name only some of their concepts: "
+            "{measured:.1%} (the generator's share: {stated:.0%}).",
+            measured=measured_share, stated=stated_share)
+    return text

@@ -15,6 +15,10 @@ Composition by body part: simultaneous concepts (two, or three as MTT's sets of 
 each give the parts they own (``repro.standin.concepts``). Sequential concepts are evaluated
 one after the other, each starting where the previous one left the root, and cross-faded over
 :data:`BLEND_FRAMES` frames around each transition.
+
+Version 3 (issue #16): a share :data:`PARTIAL_CAPTION_SHARE` of a multi-concept clip's captions
+name only some of its concepts, and a single-concept clip's unowned parts move freely
+(``repro.standin.variation``), so the clips of a single-concept text span the others.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ import torch
 
 from repro.motion.features import FPS, joints_to_features
 from repro.motion.skeleton import forward_kinematics
-from repro.standin.captions import humanml3d_text_line, sample_captions
+from repro.standin.captions import humanml3d_text_line, sample_named_captions
 from repro.standin.concepts import (
     BODY_PARTS,
     CONCEPTS,
@@ -40,17 +44,26 @@ from repro.standin.concepts import (
 )
 from repro.standin.pose import Track, solve_pose, take_part
 from repro.standin.primitives import idle, place, slerp_directions, smoothstep
+from repro.standin.variation import free_variation
 
 __all__ = [
     "BLEND_FRAMES", "COMPOSITIONS", "DEFAULT_COMPOSITION_WEIGHTS", "GENERATOR_VERSION",
-    "MAX_DURATION", "MIN_DURATION", "Clip", "ClipSpec", "generate_clip", "generate_clips",
-    "sample_clip_spec",
+    "MAX_DURATION", "MIN_DURATION", "PARTIAL_CAPTION_SHARE", "Clip", "ClipSpec", "free_parts",
+    "generate_clip", "generate_clips", "sample_clip_spec",
 ]
 
 #: bump when the generated motion or texts change, so cached datasets are regenerated
 #: (tests/standin/test_generator_version.py pins what each version generates). 2: the motion fixes
-#: made after the first datasets were cached under 1.
-GENERATOR_VERSION = "2"
+#: made after the first datasets were cached under 1. 3: partial captions of multi-concept clips
+#: and freely moving unowned parts in single-concept clips (issue #16; docs/GENERATOR_V3.md).
+GENERATOR_VERSION = "3"
+#: the share of a multi-concept clip's captions that name only some of its concepts
+#: (``captions.sample_named_captions``). 0.5, chosen on the pilot of docs/GENERATOR_V3.md by the
+#: rule fixed before it: the largest share on the grid 0, 0.1, ..., 0.9 at which at least 85 %
+#: of multi-concept clips keep one caption naming all their concepts (so the joined text of
+#: every composition is still trained), because the larger the share, the more of each
+#: single-concept text's clips hold another concept (the pilot's span).
+PARTIAL_CAPTION_SHARE = 0.5
 MIN_DURATION, MAX_DURATION = 2.0, 6.0
 #: cross-fade length at a sequential transition (frames, centred on the boundary).
 BLEND_FRAMES = 8
@@ -68,7 +81,9 @@ class ClipSpec:
     ``params`` may hold ``initial_heading`` (rad), ``start_xz`` (m) and, per concept name, a
     dict overriding that concept's sampled parameters (unknown keys are an error).
     ``segment_durations`` (sequential only) defaults to a split proportional to the
-    concepts' minimum durations.
+    concepts' minimum durations. ``partial_caption_share``: the share of the captions of a
+    multi-concept clip that name only some of its concepts (:data:`PARTIAL_CAPTION_SHARE`;
+    0 gives captions that name every concept, as generator v2).
     """
 
     concepts: tuple[str, ...]
@@ -76,8 +91,12 @@ class ClipSpec:
     duration: float = 4.0
     params: Mapping[str, Any] = field(default_factory=dict)
     segment_durations: tuple[float, ...] | None = None
+    partial_caption_share: float = PARTIAL_CAPTION_SHARE
 
     def __post_init__(self) -> None:
+        if not 0.0 <= self.partial_caption_share <= 1.0:
+            raise ValueError(f"partial_caption_share must be in [0, 1], got "
+                             f"{self.partial_caption_share}")
         if isinstance(self.concepts, str):
             raise ValueError(f"concepts must be a sequence of names, got the string "
                              f"{self.concepts!r}")
@@ -136,11 +155,13 @@ def _frames(seconds: float) -> float:
 
 def sample_clip_spec(rng: np.random.Generator, *, allow_compositions: bool = True,
                      concept_pool: Sequence[str] | None = None,
-                     composition_weights: Mapping[str, float] | None = None) -> ClipSpec:
+                     composition_weights: Mapping[str, float] | None = None,
+                     partial_caption_share: float = PARTIAL_CAPTION_SHARE) -> ClipSpec:
     """Draw a random clip specification: a composition kind (by ``composition_weights``,
     default 50 % single, 30 % simultaneous, 20 % sequential), concepts from ``concept_pool``
     (default all), a duration in [2, 6] s long enough for them, a random initial heading and
-    start position."""
+    start position; captions partial at ``partial_caption_share``."""
+    share = partial_caption_share
     pool = list(concept_pool) if concept_pool is not None else list(CONCEPTS)
     if not pool:
         raise ValueError("concept_pool is empty")
@@ -166,7 +187,7 @@ def sample_clip_spec(rng: np.random.Generator, *, allow_compositions: bool = Tru
         name = str(rng.choice(pool))
         shortest = max(MIN_DURATION, CONCEPTS[name].min_duration)
         duration = _frames(rng.uniform(shortest, MAX_DURATION))
-        return ClipSpec((name,), "single", duration, params)
+        return ClipSpec((name,), "single", duration, params, partial_caption_share=share)
 
     if kind == "simultaneous":
         pairs = [(a, b) for a in pool for b in pool if a < b and can_be_simultaneous(a, b)]
@@ -177,7 +198,8 @@ def sample_clip_spec(rng: np.random.Generator, *, allow_compositions: bool = Tru
                                                       "left_arm" not in CONCEPTS[n].parts))
         shortest = max(MIN_DURATION, CONCEPTS[a].min_duration, CONCEPTS[b].min_duration)
         duration = _frames(rng.uniform(shortest, MAX_DURATION))
-        return ClipSpec((first, second), "simultaneous", duration, params)
+        return ClipSpec((first, second), "simultaneous", duration, params,
+                        partial_caption_share=share)
 
     pairs = [(a, b) for a in pool for b in pool
              if a != b and CONCEPTS[a].min_duration + CONCEPTS[b].min_duration <= MAX_DURATION]
@@ -186,11 +208,11 @@ def sample_clip_spec(rng: np.random.Generator, *, allow_compositions: bool = Tru
     a, b = pairs[int(rng.integers(len(pairs)))]
     mins = np.array([CONCEPTS[a].min_duration, CONCEPTS[b].min_duration])
     extra = rng.uniform(0.0, MAX_DURATION - mins.sum())
-    share = rng.uniform(0.3, 0.7)
-    first = _frames(mins[0] + extra * share)
-    second = _frames(mins[1] + extra * (1 - share))
+    split = rng.uniform(0.3, 0.7)
+    first = _frames(mins[0] + extra * split)
+    second = _frames(mins[1] + extra * (1 - split))
     duration = _frames(first + second)
-    return ClipSpec((a, b), "sequential", duration, params, (first, duration - first))
+    return ClipSpec((a, b), "sequential", duration, params, (first, duration - first), share)
 
 
 # ----------------------------------------------------------------------------- composing
@@ -312,6 +334,14 @@ def _concept_params(spec: ClipSpec, rng: np.random.Generator) -> dict[str, dict[
     return params
 
 
+def free_parts(concept: str) -> tuple[str, ...]:
+    """The body parts a single-concept clip of ``concept`` lets move freely
+    (``variation.free_variation``): every part it does not own except the root, which never
+    travels unless the concept moves it."""
+    owned = CONCEPTS[concept].parts
+    return tuple(part for part in BODY_PARTS if part not in owned and part != "root")
+
+
 def _plan(spec: ClipSpec, seed: int) -> tuple[Track, tuple[str, ...], dict[str, Any]]:
     """The track, captions and labels of a clip (everything but the pose solve)."""
     if not isinstance(spec, ClipSpec):
@@ -345,12 +375,18 @@ def _plan(spec: ClipSpec, seed: int) -> tuple[Track, tuple[str, ...], dict[str, 
         owners: dict[str, Any] = {}
     else:
         track, owners = _simultaneous(spec.concepts, t, params, sway)
+        if spec.composition == "single":
+            free = free_parts(spec.concepts[0])
+            free_variation(track, free, t, rng)
+            owners.update({part: "free" for part in free})
         track = place(track, start_xz, heading)
         segments = [{"concept": name, "start": 0, "end": last} for name in spec.concepts]
         transitions, windows = [], []
-    captions = tuple(sample_captions(spec, rng))
+    named = sample_named_captions(spec, rng, partial_share=spec.partial_caption_share)
+    captions = tuple(caption for caption, _ in named)
     labels = {
         "concepts": list(spec.concepts), "composition": spec.composition, "fps": FPS,
+        "caption_concepts": [list(names) for _, names in named],
         "n_frames": n, "segments": segments, "transitions": transitions,
         "transition_windows": windows, "body_parts": owners,
         "params": {"initial_heading": heading, "start_xz": start_xz.tolist(), "sway": sway,
@@ -386,10 +422,13 @@ def generate_clips(specs: Sequence[ClipSpec], seeds: Sequence[int]) -> list[Clip
 def generate_clip(spec: ClipSpec, seed: int) -> Clip:
     """Generate one clip, deterministically from ``(spec, seed)``.
 
-    Labels: ``concepts``, ``composition``, ``segments`` (concept, start, end frames, end
+    Labels: ``concepts`` (every concept the motion holds), ``caption_concepts`` (per caption,
+    the concepts it names: all of them, or some for a partial caption), ``composition``,
+    ``segments`` (concept, start, end frames, end
     exclusive, raw-frame indices — the same indices address ``new_joints`` / features, whose
     last raw frame is dropped), ``transitions`` (boundary frames) and ``transition_windows``,
-    ``body_parts`` (part → owning concept or "idle"; per segment for sequential clips),
+    ``body_parts`` (part → owning concept, "idle", or "free" where a single-concept clip's
+    unowned part moves freely; per segment for sequential clips),
     ``params`` (every drawn parameter) and ``fps``.
     """
     return generate_clips([spec], [seed])[0]
