@@ -150,10 +150,13 @@ def test_impute_locations_with_untrained_models() -> None:
 
 
 def test_settings_full_mode_uses_the_library_default_trajectory_model() -> None:
+    from repro.gmd.models import training_fields
+
     full = R.Settings.for_mode(quick=False)
     assert full.seeds >= 3
     spec = full.trajectory_spec("absolute", 0)
-    assert spec == GMDModelSpec(task="trajectory", prediction="epsilon", seed=0)
+    assert spec == GMDModelSpec(task="trajectory", prediction="epsilon", seed=0,
+                                **training_fields("trajectory", quick=False))
     motion = full.motion_spec("relative", 1)
     assert motion.text_conditioned and motion.prediction == "x0"
     assert motion.data.representation == "relative"

@@ -38,7 +38,13 @@ from torch import Tensor
 from repro.core.diffusion import Guidance, Imputation
 from repro.gmd.guidance import GMD_GUIDANCE_STRENGTH, sample
 from repro.gmd.measurements import jitter_of
-from repro.gmd.models import GMDModelSpec, TrainedGMD
+from repro.gmd.models import (
+    MOTION_TRAINING,
+    TRAJECTORY_TRAINING,
+    GMDModelSpec,
+    TrainedGMD,
+    training_fields,
+)
 from repro.gmd.windows import REPRESENTATIONS, DataConfig, FeatureSpace, MotionWindows, short_label
 from repro.models.evaluator import EvaluatorConfig
 from repro.motion.features import (
@@ -490,12 +496,13 @@ def impute_locations(models: dict[str, TrainedGMD], task: LocationTask, *, seed:
 class Settings:
     """Every size and step count of notebook 02, fixed before any verdict was seen.
 
-    Full mode: GMD-B2 uses the default tiny trajectory model (``GMDModelSpec()``:
-    ε prediction, UNet1D base 16 × (1, 2, 4), T = 100 cosine, 1000 steps × batch 64, lr 1e-3,
-    48-frame windows) so the absolute-root models are the ones the other GMD notebooks
-    train (shared through ``repro.infra.cache``); GMD-B3 a text-conditioned x0 motion model of the
-    same size (GMD's motion model predicts x0) for ``motion_steps``. Quick mode shrinks
-    everything (a test of the code, never a result).
+    Full mode: GMD-B2 uses the trajectory ε model of notebook 01 (T = 100 cosine, 48-frame
+    windows, ``paper_settings.TRAJECTORY_ARCHITECTURE`` trained to convergence,
+    ``models.training_fields``) so the absolute-root models are the ones the other GMD
+    notebooks train (shared through ``repro.infra.cache``); GMD-B3 a text-conditioned x0
+    motion model (GMD's motion model predicts x0; ``paper_settings.MOTION_ARCHITECTURE``);
+    ``trajectory_steps``/``motion_steps`` are the step caps. Quick mode shrinks everything
+    (a test of the code, never a result).
     """
 
     quick: bool
@@ -517,7 +524,8 @@ class Settings:
                        trajectory_steps=20, motion_steps=20, sensitivity_clips=8, targets=8,
                        evaluation_windows=96, evaluator_steps=30)
         return cls(quick=False, seeds=3, stand_in_clips=2000, stride=24, diffusion_steps=100,
-                   trajectory_steps=1000, motion_steps=MOTION_STEPS, sensitivity_clips=64,
+                   trajectory_steps=TRAJECTORY_TRAINING.step_cap,
+                   motion_steps=MOTION_TRAINING.step_cap, sensitivity_clips=64,
                    targets=64, evaluation_windows=256, evaluator_steps=500)
 
     def data(self, representation: str, data_dir: str | None = None) -> DataConfig:
@@ -534,14 +542,16 @@ class Settings:
         return GMDModelSpec(task="trajectory", prediction="epsilon",
                                 data=self.data(representation, data_dir), seed=seed,
                                 diffusion_steps=self.diffusion_steps,
-                                train_steps=self.trajectory_steps)
+                                **training_fields("trajectory", quick=self.quick,
+                                                  step_cap=self.trajectory_steps))
 
     def motion_spec(self, representation: str, seed: int,
                     data_dir: str | None = None) -> GMDModelSpec:
         return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
                                 data=self.data(representation, data_dir), seed=seed,
                                 diffusion_steps=self.diffusion_steps,
-                                train_steps=self.motion_steps)
+                                **training_fields("motion", quick=self.quick,
+                                                  step_cap=self.motion_steps))
 
 
 def load_clips(root: Path, split: str, *, min_frames: int, n: int) -> tuple[list[str],
