@@ -78,7 +78,7 @@ PINNED_MODEL_KEYS = {
     "nb01_quick_motion_x0": "5853a2b6525f2dcf",
     "nb02_traj_rel_full": "65e2b866ffb8af8f",
     "nb02_motion_abs_quick": "2770f69151364d77",
-    "nb03_k5_full": "fd6bf429d189295b",
+    "nb03_k5_full": "1e1e066f50228da5",
     "nb03_c10_quick": "9d24080f3de902c4",
     "max_windows": "09ab16886afbba0e",
 }
