@@ -110,6 +110,15 @@ def test_validating_leaves_the_training_trajectory_unchanged():
     assert [step for step, _ in record.validation] == [0, 10, 20, 30]
     assert record.steps_used == 30 == validated.steps_used
     assert validated.metrics()["convergence"]["validation"][0][0] == 0
+    seen = []
+    watched = train_diffusion(
+        TinyDenoiser, diffusion, data,
+        TrainConfig(steps=30, batch_size=16, lr=1e-3, validate_every=10, patience=100),
+        validation=ValidationSet(bimodal_mixture(32, 1)), progress=False,
+        on_validation=lambda step, loss, ema: seen.append((step, loss, ema.training)))
+    assert watched.losses == plain.losses
+    assert [(step, loss) for step, loss, _ in seen] == record.validation
+    assert not any(training for _, _, training in seen)     # the EMA copy, in eval mode
 
 
 def test_training_stops_on_a_plateau_before_the_cap():

@@ -111,3 +111,11 @@ def test_quick_mode_stays_a_small_test_of_the_code() -> None:
     assert quick.trajectory_diffusion_steps <= 20 and quick.diffusion_steps <= 20
     assert max(quick.trajectory_steps, quick.motion_steps, quick.evaluator_steps) <= 30
     assert quick.targets <= 8 and quick.evaluation_windows <= 96
+
+
+def test_b2_abs_trajectory_model_is_the_guidance_notebooks_model() -> None:
+    """Full mode: B2's absolute-root trajectory model is notebook 01's and 06's (one cache key)."""
+    from repro.gmd.x0_vs_eps import guidance_trajectory_spec
+
+    assert (R.Settings.for_mode(quick=False).trajectory_spec("absolute", 0)
+            == guidance_trajectory_spec(False, "epsilon", None, 0))

@@ -93,6 +93,7 @@ def test_exact_x0_and_eps_models_are_guided_identically(small_spec) -> None:
 
 
 def test_settings_build_the_specs_notebook_01_always_trained() -> None:
+    from repro.gmd.models import training_fields
     from repro.gmd.x0_vs_eps import Settings
 
     quick = Settings.for_mode(True)
@@ -100,9 +101,10 @@ def test_settings_build_the_specs_notebook_01_always_trained() -> None:
     assert data == DataConfig(stand_in_clips=120, frames=24)
     assert quick.spec("motion", "x0", data, seed=1) == GMDModelSpec(
         task="motion", prediction="x0", data=data, train_steps=20, batch_size=32,
-        diffusion_steps=20, seed=1)
+        diffusion_steps=20, seed=1, validate_every=5, patience=2)
     full = Settings.for_mode(False)
-    assert full.spec("trajectory", "epsilon", full.data(None)) == GMDModelSpec()
+    assert full.spec("trajectory", "epsilon", full.data(None)) == GMDModelSpec(
+        **training_fields("trajectory", quick=False))
     assert Settings.for_mode(False, train_steps=50).train_steps == 50
     assert full.data("/some/folder") == DataConfig(data_dir="/some/folder", frames=48)
     assert quick.evaluator_config("id").steps == 30 and full.evaluator_config("id").steps == 500

@@ -388,6 +388,7 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
                     data: Tensor | Iterable[Any], config: TrainConfig, *,
                     cond: Tensor | None = None, mask: Tensor | None = None,
                     validation: ValidationSet | None = None,
+                    on_validation: Callable[[int, float, nn.Module], None] | None = None,
                     progress: bool = True) -> TrainResult:
     """Minimise ``diffusion.training_losses`` (simple MSE on x0 or ε) for ``config.steps``.
 
@@ -397,6 +398,9 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
     With ``config.validate_every`` set, ``validation`` (required then) is evaluated on the EMA
     weights after 0, k, 2k, … steps and after the last one, and training stops early when
     the plateau criterion fires (module docstring); the result's ``convergence`` records it.
+    ``on_validation(steps_done, loss, ema_model)`` is called after each evaluation (e.g. a
+    pilot measuring samples of the EMA weights on the way; it must not train them, and it
+    draws nothing from the training generator, so the run is the same with or without it).
     The progress bar is shown only when ``progress`` is true and stderr is a terminal.
     """
     if (config.validate_every is None) != (validation is None):
@@ -443,6 +447,8 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
                                    batch_size=config.batch_size, device=device,
                                    feature_weights=feature_weights)
         curve.append((steps_done, loss))
+        if on_validation is not None:
+            on_validation(steps_done, loss, ema_model)
         return plateau.update(steps_done, loss)
 
     previous_threads = torch.get_num_threads()

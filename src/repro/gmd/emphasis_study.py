@@ -27,7 +27,14 @@ from torch import Tensor, nn
 
 from repro.gmd.emphasis import EmphasisProjection, Kind, Precision
 from repro.gmd.guidance import default_stop_step, sample
-from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd, trajectory_loss_weights
+from repro.gmd.models import (
+    MOTION_TRAINING,
+    GMDModelSpec,
+    TrainedGMD,
+    load_or_train_gmd,
+    training_fields,
+    trajectory_loss_weights,
+)
 from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows
 from repro.infra import cache
 from repro.motion.features import FEATURE_DIM, FPS
@@ -280,9 +287,9 @@ class Settings:
     at ``sensitivity_values`` (c = 10) and Table B.1's plain model (k = 1), 6 models each
     (GMD's float32 construction samples the Gaussian arm's models): 36 models, on the
     48-frame absolute-root windows the other GMD notebooks use;
-    UNet1D base 16 × (1, 2), T = 50 cosine, ``train_steps`` × batch 64, lr 1e-3
-    (``TRAIN_STEPS``: why 1000, not the budget's 120). Quick mode shrinks everything (a test
-    of the code, never a result).
+    T = 50 cosine, ``paper_settings.MOTION_ARCHITECTURE`` trained to convergence with
+    ``train_steps`` the cap (``models.training_fields``). Quick mode shrinks everything
+    (UNet1D base 16 × (1, 2), a test of the code, never a result).
     """
 
     quick: bool
@@ -305,7 +312,8 @@ class Settings:
                        train_steps=10 if train_steps is None else int(train_steps), samples=32,
                        evaluator_steps=50)
         return cls(quick=False, seeds=C4_SEEDS, stand_in_clips=2000, stride=24, diffusion_steps=50,
-                   train_steps=TRAIN_STEPS if train_steps is None else int(train_steps),
+                   train_steps=(MOTION_TRAINING.step_cap if train_steps is None
+                                else int(train_steps)),
                    samples=64, evaluator_steps=500)
 
     def data(self, data_dir: str | None = None,
@@ -315,10 +323,12 @@ class Settings:
 
     def base_spec(self, data_dir: str | None = None) -> GMDModelSpec:
         """The shared spec; ``Variant.spec`` adds the seed and the loss weights."""
+        tiny = ({"base_channels": 16, "channel_mults": (1, 2), "batch_size": 64, "lr": 1e-3}
+                if self.quick else {})
         return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
-                            data=self.data(data_dir), base_channels=16, channel_mults=(1, 2),
-                            diffusion_steps=self.diffusion_steps, train_steps=self.train_steps,
-                            batch_size=64, lr=1e-3)
+                            data=self.data(data_dir), diffusion_steps=self.diffusion_steps,
+                            **tiny, **training_fields("motion", quick=self.quick,
+                                                      step_cap=self.train_steps))
 
     def variants(self) -> list[Variant]:
         """The rule's variants: loss scaling and the Gaussian Emphasis matrix at each value."""

@@ -14,8 +14,9 @@ model's samples and for the data it was trained on (the data's value is the gate
   batches of 32) of held-out real windows with their own captions.
 
 :func:`gmd_model_record` / :func:`evaluator_model_record` turn the values into
-``core.gates.model_record``s with what the model cache keeps (steps, seconds, the training
-loss curve); nothing here touches a cache key.
+``core.gates.model_record``s with what the model cache keeps (steps, seconds, and the held-out
+validation curve of a model trained to convergence, else the training loss); nothing here
+touches a cache key.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from torch import Tensor
 
 from repro.core import metrics
 from repro.core.gates import model_record
+from repro.core.tables import markdown_table
 from repro.gmd.measurements import jitter_of
 from repro.gmd.models import TrainedGMD, parameter_count
 from repro.gmd.windows import FeatureSpace
@@ -36,11 +38,11 @@ from repro.infra import cache
 from repro.models.evaluator import Evaluator
 from repro.motion.features import FPS, features_to_joints
 
-__all__ = ["CURVE_POINTS", "emphasis_study_records", "evaluator_gate_values",
+__all__ = ["CURVE_POINTS", "budget_markdown", "emphasis_study_records", "evaluator_gate_values",
            "evaluator_model_record", "gmd_model_name", "gmd_model_record",
            "loss_curve", "motion_gate_values", "one_caption_each", "path_length",
            "relative_features_gate_values", "sample_quality_gate_values",
-           "trajectory_gate_values"]
+           "trajectory_gate_values", "training_summary", "unguided_motion_gate_values"]
 
 #: points of the training-loss curve kept in a model record (means of equal chunks of steps).
 CURVE_POINTS = 50
@@ -123,16 +125,71 @@ def gmd_model_name(trained: TrainedGMD, label: str = "") -> str:
 def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, float],
                      reference: Mapping[str, float], label: str = "") -> dict[str, Any]:
     """``core.gates.model_record`` of a tiny GMD model: parameters counted, steps and training
-    seconds from the cache's metrics.json, the *training* loss (online weights, per step; the
-    cache keeps no held-out loss) as its curve; ``converged`` unknown (None)."""
+    seconds from the cache's metrics.json. A model trained to convergence (``GMDModelSpec.
+    validate_every``) brings its record (``TrainResult.metrics()["convergence"]``): steps
+    used, whether the plateau stopped it, and its held-out validation loss (EMA weights) as
+    the curve; an older model gives its *training* loss (online weights, per step) as the
+    curve and ``converged`` None (unknown)."""
     if family not in ("gmd_motion", "gmd_trajectory"):
         raise ValueError(f"a GMD model's family is gmd_motion or gmd_trajectory, not {family!r}")
     losses = list(trained.metrics.get("losses") or [])
-    return model_record(name=gmd_model_name(trained, label), family=family, values=values,
-                        reference=reference, parameters=parameter_count(trained),
-                        steps=len(losses) or trained.spec.train_steps,
-                        train_seconds=trained.metrics.get("seconds"),
-                        validation_curve=loss_curve(losses), converged=None)
+    convergence = trained.metrics.get("convergence")
+    if convergence:
+        curve = [float(loss) for _, loss in convergence["validation"]]
+        steps, converged = int(convergence["steps_used"]), bool(convergence["converged"])
+    else:
+        curve = loss_curve(losses)
+        steps, converged = len(losses) or trained.spec.train_steps, None
+    record = model_record(name=gmd_model_name(trained, label), family=family, values=values,
+                          reference=reference, parameters=parameter_count(trained),
+                          steps=steps, train_seconds=trained.metrics.get("seconds"),
+                          validation_curve=curve, converged=converged)
+    if convergence:
+        record["convergence"] = {"step_cap": convergence["step_cap"],
+                                 "stop_reason": convergence["stop_reason"],
+                                 "validation_steps": [int(step) for step, _ in
+                                                      convergence["validation"]],
+                                 "best_step": convergence["best_step"],
+                                 "best_loss": convergence["best_loss"]}
+    return record
+
+
+def training_summary(trained: TrainedGMD) -> dict[str, Any]:
+    """How a model's training ended, from the cache's metrics.json: ``steps_used``,
+    ``step_cap``, ``converged`` and ``stop_reason`` (None for a model trained without
+    validation, whose steps are its fixed count)."""
+    convergence = trained.metrics.get("convergence")
+    if convergence:
+        return {key: convergence[key]
+                for key in ("steps_used", "step_cap", "converged", "stop_reason")}
+    steps = len(trained.metrics.get("losses") or []) or trained.spec.train_steps
+    return {"steps_used": steps, "step_cap": trained.spec.train_steps, "converged": None,
+            "stop_reason": None}
+
+
+def budget_markdown(arms: Mapping[str, Sequence[TrainedGMD]],
+                    records: Mapping[str, Sequence[Mapping[str, Any]]]) -> str:
+    """GMD-A4's training budget (issue #14): per arm (label → its models, one per seed, and
+    their ``gmd_model_record``s in the same order) and seed, the steps used of the cap, what
+    stopped the run and the ``gmd_motion`` gate's values; then, per arm, in how many seeds the
+    gate passed."""
+    rows, tallies = [], []
+    for label, models in arms.items():
+        passed = 0
+        for trained, record in zip(models, records[label], strict=True):
+            summary = training_summary(trained)
+            gate = record["gate"]
+            passed += bool(record["passed"])
+            rows.append([label, str(trained.spec.seed), str(summary["steps_used"]),
+                         str(summary["step_cap"]), summary["stop_reason"] or "fixed steps",
+                         *(f"{gate[m]['value']:.3g}" if gate[m]["value"] is not None else "—"
+                           for m in ("foot_skating", "joint_jerk", "fid")),
+                         "pass" if record["passed"] else "**fail**"])
+        tallies.append(f"{label}: {passed} of {len(models)} seeds")
+    return (markdown_table(["arm", "seed", "steps used", "step cap", "stopped by",
+                            "foot skating m/s", "joint jerk m/s³", "FID", "gate"], rows)
+            + "\n\nModels passing the registered `gmd_motion` gate — " + "; ".join(tallies)
+            + ".")
 
 
 def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float]
@@ -148,6 +205,27 @@ def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float]
                         steps=len(evaluator.losses) or evaluator.config.steps,
                         train_seconds=None, validation_curve=loss_curve(evaluator.losses),
                         converged=None)
+
+
+def unguided_motion_gate_values(trained: TrainedGMD, n: int, *, seed: int,
+                                evaluator: Evaluator,
+                                test_embeddings: np.ndarray) -> dict[str, float]:
+    """:func:`motion_gate_values` of ``n`` unguided samples of a motion model (seed ``seed``,
+    ``guidance.sample``; an ε model's x̂0 clamped as in GMD-A4): their joints' foot skating
+    and jerk, and the FID of their evaluator embeddings against ``test_embeddings`` — what
+    ``x0_vs_eps.sample_quality`` measures of the two arms, for a model outside them (GMD-A4's
+    longer ε run)."""
+    from repro.gmd.guidance import sample
+    from repro.gmd.measurements import evaluator_inputs
+
+    if trained.spec.task != "motion":
+        raise ValueError(f"need a motion model, got a {trained.spec.task} model")
+    x = sample(trained, n, seed=seed)
+    features, lengths = evaluator_inputs(trained, x)
+    fid = metrics.fid(evaluator.embed_motions(features, lengths), test_embeddings)
+    with torch.no_grad():
+        joints = trained.space.joints(x)
+    return motion_gate_values(joints, fid=fid)
 
 
 def sample_quality_gate_values(values: Mapping[str, Sequence[float]], tag: str,

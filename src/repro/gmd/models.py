@@ -20,8 +20,9 @@ import torch
 from torch import Tensor
 
 from repro.core.diffusion import GaussianDiffusion
-from repro.core.training import TrainConfig, train_diffusion
+from repro.core.training import TrainConfig, ValidationSet, train_diffusion
 from repro.gmd.coefficients import schedule_diffusion
+from repro.gmd.paper_settings import MOTION_ARCHITECTURE, TRAJECTORY_ARCHITECTURE
 from repro.gmd.windows import (
     CHANNELS,
     DataConfig,
@@ -38,19 +39,59 @@ from repro.motion.features import FEATURE_DIM, TRAJECTORY_FEATURES
 from repro.standin.text import Vocabulary, tokenize
 
 __all__ = [
+    "MOTION_TRAINING",
+    "QUICK_TRAINING",
+    "TRAJECTORY_TRAINING",
+    "ConvergenceTraining",
     "GMDModelSpec",
     "TrainedGMD",
+    "VALIDATION_SPLIT_SEED",
     "bag_of_words",
     "describe",
     "is_cached",
+    "longer_run",
     "load_or_train_gmd",
     "load_or_train_many",
     "model_cache_config",
     "parameter_count",
     "trajectory_loss_weights",
+    "training_fields",
+    "validation_split",
 ]
 
 _CACHE_VERSION = 1
+#: (patience, min_delta, validation_fraction) of a spec without convergence training
+_CONVERGENCE_DEFAULTS = (5, 0.01, 0.05)
+#: the held-out clips are drawn with this seed, whatever the model's seed (so both arms of a
+#: comparison, and every seed, validate on the same windows)
+VALIDATION_SPLIT_SEED = 0
+
+
+@dataclass(frozen=True)
+class ConvergenceTraining:
+    """How a family is trained to convergence (``core.training``, docs/TRAINING.md): AdamW at
+    ``lr`` with ``batch_size``, the held-out loss every ``validate_every`` steps, stop after
+    ``patience`` evaluations without a 1 % gain, at most ``step_cap`` steps."""
+
+    batch_size: int
+    lr: float
+    validate_every: int
+    patience: int
+    step_cap: int
+
+
+#: full-mode motion models (``paper_settings.MOTION_ARCHITECTURE``), from the design pilot
+#: (docs/pilot_gmd_motion*.md): lr 3e-4 skated less than 1e-3 at every check (150–600 steps);
+#: batch 32 and 64 were alike per CPU-second.
+MOTION_TRAINING = ConvergenceTraining(batch_size=64, lr=3e-4, validate_every=200, patience=5,
+                                      step_cap=4000)
+#: full-mode trajectory models: TRAINING.md's trajectory pilot (still gaining ≥ 1.5 % per 100
+#: steps at 1500 steps at lr 1e-3, batch 64), so a cap well beyond that.
+TRAJECTORY_TRAINING = ConvergenceTraining(batch_size=64, lr=1e-3, validate_every=100,
+                                          patience=5, step_cap=4000)
+#: quick mode (a test of the code): validate every 5 steps, stop after 2 without a gain.
+QUICK_TRAINING = ConvergenceTraining(batch_size=32, lr=1e-3, validate_every=5, patience=2,
+                                     step_cap=20)
 
 
 def bag_of_words(vocabulary: Vocabulary, captions: Sequence[str | Sequence[str]]) -> Tensor:
@@ -88,6 +129,13 @@ class GMDModelSpec:
     ``feature_weights`` (C,) weigh the squared error per channel (GMD's loss scaling k²,
     ``trajectory_loss_weights``). ``text_conditioned`` adds a bag-of-words caption condition
     (dropped with probability ``cond_dropout`` for classifier-free use).
+
+    Convergence (issue #14, docs/TRAINING.md): with ``validate_every`` set, the windows of a
+    held-out ``validation_fraction`` of the *training-split* clips (``validation_split``; never
+    the test windows the claims measure on) are left out of training, the EMA weights' loss on
+    them is measured every ``validate_every`` steps, and training stops when it has not
+    improved by a relative ``min_delta`` for ``patience`` evaluations; ``train_steps`` is then
+    the cap. Without ``validate_every`` these fields leave the key (every earlier key holds).
     """
 
     task: Task = "trajectory"
@@ -106,9 +154,20 @@ class GMDModelSpec:
     feature_weights: tuple[float, ...] | None = None
     text_conditioned: bool = False
     cond_dropout: float = 0.1
+    validate_every: int | None = None
+    patience: int = 5
+    min_delta: float = 0.01
+    validation_fraction: float = 0.05
 
     def __post_init__(self) -> None:
         check_task(self.task)
+        if not 0.0 < self.validation_fraction < 1.0:
+            raise ValueError(f"validation_fraction must be in (0, 1), got "
+                             f"{self.validation_fraction}")
+        if self.validate_every is None and (self.patience, self.min_delta,
+                                            self.validation_fraction) != _CONVERGENCE_DEFAULTS:
+            raise ValueError("patience, min_delta and validation_fraction only act with "
+                             "validate_every set")
         if self.prediction not in ("x0", "epsilon"):
             raise ValueError(f"prediction must be 'x0' or 'epsilon', got {self.prediction!r}")
         if self.schedule not in ("cosine", "linear"):
@@ -137,6 +196,9 @@ class GMDModelSpec:
         config["data"] = self.data.as_dict()
         if not self.text_conditioned:
             config.pop("cond_dropout")
+        if self.validate_every is None:  # keeps the keys of specs made before convergence
+            for name in ("validate_every", "patience", "min_delta", "validation_fraction"):
+                config.pop(name)
         return config
 
     def diffusion(self) -> GaussianDiffusion:
@@ -152,6 +214,8 @@ class GMDModelSpec:
                            feature_weights=None if self.feature_weights is None
                            else list(self.feature_weights),
                            cond_dropout=self.cond_dropout if self.text_conditioned else 0.0,
+                           validate_every=self.validate_every,
+                           patience=self.patience, min_delta=self.min_delta,
                            device=str(device))
 
 
@@ -187,6 +251,53 @@ class TrainedGMD:
         return bag_of_words(self.vocabulary, captions).to(self.device)
 
 
+def training_fields(task: Task, *, quick: bool, step_cap: int | None = None) -> dict[str, Any]:
+    """The architecture and convergence-training fields of a notebook's ``GMDModelSpec`` of
+    ``task`` (issue #14): in full mode ``paper_settings``' architecture of the family and its
+    ``ConvergenceTraining`` (batch, lr, validation interval, patience, step cap; ``step_cap``
+    overrides the cap); in quick mode only the convergence path (``QUICK_TRAINING``: validate
+    every few steps, short patience) on the notebook's own tiny model, whose step count
+    (``step_cap``, required) is the cap."""
+    check_task(task)
+    if quick:
+        if step_cap is None:
+            raise ValueError("quick mode needs the notebook's step count as step_cap")
+        return {"train_steps": int(step_cap), "validate_every": QUICK_TRAINING.validate_every,
+                "patience": QUICK_TRAINING.patience}
+    architecture = MOTION_ARCHITECTURE if task == "motion" else TRAJECTORY_ARCHITECTURE
+    plan = MOTION_TRAINING if task == "motion" else TRAJECTORY_TRAINING
+    return {"base_channels": architecture.base_channels,
+            "channel_mults": architecture.channel_mults, "batch_size": plan.batch_size,
+            "lr": plan.lr, "validate_every": plan.validate_every, "patience": plan.patience,
+            "train_steps": plan.step_cap if step_cap is None else int(step_cap)}
+
+
+def longer_run(spec: GMDModelSpec, factor: int = 2) -> GMDModelSpec:
+    """``spec`` trained ``factor``× its step cap without the plateau stop (the patience
+    outlasts the run), still validated so its curve is recorded: GMD-A4's longer ε run, which
+    shows whether the ε arm converges later than the budget both arms share (issue #14)."""
+    if spec.validate_every is None:
+        raise ValueError("longer_run needs a spec trained with validation (validate_every)")
+    steps = int(factor) * spec.train_steps
+    return spec.replace(train_steps=steps, patience=steps // spec.validate_every + 1)
+
+
+def validation_split(data: MotionWindows, fraction: float) -> tuple[Tensor, Tensor]:
+    """(training indices, validation indices) of ``data``'s windows: every window of a
+    ``fraction`` of its clips (at least one clip, at least one left to train on), drawn with
+    ``VALIDATION_SPLIT_SEED`` among the clips in sorted order. Whole clips are held out,
+    because overlapping windows of one clip would leak into the held-out loss."""
+    clips = [window_id.rsplit(":", 1)[0] for window_id in data.ids]
+    unique = sorted(set(clips))
+    if len(unique) < 2:
+        raise ValueError(f"need at least 2 training clips to hold one out, have {len(unique)}")
+    held_count = min(len(unique) - 1, max(1, int(round(fraction * len(unique)))))
+    order = np.random.default_rng(VALIDATION_SPLIT_SEED).permutation(len(unique))
+    held = {unique[k] for k in order[:held_count]}
+    is_held = torch.tensor([clip in held for clip in clips])
+    return torch.nonzero(~is_held).flatten(), torch.nonzero(is_held).flatten()
+
+
 def model_cache_config(spec: GMDModelSpec, data: MotionWindows) -> dict[str, Any]:
     """What a trained model's cache key covers: the spec and the training windows' content."""
     return {"spec": spec.as_dict(), "data_fingerprint": data.fingerprint,
@@ -216,8 +327,13 @@ def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
     def train(model: torch.nn.Module) -> tuple[torch.nn.Module, dict[str, Any]]:
         x = data.channels(spec.task).contiguous()
         cond = bag_of_words(vocabulary, data.captions) if vocabulary is not None else None
+        validation = None
+        if spec.validate_every is not None:
+            fit, held = validation_split(data, spec.validation_fraction)
+            validation = ValidationSet(x[held], cond=None if cond is None else cond[held])
+            x, cond = x[fit].contiguous(), None if cond is None else cond[fit]
         result = train_diffusion(model, diffusion, x, spec.train_config(device), cond=cond,
-                                 progress=progress)
+                                 validation=validation, progress=progress)
         return result.for_cache()
 
     model = cache.load_or_train(kind, config, lambda: spec.build_model(cond_dim), train,
@@ -281,8 +397,12 @@ def load_or_train_many(specs: Sequence[GMDModelSpec], data: MotionWindows, *,
 def describe(spec: GMDModelSpec) -> str:
     """A one-line summary of a spec for notes and figure titles."""
     mults = ",".join(f"{m:g}" for m in spec.channel_mults)
+    steps = (f"{spec.train_steps} steps" if spec.validate_every is None else
+             f"to convergence (held-out loss every {spec.validate_every} steps, stop after "
+             f"{spec.patience} without a {spec.min_delta:.0%} gain, cap {spec.train_steps} "
+             f"steps)")
     return (f"{spec.task}/{spec.prediction} UNet1D(base {spec.base_channels}, mults [{mults}]), "
-            f"T={spec.diffusion_steps} {spec.schedule}, {spec.train_steps} steps × batch "
+            f"T={spec.diffusion_steps} {spec.schedule}, {steps} × batch "
             f"{spec.batch_size}, lr {spec.lr:g}, {spec.data.frames} frames "
             f"({spec.data.representation} root)")
 

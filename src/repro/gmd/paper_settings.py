@@ -35,7 +35,8 @@ GUIDANCE_STOP_T = 20
 #: GMD clamps its ε trajectory model's x̂0 to ±6 (in its normalised units).
 X0_CLAMP = 6.0
 
-#: the tiny GMD UNets (set by #14's design pilot; the motion model's full-resolution width
-#: must be at least the 263 features it carries).
-MOTION_ARCHITECTURE = Architecture(base_channels=16, channel_mults=(1, 2, 4))
+#: the tiny GMD UNets (set by #14's design pilot, docs/pilot_gmd_motion.md; the motion
+#: model's full-resolution width must be at least the 263 features it carries, as GMD's
+#: [263 → 1024] is).
+MOTION_ARCHITECTURE = Architecture(base_channels=288, channel_mults=(1, 0.5, 0.25))
 TRAJECTORY_ARCHITECTURE = Architecture(base_channels=16, channel_mults=(1, 2, 4))

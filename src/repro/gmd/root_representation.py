@@ -36,7 +36,7 @@ from torch import Tensor
 
 from repro.gmd import paper_settings
 from repro.gmd.guidance import default_stop_step
-from repro.gmd.models import GMDModelSpec
+from repro.gmd.models import MOTION_TRAINING, TRAJECTORY_TRAINING, GMDModelSpec, training_fields
 from repro.gmd.windows import REPRESENTATIONS, DataConfig, short_label
 from repro.models.evaluator import EvaluatorConfig
 from repro.motion.features import (
@@ -305,7 +305,9 @@ class Settings:
     GMD-B2 (full mode) uses the guidance experiments' trajectory model (:meth:`trajectory_spec`:
     ε prediction, ``paper_settings.TRAJECTORY_ARCHITECTURE``, T = 1000 cosine), sampled with
     GMD's stop step t = 20 and ±6 clamp of x̂0 (``paper_settings``); GMD-B3 a text-conditioned
-    x0 motion model (GMD's motion model predicts x0) for ``motion_steps``, sampled with
+    x0 motion model (GMD's motion model predicts x0; ``paper_settings.MOTION_ARCHITECTURE``),
+    both trained to convergence (``models.training_fields``; ``trajectory_steps`` /
+    ``motion_steps`` are the step caps), the motion model sampled with
     classifier-free guidance at GMD's scale (``repro.gmd.cfg``). ``seeds`` (B2) and
     ``motion_seeds`` (B3) follow the power plan as far as the run affords
     (``registry_gmd``: the parts' ``seeds``). Quick mode shrinks everything, T included (a
@@ -333,8 +335,9 @@ class Settings:
                        sensitivity_clips=8, targets=8, evaluation_windows=96,
                        evaluator_steps=30)
         return cls(quick=False, seeds=B2_SEEDS, motion_seeds=B3_SEEDS, stand_in_clips=2000,
-                   stride=24, diffusion_steps=100, trajectory_steps=1000,
-                   motion_steps=MOTION_STEPS, sensitivity_clips=64, targets=64,
+                   stride=24, diffusion_steps=100,
+                   trajectory_steps=TRAJECTORY_TRAINING.step_cap,
+                   motion_steps=MOTION_TRAINING.step_cap, sensitivity_clips=64, targets=64,
                    evaluation_windows=256, evaluator_steps=500)
 
     @property
@@ -372,25 +375,25 @@ class Settings:
 
     def trajectory_spec(self, representation: str, seed: int,
                         data_dir: str | None = None) -> GMDModelSpec:
-        """The guidance experiments' trajectory model, from ``paper_settings`` only (to be
-        pointed at the shared trajectory-spec function of the guidance notebooks when it
-        lands): ε prediction, ``TRAJECTORY_ARCHITECTURE``, ``trajectory_diffusion_steps``
-        of the ``GUIDANCE_SCHEDULE``, ``trajectory_steps`` training steps."""
-        architecture = paper_settings.TRAJECTORY_ARCHITECTURE
+        """The guidance experiments' trajectory model: ε prediction, the family's architecture
+        and convergence training (``models.training_fields``, ``trajectory_steps`` the cap),
+        ``trajectory_diffusion_steps`` of the ``GUIDANCE_SCHEDULE``. In full mode its absolute-
+        root model is notebook 01's and 06's (``x0_vs_eps.guidance_trajectory_spec``: one cache
+        key, tested)."""
         return GMDModelSpec(task="trajectory", prediction="epsilon",
                             data=self.data(representation, data_dir), seed=seed,
-                            base_channels=architecture.base_channels,
-                            channel_mults=architecture.channel_mults,
                             diffusion_steps=self.trajectory_diffusion_steps,
                             schedule=paper_settings.GUIDANCE_SCHEDULE,
-                            train_steps=self.trajectory_steps)
+                            **training_fields("trajectory", quick=self.quick,
+                                              step_cap=self.trajectory_steps))
 
     def motion_spec(self, representation: str, seed: int,
                     data_dir: str | None = None) -> GMDModelSpec:
         return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
                                 data=self.data(representation, data_dir), seed=seed,
                                 diffusion_steps=self.diffusion_steps,
-                                train_steps=self.motion_steps)
+                                **training_fields("motion", quick=self.quick,
+                                                  step_cap=self.motion_steps))
 
 
 def load_clips(root: Path, split: str, *, min_frames: int, n: int) -> tuple[list[str],

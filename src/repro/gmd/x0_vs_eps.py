@@ -29,7 +29,7 @@ from repro.gmd.guidance import (
     sample,
 )
 from repro.gmd.measurements import evaluator_inputs, foot_skating_of, jitter_of
-from repro.gmd.models import GMDModelSpec, TrainedGMD
+from repro.gmd.models import GMDModelSpec, TrainedGMD, training_fields
 from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_SCHEDULE
 from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows, Task, goal_targets
 from repro.models.evaluator import Evaluator, EvaluatorConfig
@@ -216,8 +216,9 @@ def goal_reaching_experiment(trained: TrainedGMD, targets_xz: np.ndarray, *, see
 class Settings:
     """Every size and step count of notebook 01, fixed before any verdict was seen.
 
-    Full mode: 48-frame windows (stride 24) of the 2000-clip stand-in set, the default tiny
-    UNet1D for x0 and ε on both tasks, T = 100 cosine, 1000 steps × batch 64; 32 goals and
+    Full mode: 48-frame windows (stride 24) of the 2000-clip stand-in set, one UNet1D per task
+    for x0 and ε (``paper_settings``' architectures), T = 100 cosine, trained to convergence
+    up to each family's step cap (``models.training_fields``); 32 goals and
     256 generated windows per seed; the package's evaluator with its default size. Quick mode
     shrinks everything (a test of the code, never a result). ``train_steps`` may be overridden
     (the notebook's papermill parameter; None = the mode's default).
@@ -231,7 +232,8 @@ class Settings:
     seeds: int
     stand_in_clips: int
     frames: int
-    train_steps: int
+    #: the step cap; None in full mode: each family's (``models.training_fields``)
+    train_steps: int | None
     batch_size: int
     diffusion_steps: int
     goals: int
@@ -252,7 +254,7 @@ class Settings:
                        batch_size=32, diffusion_steps=20, goals=4, generated=32,
                        guidance_diffusion_steps=QUICK_GUIDANCE_DIFFUSION_STEPS)
         return cls(quick=False, seeds=seeds, stand_in_clips=2000, frames=48,
-                   train_steps=1000 if train_steps is None else int(train_steps),
+                   train_steps=None if train_steps is None else int(train_steps),
                    batch_size=64, diffusion_steps=100, goals=32, generated=256)
 
     def data(self, data_dir: str | None = None) -> DataConfig:
@@ -263,10 +265,13 @@ class Settings:
 
     def spec(self, task: Task, prediction: Literal["x0", "epsilon"], data: DataConfig,
              seed: int = 0) -> GMDModelSpec:
-        """One of the four models (trajectory/motion × x0/ε), the same UNet for all."""
+        """One of the four models (trajectory/motion × x0/ε): x0 and ε of a task share the
+        architecture and the training budget (``models.training_fields``: trained to
+        convergence, ``train_steps`` the cap)."""
+        fields = {"batch_size": self.batch_size,
+                  **training_fields(task, quick=self.quick, step_cap=self.train_steps)}
         return GMDModelSpec(task=task, prediction=prediction, data=data,
-                            train_steps=self.train_steps, batch_size=self.batch_size,
-                            diffusion_steps=self.diffusion_steps, seed=seed)
+                            diffusion_steps=self.diffusion_steps, seed=seed, **fields)
 
     def guidance_trajectory_spec(self, prediction: Literal["x0", "epsilon"], data: DataConfig,
                                  seed: int = 0) -> GMDModelSpec:
