@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from repro.energymogen import pipeline
+from repro.energymogen.text_stage import frozen_caption_tokens
 from repro.models.frozen_text import shared_minilm
 
 CAPTIONS = ["a person walks forward and then turns left", "someone waves with the right hand",
@@ -20,7 +20,7 @@ def test_frozen_tokens_are_computed_once_and_equal_the_encoder_s(
     lengths = np.asarray(lengths)
     direct, direct_mask = encoder.tokens(torch.from_numpy(ids), lengths)
     width = int(direct_mask.sum(1).max())
-    first = pipeline._frozen_tokens(encoder, ids, lengths)
+    first = frozen_caption_tokens(encoder, ids, lengths)
     assert torch.equal(first[0], direct[:, :width]) and torch.equal(first[1],
                                                                      direct_mask[:, :width])
 
@@ -28,10 +28,10 @@ def test_frozen_tokens_are_computed_once_and_equal_the_encoder_s(
         raise AssertionError("encoded again")
 
     monkeypatch.setattr(type(encoder), "tokens", fail)
-    again = pipeline._frozen_tokens(encoder, ids, lengths)
+    again = frozen_caption_tokens(encoder, ids, lengths)
     assert torch.equal(again[0], first[0]) and torch.equal(again[1], first[1])
     again[0].zero_()  # a caller's in-place change never reaches the memo
-    assert torch.equal(pipeline._frozen_tokens(encoder, ids, lengths)[0], first[0])
+    assert torch.equal(frozen_caption_tokens(encoder, ids, lengths)[0], first[0])
     other_ids, other_lengths = encoder.tokenizer.encode_batch(CAPTIONS[:2], 77)
     with pytest.raises(AssertionError, match="encoded again"):
-        pipeline._frozen_tokens(encoder, other_ids, np.asarray(other_lengths))
+        frozen_caption_tokens(encoder, other_ids, np.asarray(other_lengths))

@@ -50,7 +50,7 @@ from repro.energymogen.data import (
     load_or_build_data,
     load_or_build_validation_clips,
 )
-from repro.energymogen.text_stage import TextStage, train_text_stage
+from repro.energymogen.text_stage import TextStage, frozen_caption_tokens, train_text_stage
 from repro.infra import cache
 from repro.models.evaluator import Evaluator, EvaluatorConfig, load_or_train_evaluator
 from repro.models.frozen_text import FrozenTextEncoder
@@ -342,34 +342,13 @@ class DenoiserRows:
     mask: Tensor
 
 
-#: the last frozen-encoder token features computed (key → (tokens, mask)): a pipeline load
-#: encodes every training caption, and the frozen encoder gives the same features each time,
-#: so the per-seed pipelines and variants of one process share one encoding (minutes with
-#: MiniLM on a full caption set). One entry: a full set's features are ~100 MB.
-_FROZEN_TOKENS: dict[tuple[str, str], tuple[Tensor, Tensor]] = {}
-
-
-def _frozen_tokens(text_encoder: FrozenTextEncoder, ids: np.ndarray,
-                   lengths: np.ndarray) -> tuple[Tensor, Tensor]:
-    """``text_encoder.tokens`` cut to the longest caption, on the CPU, memoised by content."""
-    key = (str(text_encoder.device), cache.fingerprint(ids, lengths, with_layout=True))
-    if key not in _FROZEN_TOKENS:
-        tokens, mask = text_encoder.tokens(torch.from_numpy(ids), lengths)
-        width = int(mask.sum(1).max())
-        _FROZEN_TOKENS.clear()
-        _FROZEN_TOKENS[key] = (tokens[:, :width].cpu().contiguous(),
-                               mask[:, :width].cpu().contiguous())
-    tokens, mask = _FROZEN_TOKENS[key]
-    return tokens.clone(), mask.clone()
-
-
 def _caption_rows(latents: Tensor, captions: Sequence[Sequence[str]], text_encoder: TextEncoder,
                   vocab: Vocabulary, config: PipelineConfig) -> DenoiserRows:
     rows = [(i, c) for i, caps in enumerate(captions) for c in caps]
     ids, text_lengths = vocab.encode_batch([c for _, c in rows], config.max_text_len)
     with torch.no_grad():
         if isinstance(text_encoder, FrozenTextEncoder):
-            tokens, mask = _frozen_tokens(text_encoder, ids, np.asarray(text_lengths))
+            tokens, mask = frozen_caption_tokens(text_encoder, ids, np.asarray(text_lengths))
         else:
             tokens, mask = text_encoder.tokens(torch.from_numpy(ids), text_lengths)
             width = int(mask.sum(1).max())
