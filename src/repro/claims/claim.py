@@ -29,8 +29,9 @@ class Claim:
     """One claim: where it is, what it says, the rule, and the measurements the rule reads.
 
     ``measurements``: names every notebook records today (the ledger requires them);
-    ``new_measurements``: names version 2 reads that the notebooks do not record yet (a part
-    that needs one comes out inconclusive, "measurement X not recorded");
+    ``new_measurements``: names the current version reads beyond v1's (recorded by the
+    notebooks that run it; a part whose measurement is missing comes out inconclusive,
+    "measurement X not recorded");
     ``affordable_seeds``: the seeds a full run uses (``power_note`` names the parts that need
     more: they can only come out supported or inconclusive); ``example(rng, scale, n)``: a
     measurement dict shaped like the notebook's, with every part's effect at ``scale`` × its

@@ -48,7 +48,6 @@ from repro.motion.features import (
 )
 
 __all__ = [
-    "MOTION_STEPS",
     "ROOT_PARAMETERS",
     "RoundTrip",
     "SensitivityResult",
@@ -65,11 +64,6 @@ __all__ = [
 
 #: the root entries a perturbation touches: [0] rotation (ω or a), [1:3] linear (v or p).
 ROOT_PARAMETERS = slice(0, 3)
-#: training steps of the GMD-B3 motion models (full mode): ``GMDModelSpec``'s default step count.
-#: A probe model (relative root, seed 99 — not a verdict seed; no verdict was computed) had a
-#: training loss of 1.58 → 0.81 (step 500) → 0.55 (1000) → 0.47 (1500): still falling at 1000,
-#: but 1500 would cost another ~50 % of the notebook's largest item; 1000 is the compromise.
-MOTION_STEPS = 1000
 #: seeds of the full run. The power plan (the parts' registered ``seeds``) asks GMD-B2 for
 #: 1000+ / 44 / 18 (imputation difference / 10 cm threshold / guidance difference) and GMD-B3
 #: for 5 / 5 / 32 (FID / diversity gap / R@3 non-inferiority). B2 trains two trajectory
