@@ -139,6 +139,32 @@ def test_same_string_gives_the_same_vectors(encoder: FrozenTextEncoder) -> None:
     assert torch.allclose(padded.pooled[1], first.pooled[0], atol=1e-6)
 
 
+def test_repeated_captions_and_long_padding_give_each_caption_s_own_states(
+        encoder: FrozenTextEncoder, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``tokens`` encodes each distinct caption once, cut to its chunk's longest caption: row
+    for row the states of the caption encoded alone, zero at padding, in the input's order."""
+    captions = ["a person walks forward", "the person crouches down and picks something up",
+                "a person walks forward", "a man sits down", "a person walks forward"]
+    ids, lengths = encoder.tokenizer.encode_batch(captions, max_len=77)
+    seen: list[int] = []
+    forward = encoder.model.forward
+
+    def counting(*args: object, **kwargs: torch.Tensor) -> object:
+        seen.append(int(kwargs["input_ids"].shape[0]))
+        return forward(*args, **kwargs)
+
+    monkeypatch.setattr(encoder.model, "forward", counting)
+    states, mask = encoder.tokens(torch.from_numpy(ids), lengths)
+    monkeypatch.undo()
+    assert seen == [3] and states.shape == (5, 77, MINILM_WIDTH)
+    assert mask.sum(1).tolist() == lengths.tolist()
+    for row, caption in enumerate(captions):
+        alone = encoder.encode([caption])
+        width = int(alone.mask.sum())
+        assert torch.allclose(states[row, :width], alone.tokens[0], atol=1e-5), caption
+        assert not states[row, width:].any()
+
+
 def test_paraphrase_is_closer_than_an_unrelated_caption(encoder: FrozenTextEncoder) -> None:
     paraphrase = _cosine(encoder, "a person walks forward", "someone walks ahead")
     unrelated = _cosine(encoder, "a person walks forward", "a man sits down")

@@ -33,7 +33,7 @@ from repro.energymogen.config import (
     PipelineConfig,
 )
 from repro.infra import cache, storage
-from repro.motion.features import FPS, joints_to_features
+from repro.motion.features import FPS
 from repro.motion.humanml3d import compute_statistics
 from repro.standin.captions import SUBJECTS
 from repro.standin.concepts import CONCEPTS
@@ -41,15 +41,17 @@ from repro.standin.generator import (
     GENERATOR_VERSION,
     PARTIAL_CAPTION_SHARE,
     ClipSpec,
-    generate_clip,
+    clip_features,
+    generate_clips,
 )
 
 __all__ = [
-    "VALIDATION_KEY", "CompositionItems", "CompositionPool", "HeldOutClips", "NegationItems",
-    "StandInData", "build_composition_pool", "draw_training_like_clips",
+    "VALIDATION_KEY", "ClipRequest", "CompositionItems", "CompositionPool", "HeldOutClips",
+    "NegationItems",
+    "StandInData", "build_composition_pool", "draw_clip_request", "draw_training_like_clips",
     "load_or_build_validation_clips", "build_stand_in_data", "composition_items", "concept_text",
     "load_or_build_data", "load_or_build_test_pool", "negation_items", "pair_caption",
-    "stand_in_clip", "trained_pairs",
+    "stand_in_clip", "stand_in_clips", "trained_pairs",
 ]
 
 
@@ -81,13 +83,24 @@ def concept_text(name: str, rng: np.random.Generator) -> str:
     return f"{subject} {phrases[int(rng.integers(len(phrases)))][0]}."
 
 
-def stand_in_clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generator,
-                  partial_caption_share: float = PARTIAL_CAPTION_SHARE
-                  ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """One generated clip of ``concepts`` (one: single; two: simultaneous) as the pipeline's
-    data are drawn (random heading and start, :data:`RHYTHM_OVERRIDES`, generator seed from
-    ``rng``; captions partial at ``partial_caption_share``, generator v3): (features (frames,
-    263), canonical joints (frames, 22, 3), 3 captions)."""
+#: clips generated and featurised together (one pose solve, FK and feature pass per chunk)
+_CLIP_CHUNK = 256
+
+
+@dataclass(frozen=True)
+class ClipRequest:
+    """One clip to generate: its spec and generator seed, drawn by :func:`draw_clip_request`."""
+
+    spec: ClipSpec
+    seed: int
+
+
+def draw_clip_request(concepts: tuple[str, ...], frames: int, rng: np.random.Generator,
+                      partial_caption_share: float = PARTIAL_CAPTION_SHARE) -> ClipRequest:
+    """The random draws of one clip of ``concepts`` (one: single; two: simultaneous) as the
+    pipeline's data are drawn: random heading and start, :data:`RHYTHM_OVERRIDES`, the
+    generator seed, in that order from ``rng``; captions partial at
+    ``partial_caption_share`` (generator v3)."""
     params: dict[str, Any] = {"initial_heading": float(rng.uniform(-np.pi, np.pi)),
                               "start_xz": [float(v) for v in rng.uniform(-1.0, 1.0, 2)]}
     for name in concepts:
@@ -96,11 +109,35 @@ def stand_in_clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generat
     kind = "single" if len(concepts) == 1 else "simultaneous"
     spec = ClipSpec(concepts, kind, frames / FPS, params,
                     partial_caption_share=partial_caption_share)
-    clip = generate_clip(spec, int(rng.integers(2 ** 31)))
-    features, joints = joints_to_features(clip.joints)
-    if features.shape[0] != frames:
-        raise ValueError(f"clip has {features.shape[0]} feature frames, expected {frames}")
-    return features, joints, clip.captions
+    return ClipRequest(spec, int(rng.integers(2 ** 31)))
+
+
+def stand_in_clips(requests: Sequence[ClipRequest], frames: int
+                   ) -> list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]]:
+    """The clips of ``requests``, generated in batches (``generator.generate_clips``,
+    ``generator.clip_features``): per clip (features (frames, 263), canonical joints
+    (frames, 22, 3), 3 captions)."""
+    out = []
+    with torch.inference_mode():
+        for first in range(0, len(requests), _CLIP_CHUNK):
+            chunk = requests[first:first + _CLIP_CHUNK]
+            clips = generate_clips([r.spec for r in chunk], [r.seed for r in chunk])
+            for clip, (features, joints) in zip(clips, clip_features(clips), strict=True):
+                if features.shape[0] != frames:
+                    raise ValueError(f"clip has {features.shape[0]} feature frames, "
+                                     f"expected {frames}")
+                out.append((features, joints, clip.captions))
+    return out
+
+
+def stand_in_clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generator,
+                  partial_caption_share: float = PARTIAL_CAPTION_SHARE
+                  ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """One generated clip of ``concepts`` (:func:`draw_clip_request` from ``rng``, then
+    :func:`stand_in_clips`): (features (frames, 263), canonical joints (frames, 22, 3),
+    3 captions)."""
+    return stand_in_clips([draw_clip_request(concepts, frames, rng, partial_caption_share)],
+                          frames)[0]
 
 
 @dataclass(frozen=True)
@@ -118,17 +155,14 @@ def build_composition_pool(sets: Sequence[tuple[str, ...]], per_set: int, data_s
     """``per_set`` simultaneous clips of every set; clip k of set p is drawn with
     ``default_rng([data_seed, stream + p, k])`` (:func:`stand_in_clip`). Their captions name
     every concept of the set (no partial captions): they are the test items' joined texts."""
-    feats, joints, captions, concepts = [], [], [], []
-    with torch.inference_mode():
-        for p, names in enumerate(sets):
-            for k in range(per_set):
-                rng = np.random.default_rng([data_seed, stream + p, k])
-                f, j, c = stand_in_clip(tuple(names), frames, rng, partial_caption_share=0.0)
-                feats.append(f)
-                joints.append(j)
-                captions.append(tuple(c))
-                concepts.append(tuple(names))
-    return CompositionPool(np.stack(feats), np.stack(joints), captions, concepts)
+    concepts = [tuple(names) for names in sets for _ in range(per_set)]
+    requests = [draw_clip_request(tuple(names), frames,
+                                  np.random.default_rng([data_seed, stream + p, k]),
+                                  partial_caption_share=0.0)
+                for p, names in enumerate(sets) for k in range(per_set)]
+    clips = stand_in_clips(requests, frames)
+    return CompositionPool(np.stack([f for f, _, _ in clips]), np.stack([j for _, j, _ in clips]),
+                           [tuple(c) for _, _, c in clips], concepts)
 
 
 #: rng stream of the held-out pairs' test pool (:func:`build_composition_pool`)
@@ -175,19 +209,9 @@ def build_stand_in_data(config: PipelineConfig) -> StandInData:
     held-out pair, ``test_clips_per_pair`` simultaneous clips.
     """
     _check_pool()
-    pool, pairs = LOWER_CONCEPTS + ARM_CONCEPTS, trained_pairs()
-    feats, captions, concepts = [], [], []
-    with torch.inference_mode():
-        for i in range(config.n_train_clips):
-            rng = np.random.default_rng([config.data_seed, i])
-            if rng.uniform() < config.single_fraction:
-                names: tuple[str, ...] = (pool[int(rng.integers(len(pool)))],)
-            else:
-                names = pairs[int(rng.integers(len(pairs)))]
-            f, _, c = stand_in_clip(names, config.frames, rng)
-            feats.append(f)
-            captions.append(tuple(c))
-            concepts.append(names)
+    concepts, requests = _training_like_requests(config, range(config.n_train_clips))
+    clips = stand_in_clips(requests, config.frames)
+    feats, captions = [f for f, _, _ in clips], [tuple(c) for _, _, c in clips]
     test = build_composition_pool(HELD_OUT_PAIRS, config.test_clips_per_pair, config.data_seed,
                                   _PAIR_STREAM, config.frames)
     train = np.stack(feats).astype(np.float32)
@@ -281,20 +305,28 @@ def draw_training_like_clips(config: PipelineConfig, count: int, key: int) -> He
     """``count`` clips drawn as :func:`build_stand_in_data` draws training clips (a single
     concept with probability ``single_fraction``, else a trained pair; random heading and
     start), clip i from ``default_rng([data_seed, key + i])``."""
+    concepts, requests = _training_like_requests(config, range(key, key + count))
+    clips = stand_in_clips(requests, config.frames)
+    return HeldOutClips(np.stack([f for f, _, _ in clips]).astype(np.float32),
+                        tuple(tuple(c) for _, _, c in clips), tuple(concepts))
+
+
+def _training_like_requests(config: PipelineConfig, keys: Sequence[int]
+                            ) -> tuple[list[tuple[str, ...]], list[ClipRequest]]:
+    """Concepts and requests of training-like clips, clip ``k`` from ``default_rng([data_seed,
+    k])``: a single concept with probability ``single_fraction`` (uniform over the pool),
+    else a trained pair (uniform)."""
     pool, pairs = LOWER_CONCEPTS + ARM_CONCEPTS, trained_pairs()
-    feats, captions, concepts = [], [], []
-    with torch.inference_mode():
-        for i in range(count):
-            rng = np.random.default_rng([config.data_seed, key + i])
-            if rng.uniform() < config.single_fraction:
-                names: tuple[str, ...] = (pool[int(rng.integers(len(pool)))],)
-            else:
-                names = pairs[int(rng.integers(len(pairs)))]
-            features, _, caps = stand_in_clip(names, config.frames, rng)
-            feats.append(features)
-            captions.append(tuple(caps))
-            concepts.append(names)
-    return HeldOutClips(np.stack(feats).astype(np.float32), tuple(captions), tuple(concepts))
+    concepts, requests = [], []
+    for k in keys:
+        rng = np.random.default_rng([config.data_seed, k])
+        if rng.uniform() < config.single_fraction:
+            names: tuple[str, ...] = (pool[int(rng.integers(len(pool)))],)
+        else:
+            names = pairs[int(rng.integers(len(pairs)))]
+        concepts.append(names)
+        requests.append(draw_clip_request(names, config.frames, rng))
+    return concepts, requests
 
 
 def load_or_build_validation_clips(config: PipelineConfig, count: int) -> HeldOutClips:

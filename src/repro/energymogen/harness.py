@@ -24,11 +24,15 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import torch
 
 from repro.core import metrics
 from repro.energymogen.config import ARM_CONCEPTS, LOWER_CONCEPTS, PipelineConfig
-from repro.energymogen.data import draw_training_like_clips, stand_in_clip, trained_pairs
+from repro.energymogen.data import (
+    draw_clip_request,
+    draw_training_like_clips,
+    stand_in_clips,
+    trained_pairs,
+)
 from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler
 from repro.infra import cache, storage
 from repro.models.evaluator import evaluate_generated
@@ -104,21 +108,19 @@ def build_shared_concept_test(config: PipelineConfig, count: int) -> TextToMotio
     5·10⁶ + i])``. Every clip is a clip of the training distribution; only the batching is
     harder."""
     pairs = trained_pairs()
-    feats, captions, concepts = [], [], []
-    with torch.inference_mode():
-        for b, anchor in enumerate(shared_concept_anchors(count)):
-            with_anchor = [p for p in pairs if anchor in p]
-            for j in range(R_PRECISION_BATCH):
-                i = b * R_PRECISION_BATCH + j
-                rng = np.random.default_rng([config.data_seed, _SHARED_KEY + i])
-                names: tuple[str, ...] = ((anchor,) if rng.uniform() < config.single_fraction
-                                          else with_anchor[int(rng.integers(len(with_anchor)))])
-                features, _, caps = stand_in_clip(names, config.frames, rng)
-                feats.append(features)
-                captions.append(tuple(caps))
-                concepts.append(names)
-    return TextToMotionTest(np.stack(feats).astype(np.float32), tuple(captions),
-                            tuple(concepts), grouped=True)
+    concepts, requests = [], []
+    for b, anchor in enumerate(shared_concept_anchors(count)):
+        with_anchor = [p for p in pairs if anchor in p]
+        for j in range(R_PRECISION_BATCH):
+            i = b * R_PRECISION_BATCH + j
+            rng = np.random.default_rng([config.data_seed, _SHARED_KEY + i])
+            names: tuple[str, ...] = ((anchor,) if rng.uniform() < config.single_fraction
+                                      else with_anchor[int(rng.integers(len(with_anchor)))])
+            concepts.append(names)
+            requests.append(draw_clip_request(names, config.frames, rng))
+    clips = stand_in_clips(requests, config.frames)
+    return TextToMotionTest(np.stack([f for f, _, _ in clips]).astype(np.float32),
+                            tuple(tuple(c) for _, _, c in clips), tuple(concepts), grouped=True)
 
 
 def load_or_build_shared_concept_test(config: PipelineConfig, count: int) -> TextToMotionTest:

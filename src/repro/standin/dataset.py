@@ -14,7 +14,7 @@ import torch
 
 from repro.infra import paths, storage
 from repro.infra.cache import config_hash
-from repro.motion.features import FEATURE_DIM, FPS, joints_to_features
+from repro.motion.features import FEATURE_DIM, FPS
 from repro.motion.humanml3d import block_averaged_std
 from repro.standin.concepts import check_concept
 from repro.standin.generator import (
@@ -22,6 +22,7 @@ from repro.standin.generator import (
     DEFAULT_COMPOSITION_WEIGHTS,
     GENERATOR_VERSION,
     Clip,
+    clip_features,
     generate_clips,
     sample_clip_spec,
 )
@@ -76,19 +77,6 @@ def _split_ids(ids: list[str], held: list[bool], fractions: Sequence[float],
 
 
 _CHUNK = 256  # clips generated together: one pose solve / FK call, features by length
-
-
-def _features_by_length(clips: Sequence[Clip]) -> list[tuple[np.ndarray, np.ndarray]]:
-    """``joints_to_features`` of each clip, computed in batches of equal-length clips (the
-    function is batched over leading dims; results are the same as one clip at a time)."""
-    out: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(clips)
-    lengths = sorted({len(c.joints) for c in clips})
-    for length in lengths:
-        members = [i for i, c in enumerate(clips) if len(c.joints) == length]
-        features, canonical = joints_to_features(np.stack([clips[i].joints for i in members]))
-        for k, i in enumerate(members):
-            out[i] = (features[k], canonical[k])
-    return out  # type: ignore[return-value]
 
 
 def _write_clip(out: Path, clip_id: str, clip: Clip, arrays: tuple[np.ndarray, np.ndarray],
@@ -148,7 +136,7 @@ def write_dataset(out_dir: str | Path, *, n_clips: int, seed: int,
         for first in range(0, n_clips, _CHUNK):
             chunk = range(first, min(first + _CHUNK, n_clips))
             clips = generate_clips([specs[i] for i in chunk], [clip_seeds[i] for i in chunk])
-            arrays = _features_by_length(clips)
+            arrays = clip_features(clips)
             for i, clip, pair in zip(chunk, clips, arrays, strict=True):
                 _write_clip(out, ids[i], clip, pair, held[i], ids[i] in train, stats)
     count, total, total_sq = stats["count"], stats["sum"], stats["sum_sq"]

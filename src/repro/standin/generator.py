@@ -49,7 +49,7 @@ from repro.standin.variation import free_variation
 __all__ = [
     "BLEND_FRAMES", "COMPOSITIONS", "DEFAULT_COMPOSITION_WEIGHTS", "GENERATOR_VERSION",
     "MAX_DURATION", "MIN_DURATION", "PARTIAL_CAPTION_SHARE", "Clip", "ClipSpec", "free_parts",
-    "generate_clip", "generate_clips", "sample_clip_spec",
+    "clip_features", "generate_clip", "generate_clips", "sample_clip_spec",
 ]
 
 #: bump when the generated motion or texts change, so cached datasets are regenerated
@@ -417,6 +417,19 @@ def generate_clips(specs: Sequence[ClipSpec], seeds: Sequence[int]) -> list[Clip
                           captions=captions, labels=labels))
         start = stop
     return clips
+
+
+def clip_features(clips: Sequence[Clip]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``joints_to_features`` (features, canonical joints) of each clip, computed in batches
+    of equal-length clips (the function is batched over leading dims, so each clip's result
+    is what it gives alone, up to float rounding)."""
+    out: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(clips)
+    for length in sorted({len(c.joints) for c in clips}):
+        members = [i for i, c in enumerate(clips) if len(c.joints) == length]
+        features, canonical = joints_to_features(np.stack([clips[i].joints for i in members]))
+        for k, i in enumerate(members):
+            out[i] = (features[k], canonical[k])
+    return out  # type: ignore[return-value]
 
 
 def generate_clip(spec: ClipSpec, seed: int) -> Clip:
