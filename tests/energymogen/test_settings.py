@@ -42,7 +42,8 @@ def test_full_energy_maps_are_the_defaults_of_energy_map_case() -> None:
 def test_latent_count_and_augmentation_settings() -> None:
     full = LatentCountSettings.for_mode(False)
     assert full.counts == LATENT_COUNTS and full.test_clips == 256 and full.threads == 1
-    assert LatentCountSettings.for_mode(True).test_clips == 64
+    quick = LatentCountSettings.for_mode(True)
+    assert quick.test_clips == 64 and quick.counts == (5, 7)   # the two N the rule names
     augmentation = AugmentationSettings.for_mode(False)
     assert augmentation.test_clips == 384 == 12 * 32 and augmentation.gate_test_clips == 256
     for quick in (False, True):    # 07 and 08 train the same models

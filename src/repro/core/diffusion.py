@@ -424,7 +424,7 @@ class GaussianDiffusion:
 
         steps = range(self.num_timesteps - 1, -1, -1)
         if progress:
-            from tqdm.auto import tqdm
+            from tqdm import tqdm
 
             steps = tqdm(steps, desc="sampling", leave=False)
         for step in steps:
@@ -559,7 +559,7 @@ class GaussianDiffusion:
 
         indices = range(len(timesteps))
         if progress:
-            from tqdm.auto import tqdm
+            from tqdm import tqdm
 
             indices = tqdm(indices, desc="DDIM", leave=False)
         with torch.no_grad():

@@ -455,7 +455,7 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
     if config.num_threads is not None:
         torch.set_num_threads(config.num_threads)
 
-    from tqdm.auto import tqdm
+    from tqdm import tqdm  # text bar: no ipywidgets here, and it shows on a terminal only
 
     bar = tqdm(total=config.steps, desc="training", leave=False,
                disable=not (progress and sys.stderr.isatty()))

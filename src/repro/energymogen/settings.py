@@ -24,6 +24,9 @@ __all__ = ["AugmentationSettings", "EnergyViewSettings", "LatentCountSettings",
 #: ``core.training.torch_threads``)
 ONE_THREAD = 1
 
+#: the N of a quick notebook 07: the pipeline's own 5 and the rule's other named N
+QUICK_LATENT_COUNTS = (5, 7)
+
 
 @dataclass(frozen=True)
 class EnergyViewSettings:
@@ -110,8 +113,11 @@ class LatentCountSettings:
 
     @classmethod
     def for_mode(cls, quick: bool) -> LatentCountSettings:
+        """Quick runs sweep N = 5 and 7 only, the two the rule names (one extra VAE and
+        denoiser: every other N runs the same code)."""
         return cls(quick=quick, pipeline=pipeline_config(quick), seeds=1 if quick else 3,
-                   test_clips=64 if quick else 256, plan=TrainingPlan.for_mode(quick))
+                   test_clips=64 if quick else 256, plan=TrainingPlan.for_mode(quick),
+                   counts=QUICK_LATENT_COUNTS if quick else LATENT_COUNTS)
 
 
 @dataclass(frozen=True)

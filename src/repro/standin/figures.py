@@ -29,19 +29,21 @@ __all__ = ["Settings", "agreement_tables", "block_std_rows", "co_occurrence_heat
 class Settings:
     """How big the generated set is and how many concepts the filmstrips show.
 
-    Full mode: 1000 clips (default compositions, ``DatasetConfig``), 12 concepts shown. Quick
-    mode: 120 clips, 6 concepts (a test of the code, never a result).
+    Full mode: 1000 clips (default compositions, ``DatasetConfig``), 12 concepts shown, the
+    composed clip animated at every second frame. Quick mode: 120 clips, 6 concepts, every
+    eighth frame (a test of the code, never a result).
     """
 
     quick: bool
     n_clips: int
     shown_concepts: int
     filmstrip_frames: int = 8
+    animation_stride: int = 2
 
     @classmethod
     def for_mode(cls, quick: bool) -> Settings:
         if quick:
-            return cls(quick=True, n_clips=120, shown_concepts=6)
+            return cls(quick=True, n_clips=120, shown_concepts=6, animation_stride=8)
         return cls(quick=False, n_clips=1000, shown_concepts=12)
 
     def dataset(self, seed: int) -> DatasetConfig:
