@@ -20,15 +20,13 @@ $(STAMP): requirements.txt requirements-dev.txt pyproject.toml
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found (Python 3.11 is required; set PYTHON=...)"; exit 1; }
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	@# --no-compile: pip would byte-compile every installed file (torch's thousands, ~40 s);
-	@# Python compiles the modules actually imported on first use instead
-	$(PY) -m pip install --quiet --no-compile -r requirements-dev.txt
+	$(PY) -m pip install --quiet -r requirements-dev.txt
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	$(PY) -m ipykernel install --sys-prefix --name repro --display-name "repro (.venv)" >/dev/null
 	@touch $(STAMP)
 
 $(LAB): $(STAMP) requirements-lab.txt
-	$(PY) -m pip install --quiet --no-compile -r requirements-lab.txt
+	$(PY) -m pip install --quiet -r requirements-lab.txt
 	@touch $(LAB)
 
 setup: $(STAMP) $(LAB)  ## create or refresh .venv (pinned requirements, kernel "repro", JupyterLab)
