@@ -165,6 +165,26 @@ def test_repeated_captions_and_long_padding_give_each_caption_s_own_states(
         assert not states[row, width:].any()
 
 
+def test_a_repeated_batch_is_encoded_once_and_handed_out_as_copies(
+        encoder: FrozenTextEncoder, monkeypatch: pytest.MonkeyPatch) -> None:
+    ids, lengths = encoder.tokenizer.encode_batch(["a person hops on the left leg",
+                                                   "someone waves both arms"], max_len=77)
+    calls: list[int] = []
+    forward = encoder.model.forward
+
+    def counting(*args: object, **kwargs: torch.Tensor) -> object:
+        calls.append(1)
+        return forward(*args, **kwargs)
+
+    monkeypatch.setattr(encoder.model, "forward", counting)
+    first, _ = encoder.tokens(torch.from_numpy(ids), lengths)
+    expected = first.clone()
+    first.zero_()                     # a caller's edit never reaches the next caller
+    second, _ = encoder.tokens(torch.from_numpy(ids), lengths)
+    monkeypatch.undo()
+    assert len(calls) == 1 and torch.equal(second, expected)
+
+
 def test_paraphrase_is_closer_than_an_unrelated_caption(encoder: FrozenTextEncoder) -> None:
     paraphrase = _cosine(encoder, "a person walks forward", "someone walks ahead")
     unrelated = _cosine(encoder, "a person walks forward", "a man sits down")
