@@ -34,7 +34,7 @@ import numpy as np
 
 from repro.core import metrics, tables
 from repro.energymogen.config import LOWER_CONCEPTS
-from repro.energymogen.data import composition_items, negation_items, stand_in_clip
+from repro.energymogen.data import composition_items, negation_items, stand_in_clips_of
 from repro.energymogen.energy import map_similarity
 from repro.energymogen.harness import TextToMotionTest, grouped_r_precision
 from repro.energymogen.latent_count import mpjpe
@@ -107,8 +107,8 @@ class _TrainingClips:
                 continue
             key = frozenset(names)
             if key not in self.generated:
-                self.generated[key] = [detect_concepts(stand_in_clip(
-                    tuple(names), self.pipe.data.frames, rng)[1]) for _ in range(_FALLBACK_CLIPS)]
+                clips = stand_in_clips_of(tuple(names), self.pipe.data.frames, rng, _FALLBACK_CLIPS)
+                self.generated[key] = [detect_concepts(joints) for _, joints, _ in clips]
             out.append(self.generated[key][int(rng.integers(_FALLBACK_CLIPS))])
         return out
 

@@ -41,6 +41,7 @@ from repro.standin.generator import (
     GENERATOR_VERSION,
     PARTIAL_CAPTION_SHARE,
     ClipSpec,
+    clip_captions,
     clip_features,
     generate_clips,
 )
@@ -51,7 +52,7 @@ __all__ = [
     "StandInData", "build_composition_pool", "draw_clip_request", "draw_training_like_clips",
     "load_or_build_validation_clips", "build_stand_in_data", "composition_items", "concept_text",
     "load_or_build_data", "load_or_build_test_pool", "negation_items", "pair_caption",
-    "stand_in_clip", "stand_in_clips", "trained_pairs",
+    "stand_in_clip", "stand_in_clips", "stand_in_clips_of", "trained_pairs",
 ]
 
 
@@ -128,6 +129,14 @@ def stand_in_clips(requests: Sequence[ClipRequest], frames: int
                                      f"expected {frames}")
                 out.append((features, joints, clip.captions))
     return out
+
+
+def stand_in_clips_of(concepts: tuple[str, ...], frames: int, rng: np.random.Generator,
+                      count: int) -> list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]]:
+    """``count`` clips of ``concepts``, drawn in turn from ``rng`` as ``count`` calls of
+    :func:`stand_in_clip` would draw them, generated together (:func:`stand_in_clips`)."""
+    return stand_in_clips([draw_clip_request(concepts, frames, rng) for _ in range(count)],
+                          frames)
 
 
 def stand_in_clip(concepts: tuple[str, ...], frames: int, rng: np.random.Generator,
@@ -419,8 +428,10 @@ class NegationItems:
 
 def pair_caption(pair: tuple[str, str], rng: np.random.Generator) -> str:
     """A simultaneous caption of ``pair`` with the generator's own templates, drawn with ``rng``
-    (the first caption of one generated clip, :func:`stand_in_clip`)."""
-    return stand_in_clip(pair, FRAMES, rng)[2][0]
+    (the first caption of the clip :func:`stand_in_clip` would generate; its motion is not
+    made)."""
+    request = draw_clip_request(pair, FRAMES, rng)
+    return clip_captions(request.spec, request.seed)[0]
 
 
 def negation_items(seed: int, per_case: int) -> NegationItems:

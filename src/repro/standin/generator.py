@@ -49,7 +49,7 @@ from repro.standin.variation import free_variation
 __all__ = [
     "BLEND_FRAMES", "COMPOSITIONS", "DEFAULT_COMPOSITION_WEIGHTS", "GENERATOR_VERSION",
     "MAX_DURATION", "MIN_DURATION", "PARTIAL_CAPTION_SHARE", "Clip", "ClipSpec", "free_parts",
-    "clip_features", "generate_clip", "generate_clips", "sample_clip_spec",
+    "clip_captions", "clip_features", "generate_clip", "generate_clips", "sample_clip_spec",
 ]
 
 #: bump when the generated motion or texts change, so cached datasets are regenerated
@@ -417,6 +417,11 @@ def generate_clips(specs: Sequence[ClipSpec], seeds: Sequence[int]) -> list[Clip
                           captions=captions, labels=labels))
         start = stop
     return clips
+
+
+def clip_captions(spec: ClipSpec, seed: int) -> tuple[str, ...]:
+    """The captions :func:`generate_clip` gives ``(spec, seed)``, without solving the pose."""
+    return _plan(spec, seed)[1]
 
 
 def clip_features(clips: Sequence[Clip]) -> list[tuple[np.ndarray, np.ndarray]]:
