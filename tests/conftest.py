@@ -51,6 +51,13 @@ def pytest_configure(config: pytest.Config) -> None:
         os.environ.setdefault("REPRO_TORCH_THREADS", "1")
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The notebook tests first (order otherwise kept): under ``--dist loadfile`` their file,
+    the longest by far (every quick notebook, two kernels at a time), then starts at once and
+    the unit tests fill the cores around it, instead of it running last with a core idle."""
+    items.sort(key=lambda item: item.get_closest_marker("notebook") is None)
+
+
 @pytest.fixture(scope="module")
 def emg_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     """A test module's own cache folder (``REPRO_CACHE_DIR`` while the module runs, one
