@@ -1,4 +1,5 @@
-"""The pipeline encodes a caption set once per process with the frozen encoder."""
+"""The pipeline encodes a caption set once per process with the frozen encoder (the encoder
+keeps its last batches by content, ``FrozenTextEncoder.tokens``)."""
 
 from __future__ import annotations
 
@@ -6,32 +7,36 @@ import numpy as np
 import pytest
 import torch
 
-from repro.energymogen.text_stage import frozen_caption_tokens
+from repro.energymogen.config import pipeline_config
+from repro.energymogen.pipeline import _caption_rows
 from repro.models.frozen_text import shared_minilm
 
-CAPTIONS = ["a person walks forward and then turns left", "someone waves with the right hand",
-            "a man jumps in place"]
+CAPTIONS = [["a person walks forward and then turns left", "someone waves with the right hand"],
+            ["a man jumps in place"]]
 
 
 def test_frozen_tokens_are_computed_once_and_equal_the_encoder_s(
         monkeypatch: pytest.MonkeyPatch) -> None:
     encoder = shared_minilm("cpu")
-    ids, lengths = encoder.tokenizer.encode_batch(CAPTIONS, 77)
-    lengths = np.asarray(lengths)
-    direct, direct_mask = encoder.tokens(torch.from_numpy(ids), lengths)
+    config = pipeline_config(True)
+    latents = torch.zeros(2, 1, 1)
+    flat = [c for caps in CAPTIONS for c in caps]
+    ids, lengths = encoder.tokenizer.encode_batch(flat, config.max_text_len)
+    direct, direct_mask = encoder._tokens(torch.from_numpy(ids), torch.as_tensor(lengths))
     width = int(direct_mask.sum(1).max())
-    first = frozen_caption_tokens(encoder, ids, lengths)
-    assert torch.equal(first[0], direct[:, :width]) and torch.equal(first[1],
-                                                                     direct_mask[:, :width])
+    first = _caption_rows(latents, CAPTIONS, encoder, encoder.tokenizer, config)
+    assert torch.equal(first.tokens, direct[:, :width]) and torch.equal(first.mask,
+                                                                         direct_mask[:, :width])
 
     def fail(*args: object, **kwargs: object) -> None:
         raise AssertionError("encoded again")
 
-    monkeypatch.setattr(type(encoder), "tokens", fail)
-    again = frozen_caption_tokens(encoder, ids, lengths)
-    assert torch.equal(again[0], first[0]) and torch.equal(again[1], first[1])
-    again[0].zero_()  # a caller's in-place change never reaches the memo
-    assert torch.equal(frozen_caption_tokens(encoder, ids, lengths)[0], first[0])
-    other_ids, other_lengths = encoder.tokenizer.encode_batch(CAPTIONS[:2], 77)
+    monkeypatch.setattr(type(encoder), "_tokens", fail)
+    again = _caption_rows(latents, CAPTIONS, encoder, encoder.tokenizer, config)
+    assert torch.equal(again.tokens, first.tokens) and torch.equal(again.mask, first.mask)
+    again.tokens.zero_()  # a caller's in-place change never reaches the memo
+    assert torch.equal(_caption_rows(latents, CAPTIONS, encoder, encoder.tokenizer,
+                                     config).tokens, first.tokens)
     with pytest.raises(AssertionError, match="encoded again"):
-        frozen_caption_tokens(encoder, other_ids, np.asarray(other_lengths))
+        _caption_rows(latents[:1], CAPTIONS[:1], encoder, encoder.tokenizer, config)
+    assert np.array_equal(first.latents.numpy(), latents[[0, 0, 1]].numpy())

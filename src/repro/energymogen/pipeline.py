@@ -50,10 +50,9 @@ from repro.energymogen.data import (
     load_or_build_data,
     load_or_build_validation_clips,
 )
-from repro.energymogen.text_stage import TextStage, frozen_caption_tokens, train_text_stage
+from repro.energymogen.text_stage import TextStage, train_text_stage
 from repro.infra import cache
 from repro.models.evaluator import Evaluator, EvaluatorConfig, load_or_train_evaluator
-from repro.models.frozen_text import FrozenTextEncoder
 from repro.models.latent_denoiser import LatentDenoiser, train_latent_denoiser
 from repro.models.vae import (
     MotionVAE,
@@ -347,13 +346,10 @@ def _caption_rows(latents: Tensor, captions: Sequence[Sequence[str]], text_encod
     rows = [(i, c) for i, caps in enumerate(captions) for c in caps]
     ids, text_lengths = vocab.encode_batch([c for _, c in rows], config.max_text_len)
     with torch.no_grad():
-        if isinstance(text_encoder, FrozenTextEncoder):
-            tokens, mask = frozen_caption_tokens(text_encoder, ids, np.asarray(text_lengths))
-        else:
-            tokens, mask = text_encoder.tokens(torch.from_numpy(ids), text_lengths)
-            width = int(mask.sum(1).max())
-            tokens, mask = tokens[:, :width].cpu().contiguous(), mask[:, :width].cpu().contiguous()
-    return DenoiserRows(latents[[i for i, _ in rows]], tokens, mask)
+        tokens, mask = text_encoder.tokens(torch.from_numpy(ids), text_lengths)
+    width = int(mask.sum(1).max())
+    return DenoiserRows(latents[[i for i, _ in rows]], tokens[:, :width].cpu().contiguous(),
+                        mask[:, :width].cpu().contiguous())
 
 
 def denoiser_rows(data: StandInData, latents: Tensor, text_encoder: TextEncoder,

@@ -32,7 +32,7 @@ from repro.models.frozen_text import FrozenTextEncoder, WordPieceTokenizer, shar
 from repro.models.vae import array_fingerprint
 from repro.standin.text import TextEncoder, Vocabulary, tokenize
 
-__all__ = ["TextStage", "frozen_caption_tokens", "text_encoder_cache_key", "train_text_stage"]
+__all__ = ["TextStage", "text_encoder_cache_key", "train_text_stage"]
 
 
 class _LatentTextModel(nn.Module):
@@ -118,24 +118,3 @@ def train_text_stage(data: StandInData, config: PipelineConfig, latents: Tensor,
                                                    int(train_seed)))
     return TextStage(text_model.text.eval().requires_grad_(False), vocab,
                      time.perf_counter() - start)
-
-
-#: the last frozen-encoder token features computed (key → (tokens, mask)): a pipeline load
-#: encodes every training caption, and the frozen encoder gives the same features each time,
-#: so the per-seed pipelines and variants of one process share one encoding (minutes with
-#: MiniLM on a full caption set). One entry: a full set's features are ~100 MB.
-_FROZEN_TOKENS: dict[tuple[str, str], tuple[Tensor, Tensor]] = {}
-
-
-def frozen_caption_tokens(text_encoder: FrozenTextEncoder, ids: np.ndarray,
-                          lengths: np.ndarray) -> tuple[Tensor, Tensor]:
-    """``text_encoder.tokens`` cut to the longest caption, on the CPU, memoised by content."""
-    key = (str(text_encoder.device), cache.fingerprint(ids, lengths, with_layout=True))
-    if key not in _FROZEN_TOKENS:
-        tokens, mask = text_encoder.tokens(torch.from_numpy(ids), lengths)
-        width = int(mask.sum(1).max())
-        _FROZEN_TOKENS.clear()
-        _FROZEN_TOKENS[key] = (tokens[:, :width].cpu().contiguous(),
-                               mask[:, :width].cpu().contiguous())
-    tokens, mask = _FROZEN_TOKENS[key]
-    return tokens.clone(), mask.clone()

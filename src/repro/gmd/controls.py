@@ -27,9 +27,8 @@ from repro.gmd.emphasis_study import coherence
 from repro.gmd.guidance import goal_error
 from repro.gmd.guidance_schedule import strength_key
 from repro.gmd.location_imputation import REGISTERED_METHODS, location_errors
-from repro.gmd.measurements import foot_skating_of, jitter_of
+from repro.gmd.measurements import foot_skating_of, jitter_of, motion_fid
 from repro.gmd.windows import FeatureSpace, MotionWindows, goal_targets
-from repro.gmd.x0_vs_eps import motion_fid
 from repro.motion.features import FEATURE_BLOCKS
 
 __all__ = ["CONTROL_SEED_BASE", "Controls", "a4_controls", "b2_controls", "c4_controls",

@@ -11,6 +11,7 @@ from torch import Tensor
 from repro.core import metrics
 from repro.gmd.models import TrainedGMD
 from repro.gmd.windows import FeatureSpace
+from repro.models.evaluator import Evaluator
 from repro.motion.features import FPS
 from repro.motion.skeleton import NUM_JOINTS
 
@@ -56,3 +57,10 @@ def evaluator_inputs(space: TrainedGMD | FeatureSpace,
         features = space.relative_features(x.detach().cpu()).numpy().astype(np.float32)
     return features, [features.shape[1]] * features.shape[0]
 
+
+def motion_fid(space: TrainedGMD | FeatureSpace, x: Tensor, evaluator: Evaluator,
+               test_embeddings: np.ndarray) -> float:
+    """FID (``metrics.fid``) of motion-task samples (B, 263, T) against ``test_embeddings``,
+    through the evaluator's embedding of their relative-root features."""
+    features, lengths = evaluator_inputs(space, x)
+    return float(metrics.fid(evaluator.embed_motions(features, lengths), test_embeddings))

@@ -31,7 +31,7 @@ from torch import Tensor
 from repro.core import metrics
 from repro.core.gates import model_record
 from repro.core.tables import markdown_table
-from repro.gmd.measurements import jitter_of
+from repro.gmd.measurements import jitter_of, motion_fid
 from repro.gmd.models import TrainedGMD, parameter_count
 from repro.gmd.windows import FeatureSpace
 from repro.infra import cache
@@ -132,18 +132,16 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
     curve and ``converged`` None (unknown)."""
     if family not in ("gmd_motion", "gmd_trajectory"):
         raise ValueError(f"a GMD model's family is gmd_motion or gmd_trajectory, not {family!r}")
-    losses = list(trained.metrics.get("losses") or [])
     convergence = trained.metrics.get("convergence")
-    if convergence:
-        curve = [float(loss) for _, loss in convergence["validation"]]
-        steps, converged = int(convergence["steps_used"]), bool(convergence["converged"])
-    else:
-        curve = loss_curve(losses)
-        steps, converged = len(losses) or trained.spec.train_steps, None
+    curve = ([float(loss) for _, loss in convergence["validation"]] if convergence
+             else loss_curve(list(trained.metrics.get("losses") or [])))
+    summary = training_summary(trained)
     record = model_record(name=gmd_model_name(trained, label), family=family, values=values,
                           reference=reference, parameters=parameter_count(trained),
-                          steps=steps, train_seconds=trained.metrics.get("seconds"),
-                          validation_curve=curve, converged=converged)
+                          steps=int(summary["steps_used"]),
+                          train_seconds=trained.metrics.get("seconds"), validation_curve=curve,
+                          converged=None if summary["converged"] is None
+                          else bool(summary["converged"]))
     if convergence:
         record["convergence"] = {"step_cap": convergence["step_cap"],
                                  "stop_reason": convergence["stop_reason"],
@@ -216,13 +214,11 @@ def unguided_motion_gate_values(trained: TrainedGMD, n: int, *, seed: int,
     ``x0_vs_eps.sample_quality`` measures of the two arms, for a model outside them (GMD-A4's
     longer ε run)."""
     from repro.gmd.guidance import sample
-    from repro.gmd.measurements import evaluator_inputs
 
     if trained.spec.task != "motion":
         raise ValueError(f"need a motion model, got a {trained.spec.task} model")
     x = sample(trained, n, seed=seed)
-    features, lengths = evaluator_inputs(trained, x)
-    fid = metrics.fid(evaluator.embed_motions(features, lengths), test_embeddings)
+    fid = motion_fid(trained, x, evaluator, test_embeddings)
     with torch.no_grad():
         joints = trained.space.joints(x)
     return motion_gate_values(joints, fid=fid)

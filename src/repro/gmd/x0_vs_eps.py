@@ -17,7 +17,6 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from repro.core import metrics
 from repro.core.diffusion import SampleTrajectory
 from repro.gmd.guidance import (
     GMD_GUIDANCE_STRENGTH,
@@ -28,7 +27,7 @@ from repro.gmd.guidance import (
     resolve_clamp,
     sample,
 )
-from repro.gmd.measurements import evaluator_inputs, foot_skating_of, jitter_of
+from repro.gmd.measurements import foot_skating_of, jitter_of, motion_fid
 from repro.gmd.models import GMDModelSpec, TrainedGMD, training_fields
 from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_SCHEDULE
 from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows, Task, goal_targets
@@ -37,7 +36,7 @@ from repro.models.evaluator import Evaluator, EvaluatorConfig
 __all__ = ["CLAMPS", "PREDICTIONS", "QUICK_GUIDANCE_DIFFUSION_STEPS", "GoalReachingResult",
            "SampleQuality", "Settings", "best_gain_survival", "clamp_sensitivity",
            "goal_error_kept", "goal_reaching_experiment", "goal_reaching_study",
-           "guidance_trajectory_spec", "guided_change_survival", "motion_fid", "sample_quality"]
+           "guidance_trajectory_spec", "guided_change_survival", "sample_quality"]
 
 
 def best_gain_survival(unguided_final_error: np.ndarray | Sequence[float],
@@ -349,14 +348,6 @@ def clamp_sensitivity(trajectory_models: dict[tuple[str, int], TrainedGMD],
                 error = goal_error(model, guided, registered.targets)
             errors.setdefault(label, []).append(float(np.mean(error)))
     return errors
-
-
-def motion_fid(space: TrainedGMD | FeatureSpace, x: Tensor, evaluator: Evaluator,
-               test_embeddings: np.ndarray) -> float:
-    """FID (``metrics.fid``) of motion-task samples (B, 263, T) against ``test_embeddings``,
-    through the evaluator's embedding of their relative-root features."""
-    features, lengths = evaluator_inputs(space, x)
-    return float(metrics.fid(evaluator.embed_motions(features, lengths), test_embeddings))
 
 
 @dataclass

