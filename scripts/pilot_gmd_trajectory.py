@@ -34,6 +34,8 @@ def main() -> None:
     parser.add_argument("--mults", type=float, nargs="+", required=True)
     parser.add_argument("--predictions", nargs="+", default=["epsilon", "x0"],
                         choices=["epsilon", "x0"])
+    parser.add_argument("--steps", type=int, default=None,
+                        help="step cap (default: notebook 01's full-mode cap)")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -44,6 +46,8 @@ def main() -> None:
     for prediction in args.predictions:
         spec = settings.spec("trajectory", prediction, train.config).replace(
             base_channels=args.base, channel_mults=tuple(args.mults))
+        if args.steps is not None:
+            spec = spec.replace(train_steps=args.steps)
         started = time.process_time()
         trained = load_or_train_gmd(spec, train)
         values = model_gates.trajectory_gate_values(trained, sample(trained, 256, seed=0))

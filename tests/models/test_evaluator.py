@@ -11,6 +11,7 @@ from repro.models.evaluator import (
     Evaluator,
     EvaluatorConfig,
     evaluate_generated,
+    feature_statistics,
     info_nce,
     load_or_train_evaluator,
     train_evaluator,
@@ -158,6 +159,22 @@ def test_load_or_train_caches_by_config_and_data(tmp_path, monkeypatch):
     repadded[np.arange(FRAMES)[None] >= data[1][:, None]] = 0.0
     load_or_train_evaluator(repadded, data[1], data[2], config)  # same valid frames: a hit
     assert len(calls) == 3
+
+
+def test_a_cached_evaluator_is_the_one_train_evaluator_makes(tmp_path, monkeypatch):
+    """load_or_train_evaluator computes the statistics only on a miss; the trained entry and
+    the entry read back hold the same statistics and weights as train_evaluator's."""
+    monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path))
+    data = toy_set(40, seed=5)
+    config = EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16)
+    direct = train_evaluator(*data, config)
+    mean, std = feature_statistics(data[0], data[1], config.std_floor)
+    for model in (load_or_train_evaluator(*data, config), load_or_train_evaluator(*data, config)):
+        np.testing.assert_allclose(model.mean, mean.astype(np.float32), rtol=0, atol=0)
+        np.testing.assert_allclose(model.std, std.astype(np.float32), rtol=0, atol=0)
+        assert model.losses == direct.losses
+        np.testing.assert_array_equal(model.embed_motions(data[0], data[1]),
+                                      direct.embed_motions(data[0], data[1]))
 
 
 def test_info_nce_and_duplicate_captions():

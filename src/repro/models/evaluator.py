@@ -203,6 +203,11 @@ def feature_statistics(motions: np.ndarray, lengths: Sequence[int],
                        std_floor: float) -> tuple[np.ndarray, np.ndarray]:
     """Per-feature mean and std (floored) of features 0:259 over the valid frames."""
     motions, lengths = _check_motions(motions, lengths)
+    return _statistics(motions, lengths, std_floor)
+
+
+def _statistics(motions: np.ndarray, lengths: np.ndarray,
+                std_floor: float) -> tuple[np.ndarray, np.ndarray]:
     mask = np.arange(motions.shape[1])[None] < lengths[:, None]
     frames = motions[mask][:, EVALUATOR_FEATURES].astype(np.float64)
     return frames.mean(0), np.maximum(frames.std(0), std_floor)
@@ -226,19 +231,17 @@ class _TrainingData(NamedTuple):
     lengths: np.ndarray
     caption_lists: list[list[str]]
     vocab: Vocabulary
-    mean: np.ndarray
-    std: np.ndarray
 
 
 def _prepare(train_motions: np.ndarray, lengths: Sequence[int],
              captions: Sequence[str | Sequence[str]], config: EvaluatorConfig) -> _TrainingData:
+    """Checked motions and lengths, one caption list per motion, and the vocabulary."""
     motions, lengths = _check_motions(train_motions, lengths)
     caption_lists = _caption_lists(captions, motions.shape[0])
     if motions.shape[0] < 2:
         raise ValueError("train_evaluator needs at least 2 motions")
     vocab = Vocabulary.build([c for options in caption_lists for c in options], config.min_count)
-    mean, std = feature_statistics(motions, lengths, config.std_floor)
-    return _TrainingData(motions, lengths, caption_lists, vocab, mean, std)
+    return _TrainingData(motions, lengths, caption_lists, vocab)
 
 
 def _fit(evaluator: Evaluator, motions: np.ndarray, lengths: np.ndarray,
@@ -275,8 +278,8 @@ def train_evaluator(train_motions: np.ndarray, lengths: Sequence[int],
     """Train the evaluator on unnormalised features (N, T, 263) float32 with their lengths
     and captions (one str, or several per motion: one is drawn per step)."""
     config = config or EvaluatorConfig()
-    motions, lengths, caption_lists, vocab, mean, std = _prepare(
-        train_motions, lengths, captions, config)
+    motions, lengths, caption_lists, vocab = _prepare(train_motions, lengths, captions, config)
+    mean, std = _statistics(motions, lengths, config.std_floor)
     return _fit(Evaluator(config, vocab, mean, std), motions, lengths, caption_lists, progress)
 
 
@@ -285,6 +288,11 @@ def data_fingerprint(motions: np.ndarray, lengths: Sequence[int],
     """sha256 of the valid frames, the lengths and the captions (part of the cache key);
     whatever fills the padding does not count, as the evaluator never sees it."""
     motions, lengths = _check_motions(motions, lengths)
+    return _fingerprint(motions, lengths, captions)
+
+
+def _fingerprint(motions: np.ndarray, lengths: np.ndarray,
+                 captions: Sequence[str | Sequence[str]]) -> str:
     valid = [clip[:length] for clip, length in zip(motions, lengths, strict=True)]
     return cache.fingerprint(lengths, *valid,
                              [c if isinstance(c, str) else list(c) for c in captions])
@@ -301,18 +309,24 @@ def load_or_train_evaluator(train_motions: np.ndarray, lengths: Sequence[int],
                             retrain: bool = False) -> Evaluator:
     """The evaluator for this config and data from ``repro.infra.cache`` (kind ``evaluator``),
     trained and cached on a miss. The vocabulary and statistics are rebuilt from the data
-    (deterministic); the training losses come back from the entry's ``metrics.json``."""
+    (deterministic); the training losses come back from the entry's ``metrics.json``.
+    The motions are checked once, and the statistics are computed only on a miss: a cached
+    entry's state dict holds them."""
     config = config or EvaluatorConfig()
-    motions, lengths, caption_lists, vocab, mean, std = _prepare(
-        train_motions, lengths, captions, config)
-    key = evaluator_cache_config(config, data_fingerprint(motions, lengths, caption_lists))
+    motions, lengths, caption_lists, vocab = _prepare(train_motions, lengths, captions, config)
+    key = evaluator_cache_config(config, _fingerprint(motions, lengths, caption_lists))
+    size = EVALUATOR_FEATURES.stop
 
-    def train(model: nn.Module) -> tuple[nn.Module, dict]:
+    def train(model: Evaluator) -> tuple[nn.Module, dict]:
+        mean, std = _statistics(motions, lengths, config.std_floor)
+        model.feature_mean.copy_(torch.as_tensor(mean, dtype=torch.float32))
+        model.feature_std.copy_(torch.as_tensor(std, dtype=torch.float32))
         _fit(model, motions, lengths, caption_lists)
         return model, {"losses": model.losses}
 
-    model = cache.load_or_train("evaluator", key, lambda: Evaluator(config, vocab, mean, std),
-                                train, retrain=retrain)
+    model = cache.load_or_train(
+        "evaluator", key, lambda: Evaluator(config, vocab, np.zeros(size), np.ones(size)),
+        train, retrain=retrain)
     if not model.losses:
         stored = cache.cached_artifact_dir("evaluator", key) / "metrics.json"
         model.losses = list(read_json(stored)["losses"]) if stored.exists() else []
