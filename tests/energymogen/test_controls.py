@@ -124,12 +124,14 @@ class _MatchingEvaluator:
     def __init__(self, pipe: EnergyMoGenPipeline, texts: list[tuple[str, ...]],
                  motions: np.ndarray) -> None:
         self.mean, self.std = pipe.data.mean, pipe.data.std
-        self.projection = np.random.default_rng(0).standard_normal((motions[0].size, 16))
+        self.projection = np.random.default_rng(0).standard_normal(
+            (motions[0].size, 16)).astype(np.float32)
         embedded = self.embed_motions(motions, [motions.shape[1]] * len(motions))
         self.table = {t: e for captions, e in zip(texts, embedded, strict=True) for t in captions}
 
     def embed_motions(self, motions: np.ndarray, lengths: object) -> np.ndarray:
-        flat = ((np.asarray(motions) - self.mean) / self.std).reshape(len(motions), -1)
+        flat = ((np.asarray(motions, np.float32) - self.mean.astype(np.float32))
+                / self.std.astype(np.float32)).reshape(len(motions), -1)
         out = flat @ self.projection
         return out / np.linalg.norm(out, axis=1, keepdims=True)
 

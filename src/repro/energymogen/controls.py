@@ -425,8 +425,12 @@ def _offset_height(features: np.ndarray, offsets: np.ndarray) -> np.ndarray:
 
 def _noisy(features: np.ndarray, std: np.ndarray, amplitude: float,
            rng: np.random.Generator) -> np.ndarray:
-    return (features + amplitude * std * rng.standard_normal(features.shape)).astype(
-        features.dtype)
+    """features + amplitude·std·z, z ~ N(0, 1) drawn in the features' dtype (float32 draws
+    take half the time of float64 ones on clips of 196 × 263)."""
+    noisy = rng.standard_normal(features.shape, dtype=features.dtype)
+    noisy *= (amplitude * np.asarray(std)).astype(features.dtype)
+    noisy += features
+    return noisy
 
 
 def t2m_measurements(pipe: EnergyMoGenPipeline, test: TextToMotionTest, features: np.ndarray,
