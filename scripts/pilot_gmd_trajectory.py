@@ -36,6 +36,8 @@ def main() -> None:
                         choices=["epsilon", "x0"])
     parser.add_argument("--steps", type=int, default=None,
                         help="step cap (default: notebook 01's full-mode cap)")
+    parser.add_argument("--lr", type=float, default=None,
+                        help="learning rate (default: notebook 01's)")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -48,12 +50,15 @@ def main() -> None:
             base_channels=args.base, channel_mults=tuple(args.mults))
         if args.steps is not None:
             spec = spec.replace(train_steps=args.steps)
+        if args.lr is not None:
+            spec = spec.replace(lr=args.lr)
         started = time.process_time()
         trained = load_or_train_gmd(spec, train)
         values = model_gates.trajectory_gate_values(trained, sample(trained, 256, seed=0))
         gates = gate_results("gmd_trajectory", values, reference)
         row = {"prediction": prediction, "base_channels": args.base,
-               "channel_mults": list(args.mults), "parameters": parameter_count(trained),
+               "channel_mults": list(args.mults), "lr": spec.lr,
+               "parameters": parameter_count(trained),
                **model_gates.training_summary(trained),
                "cpu_seconds": time.process_time() - started, "reference": reference,
                "values": values, "passed": all(g["passed"] for g in gates.values())}
