@@ -73,11 +73,12 @@ def test_load_or_train_many_trains_missing_models_in_worker_processes(small_conf
 #: cache keys of models (spec + a fixed data fingerprint) computed before the split of
 #: gmd/library.py; a refactor that changes one would orphan every cached model. The nb02/nb03
 #: keys changed on purpose with issue #14 (convergence training, the 288-wide motion UNet);
-#: nb02_traj_rel_full with #17 too (T = 1000 cosine, the guidance experiments' model).
+#: nb02_traj_rel_full with #17 too (T = 1000 cosine, the guidance experiments' model), and
+#: again with #14's trajectory pilot (GMD's widths 64 × (1, 2, 4), cap 12000).
 PINNED_MODEL_KEYS = {
     "default": "c03af8ed144c25b8",
     "nb01_quick_motion_x0": "5853a2b6525f2dcf",
-    "nb02_traj_rel_full": "e72666e0d644e2ad",
+    "nb02_traj_rel_full": "cd056188c36e299f",
     "nb02_motion_abs_quick": "2770f69151364d77",
     "nb03_k5_full": "1e1e066f50228da5",
     "nb03_c10_quick": "9d24080f3de902c4",

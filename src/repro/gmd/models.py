@@ -85,10 +85,10 @@ class ConvergenceTraining:
 #: batch 32 and 64 were alike per CPU-second.
 MOTION_TRAINING = ConvergenceTraining(batch_size=64, lr=3e-4, validate_every=200, patience=5,
                                       step_cap=4000)
-#: full-mode trajectory models: TRAINING.md's trajectory pilot (still gaining ≥ 1.5 % per 100
-#: steps at 1500 steps at lr 1e-3, batch 64), so a cap well beyond that.
+#: full-mode trajectory models: at 64 × (1, 2, 4) the ε model was still improving at a 4000-step
+#: cap and stopped on its plateau at 6700 of 12000 (docs/TRAINING.md, trajectory pilots).
 TRAJECTORY_TRAINING = ConvergenceTraining(batch_size=64, lr=1e-3, validate_every=100,
-                                          patience=5, step_cap=4000)
+                                          patience=5, step_cap=12000)
 #: quick mode (a test of the code): validate every 5 steps, stop after 2 without a gain.
 QUICK_TRAINING = ConvergenceTraining(batch_size=32, lr=1e-3, validate_every=5, patience=2,
                                      step_cap=20)
