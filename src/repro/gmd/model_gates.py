@@ -140,8 +140,7 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
                           reference=reference, parameters=parameter_count(trained),
                           steps=int(summary["steps_used"]),
                           train_seconds=trained.metrics.get("seconds"), validation_curve=curve,
-                          converged=None if summary["converged"] is None
-                          else bool(summary["converged"]))
+                          converged=summary["converged"])
     if convergence:
         record["convergence"] = {"step_cap": convergence["step_cap"],
                                  "stop_reason": convergence["stop_reason"],
