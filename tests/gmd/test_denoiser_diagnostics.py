@@ -1,0 +1,108 @@
+"""The denoiser diagnostics of issue #14 on inputs whose answers are known."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from repro.core.diffusion import GaussianDiffusion, cosine_betas
+from repro.gmd.denoiser_diagnostics import (
+    feature_blocks,
+    high_frequency_share,
+    noise_floor,
+    reconstruction,
+    x0_error_by_block,
+)
+from repro.gmd.model_gates import motion_gate_values
+from repro.gmd.windows import FeatureSpace
+from repro.motion.features import FEATURE_DIM
+
+FRAMES = 32
+
+
+def _x0_diffusion(steps: int = 100) -> GaussianDiffusion:
+    return GaussianDiffusion(cosine_betas(steps), prediction="x0")
+
+
+def _copy_input(x_t: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+    return x_t
+
+
+def _zeros(x_t: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+    return torch.zeros_like(x_t)
+
+
+def test_blocks_are_named_for_the_absolute_root_and_cover_every_channel() -> None:
+    absolute = feature_blocks("absolute")
+    assert absolute["root_xz"] == slice(1, 3) and absolute["root_angle"] == slice(0, 1)
+    assert "root_linear_velocity" in feature_blocks("relative")
+    covered = sorted(c for s in absolute.values() for c in range(FEATURE_DIM)[s])
+    assert covered == list(range(FEATURE_DIM))
+
+
+def test_a_model_that_copies_its_input_errs_by_the_noise_it_was_given() -> None:
+    diffusion = _x0_diffusion()
+    x0 = torch.zeros(64, FEATURE_DIM, FRAMES)
+    errors = x0_error_by_block(_copy_input, diffusion, x0, [0, 10, 50])
+    for t, row in errors.items():
+        assert row["noise"] == pytest.approx(math.sqrt(1 - diffusion.alphas_cumprod[t]))
+        assert row["ric_positions"] == pytest.approx(row["noise"], rel=0.02)
+    assert errors[0]["noise"] < errors[10]["noise"] < errors[50]["noise"]
+
+
+def test_a_model_that_ignores_its_input_errs_by_the_data_at_every_t() -> None:
+    x0 = 0.5 * torch.ones(8, FEATURE_DIM, FRAMES)
+    errors = x0_error_by_block(_zeros, _x0_diffusion(), x0, [0, 99])
+    assert all(row["root_xz"] == pytest.approx(0.5) for row in errors.values())
+
+
+def test_reconstruction_of_an_epsilon_model_inverts_its_noise_prediction() -> None:
+    diffusion = GaussianDiffusion(cosine_betas(100), prediction="epsilon")
+    x0 = torch.randn(4, FEATURE_DIM, FRAMES, generator=torch.Generator().manual_seed(1))
+    true_noise = torch.randn(x0.shape, generator=torch.Generator().manual_seed(7))
+
+    def oracle(x_t: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        return true_noise
+
+    rebuilt = reconstruction(oracle, diffusion, x0, 30, seed=7)
+    assert torch.allclose(rebuilt, x0, atol=1e-4)
+    with pytest.raises(ValueError, match="t must be in"):
+        reconstruction(oracle, diffusion, x0, 100)
+
+
+def test_high_frequency_share_separates_alternation_from_smooth_motion() -> None:
+    frames = torch.arange(FRAMES + 1, dtype=torch.float64)    # an even number of differences
+    x = torch.zeros(2, FEATURE_DIM, FRAMES + 1, dtype=torch.float64)
+    x[:, 1] = 0.05 * frames                                    # a ramp: Δx constant
+    x[:, 4] = torch.sin(2 * math.pi * frames / FRAMES)         # one slow period
+    x[:, 67] = (-1.0) ** frames                                # even/odd alternation
+    shares = high_frequency_share(x)
+    assert shares["root_xz"] == pytest.approx(0.0, abs=1e-12)
+    assert shares["ric_positions"] < 0.01
+    assert shares["rot_6d"] == pytest.approx(1.0)
+    assert shares["foot_contact"] == 0.0                       # no motion at all
+    with pytest.raises(ValueError, match="above"):
+        high_frequency_share(x, above=0.6)
+
+
+def test_noise_floor_grows_with_sigma_and_starts_at_the_data() -> None:
+    rng = np.random.default_rng(0)
+    space = FeatureSpace("motion", "absolute", np.zeros(FEATURE_DIM, np.float32),
+                         np.ones(FEATURE_DIM, np.float32))
+    features = np.zeros((4, FRAMES, FEATURE_DIM), np.float32)
+    features[:, :, 2] = 0.05 * np.arange(FRAMES)               # walk forward along z
+    features[:, :, 3] = 0.9                                    # root height
+    features[:, :, 4:67] = np.tile(rng.normal(0, 0.3, 63), (4, FRAMES, 1))
+    x = torch.from_numpy(features).transpose(1, 2).contiguous()
+    rows = noise_floor(space, x, [0.0, 0.01, 0.05], {"root": slice(0, 4)},
+                       lambda joints: motion_gate_values(joints, fid=None))
+    assert [r["sigma"] for r in rows] == [0.0, 0.01, 0.05]
+    jerks = [r["joint_jerk"] for r in rows]
+    assert jerks[0] == pytest.approx(0.0, abs=0.01)            # float32 rounding × fps³
+    assert jerks[0] < jerks[1] < jerks[2]
+    trajectory = FeatureSpace("trajectory", "absolute", np.zeros(4), np.ones(4))
+    with pytest.raises(ValueError, match="motion task"):
+        noise_floor(trajectory, x[:, :4], [0.0], {"all": slice(0, 4)}, dict)
