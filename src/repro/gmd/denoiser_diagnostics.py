@@ -113,5 +113,6 @@ def noise_floor(space: FeatureSpace, x: Tensor, sigmas: Sequence[float],
                                                       dtype=x.dtype)
             with torch.no_grad():
                 values = measure(space.joints(noisy))
-            rows.append({"channels": where, "sigma": float(sigma), **dict(values)})
+            rows.append({"channels": where, "sigma": float(sigma), "windows": len(x),
+                         **dict(values)})
     return rows
