@@ -12,17 +12,19 @@ On notebook 01's full-mode windows (absolute root, 48 frames), with
   ``gmd.models.validation_split`` (patience never fires; ``--steps`` is the length), checked
   every ``--check-every`` steps: the gate's skating and jerk of 64 unguided samples (seed 0);
   the EMA weights' x̂0 error per feature block on 128 held-out windows at several t, beside
-  the noise √(1 − ᾱ_t) that x_t holds; the skating and jerk of their x̂0 at t = 0 (the best
-  the sampler's last step can return); the high-frequency share of samples, of x̂0 at t = 0
-  and of the data. Arms: ``--prediction epsilon``, ``--root-weight k²`` (loss weight on the
-  root channels 0:4, GMD's loss scaling), ``--upsampling nearest`` (nearest ×2 + conv in place
-  of the transposed convolutions), ``--diffusion-steps 1000`` (GMD's T).
+  the noise √(1 − ᾱ_t) that x_t holds; the skating and jerk of their x̂0 at t = 0 (what the
+  sampler's last step returns when everything before it was right); the high-frequency share
+  of samples, of x̂0 at t = 0 and of the data; with ``--fid`` the gate's FID too. Arms:
+  ``--prediction epsilon``, ``--root-weight k²`` (loss weight on the root channels 0:4, GMD's
+  loss scaling), ``--upsampling nearest`` (nearest ×2 + conv in place of the transposed
+  convolutions), ``--diffusion-steps 1000`` (GMD's T), ``--batch``, ``--lr``.
 
 One torch thread. Prints one JSON line per check and writes them to ``--out``.
 
     PYTHONPATH=src python scripts/pilot_gmd_sampler.py --noise-floor --out docs/x.jsonl
     PYTHONPATH=src python scripts/pilot_gmd_sampler.py --diffusion-steps 1000 --steps 2400 \
         --out build/pilot/T1000.jsonl
+    PYTHONPATH=src python scripts/pilot_gmd_sampler.py --report --out docs/pilot_gmd_sampler.md
 """
 
 from __future__ import annotations
@@ -33,8 +35,10 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
+from repro.core import metrics
 from repro.core.gates import gate_results
 from repro.core.tables import markdown_table
 from repro.core.training import ValidationSet, train_diffusion
@@ -46,9 +50,11 @@ from repro.gmd.denoiser_diagnostics import (
     x0_error_by_block,
 )
 from repro.gmd.guidance import sample
+from repro.gmd.measurements import evaluator_inputs, motion_fid
 from repro.gmd.model_gates import motion_gate_values
 from repro.gmd.models import GMDModelSpec, TrainedGMD, validation_split
 from repro.gmd.windows import load_windows
+from repro.models.evaluator import load_or_train_evaluator
 
 #: white-noise levels (model units) of ``--noise-floor``
 NOISE_SIGMAS = (0.0, 0.0015, 0.003, 0.0065, 0.0125, 0.025, 0.05)
@@ -68,13 +74,53 @@ def nearest_upsampling(model: torch.nn.Module) -> torch.nn.Module:
     return model
 
 
+def fid_measure(train: Any, test: Any, samples: int) -> Any:
+    """A function (trained, samples) → {"fid", "fid_reference"}: the gate's FID of samples
+    against the test windows (notebook 01's evaluator), and the reference, ``samples``
+    training windows' own FID against them (as ``scripts/pilot_gmd_motion.py``)."""
+    settings = x0eps.Settings.for_mode(False)
+    train_features, train_lengths = evaluator_inputs(train.space("motion"), train.x)
+    evaluator = load_or_train_evaluator(train_features, train_lengths, train.captions,
+                                        settings.evaluator_config(train.fingerprint))
+    test_features, test_lengths = evaluator_inputs(test.space("motion"), test.x)
+    test_embeddings = evaluator.embed_motions(test_features, test_lengths)
+    picks = np.random.default_rng(0).choice(len(train), samples, replace=False)
+    reference = metrics.fid(evaluator.embed_motions(train_features[picks],
+                                                    [train.frames] * samples), test_embeddings)
+
+    def fid_of(trained: TrainedGMD, drawn: torch.Tensor) -> dict[str, float]:
+        return {"fid": motion_fid(trained, drawn, evaluator, test_embeddings),
+                "fid_reference": float(reference)}
+
+    return fid_of
+
+
+def final_check(spec: GMDModelSpec, train: Any, test: Any, weights: str, *,
+                label: str) -> list[dict[str, Any]]:
+    """The gate's skating, jerk and FID of saved EMA weights: 256 unguided samples for each of
+    seeds 1 and 2 (the checks during training used 64 of seed 0); FID on the first 64."""
+    model = spec.build_model()
+    model.load_state_dict(torch.load(weights))
+    trained = TrainedGMD(model.eval(), spec.diffusion(), train.space("motion"), spec, None)
+    fid_of = fid_measure(train, test, 64)
+    rows = []
+    for seed in (1, 2):
+        with torch.no_grad():
+            drawn = sample(trained, 256, seed=seed)
+        rows.append({"kind": "final", "arm": label, "seed": seed, "samples": 256,
+                     "root_weight": (spec.feature_weights or (1.0,))[0],
+                     **measure(trained.space.joints(drawn)), **fid_of(trained, drawn[:64])})
+    return rows
+
+
 def _number(value: Any, digits: int = 3) -> str:
     return "—" if value is None else f"{value:.{digits}g}"
 
 
-def report(noise_rows: list[dict[str, Any]], model_rows: list[dict[str, Any]]) -> str:
-    """docs/pilot_gmd_sampler.md from the JSON lines of ``--noise-floor`` and of the model
-    arms (each row labelled with its ``arm``)."""
+def report(noise_rows: list[dict[str, Any]], model_rows: list[dict[str, Any]],
+           final_rows: list[dict[str, Any]]) -> str:
+    """docs/pilot_gmd_sampler.md from the JSON lines of ``--noise-floor``, of the model arms
+    (each row labelled with its ``arm``) and of ``--weights`` (the final weights)."""
     reference = next(r for r in noise_rows if r["sigma"] == 0.0)
     bounds = gate_results("gmd_motion", {}, {**reference, "fid": 1.0})
     noise = [[r["channels"], _number(r["sigma"], 2), r["foot_skating"], _number(r["joint_jerk"])]
@@ -86,18 +132,34 @@ def report(noise_rows: list[dict[str, Any]], model_rows: list[dict[str, Any]]) -
         at_t0 = r.get("x0_at_t0", {})
         share = r.get("high_frequency_share", {}).get("root_xz")
         share_t0 = r.get("high_frequency_share_x0_at_t0", {}).get("root_xz")
+        gate = "—"
+        if "fid" in r:
+            results = gate_results("gmd_motion", r, {**reference, "fid": r["fid_reference"]})
+            gate = "**pass**" if all(g["passed"] for g in results.values()) else "fail"
         models.append([r["arm"], r["step"], _number(r["foot_skating"]),
-                       _number(r["joint_jerk"]), _number(at_t0.get("foot_skating")),
+                       _number(r["joint_jerk"]),
+                       "—" if "fid" not in r else
+                       f"{r['fid']:.2f} (≤ {5 * r['fid_reference']:.2f})", gate,
+                       _number(at_t0.get("foot_skating")),
                        _number(at_t0.get("joint_jerk")), _number(errors["0"]["root_xz"]),
                        _number(errors[t_half]["root_xz"]), _number(errors["0"]["noise"]),
                        _number(share, 2), _number(share_t0, 2)])
+    finals = []
+    for r in final_rows:
+        results = gate_results("gmd_motion", r, {**reference, "fid": r["fid_reference"]})
+        finals.append([r["arm"], r["seed"], r["samples"], r["foot_skating"],
+                       _number(r["joint_jerk"]),
+                       f"{r['fid']:.2f} (≤ {5 * r['fid_reference']:.2f})",
+                       ", ".join(f"{m} {'pass' if g['passed'] else '**fail**'}"
+                                 for m, g in results.items())])
     data_share = next((r["high_frequency_share_data"]["root_xz"] for r in model_rows
                        if "high_frequency_share_data" in r), None)
     return "\n".join([
         "# Sampler and denoiser pilot: the GMD motion model (issue #14)",
         "",
         "Generated by `scripts/pilot_gmd_sampler.py --report` (do not edit by hand) from "
-        "`docs/pilot_gmd_noise_floor.jsonl` and `docs/pilot_gmd_sampler.jsonl`. Notebook 01's "
+        "`docs/pilot_gmd_noise_floor.jsonl`, `docs/pilot_gmd_sampler.jsonl` and "
+        "`docs/pilot_gmd_sampler_final.jsonl`. Notebook 01's "
         "full-mode windows (2000 stand-in clips, 48 frames, absolute root); one torch thread "
         "per run on 2 cores shared by two runs.",
         "",
@@ -116,16 +178,29 @@ def report(noise_rows: list[dict[str, Any]], model_rows: list[dict[str, Any]]) -
         "## Models (288 × (1, 0.5, 0.25), batch 32, lr 1e-3, T = 100 unless the arm says)",
         "",
         "Samples: 64 unguided samples (seed 0). x̂0 at t = 0: the model's x̂0 of 128 held-out "
-        "validation windows noised to t = 0, the best the sampler's last step can return. "
+        "validation windows noised to t = 0, what the sampler's last step returns when "
+        "everything before it was right. "
         "Root x/z error: RMS of x̂0 − x0 on the root x/z channels (model units) at t = 0 and "
-        "at T/2, beside the noise x_t holds at t = 0. High-frequency share: power of the "
-        "root x/z frame differences at ≥ 0.35 cycles/frame"
+        "at T/2, beside the noise x_t holds at t = 0. FID (arms run with `--fid`): notebook "
+        "01's evaluator, samples against the test windows, bound 5× 64 training windows' own "
+        "FID; gate: all three of `gmd_motion`'s gates. The first two arms ran before the "
+        "x̂0-at-t = 0 and high-frequency measurements were added (—). High-frequency share: "
+        "power of the root x/z frame differences at ≥ 0.35 cycles/frame"
         + ("" if data_share is None else f" (the held-out data's own: {data_share:.3f})") + ".",
         "",
         markdown_table(["arm", "step", "samples: skating m/s", "samples: jerk m/s³",
-                        "x̂0 at t=0: skating", "x̂0 at t=0: jerk", "root x/z error t=0",
+                        "samples: FID", "gate", "x̂0 at t=0: skating", "x̂0 at t=0: jerk",
+                        "root x/z error t=0",
                         "root x/z error T/2", "noise at t=0", "HF share samples",
                         "HF share x̂0 at t=0"], models),
+        "",
+        "## The last weights of the longer arms, measured again",
+        "",
+        "256 unguided samples for each of seeds 1 and 2 (the checks above drew 64 of seed 0); "
+        "FID of the first 64 of them.",
+        "",
+        markdown_table(["arm", "seed", "samples", "foot skating m/s", "joint jerk m/s³", "FID",
+                        "gates"], finals),
         "",
     ])
 
@@ -148,13 +223,20 @@ def main() -> None:
     parser.add_argument("--prediction", choices=("x0", "epsilon"), default="x0")
     parser.add_argument("--root-weight", type=float, default=1.0,
                         help="loss weight on the root channels 0:4 (GMD's loss scaling k²)")
+    parser.add_argument("--fid", action="store_true",
+                        help="also the gate's FID (trains or loads notebook 01's evaluator)")
+    parser.add_argument("--weights", default="",
+                        help="measure these saved EMA weights (of a --save) with 256 samples "
+                             "for each of seeds 1 and 2, instead of training")
+    parser.add_argument("--label", default="", help="the arm's name in --weights' rows")
     parser.add_argument("--save", default="", help="write the EMA weights here at each check")
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
     if args.report:
         docs = Path(__file__).resolve().parent.parent / "docs"
         rows = [[json.loads(line) for line in (docs / name).read_text("utf-8").splitlines()]
-                for name in ("pilot_gmd_noise_floor.jsonl", "pilot_gmd_sampler.jsonl")]
+                for name in ("pilot_gmd_noise_floor.jsonl", "pilot_gmd_sampler.jsonl",
+                             "pilot_gmd_sampler_final.jsonl")]
         Path(args.out).write_text(report(*rows), "utf-8")
         return
     torch.set_num_threads(1)
@@ -176,11 +258,17 @@ def main() -> None:
                         patience=1000,
                         feature_weights=None if args.root_weight == 1.0
                         else (args.root_weight,) * 4 + (1.0,) * 259)
+    if args.weights:
+        lines = final_check(spec, train, test, args.weights, label=args.label)
+        print("".join(json.dumps(r) + "\n" for r in lines), end="")
+        Path(args.out).write_text("".join(json.dumps(r) + "\n" for r in lines), "utf-8")
+        return
     fit, held = validation_split(train, spec.validation_fraction)
     validation = ValidationSet(train.x[held])
     diffusion = spec.diffusion()
     T = args.diffusion_steps
     timesteps = sorted({0, 1, 2, 5, T // 50, T // 10, T // 2, T - 1})
+    fid_of = fid_measure(train, test, args.samples) if args.fid else None
     started = time.process_time()
     measuring = [0.0]
 
@@ -195,6 +283,8 @@ def main() -> None:
         with torch.no_grad():
             drawn = sample(trained, args.samples, seed=0)
         values = measure(trained.space.joints(drawn))
+        if fid_of is not None:
+            values.update(fid_of(trained, drawn))
         rebuilt = reconstruction(ema_model, diffusion, held_x, 0)
         rebuilt_values = measure(trained.space.joints(rebuilt))
         measuring[0] += time.process_time() - t0

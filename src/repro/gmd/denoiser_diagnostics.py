@@ -7,8 +7,9 @@ say *where*, without sampling:
   beside the noise √(1 − ᾱ_t) that x_t still holds. A denoiser that uses its input has an
   error that shrinks with t; one whose error at t = 0 equals its error at T/10 ignores the
   detail its input carries, and its samples' last step cannot put that detail back.
-* :func:`reconstruction` — x̂0(x_t, t) of real windows: at t = 0 the best the sampler's last
-  step can return, so the gate's skating and jerk of it bound the samples' from below.
+* :func:`reconstruction` — x̂0(x_t, t) of real windows: at t = 0 what the sampler's last step
+  returns when everything before it was right, so jitter in it is the denoiser's own (it is
+  not a bound on the samples' values: samples need not be the windows it was given).
 * :func:`high_frequency_share` — the share of the frame-to-frame differences' power near the
   Nyquist frequency (0.5 cycles/frame, the alternation of even and odd frames), per block.
 * :func:`noise_floor` — the gate's physical measurements of real windows with white noise of
