@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -53,12 +54,18 @@ from repro.gmd.denoiser_diagnostics import (
 from repro.gmd.guidance import sample
 from repro.gmd.measurements import evaluator_inputs, motion_fid
 from repro.gmd.model_gates import motion_gate_values
-from repro.gmd.models import GMDModelSpec, TrainedGMD, validation_split
+from repro.gmd.models import (
+    GMDModelSpec,
+    TrainedGMD,
+    trajectory_loss_weights,
+    validation_split,
+)
 from repro.gmd.windows import load_windows
 from repro.models.evaluator import load_or_train_evaluator
 
 #: white-noise levels (model units) of ``--noise-floor``
 NOISE_SIGMAS = (0.0, 0.0015, 0.003, 0.0065, 0.0125, 0.025, 0.05)
+
 
 def measure(joints: torch.Tensor) -> dict[str, float]:
     return motion_gate_values(joints, fid=None)
@@ -97,7 +104,7 @@ def fid_measure(train: Any, test: Any, samples: int) -> Any:
 
 
 def final_check(spec: GMDModelSpec, train: Any, test: Any, weights: str, *,
-                label: str) -> list[dict[str, Any]]:
+                label: str, root_weight: float) -> list[dict[str, Any]]:
     """The gate's skating, jerk and FID of saved EMA weights: 256 unguided samples for each of
     seeds 1 and 2 (the checks during training used 64 of seed 0); FID on the first 64."""
     model = spec.build_model()
@@ -109,9 +116,17 @@ def final_check(spec: GMDModelSpec, train: Any, test: Any, weights: str, *,
         with torch.no_grad():
             drawn = sample(trained, 256, seed=seed)
         rows.append({"kind": "final", "arm": label, "seed": seed, "samples": 256,
-                     "root_weight": (spec.feature_weights or (1.0,))[0],
+                     "root_weight": root_weight,
                      **measure(trained.space.joints(drawn)), **fid_of(trained, drawn[:64])})
     return rows
+
+
+def write_lines(rows: list[dict[str, Any]], out: str, *, echo: bool = True) -> None:
+    """The rows as JSON lines into ``out`` (and on stdout)."""
+    text = "".join(json.dumps(r) + "\n" for r in rows)
+    if echo:
+        print(text, end="", flush=True)
+    Path(out).write_text(text, "utf-8")
 
 
 def _number(value: Any, digits: int = 3) -> str:
@@ -123,14 +138,18 @@ def _root_xz(blocks: dict[str, float]) -> float | None:
     return blocks.get("root_xz", blocks.get("root_linear_velocity"))
 
 
+def _noise_table(rows: list[dict[str, Any]]) -> str:
+    return markdown_table(["noise on", "σ (model units)", "foot skating m/s", "joint jerk m/s³"],
+                          [[r["channels"], _number(r["sigma"], 2), r["foot_skating"],
+                            _number(r["joint_jerk"])] for r in rows])
+
+
 def report(noise_rows: list[dict[str, Any]], model_rows: list[dict[str, Any]],
            final_rows: list[dict[str, Any]], relative_rows: list[dict[str, Any]]) -> str:
     """docs/pilot_gmd_sampler.md from the JSON lines of ``--noise-floor``, of the model arms
     (each row labelled with its ``arm``) and of ``--weights`` (the final weights)."""
     reference = next(r for r in noise_rows if r["sigma"] == 0.0)
     bounds = gate_results("gmd_motion", {}, {**reference, "fid": 1.0})
-    noise = [[r["channels"], _number(r["sigma"], 2), r["foot_skating"], _number(r["joint_jerk"])]
-             for r in noise_rows]
     models = []
     for r in model_rows:
         errors = r["x0_rms_error"]
@@ -179,16 +198,13 @@ def report(noise_rows: list[dict[str, Any]], model_rows: list[dict[str, Any]],
         f"{bounds['joint_jerk']['at_most']:.0f} (3× these). x_t still holds noise of σ = "
         "√(1 − ᾱ_0) = 0.025 at the last step of T = 100 cosine and 0.0064 at T = 1000.",
         "",
-        markdown_table(["noise on", "σ (model units)", "foot skating m/s", "joint jerk m/s³"],
-                       noise),
+        _noise_table(noise_rows),
         "",
         "The same noise on the relative-root windows (HumanML3D's representation, notebook "
         "02's rel arm: root angular and x/z velocity, height), each channel block normalised "
         "as there:",
         "",
-        markdown_table(["noise on", "σ (model units)", "foot skating m/s", "joint jerk m/s³"],
-                       [[r["channels"], _number(r["sigma"], 2), r["foot_skating"],
-                         _number(r["joint_jerk"])] for r in relative_rows]),
+        _noise_table(relative_rows),
         "",
         "## Models (288 × (1, 0.5, 0.25), batch 32, lr 1e-3, T = 100 unless the arm says)",
         "",
@@ -270,8 +286,7 @@ def main() -> None:
                  for row in noise_floor(
             test.space("motion"), test.x, NOISE_SIGMAS,
             {"all": slice(0, 263), "root": slice(0, 4), "ric": slice(4, 67)}, measure)]
-        print("".join(json.dumps(r) + "\n" for r in lines), end="")
-        Path(args.out).write_text("".join(json.dumps(r) + "\n" for r in lines), "utf-8")
+        write_lines(lines, args.out)
         return
     spec = GMDModelSpec(task="motion", prediction=args.prediction, data=train.config,
                         base_channels=args.base, channel_mults=tuple(args.mults),
@@ -279,11 +294,10 @@ def main() -> None:
                         batch_size=args.batch, lr=args.lr, validate_every=args.check_every,
                         patience=1000,
                         feature_weights=None if args.root_weight == 1.0
-                        else (args.root_weight,) * 4 + (1.0,) * 259)
+                        else tuple(trajectory_loss_weights(math.sqrt(args.root_weight))))
     if args.weights:
-        lines = final_check(spec, train, test, args.weights, label=args.label)
-        print("".join(json.dumps(r) + "\n" for r in lines), end="")
-        Path(args.out).write_text("".join(json.dumps(r) + "\n" for r in lines), "utf-8")
+        write_lines(final_check(spec, train, test, args.weights, label=args.label,
+                                root_weight=args.root_weight), args.out)
         return
     fit, held = validation_split(train, spec.validation_fraction)
     validation = ValidationSet(train.x[held])
@@ -327,7 +341,7 @@ def main() -> None:
         print(json.dumps(lines[-1]), flush=True)
         if args.save:
             torch.save(ema_model.state_dict(), args.save)
-        Path(args.out).write_text("".join(json.dumps(r) + "\n" for r in lines), "utf-8")
+        write_lines(lines, args.out, echo=False)
 
     model = spec.build_model()
     if args.upsampling == "nearest":

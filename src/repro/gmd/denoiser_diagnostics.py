@@ -4,9 +4,8 @@ The ``gmd_motion`` gate (``core.gates``) says *whether* unguided samples skate a
 say *where*, without sampling:
 
 * :func:`x0_error_by_block` — the denoiser's RMS error on x0, per feature block, at chosen t,
-  beside the noise √(1 − ᾱ_t) that x_t still holds. A denoiser that uses its input has an
-  error that shrinks with t; one whose error at t = 0 equals its error at T/10 ignores the
-  detail its input carries, and its samples' last step cannot put that detail back.
+  beside the noise √(1 − ᾱ_t) that x_t still holds. An error far above that noise at small t,
+  and no smaller at t = 0 than at T/10, is set by the network, not by the noise in its input.
 * :func:`reconstruction` — x̂0(x_t, t) of real windows: at t = 0 what the sampler's last step
   returns when everything before it was right, so jitter in it is the denoiser's own (it is
   not a bound on the samples' values: samples need not be the windows it was given).
