@@ -94,6 +94,40 @@ def test_a4_positive_plants_the_jitter_and_fid_ratios(windows: MotionWindows, ev
     assert metrics.fid(test_embeddings, test_embeddings) == pytest.approx(0.0, abs=1e-6)
 
 
+def test_jag_puts_white_noise_on_world_positions_in_both_representations(
+        windows: MotionWindows) -> None:
+    """Relative-root windows get the noise on the root's world x/z, not on its velocity: the
+    joints move by about the amplitude on every frame (a noised velocity would integrate to a
+    random walk that grows along the window)."""
+    relative = load_windows(DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=8,
+                                       representation="relative"))
+    amplitude = 0.01
+    for data in (windows, relative):
+        space = data.space("motion")
+        x = data.x[:6]
+        moved = (space.joints(controls._jag(space, x, amplitude, seed=3)).double()
+                 - space.joints(x).double())
+        per_frame = moved.pow(2).mean(dim=(0, 2, 3)).sqrt()  # RMS per frame over joints, axes
+        assert per_frame.max() < 2.5 * amplitude, data.config.representation
+        assert per_frame[-8:].mean() < 1.5 * per_frame[:8].mean(), data.config.representation
+
+
+def test_a4_controls_take_relative_motion_and_absolute_trajectory_windows(
+        windows: MotionWindows, evaluator) -> None:
+    relative = load_windows(DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=8,
+                                       representation="relative"))
+    features, lengths = evaluator_inputs(relative.space("motion"), relative.x)
+    result = controls.a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
+                                  test_embeddings=evaluator.embed_motions(features, lengths),
+                                  trajectory_train=windows, calibration_draws=2)
+    assert result.planted["calibrated_jerk_ratio"] == pytest.approx(1.1, rel=1e-3)
+    assert result.planted["calibrated_fid_ratio"] == pytest.approx(1.1, rel=1e-3)
+    same = controls.a4_controls(windows, SEEDS[:2], n=8, evaluator=evaluator,
+                                test_embeddings=evaluator.embed_motions(features, lengths),
+                                calibration_draws=2)
+    assert result.null["trajectory_jitter_x0"] == same.null["trajectory_jitter_x0"]
+
+
 # --- decisions: a clearly larger planted effect is seen, the null never fires ---------------
 
 def test_c4_decision_sees_a_large_planted_effect(windows: MotionWindows) -> None:

@@ -32,8 +32,8 @@ def _full_mode_specs() -> dict[str, GMDModelSpec]:
     nb02 = RootSettings.for_mode(False)
     data = nb01.data()
     return {
-        "01 motion x0": nb01.spec("motion", "x0", data),
-        "01 motion ε": nb01.spec("motion", "epsilon", data),
+        "01 motion x0": nb01.spec("motion", "x0", nb01.motion_data()),
+        "01 motion ε": nb01.spec("motion", "epsilon", nb01.motion_data()),
         "01 trajectory x0": nb01.spec("trajectory", "x0", data),
         "01 trajectory ε": nb01.spec("trajectory", "epsilon", data),
         "02 motion": nb02.motion_spec("absolute", 0),

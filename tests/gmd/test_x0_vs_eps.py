@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -108,6 +109,14 @@ def test_settings_build_the_specs_notebook_01_always_trained() -> None:
     assert Settings.for_mode(False, train_steps=50).train_steps == 50
     assert full.data("/some/folder") == DataConfig(data_dir="/some/folder", frames=48)
     assert quick.evaluator_config("id").steps == 30 and full.evaluator_config("id").steps == 500
+    # GMD-A4's motion models: the same windows in HumanML3D's relative root (MDM's), the
+    # trajectory models in GMD's absolute root
+    for settings in (quick, full):
+        assert settings.motion_data() == dataclasses.replace(settings.data(),
+                                                             representation="relative")
+        assert settings.data().representation == "absolute"
+        assert settings.motion_data("/d") == DataConfig(data_dir="/d", frames=settings.frames,
+                                                        representation="relative")
 
 
 def test_best_gain_survival_on_a_hand_made_path() -> None:

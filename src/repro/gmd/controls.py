@@ -29,7 +29,11 @@ from repro.gmd.guidance_schedule import strength_key
 from repro.gmd.location_imputation import REGISTERED_METHODS, location_errors
 from repro.gmd.measurements import foot_skating_of, jitter_of, motion_fid
 from repro.gmd.windows import FeatureSpace, MotionWindows, goal_targets
-from repro.motion.features import FEATURE_BLOCKS
+from repro.motion.features import (
+    FEATURE_BLOCKS,
+    absolute_to_relative_root,
+    relative_to_absolute_root,
+)
 
 __all__ = ["CONTROL_SEED_BASE", "Controls", "a4_controls", "b2_controls", "c4_controls",
            "calibrate_increasing", "control_seed", "controls_markdown", "f1_controls",
@@ -144,21 +148,29 @@ def _draw(windows: MotionWindows, n: int, seed: int) -> Tensor:
 
 def _jag(space: FeatureSpace, x: Tensor, amplitude: float, seed: int) -> Tensor:
     """x with white noise of ``amplitude`` metres (a fixed draw of ``seed``) added to every
-    position the joints read (root x/z/y and ric): frame-to-frame jaggedness."""
+    position the joints read (root x/z/y and ric): frame-to-frame jaggedness. Relative-root
+    windows get it on their root's world x/z (``relative_to_absolute_root`` and back), not on
+    its velocity."""
     features = space.unnormalise(x.detach()).clone()
+    relative = space.representation == "relative"
+    if relative:
+        features = relative_to_absolute_root(features)
     generator = torch.Generator().manual_seed(seed)
     for block in (slice(_ROOT_X, _ROOT_Y + 1), _RIC):
         noise = torch.randn(features[..., block].shape, generator=generator)
         features[..., block] += amplitude * noise.to(features.dtype)
+    if relative:
+        features = absolute_to_relative_root(features)
     return space.normalise(features)
 
 
 def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator: Any,
-                test_embeddings: np.ndarray, calibration_draws: int = 4,
-                factor: float = 1.1) -> Controls:
+                test_embeddings: np.ndarray, trajectory_train: MotionWindows | None = None,
+                calibration_draws: int = 4, factor: float = 1.1) -> Controls:
     """GMD-A4's controls: ``n`` training windows per arm and seed stand in for each model's
     samples, measured with the experiment's code (joint jerk, FID against
-    ``test_embeddings``, root jerk of the trajectory channels).
+    ``test_embeddings``, root jerk of the trajectory channels). ``train``: the motion models'
+    windows; ``trajectory_train``: the trajectory models' (default ``train``).
 
     Null: independent draws for the two arms. Positive: the ε motion arm made jagged — white
     noise on every joint position, of the amplitude that raises the mean joint jerk of
@@ -167,7 +179,8 @@ def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator
     direction by the size that raises the FID of those jagged draws to 1.1 × that of the
     clean ones (part 2's δ; zero, and recorded, if the noise alone raises it further). Tests
     plant a larger effect through ``factor`` (both ratios)."""
-    motion, trajectory = train.space("motion"), train.space("trajectory")
+    trajectory_train = train if trajectory_train is None else trajectory_train
+    motion, trajectory = train.space("motion"), trajectory_train.space("trajectory")
     unread = motion.channels - _RIC.stop
     direction = torch.from_numpy(
         np.random.default_rng(control_seed(0, 0, stream=9)).standard_normal(unread)).float()
@@ -199,7 +212,8 @@ def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator
     for s in seeds:
         arms = {tag: train.x[_draw(train, n, control_seed(s, k, stream=1))]
                 for k, tag in enumerate(("x0", "eps"))}
-        tracks = {tag: train.trajectory()[_draw(train, n, control_seed(s, k, stream=2))]
+        tracks = {tag: trajectory_train.trajectory()[_draw(trajectory_train, n,
+                                                           control_seed(s, k, stream=2))]
                   for k, tag in enumerate(("x0", "eps"))}
         planted = _offset_unread_features(
             motion, _jag(motion, arms["eps"], amplitude, control_seed(s, 1, stream=3)), size,

@@ -443,7 +443,9 @@ class Settings:
 
     The trajectory ε model is notebook 01's guidance model (``x0_vs_eps.Settings.
     guidance_trajectory_spec``: GMD's T = 1000 cosine, one cache key with GMD-A3's), the
-    second stage's motion model notebook 01's x0 motion model (``motion_spec``). ``strengths``
+    second stage's motion model an x0 motion model with notebook 01's settings on GMD's
+    absolute-root windows (``motion_spec``; GMD-A4's own motion models are relative-root, so
+    it is not one of theirs). ``strengths``
     draw the curve, ``rule_strengths`` are the claimed range the rule reads; ``gmd_stops``
     are GMD's stop steps of T = 1000, which are the model's own at T = 1000 (quick mode's
     T = 50 takes the same fraction, :func:`model_stop_step`); the stop sweep runs at
@@ -485,7 +487,8 @@ class Settings:
         return self.model.guidance_trajectory_spec("epsilon", self.model.data(data_dir))
 
     def motion_spec(self, data_dir: str | None = None) -> GMDModelSpec:
-        """Notebook 01's x0 motion model, GMD's second stage (seed 0)."""
+        """GMD's second stage (seed 0): notebook 01's x0 motion spec on its absolute-root
+        windows, where the trajectory's root x/z is imputed."""
         return self.model.spec("motion", "x0", self.model.data(data_dir))
 
     def stops(self) -> dict[int, int]:

@@ -30,7 +30,14 @@ from repro.gmd.guidance import (
 from repro.gmd.measurements import foot_skating_of, jitter_of, motion_fid
 from repro.gmd.models import GMDModelSpec, TrainedGMD, training_fields
 from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_SCHEDULE
-from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows, Task, goal_targets
+from repro.gmd.windows import (
+    DataConfig,
+    FeatureSpace,
+    MotionWindows,
+    Representation,
+    Task,
+    goal_targets,
+)
 from repro.models.evaluator import Evaluator, EvaluatorConfig
 
 __all__ = ["CLAMPS", "PREDICTIONS", "QUICK_GUIDANCE_DIFFUSION_STEPS", "GoalReachingResult",
@@ -225,6 +232,11 @@ class Settings:
     The guidance experiments' trajectory models (GMD-A3, B2, F1) are the same trajectory
     specs with ``guidance_diffusion_steps`` = GMD's T = 1000 (``paper_settings``); quick mode
     uses T = ``QUICK_GUIDANCE_DIFFUSION_STEPS`` (50, stop at 1 = 2 % of T).
+
+    The trajectory models train on absolute-root windows (GMD's trajectory model: root x/z in
+    the world); GMD-A4's motion models on ``motion_representation``, HumanML3D's relative root
+    (:meth:`motion_data`): the claim is about MDM's ε model of ε ∈ R^{263×M}, and MDM models
+    HumanML3D's features as they are (registry v3 changelog, GMD-A4).
     """
 
     quick: bool
@@ -243,6 +255,8 @@ class Settings:
     posterior_samples: int = 256
     #: T of the guidance experiments' trajectory models (GMD's 1000; quick mode 50).
     guidance_diffusion_steps: int = GUIDANCE_DIFFUSION_STEPS
+    #: the root representation of GMD-A4's motion windows (MDM's: HumanML3D's relative root)
+    motion_representation: Representation = "relative"
 
     @classmethod
     def for_mode(cls, quick: bool, *, seeds: int = 3, train_steps: int | None = None
@@ -256,11 +270,19 @@ class Settings:
                    train_steps=None if train_steps is None else int(train_steps),
                    batch_size=64, diffusion_steps=100, goals=32, generated=256)
 
-    def data(self, data_dir: str | None = None) -> DataConfig:
-        """The absolute-root windows (``data_dir`` or the stand-in set)."""
+    def data(self, data_dir: str | None = None,
+             representation: Representation = "absolute") -> DataConfig:
+        """The windows (``data_dir`` or the stand-in set) in ``representation``: absolute
+        root by default, the trajectory models'."""
         if data_dir is not None:
-            return DataConfig(data_dir=data_dir, frames=self.frames)
-        return DataConfig(stand_in_clips=self.stand_in_clips, frames=self.frames)
+            return DataConfig(data_dir=data_dir, frames=self.frames,
+                              representation=representation)
+        return DataConfig(stand_in_clips=self.stand_in_clips, frames=self.frames,
+                          representation=representation)
+
+    def motion_data(self, data_dir: str | None = None) -> DataConfig:
+        """GMD-A4's motion windows: :meth:`data` in ``motion_representation``."""
+        return self.data(data_dir, self.motion_representation)
 
     def spec(self, task: Task, prediction: Literal["x0", "epsilon"], data: DataConfig,
              seed: int = 0) -> GMDModelSpec:
