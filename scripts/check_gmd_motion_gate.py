@@ -19,17 +19,13 @@ import json
 import time
 from pathlib import Path
 
-import numpy as np
 import torch
 
-from repro.core import metrics
 from repro.core.gates import gate_results
 from repro.gmd import model_gates
 from repro.gmd import x0_vs_eps as x0eps
-from repro.gmd.measurements import evaluator_inputs
 from repro.gmd.models import load_or_train_gmd
 from repro.gmd.windows import load_windows
-from repro.models.evaluator import load_or_train_evaluator
 
 
 def main() -> None:
@@ -43,23 +39,17 @@ def main() -> None:
     train = load_windows(settings.motion_data())
     test = load_windows(train.config, "test", statistics=(train.mean, train.std))
     # notebook 01's evaluator and reference, as its GMD-A4 cells build them (base seed 0)
-    train_features, train_lengths = evaluator_inputs(train.space("motion"), train.x)
-    evaluator = load_or_train_evaluator(train_features, train_lengths, train.captions,
-                                        settings.evaluator_config(train.fingerprint))
-    test_features, test_lengths = evaluator_inputs(test.space("motion"), test.x)
-    test_embeddings = evaluator.embed_motions(test_features, test_lengths)
-    picks = np.random.default_rng(0).choice(len(train), settings.generated, replace=False)
-    real_fid = metrics.fid(evaluator.embed_motions(train_features[picks],
-                                                   [train.frames] * settings.generated),
-                           test_embeddings)
+    evaluation = model_gates.motion_evaluation(
+        train, test, settings.evaluator_config(train.fingerprint),
+        reference_samples=settings.generated, seed=0)
     reference = model_gates.motion_gate_values(test.space("motion").joints(test.x),
-                                               fid=real_fid)
+                                               fid=evaluation.real_fid)
     started = time.process_time()
     spec = settings.spec("motion", args.prediction, train.config, seed=args.seed)
     trained = load_or_train_gmd(spec, train)
     values = model_gates.unguided_motion_gate_values(
-        trained, settings.generated, seed=args.seed, evaluator=evaluator,
-        test_embeddings=test_embeddings)
+        trained, settings.generated, seed=args.seed, evaluator=evaluation.evaluator,
+        test_embeddings=evaluation.test_embeddings)
     gates = gate_results("gmd_motion", values, reference)
     row = {"prediction": args.prediction, "seed": args.seed,
            "representation": train.config.representation, "cache_key": trained.cache_key,

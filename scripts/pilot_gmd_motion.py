@@ -33,7 +33,7 @@ from repro.core.training import ValidationSet, train_diffusion
 from repro.gmd import x0_vs_eps as x0eps
 from repro.gmd.guidance import sample
 from repro.gmd.measurements import evaluator_inputs
-from repro.gmd.model_gates import motion_gate_values, one_caption_each
+from repro.gmd.model_gates import motion_evaluation, motion_gate_values, one_caption_each
 from repro.gmd.models import (
     GMDModelSpec,
     TrainedGMD,
@@ -41,7 +41,6 @@ from repro.gmd.models import (
     validation_split,
 )
 from repro.gmd.windows import load_windows
-from repro.models.evaluator import load_or_train_evaluator
 from repro.models.unet import narrowest_full_resolution_width
 
 
@@ -230,16 +229,10 @@ def main() -> None:
     settings = x0eps.Settings.for_mode(False)
     train = load_windows(settings.data())
     test = load_windows(train.config, "test", statistics=(train.mean, train.std))
-    train_features, train_lengths = evaluator_inputs(train.space("motion"), train.x)
-    evaluator = load_or_train_evaluator(train_features, train_lengths, train.captions,
-                                        settings.evaluator_config(train.fingerprint))
-    test_features, test_lengths = evaluator_inputs(test.space("motion"), test.x)
-    test_embeddings = evaluator.embed_motions(test_features, test_lengths)
-    picks = np.random.default_rng(0).choice(len(train), args.samples, replace=False)
-    real_fid = metrics.fid(evaluator.embed_motions(train_features[picks],
-                                                   [train.frames] * args.samples),
-                           test_embeddings)
-    reference = motion_gate_values(test.space("motion").joints(test.x), fid=real_fid)
+    evaluation = motion_evaluation(train, test, settings.evaluator_config(train.fingerprint),
+                                   reference_samples=args.samples, seed=0)
+    evaluator, test_embeddings = evaluation.evaluator, evaluation.test_embeddings
+    reference = motion_gate_values(test.space("motion").joints(test.x), fid=evaluation.real_fid)
     chosen = [c for c in CONFIGS if not args.only or c.name in args.only.split(",")]
     cpu_share = (args.budget_minutes * 60 - (time.process_time() - started)) / len(chosen)
     wall_share = (args.wall_minutes * 60 - (time.perf_counter() - started_wall)) / len(chosen)

@@ -37,10 +37,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import torch
 
-from repro.core import metrics
 from repro.core.gates import gate_results
 from repro.core.tables import markdown_table
 from repro.core.training import ValidationSet, train_diffusion
@@ -52,8 +50,8 @@ from repro.gmd.denoiser_diagnostics import (
     x0_error_by_block,
 )
 from repro.gmd.guidance import sample
-from repro.gmd.measurements import evaluator_inputs, motion_fid
-from repro.gmd.model_gates import motion_gate_values
+from repro.gmd.measurements import motion_fid
+from repro.gmd.model_gates import motion_evaluation, motion_gate_values
 from repro.gmd.models import (
     GMDModelSpec,
     TrainedGMD,
@@ -61,7 +59,6 @@ from repro.gmd.models import (
     validation_split,
 )
 from repro.gmd.windows import load_windows
-from repro.models.evaluator import load_or_train_evaluator
 
 #: white-noise levels (model units) of ``--noise-floor``
 NOISE_SIGMAS = (0.0, 0.0015, 0.003, 0.0065, 0.0125, 0.025, 0.05)
@@ -87,18 +84,14 @@ def fid_measure(train: Any, test: Any, samples: int) -> Any:
     against the test windows (notebook 01's evaluator), and the reference, ``samples``
     training windows' own FID against them (as ``scripts/pilot_gmd_motion.py``)."""
     settings = x0eps.Settings.for_mode(False)
-    train_features, train_lengths = evaluator_inputs(train.space("motion"), train.x)
-    evaluator = load_or_train_evaluator(train_features, train_lengths, train.captions,
-                                        settings.evaluator_config(train.fingerprint))
-    test_features, test_lengths = evaluator_inputs(test.space("motion"), test.x)
-    test_embeddings = evaluator.embed_motions(test_features, test_lengths)
-    picks = np.random.default_rng(0).choice(len(train), samples, replace=False)
-    reference = metrics.fid(evaluator.embed_motions(train_features[picks],
-                                                    [train.frames] * samples), test_embeddings)
+    evaluation = motion_evaluation(
+        train, test, settings.evaluator_config(train.fingerprint), reference_samples=samples,
+        seed=0)
 
     def fid_of(trained: TrainedGMD, drawn: torch.Tensor) -> dict[str, float]:
-        return {"fid": motion_fid(trained, drawn, evaluator, test_embeddings),
-                "fid_reference": float(reference)}
+        return {"fid": motion_fid(trained, drawn, evaluation.evaluator,
+                                  evaluation.test_embeddings),
+                "fid_reference": evaluation.real_fid}
 
     return fid_of
 

@@ -177,3 +177,25 @@ def test_emphasis_study_records_reuse_table_b1_samples_and_measure_the_rest(
     # the reference is the targets' own skating, so the allowed bound is 3× it
     assert measured["foot_skating"]["at_most"] == pytest.approx(
         3 * results.ground_truth["foot_skating"][0])
+
+
+def test_motion_evaluation_gives_the_reference_fid_of_training_windows(cache, windows) -> None:
+    """The evaluator's reference FID is the FID of the picked training windows' embeddings
+    against the test windows'; the test windows score 0 against themselves."""
+    from repro.core import metrics
+    from repro.gmd.measurements import evaluator_inputs
+
+    train, test = windows
+    config = EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16,
+                             data_id=train.fingerprint)
+    evaluation = mg.motion_evaluation(train, test, config, reference_samples=6, seed=4)
+    features, lengths = evaluator_inputs(train.space("motion"), train.x)
+    picks = np.random.default_rng(4).choice(len(train), 6, replace=False)
+    expected = metrics.fid(evaluation.evaluator.embed_motions(features[picks], lengths[:6]),
+                           evaluation.test_embeddings)
+    assert evaluation.real_fid == pytest.approx(expected, rel=1e-6)
+    assert len(evaluation.test_embeddings) == len(test) == len(evaluation.test_lengths)
+    assert metrics.fid(evaluation.test_embeddings, evaluation.test_embeddings) == pytest.approx(
+        0.0, abs=1e-6)
+    again = mg.motion_evaluation(train, test, config, reference_samples=6, seed=5)
+    assert again.real_fid != evaluation.real_fid  # the picks follow the seed

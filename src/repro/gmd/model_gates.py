@@ -22,6 +22,7 @@ touches a cache key.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -31,16 +32,17 @@ from torch import Tensor
 from repro.core import metrics
 from repro.core.gates import model_record
 from repro.core.tables import markdown_table
-from repro.gmd.measurements import jitter_of, motion_fid
+from repro.gmd.measurements import evaluator_inputs, jitter_of, motion_fid
 from repro.gmd.models import TrainedGMD, parameter_count
-from repro.gmd.windows import FeatureSpace
+from repro.gmd.windows import FeatureSpace, MotionWindows
 from repro.infra import cache
-from repro.models.evaluator import Evaluator
+from repro.models.evaluator import Evaluator, EvaluatorConfig, load_or_train_evaluator
 from repro.motion.features import FPS, features_to_joints
 
-__all__ = ["CURVE_POINTS", "budget_markdown", "emphasis_study_records", "evaluator_gate_values",
-           "evaluator_model_record", "gmd_model_name", "gmd_model_record",
-           "loss_curve", "motion_gate_values", "one_caption_each", "path_length",
+__all__ = ["CURVE_POINTS", "MotionEvaluation", "budget_markdown", "emphasis_study_records",
+           "evaluator_gate_values", "evaluator_model_record", "gmd_model_name",
+           "gmd_model_record", "loss_curve", "motion_evaluation", "motion_gate_values",
+           "one_caption_each", "path_length",
            "relative_features_gate_values", "sample_quality_gate_values",
            "trajectory_gate_values", "training_summary", "unguided_motion_gate_values"]
 
@@ -64,6 +66,37 @@ def motion_gate_values(joints: np.ndarray | Tensor, *, fid: float | None) -> dic
     if fid is not None:
         values["fid"] = float(fid)
     return values
+
+
+@dataclass(frozen=True)
+class MotionEvaluation:
+    """What the ``gmd_motion`` gate's FID needs: the evaluator trained on the training windows,
+    the test windows' features and embeddings, and ``real_fid``, the FID of
+    ``reference_samples`` training windows against the test windows (the gate's reference)."""
+
+    evaluator: Evaluator
+    test_features: np.ndarray
+    test_lengths: list[int]
+    test_embeddings: np.ndarray
+    real_fid: float
+
+
+def motion_evaluation(train: MotionWindows, test: MotionWindows, config: EvaluatorConfig, *,
+                      reference_samples: int, seed: int) -> MotionEvaluation:
+    """The evaluator of ``train``'s motion windows (cached, ``load_or_train_evaluator``), the
+    test windows' embeddings, and the reference FID of ``reference_samples`` training windows
+    (drawn without replacement with ``seed``) against them."""
+    train_features, train_lengths = evaluator_inputs(train.space("motion"), train.x)
+    evaluator = load_or_train_evaluator(train_features, train_lengths, train.captions, config)
+    test_features, test_lengths = evaluator_inputs(test.space("motion"), test.x)
+    test_embeddings = evaluator.embed_motions(test_features, test_lengths)
+    picks = np.random.default_rng(seed).choice(len(train), reference_samples, replace=False)
+    real_fid = metrics.fid(evaluator.embed_motions(train_features[picks],
+                                                   [train.frames] * reference_samples),
+                           test_embeddings)
+    return MotionEvaluation(evaluator=evaluator, test_features=test_features,
+                            test_lengths=test_lengths,
+                            test_embeddings=test_embeddings, real_fid=float(real_fid))
 
 
 def path_length(root_positions: np.ndarray | Tensor) -> np.ndarray:
