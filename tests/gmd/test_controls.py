@@ -94,13 +94,18 @@ def test_a4_positive_plants_the_jitter_and_fid_ratios(windows: MotionWindows, ev
     assert metrics.fid(test_embeddings, test_embeddings) == pytest.approx(0.0, abs=1e-6)
 
 
+@pytest.fixture(scope="module")
+def relative() -> MotionWindows:
+    """The same windows in the relative-root representation (GMD-A4's motion models')."""
+    return load_windows(DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=8,
+                                   representation="relative"))
+
+
 def test_jag_puts_white_noise_on_world_positions_in_both_representations(
-        windows: MotionWindows) -> None:
+        windows: MotionWindows, relative: MotionWindows) -> None:
     """Relative-root windows get the noise on the root's world x/z, not on its velocity: the
     joints move by about the amplitude on every frame (a noised velocity would integrate to a
     random walk that grows along the window)."""
-    relative = load_windows(DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=8,
-                                       representation="relative"))
     amplitude = 0.01
     for data in (windows, relative):
         space = data.space("motion")
@@ -113,19 +118,17 @@ def test_jag_puts_white_noise_on_world_positions_in_both_representations(
 
 
 def test_a4_controls_take_relative_motion_and_absolute_trajectory_windows(
-        windows: MotionWindows, evaluator) -> None:
-    relative = load_windows(DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=8,
-                                       representation="relative"))
+        windows: MotionWindows, relative: MotionWindows, evaluator) -> None:
     features, lengths = evaluator_inputs(relative.space("motion"), relative.x)
     result = controls.a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
                                   test_embeddings=evaluator.embed_motions(features, lengths),
                                   trajectory_train=windows, calibration_draws=2)
     assert result.planted["calibrated_jerk_ratio"] == pytest.approx(1.1, rel=1e-3)
     assert result.planted["calibrated_fid_ratio"] == pytest.approx(1.1, rel=1e-3)
-    same = controls.a4_controls(windows, SEEDS[:2], n=8, evaluator=evaluator,
-                                test_embeddings=evaluator.embed_motions(features, lengths),
-                                calibration_draws=2)
-    assert result.null["trajectory_jitter_x0"] == same.null["trajectory_jitter_x0"]
+    # the trajectory arms are draws of the absolute windows, measured in their space
+    same = [float(jitter_of(windows.space("trajectory"), windows.trajectory()[controls._draw(
+        windows, 8, controls.control_seed(s, 0, stream=2))]).jerk) for s in SEEDS[:2]]
+    assert result.null["trajectory_jitter_x0"] == same
 
 
 # --- decisions: a clearly larger planted effect is seen, the null never fires ---------------
