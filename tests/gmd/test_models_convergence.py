@@ -124,6 +124,25 @@ def test_a_model_trained_with_validation_records_its_convergence(small_spec,
     assert load_or_train_gmd(spec, windows).cache_key == trained.cache_key
 
 
+def test_on_validation_sees_each_evaluation_and_leaves_the_model_as_it_was(
+        small_spec, cache: Path) -> None:
+    spec = small_spec(train_steps=6, validate_every=2, patience=10, validation_fraction=0.2)
+    windows = load_windows(spec.data)
+    seen: list[tuple[int, float]] = []
+
+    def watch(step: int, loss: float, ema_model: torch.nn.Module) -> None:
+        assert not ema_model.training
+        seen.append((step, loss))
+
+    watched = load_or_train_gmd(spec, windows, on_validation=watch)
+    assert seen == [tuple(point) for point in watched.metrics["convergence"]["validation"]]
+    assert [step for step, _ in seen] == [0, 2, 4, 6]
+    plain = load_or_train_gmd(spec, windows, retrain=True)
+    assert plain.cache_key == watched.cache_key
+    for name, value in plain.model.state_dict().items():
+        assert torch.equal(value, watched.model.state_dict()[name]), name
+
+
 def test_longer_run_doubles_the_cap_and_cannot_stop_on_the_plateau(small_spec) -> None:
     spec = small_spec(train_steps=8, validate_every=2)
     longer = longer_run(spec)

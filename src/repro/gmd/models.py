@@ -11,7 +11,7 @@ Everything is scaled down to run on 2 CPU cores.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -59,7 +59,9 @@ __all__ = [
     "validation_split",
 ]
 
-_CACHE_VERSION = 1
+#: 2: ``build_model`` seeds the initialisation (before, it drew from the process's global RNG,
+#: so a model's weights depended on what the process had drawn before, not on its seed alone).
+_CACHE_VERSION = 2
 #: (patience, min_delta, validation_fraction) of a spec without convergence training
 _CONVERGENCE_DEFAULTS = (5, 0.01, 0.05)
 #: the held-out clips are drawn with this seed, whatever the model's seed (so both arms of a
@@ -205,7 +207,12 @@ class GMDModelSpec:
         return schedule_diffusion(self.schedule, self.diffusion_steps, self.prediction)
 
     def build_model(self, cond_dim: int | None = None) -> UNet1D:
-        return UNet1D(self.channels, self.base_channels, self.channel_mults, cond_dim=cond_dim)
+        """The untrained UNet, initialised from ``torch.manual_seed(seed)`` in a forked RNG: the
+        same weights whatever the process drew before, and the caller's global RNG untouched."""
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(self.seed)
+            return UNet1D(self.channels, self.base_channels, self.channel_mults,
+                          cond_dim=cond_dim)
 
     def train_config(self, device: str | torch.device = "cpu") -> TrainConfig:
         return TrainConfig(steps=self.train_steps, batch_size=self.batch_size, lr=self.lr,
@@ -306,11 +313,15 @@ def model_cache_config(spec: GMDModelSpec, data: MotionWindows) -> dict[str, Any
 
 def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
                       device: str | torch.device = "cpu", retrain: bool = False,
-                      progress: bool = False) -> TrainedGMD:
+                      progress: bool = False,
+                      on_validation: Callable[[int, float, torch.nn.Module], None] | None = None,
+                      ) -> TrainedGMD:
     """The trained model of ``spec`` from the cache (kind ``gmd_<task>``), trained on a miss.
 
     ``data`` are the training windows of ``spec.data`` (loaded when None; pass them to avoid
     reloading). Deterministic given ``spec.seed``; the same code runs on ``device="cuda"``.
+    ``on_validation`` goes to ``train_diffusion`` on a miss (a pilot measuring the EMA weights
+    at each held-out evaluation); it does not change the training, so it is not in the key.
     """
     if data is None:
         data = load_windows(spec.data)
@@ -333,7 +344,8 @@ def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
             validation = ValidationSet(x[held], cond=None if cond is None else cond[held])
             x, cond = x[fit].contiguous(), None if cond is None else cond[fit]
         result = train_diffusion(model, diffusion, x, spec.train_config(device), cond=cond,
-                                 validation=validation, progress=progress)
+                                 validation=validation, on_validation=on_validation,
+                                 progress=progress)
         return result.for_cache()
 
     model = cache.load_or_train(kind, config, lambda: spec.build_model(cond_dim), train,
