@@ -9,22 +9,36 @@ skating, joint jerk and FID with notebook 01's evaluator against the test window
 to ``--out``. The model lands in the cache under the notebook's key, so a later full run loads
 it.
 
+``--cap N --check-every K`` trains the same spec with the step cap N instead of
+``MOTION_TRAINING``'s (every other field, the plateau criterion included, as the notebook's;
+cached under that spec's key) and measures the gate the same way on the EMA weights every K
+steps on the way, one row per check (``"kind": "check"``), each written as it is measured,
+with the weights saved beside ``--out``: whether a longer cap passes the gate, and from when.
+The training is the same with or without the checks (``train_diffusion``'s ``on_validation``).
+
     PYTHONPATH=src python scripts/check_gmd_motion_gate.py --seed 1 --out build/motion_gate.jsonl
+    PYTHONPATH=src python scripts/check_gmd_motion_gate.py --seed 1 --cap 12000 \
+        --check-every 1000 --out build/motion_gate_long.jsonl
+    PYTHONPATH=src python scripts/check_gmd_motion_gate.py --report build/motion_gate_long.jsonl \
+        --out docs/check_gmd_motion_gate_long.md   # the checks' table, rendered from the rows
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 from pathlib import Path
+from typing import Any
 
 import torch
 
 from repro.core.gates import gate_results
+from repro.core.tables import markdown_table
 from repro.gmd import model_gates
 from repro.gmd import x0_vs_eps as x0eps
-from repro.gmd.models import load_or_train_gmd
+from repro.gmd.models import TrainedGMD, load_or_train_gmd
 from repro.gmd.windows import load_windows
 
 
@@ -32,25 +46,62 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0, help="training and sampling seed")
     parser.add_argument("--prediction", choices=("x0", "epsilon"), default="x0")
+    parser.add_argument("--cap", type=int, default=None,
+                        help="step cap instead of MOTION_TRAINING's (the spec's train_steps)")
+    parser.add_argument("--check-every", type=int, default=None,
+                        help="with --cap: measure the gate every K steps (a multiple of the "
+                             "spec's validate_every)")
+    parser.add_argument("--report", nargs="+", default=None, metavar="JSONL",
+                        help="render these rows' checks as Markdown into --out instead")
     parser.add_argument("--out", required=True, help="JSON lines, appended")
     args = parser.parse_args()
+    if args.report:
+        rows = [json.loads(line) for name in args.report
+                for line in Path(name).read_text("utf-8").splitlines() if line.strip()]
+        *_, reference = notebook_reference(x0eps.Settings.for_mode(False))
+        Path(args.out).write_text(report(rows, reference), "utf-8")
+        return
+    if args.check_every is not None and args.cap is None:
+        parser.error("--check-every needs --cap")
     torch.set_num_threads(1)
     settings = x0eps.Settings.for_mode(False)
-    train = load_windows(settings.motion_data())
-    test = load_windows(train.config, "test", statistics=(train.mean, train.std))
-    # notebook 01's evaluator and reference, as its GMD-A4 cells build them (base seed 0)
-    evaluation = model_gates.motion_evaluation(
-        train, test, settings.evaluator_config(train.fingerprint),
-        reference_samples=settings.generated, seed=0)
-    reference = model_gates.motion_gate_values(test.space("motion").joints(test.x),
-                                               fid=evaluation.real_fid)
+    train, evaluation, reference = notebook_reference(settings)
     started = time.process_time()
     spec = settings.spec("motion", args.prediction, train.config, seed=args.seed)
-    trained = load_or_train_gmd(spec, train)
-    values = model_gates.unguided_motion_gate_values(
-        trained, settings.generated, seed=args.seed, evaluator=evaluation.evaluator,
-        test_embeddings=evaluation.test_embeddings)
-    gates = gate_results("gmd_motion", values, reference)
+    if args.cap is not None:
+        spec = dataclasses.replace(spec, train_steps=args.cap)
+    if args.check_every is not None and (spec.validate_every is None
+                                         or args.check_every % spec.validate_every):
+        parser.error(f"--check-every must be a multiple of validate_every={spec.validate_every}")
+    out = Path(args.out)
+    checking = [0.0]  # CPU seconds spent in the checks so far
+
+    def gate_of(trained: TrainedGMD) -> tuple[dict[str, float], dict[str, Any]]:
+        values = model_gates.unguided_motion_gate_values(
+            trained, settings.generated, seed=args.seed, evaluator=evaluation.evaluator,
+            test_embeddings=evaluation.test_embeddings)
+        return values, gate_results("gmd_motion", values, reference)
+
+    def check(step: int, loss: float, ema_model: torch.nn.Module) -> None:
+        if args.check_every is None or step == 0 or step % args.check_every:
+            return
+        t0 = time.process_time()
+        trained = TrainedGMD(ema_model, spec.diffusion(), train.space("motion"), spec,
+                             x0_bound=float(train.x.abs().max()))
+        values, gates = gate_of(trained)
+        weights = out.with_name(f"{out.stem}.seed{args.seed}.step{step}.pt")
+        torch.save(ema_model.state_dict(), weights)
+        train_cpu_seconds = t0 - started - checking[0]
+        checking[0] += time.process_time() - t0
+        append(out, {"kind": "check", "prediction": args.prediction, "seed": args.seed,
+                     "representation": train.config.representation, "step_cap": spec.train_steps,
+                     "step": step, "val_loss": loss, "values": values,
+                     "passed": {m: g["passed"] for m, g in gates.items()},
+                     "train_cpu_seconds": train_cpu_seconds,
+                     "check_cpu_seconds": time.process_time() - t0, "weights": str(weights)})
+
+    trained = load_or_train_gmd(spec, train, on_validation=check)
+    values, gates = gate_of(trained)
     row = {"prediction": args.prediction, "seed": args.seed,
            "representation": train.config.representation, "cache_key": trained.cache_key,
            **model_gates.training_summary(trained),
@@ -60,10 +111,64 @@ def main() -> None:
            "bounds": {m: {k: v for k, v in g.items() if k in ("at_most", "at_least")}
                       for m, g in gates.items()},
            "passed": all(g["passed"] for g in gates.values())}
+    append(out, row)
+
+
+def notebook_reference(settings: x0eps.Settings) -> tuple[Any, Any, dict[str, float]]:
+    """Notebook 01's motion training windows, its evaluator (as its GMD-A4 cells build them,
+    base seed 0) and the gate's reference values of the test windows."""
+    train = load_windows(settings.motion_data())
+    test = load_windows(train.config, "test", statistics=(train.mean, train.std))
+    evaluation = model_gates.motion_evaluation(
+        train, test, settings.evaluator_config(train.fingerprint),
+        reference_samples=settings.generated, seed=0)
+    reference = model_gates.motion_gate_values(test.space("motion").joints(test.x),
+                                               fid=evaluation.real_fid)
+    return train, evaluation, reference
+
+
+def report(rows: list[dict[str, Any]], reference: dict[str, float]) -> str:
+    """Markdown of ``--cap`` runs: one line per check, seeds side by side, with the gate's
+    bounds from ``reference`` (the same for every model: the test windows' values)."""
+    checks = sorted((r for r in rows if r.get("kind") == "check"),
+                    key=lambda r: (r["step"], r["seed"]))
+    if not checks:
+        raise ValueError("no check rows to report")
+    caps = ", ".join(str(cap) for cap in sorted({r["step_cap"] for r in checks}))
+    bounds = ", ".join(f"{m} ≤ {g['at_most']:.3g}"
+                       for m, g in gate_results("gmd_motion", {}, reference).items())
+    table = markdown_table(
+        ["step", "seed", "held-out loss", "foot skating m/s", "joint jerk m/s³", "FID",
+         "failed gates", "training CPU-s (cumulative)"],
+        [[r["step"], r["seed"], f"{r['val_loss']:.4f}", f"{r['values']['foot_skating']:.3f}",
+          f"{r['values']['joint_jerk']:.0f}", f"{r['values']['fid']:.3f}",
+          ", ".join(m for m, ok in r["passed"].items() if not ok) or "none (pass)",
+          f"{r['train_cpu_seconds']:.0f}"] for r in checks])
+    finals = [r for r in rows if r.get("kind") is None and "step_cap" in r]
+    ended = (["", "Finished runs: " + "; ".join(
+        f"seed {r['seed']}: {r['steps_used']} steps ({r['stop_reason']}), "
+        f"{'passed' if r['passed'] else 'failed'}" for r in finals) + "."] if finals else
+        ["", "No run reached its stop (plateau or cap): the rows are what was measured before "
+             "the runs were stopped."])
+    return "\n".join([
+        "# Notebook 01's relative-root x0 motion model with a longer step cap (issue #14)",
+        "",
+        "Generated by `scripts/check_gmd_motion_gate.py --report` (do not edit by hand). "
+        f"Notebook 01's full-mode GMD-A4 motion spec with the step cap {caps} instead of "
+        "`MOTION_TRAINING`'s 4000, everything else as the notebook's (plateau criterion "
+        "included); at each check the EMA weights draw the notebook's 256 unguided samples "
+        "(seed = the model's seed), measured with notebook 01's evaluator against the test "
+        f"windows. Gate bounds: {bounds}. One torch thread per run, two runs on the 2 cores.",
+        "", table, *ended, ""])
+
+
+def append(out: Path, row: dict[str, Any]) -> None:
+    """Print ``row`` as one JSON line and append it to ``out`` at once (a stopped run keeps
+    every row measured before it)."""
     line = json.dumps(row)
     print(line, flush=True)
-    with Path(args.out).open("a", encoding="utf-8") as out:
-        out.write(line + "\n")
+    with out.open("a", encoding="utf-8") as stream:
+        stream.write(line + "\n")
 
 
 if __name__ == "__main__":
