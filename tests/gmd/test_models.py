@@ -75,13 +75,14 @@ def test_load_or_train_many_trains_missing_models_in_worker_processes(small_conf
 #: keys changed on purpose with issue #14 (convergence training, the 288-wide motion UNet);
 #: nb02_traj_rel_full with #17 too (T = 1000 cosine, the guidance experiments' model), and
 #: again with #14's trajectory pilot (GMD's widths 64 × (1, 2, 4), cap 12000); every key with
-#: cache version 2 (the initialisation is seeded from the spec's seed, issue #14).
+#: cache version 2 (the initialisation is seeded from the spec's seed, issue #14); nb03_k5_full
+#: again with the motion family's cap 4000 → 12000 (issue #14, session 11).
 PINNED_MODEL_KEYS = {
     "default": "6ce1b03ba300719e",
     "nb01_quick_motion_x0": "651d6ce53dddfa4c",
     "nb02_traj_rel_full": "5d1275cc32eb5600",
     "nb02_motion_abs_quick": "ede8bcaa678fa0a2",
-    "nb03_k5_full": "0974aacf75de72bf",
+    "nb03_k5_full": "a9ceafcacd9855a0",
     "nb03_c10_quick": "f1fdc75515d65e59",
     "max_windows": "5ee81027de0ca770",
 }
