@@ -21,6 +21,11 @@ The training is the same with or without the checks (``train_diffusion``'s ``on_
         --check-every 1000 --out build/motion_gate_long.jsonl
     PYTHONPATH=src python scripts/check_gmd_motion_gate.py --report build/motion_gate_long.jsonl \
         --out docs/check_gmd_motion_gate_long.md   # the checks' table, rendered from the rows
+
+``--spread WEIGHTS --draws K`` measures how much the gate's values move with the sampling seed
+alone: the saved EMA weights of one check (``--seed`` and ``--cap`` as that run's) draw the
+notebook's unguided samples K times, with the check's own sampling seed first (it must give the
+check's values again) and then seeds ``seed + 1000·k``; one row per draw (``"kind": "spread"``).
 """
 
 from __future__ import annotations
@@ -52,12 +57,16 @@ def main() -> None:
                              "spec's validate_every)")
     parser.add_argument("--report", nargs="+", default=None, metavar="JSONL",
                         help="render these rows' checks as Markdown into --out instead")
+    parser.add_argument("--spread", default=None, metavar="WEIGHTS",
+                        help="the saved EMA weights of one check: draw the gate's samples "
+                             "--draws times with other sampling seeds")
+    parser.add_argument("--draws", type=int, default=4, help="with --spread: sample sets")
     parser.add_argument("--out", required=True, help="JSON lines, appended")
     args = parser.parse_args()
     if args.report:
-        rows = [json.loads(line) for name in args.report
-                for line in Path(name).read_text("utf-8").splitlines() if line.strip()]
-        Path(args.out).write_text(report(rows), "utf-8")
+        sources = {name: [json.loads(line) for line in Path(name).read_text("utf-8").splitlines()
+                          if line.strip()] for name in args.report}
+        Path(args.out).write_text(report(sources), "utf-8")
         return
     if args.check_every is not None and args.cap is None:
         parser.error("--check-every needs --cap")
@@ -99,6 +108,24 @@ def main() -> None:
                      "train_cpu_seconds": train_cpu_seconds,
                      "check_cpu_seconds": time.process_time() - t0, "weights": str(weights)})
 
+    if args.spread is not None:
+        model = spec.build_model()
+        model.load_state_dict(torch.load(args.spread, map_location="cpu", weights_only=True))
+        trained = TrainedGMD(model.eval(), spec.diffusion(), train.space("motion"), spec,
+                             x0_bound=float(train.x.abs().max()))
+        for draw in range(args.draws):
+            t0 = time.process_time()
+            sampling_seed = args.seed + 1000 * draw
+            values = model_gates.unguided_motion_gate_values(
+                trained, settings.generated, seed=sampling_seed, evaluator=evaluation.evaluator,
+                test_embeddings=evaluation.test_embeddings)
+            gates = gate_results("gmd_motion", values, reference)
+            append(out, {"kind": "spread", "prediction": args.prediction, "seed": args.seed,
+                         "weights": args.spread, "sampling_seed": sampling_seed,
+                         "values": values, "bounds": bounds_of(gates),
+                         "passed": {m: g["passed"] for m, g in gates.items()},
+                         "cpu_seconds": time.process_time() - t0})
+        return
     trained = load_or_train_gmd(spec, train, on_validation=check)
     values, gates = gate_of(trained)
     row = {"prediction": args.prediction, "seed": args.seed,
@@ -131,42 +158,84 @@ def bounds_of(gates: dict[str, Any]) -> dict[str, dict[str, float | None]]:
             for m, g in gates.items()}
 
 
-def report(rows: list[dict[str, Any]]) -> str:
-    """Markdown of ``--cap`` runs: one line per check, seeds side by side, with the bounds
-    the checks were decided against (the test windows' values, recorded in the rows)."""
-    checks = sorted((r for r in rows if r.get("kind") == "check"),
-                    key=lambda r: (r["step"], r["seed"]))
-    if not checks:
+def report(sources: dict[str, list[dict[str, Any]]]) -> str:
+    """Markdown of ``--cap`` runs and ``--spread`` draws, one section per rows file (one
+    machine, so one set of bounds: the test windows' values, recorded in the rows; a file whose
+    checks were decided against two sets is refused): a line per check, seeds side by side."""
+    if not any(r.get("kind") == "check" for rows in sources.values() for r in rows):
         raise ValueError("no check rows to report")
-    caps = ", ".join(str(cap) for cap in sorted({r["step_cap"] for r in checks}))
-    recorded = {json.dumps(r["bounds"], sort_keys=True) for r in checks}
-    if len(recorded) != 1:
-        raise ValueError(f"the checks were decided against {len(recorded)} sets of bounds")
-    bounds = ", ".join(f"{m} ≤ {b['at_most']:.3g}" for m, b in checks[0]["bounds"].items())
-    table = markdown_table(
-        ["step", "seed", "held-out loss", "foot skating m/s", "joint jerk m/s³", "FID",
-         "failed gates", "training CPU-s (cumulative)"],
-        [[r["step"], r["seed"], f"{r['val_loss']:.4f}", f"{r['values']['foot_skating']:.3f}",
-          f"{r['values']['joint_jerk']:.0f}", f"{r['values']['fid']:.3f}",
-          ", ".join(m for m, ok in r["passed"].items() if not ok) or "none (pass)",
-          f"{r['train_cpu_seconds']:.0f}"] for r in checks])
-    finals = [r for r in rows if r.get("kind") is None and "step_cap" in r]
-    ended = (["", "Finished runs: " + "; ".join(
-        f"seed {r['seed']}: {r['steps_used']} steps ({r['stop_reason']}), "
-        f"{'passed' if r['passed'] else 'failed'}" for r in finals) + "."] if finals else
-        ["", "No run reached its stop (plateau or cap): the rows are what was measured before "
-             "the runs were stopped."])
+    sections = []
+    for name, rows in sources.items():
+        checks = sorted((r for r in rows if r.get("kind") == "check"),
+                        key=lambda r: (r["step"], r["seed"]))
+        spreads = [r for r in rows if r.get("kind") == "spread"]
+        decided = checks + spreads
+        if not decided:
+            continue
+        recorded = {json.dumps(r["bounds"], sort_keys=True) for r in decided}
+        if len(recorded) != 1:
+            raise ValueError(f"{name}: the rows were decided against {len(recorded)} sets of "
+                             "bounds")
+        bounds = ", ".join(f"{m} ≤ {b['at_most']:.4g}"
+                           for m, b in decided[0]["bounds"].items())
+        lines = ["", f"## `{name}`", "", f"Gate bounds on the machine that measured these "
+                 f"rows: {bounds}."]
+        if checks:
+            caps = ", ".join(str(cap) for cap in sorted({r["step_cap"] for r in checks}))
+            lines += ["", f"Checks on the way to the step cap {caps}:", "", markdown_table(
+                ["step", "seed", "held-out loss", "foot skating m/s", "joint jerk m/s³", "FID",
+                 "failed gates", "training CPU-s (cumulative)"],
+                [[r["step"], r["seed"], f"{r['val_loss']:.4f}",
+                  f"{r['values']['foot_skating']:.3f}", f"{r['values']['joint_jerk']:.0f}",
+                  f"{r['values']['fid']:.3f}",
+                  ", ".join(m for m, ok in r["passed"].items() if not ok) or "none (pass)",
+                  f"{r['train_cpu_seconds']:.0f}"] for r in checks])]
+        if spreads:
+            lines += ["", spread_table(spreads)]
+        finals = [r for r in rows if r.get("kind") is None and "step_cap" in r]
+        lines += (["", "Finished runs: " + "; ".join(
+            f"seed {r['seed']}: {r['steps_used']} steps ({r['stop_reason']}), "
+            f"{'passed' if r['passed'] else 'failed'}" for r in finals) + "."] if finals else
+            ["", "No run reached its stop (plateau or cap): the rows are what was measured "
+                 "before the runs were stopped."] if checks else [])
+        sections += lines
     return "\n".join([
         "# Notebook 01's relative-root x0 motion model with a longer step cap (issue #14)",
         "",
         "Generated by `scripts/check_gmd_motion_gate.py --report` (do not edit by hand). "
-        f"Notebook 01's full-mode GMD-A4 motion spec with the step cap {caps} "
+        "Notebook 01's full-mode GMD-A4 motion spec with a step cap of 12000 "
         f"(`MOTION_TRAINING`'s is {MOTION_TRAINING.step_cap}; 4000 until session 11), "
         "everything else as the notebook's (plateau criterion included); at each check the "
         "EMA weights draw the notebook's 256 unguided samples "
         "(seed = the model's seed), measured with notebook 01's evaluator against the test "
-        f"windows. Gate bounds: {bounds}. One torch thread per run, two runs on the 2 cores.",
-        "", table, *ended, ""])
+        "windows. Each machine's evaluator gives its own bounds (the FID bound is 5× the "
+        "data's own FID, which moves in the evaluator's last bits), so each file of rows has "
+        "its own section. One torch thread per run, two runs on the 2 cores.",
+        *sections, ""])
+
+
+def spread_table(spreads: list[dict[str, Any]]) -> str:
+    """The ``--spread`` draws of each saved weights file: the gate's values under other
+    sampling seeds (the first, the check's own seed, reproduces the check), mean ± sd."""
+    import numpy as np
+
+    out = []
+    for weights in dict.fromkeys(r["weights"] for r in spreads):
+        draws = [r for r in spreads if r["weights"] == weights]
+        cells = []
+        for metric in ("foot_skating", "joint_jerk", "fid"):
+            values = np.array([r["values"][metric] for r in draws])
+            digits = 0 if metric == "joint_jerk" else 3
+            cells.append(f"{values.mean():.{digits}f} ± {values.std(ddof=1):.{digits}f} "
+                         f"({values.min():.{digits}f}–{values.max():.{digits}f})"
+                         if len(values) > 1 else f"{values[0]:.{digits}f}")
+        passing = sum(all(r["passed"].values()) for r in draws)
+        out.append([f"`{Path(weights).name}`", len(draws), *cells,
+                    f"{passing} of {len(draws)}"])
+    return ("The same weights, sampled again (`--spread`: 256 samples per draw, sampling seeds "
+            "seed + 1000·k; mean ± sd (min–max) over the draws):\n\n" + markdown_table(
+                ["weights", "draws", "foot skating m/s", "joint jerk m/s³", "FID",
+                 "draws passing every gate"], out))
 
 
 def append(out: Path, row: dict[str, Any]) -> None:
