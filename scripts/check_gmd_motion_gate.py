@@ -5,9 +5,9 @@ spec defines it (``x0_vs_eps.Settings.spec`` on ``motion_data()``: relative-root
 trained to convergence up to ``MOTION_TRAINING``'s cap), and measures the gate the way the
 notebook does: ``settings.generated`` unguided samples (seed = the model's seed), their foot
 skating, joint jerk and FID with notebook 01's evaluator against the test windows' own values
-(the training windows' FID for the reference). One torch thread; prints JSON and appends it
-to ``--out``. The model lands in the cache under the notebook's key, so a later full run loads
-it.
+(for the reference, the training windows' mean FID over its draws: gates version 2). One
+torch thread; prints JSON and appends it to ``--out``. The model lands in the cache under the
+notebook's key, so a later full run loads it.
 
 ``--cap N --check-every K`` trains the same spec with the step cap N instead of
 ``MOTION_TRAINING``'s (every other field, the plateau criterion included, as the notebook's;
@@ -36,9 +36,10 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
-from repro.core.gates import gate_results
+from repro.core.gates import GATES, gate_results
 from repro.core.tables import markdown_table
 from repro.gmd import model_gates
 from repro.gmd import x0_vs_eps as x0eps
@@ -61,6 +62,11 @@ def main() -> None:
                         help="the saved EMA weights of one check: draw the gate's samples "
                              "--draws times with other sampling seeds")
     parser.add_argument("--draws", type=int, default=4, help="with --spread: sample sets")
+    parser.add_argument("--reference-draws", type=int, default=None, metavar="K",
+                        help="the FID bound's own spread: the data's FID (256 training "
+                             "windows against the test windows) for K draws of the windows "
+                             "(model_gates.reference_fid; the notebook's gate takes the mean "
+                             "of the first REFERENCE_FID_DRAWS)")
     parser.add_argument("--out", required=True, help="JSON lines, appended")
     args = parser.parse_args()
     if args.report:
@@ -108,6 +114,22 @@ def main() -> None:
                      "train_cpu_seconds": train_cpu_seconds,
                      "check_cpu_seconds": time.process_time() - t0, "weights": str(weights)})
 
+    if args.reference_draws is not None:
+        from repro.gmd.measurements import evaluator_inputs
+
+        fid_gate = next(g for g in GATES["gmd_motion"] if g.metric == "fid")
+        features, _ = evaluator_inputs(train.space("motion"), train.x)
+        t0 = time.process_time()
+        mean, draws = model_gates.reference_fid(
+            evaluation.evaluator, features, train.frames, evaluation.test_embeddings,
+            settings.generated, seed=0, draws=args.reference_draws)
+        append(out, {"kind": "reference", "reference_samples": settings.generated,
+                     "draws": draws, "mean": mean, "sd": float(np.std(draws, ddof=1)),
+                     "bound_of_each_draw": [fid_gate.bounds({"fid": d})[1] for d in draws],
+                     "notebook_bound": fid_gate.bounds({"fid": evaluation.reference_fid})[1],
+                     "notebook_draws": len(evaluation.reference_fid_draws),
+                     "cpu_seconds": time.process_time() - t0})
+        return
     if args.spread is not None:
         model = spec.build_model()
         model.load_state_dict(torch.load(args.spread, map_location="cpu", weights_only=True))
@@ -148,7 +170,7 @@ def notebook_reference(settings: x0eps.Settings) -> tuple[Any, Any, dict[str, fl
         train, test, settings.evaluator_config(train.fingerprint),
         reference_samples=settings.generated, seed=0)
     reference = model_gates.motion_gate_values(test.space("motion").joints(test.x),
-                                               fid=evaluation.real_fid)
+                                               fid=evaluation.reference_fid)
     return train, evaluation, reference
 
 

@@ -199,3 +199,29 @@ def test_motion_evaluation_gives_the_reference_fid_of_training_windows(cache, wi
         0.0, abs=1e-6)
     again = mg.motion_evaluation(train, test, config, reference_samples=6, seed=5)
     assert again.real_fid != evaluation.real_fid  # the picks follow the seed
+
+
+def test_the_fid_gates_reference_is_the_mean_of_its_draws_and_draw_0_is_the_single_draw(
+        cache, windows) -> None:
+    """Gates version 2: the reference FID is the mean over REFERENCE_FID_DRAWS draws of
+    training windows; its draw 0 picks the windows the single draw of version 1 picked."""
+    from repro.gmd.measurements import evaluator_inputs
+
+    train, test = windows
+    config = EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16,
+                             data_id=train.fingerprint)
+    evaluation = mg.motion_evaluation(train, test, config, reference_samples=6, seed=4)
+    assert len(evaluation.reference_fid_draws) == mg.REFERENCE_FID_DRAWS
+    assert evaluation.reference_fid_draws[0] == pytest.approx(evaluation.real_fid, rel=1e-4)
+    assert evaluation.reference_fid == pytest.approx(np.mean(evaluation.reference_fid_draws))
+    assert len(set(evaluation.reference_fid_draws)) > 1  # each draw picks other windows
+    features, _ = evaluator_inputs(train.space("motion"), train.x)
+    args = (evaluation.evaluator, features, train.frames, evaluation.test_embeddings, 6)
+    mean, draws = mg.reference_fid(*args, seed=4, draws=3)
+    assert draws == pytest.approx(list(evaluation.reference_fid_draws[:3]), rel=1e-4)
+    assert mean == pytest.approx(np.mean(draws))
+    assert mg.reference_fid(*args, seed=5, draws=3)[1] != draws  # the draws follow the seed
+    with pytest.raises(ValueError, match="at least one draw"):
+        mg.reference_fid(*args, seed=4, draws=0)
+    with pytest.raises(ValueError, match="windows per draw"):
+        mg.reference_fid(*args[:4], len(features) + 1, seed=4)
