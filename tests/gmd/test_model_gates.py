@@ -177,6 +177,15 @@ def test_emphasis_study_records_reuse_table_b1_samples_and_measure_the_rest(
     # the reference is the targets' own skating, so the allowed bound is 3× it
     assert measured["foot_skating"]["at_most"] == pytest.approx(
         3 * results.ground_truth["foot_skating"][0])
+    # and the FID bound 5× the training windows' mean FID against the targets (gates v2)
+    with torch.no_grad():
+        features = train_relative.space("motion").relative_features(train_relative.x)
+    targets = study.draw_targets(test, 32, seed=0)
+    lengths = [targets.relative.shape[1]] * len(targets)
+    reference, _ = mg.reference_fid(evaluator, features.numpy().astype(np.float32), lengths[0],
+                                    evaluator.embed_motions(targets.relative, lengths),
+                                    len(targets), seed=0)
+    assert measured["fid"]["at_most"] == pytest.approx(5 * reference)
 
 
 def test_motion_evaluation_gives_the_reference_fid_of_training_windows(cache, windows) -> None:
