@@ -53,6 +53,8 @@ def main() -> None:
     parser.add_argument("--prediction", choices=("x0", "epsilon"), default="x0")
     parser.add_argument("--cap", type=int, default=None,
                         help="step cap instead of MOTION_TRAINING's (the spec's train_steps)")
+    parser.add_argument("--autocast", choices=("bfloat16",), default=None,
+                        help="train under bf16 autocast (GMDModelSpec.autocast; its own key)")
     parser.add_argument("--check-every", type=int, default=None,
                         help="with --cap: measure the gate every K steps (a multiple of the "
                              "spec's validate_every)")
@@ -83,6 +85,8 @@ def main() -> None:
     spec = settings.spec("motion", args.prediction, train.config, seed=args.seed)
     if args.cap is not None:
         spec = spec.replace(train_steps=args.cap)
+    if args.autocast is not None:
+        spec = spec.replace(autocast=args.autocast)
     if args.check_every is not None and (spec.validate_every is None
                                          or args.check_every % spec.validate_every):
         parser.error(f"--check-every must be a multiple of validate_every={spec.validate_every}")
@@ -107,6 +111,7 @@ def main() -> None:
         train_cpu_seconds = t0 - started - checking[0]
         checking[0] += time.process_time() - t0
         append(out, {"kind": "check", "prediction": args.prediction, "seed": args.seed,
+                     "autocast": spec.autocast,
                      "representation": train.config.representation, "step_cap": spec.train_steps,
                      "step": step, "val_loss": loss, "values": values,
                      "bounds": bounds_of(gates),
@@ -150,7 +155,7 @@ def main() -> None:
         return
     trained = load_or_train_gmd(spec, train, on_validation=check)
     values, gates = gate_of(trained)
-    row = {"prediction": args.prediction, "seed": args.seed,
+    row = {"prediction": args.prediction, "seed": args.seed, "autocast": spec.autocast,
            "representation": train.config.representation, "cache_key": trained.cache_key,
            **model_gates.training_summary(trained),
            "train_seconds": trained.metrics.get("seconds"),

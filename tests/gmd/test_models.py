@@ -139,3 +139,21 @@ def test_initialisation_comes_from_the_seed_alone() -> None:
     assert all(torch.equal(first[name], again[name]) for name in first)
     other = spec.replace(seed=5).build_model().state_dict()
     assert not all(torch.equal(first[name], other[name]) for name in first)
+
+
+def test_autocast_is_opt_in_and_in_the_key_only_when_set() -> None:
+    from types import SimpleNamespace
+
+    from repro.infra.cache import config_hash
+
+    data = SimpleNamespace(fingerprint="0123456789abcdef")
+    fp32 = GMDModelSpec()
+    bf16 = fp32.replace(autocast="bfloat16")
+    assert "autocast" not in fp32.as_dict()
+    assert bf16.as_dict()["autocast"] == "bfloat16"
+    assert (config_hash(model_cache_config(fp32, data))
+            != config_hash(model_cache_config(bf16, data)))
+    assert fp32.train_config().autocast is None
+    assert bf16.train_config().autocast == "bfloat16"
+    with pytest.raises(ValueError, match="autocast must be one of"):
+        GMDModelSpec(autocast="float16")

@@ -20,7 +20,7 @@ import torch
 from torch import Tensor
 
 from repro.core.diffusion import GaussianDiffusion
-from repro.core.training import TrainConfig, ValidationSet, train_diffusion
+from repro.core.training import AUTOCAST_DTYPES, TrainConfig, ValidationSet, train_diffusion
 from repro.gmd.coefficients import schedule_diffusion
 from repro.gmd.paper_settings import MOTION_ARCHITECTURE, TRAJECTORY_ARCHITECTURE
 from repro.gmd.windows import (
@@ -163,6 +163,8 @@ class GMDModelSpec:
     patience: int = 5
     min_delta: float = 0.01
     validation_fraction: float = 0.05
+    #: None (fp32) or "bfloat16": ``TrainConfig.autocast`` (opt-in; in the key only when set)
+    autocast: str | None = None
 
     def __post_init__(self) -> None:
         check_task(self.task)
@@ -177,6 +179,9 @@ class GMDModelSpec:
             raise ValueError(f"prediction must be 'x0' or 'epsilon', got {self.prediction!r}")
         if self.schedule not in ("cosine", "linear"):
             raise ValueError(f"schedule must be 'cosine' or 'linear', got {self.schedule!r}")
+        if self.autocast not in AUTOCAST_DTYPES:
+            raise ValueError(f"autocast must be one of {sorted(map(str, AUTOCAST_DTYPES))}, "
+                             f"got {self.autocast!r}")
         object.__setattr__(self, "channel_mults", tuple(float(m) for m in self.channel_mults))
         if self.feature_weights is not None:
             weights = tuple(float(w) for w in self.feature_weights)
@@ -204,6 +209,8 @@ class GMDModelSpec:
         if self.validate_every is None:  # keeps the keys of specs made before convergence
             for name in ("validate_every", "patience", "min_delta", "validation_fraction"):
                 config.pop(name)
+        if self.autocast is None:  # keeps the keys of fp32 specs made before the field
+            config.pop("autocast")
         return config
 
     def diffusion(self) -> GaussianDiffusion:
@@ -226,7 +233,7 @@ class GMDModelSpec:
                            cond_dropout=self.cond_dropout if self.text_conditioned else 0.0,
                            validate_every=self.validate_every,
                            patience=self.patience, min_delta=self.min_delta,
-                           device=str(device))
+                           autocast=self.autocast, device=str(device))
 
 
 @dataclass
