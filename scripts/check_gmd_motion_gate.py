@@ -15,6 +15,8 @@ cached under that spec's key) and measures the gate the same way on the EMA weig
 steps on the way, one row per check (``"kind": "check"``), each written as it is measured,
 with the weights saved beside ``--out``: whether a longer cap passes the gate, and from when.
 The training is the same with or without the checks (``train_diffusion``'s ``on_validation``).
+``--autocast fp32|bfloat16`` trains the spec in that precision instead of the notebook's
+(``MOTION_TRAINING.autocast``; docs/pilot_bf16_motion.md compares the two).
 
     PYTHONPATH=src python scripts/check_gmd_motion_gate.py --seed 1 --out build/motion_gate.jsonl
     PYTHONPATH=src python scripts/check_gmd_motion_gate.py --seed 1 --cap 12000 \
@@ -53,8 +55,9 @@ def main() -> None:
     parser.add_argument("--prediction", choices=("x0", "epsilon"), default="x0")
     parser.add_argument("--cap", type=int, default=None,
                         help="step cap instead of MOTION_TRAINING's (the spec's train_steps)")
-    parser.add_argument("--autocast", choices=("bfloat16",), default=None,
-                        help="train under bf16 autocast (GMDModelSpec.autocast; its own key)")
+    parser.add_argument("--autocast", choices=("fp32", "bfloat16"), default=None,
+                        help="train in fp32 or under bf16 autocast instead of the notebook's "
+                             "setting (GMDModelSpec.autocast; its own key)")
     parser.add_argument("--check-every", type=int, default=None,
                         help="with --cap: measure the gate every K steps (a multiple of the "
                              "spec's validate_every)")
@@ -86,7 +89,7 @@ def main() -> None:
     if args.cap is not None:
         spec = spec.replace(train_steps=args.cap)
     if args.autocast is not None:
-        spec = spec.replace(autocast=args.autocast)
+        spec = spec.replace(autocast=None if args.autocast == "fp32" else args.autocast)
     if args.check_every is not None and (spec.validate_every is None
                                          or args.check_every % spec.validate_every):
         parser.error(f"--check-every must be a multiple of validate_every={spec.validate_every}")

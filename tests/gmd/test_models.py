@@ -76,13 +76,14 @@ def test_load_or_train_many_trains_missing_models_in_worker_processes(small_conf
 #: nb02_traj_rel_full with #17 too (T = 1000 cosine, the guidance experiments' model), and
 #: again with #14's trajectory pilot (GMD's widths 64 × (1, 2, 4), cap 12000); every key with
 #: cache version 2 (the initialisation is seeded from the spec's seed, issue #14); nb03_k5_full
-#: again with the motion family's cap 4000 → 12000 (issue #14, session 11).
+#: again with the motion family's cap 4000 → 12000 (issue #14, session 11), and with its bf16
+#: autocast (session 13, docs/pilot_bf16_motion.md; quick and trajectory keys unchanged).
 PINNED_MODEL_KEYS = {
     "default": "6ce1b03ba300719e",
     "nb01_quick_motion_x0": "651d6ce53dddfa4c",
     "nb02_traj_rel_full": "5d1275cc32eb5600",
     "nb02_motion_abs_quick": "ede8bcaa678fa0a2",
-    "nb03_k5_full": "a9ceafcacd9855a0",
+    "nb03_k5_full": "b47b3082e895e349",
     "nb03_c10_quick": "f1fdc75515d65e59",
     "max_windows": "5ee81027de0ca770",
 }
@@ -157,3 +158,9 @@ def test_autocast_is_opt_in_and_in_the_key_only_when_set() -> None:
     assert bf16.train_config().autocast == "bfloat16"
     with pytest.raises(ValueError, match="autocast must be one of"):
         GMDModelSpec(autocast="float16")
+
+
+def test_full_mode_motion_trains_under_bf16_and_the_rest_in_fp32() -> None:
+    assert models.training_fields("motion", quick=False)["autocast"] == "bfloat16"
+    assert models.training_fields("trajectory", quick=False)["autocast"] is None
+    assert "autocast" not in models.training_fields("motion", quick=True, step_cap=10)

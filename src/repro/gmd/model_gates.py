@@ -197,7 +197,8 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
     validate_every``) brings its record (``TrainResult.metrics()["convergence"]``): steps
     used, whether the plateau stopped it, and its held-out validation loss (EMA weights) as
     the curve; an older model gives its *training* loss (online weights, per step) as the
-    curve and ``converged`` None (unknown)."""
+    curve and ``converged`` None (unknown). ``precision`` is "fp32" or the autocast dtype it
+    was trained under (``GMDModelSpec.autocast``)."""
     if family not in ("gmd_motion", "gmd_trajectory"):
         raise ValueError(f"a GMD model's family is gmd_motion or gmd_trajectory, not {family!r}")
     convergence = trained.metrics.get("convergence")
@@ -209,6 +210,7 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
                           steps=int(summary["steps_used"]),
                           train_seconds=trained.metrics.get("seconds"), validation_curve=curve,
                           converged=summary["converged"])
+    record["precision"] = trained.spec.autocast or "fp32"
     if convergence:
         record["convergence"] = {"step_cap": convergence["step_cap"],
                                  "stop_reason": convergence["stop_reason"],

@@ -73,13 +73,15 @@ VALIDATION_SPLIT_SEED = 0
 class ConvergenceTraining:
     """How a family is trained to convergence (``core.training``, docs/TRAINING.md): AdamW at
     ``lr`` with ``batch_size``, the held-out loss every ``validate_every`` steps, stop after
-    ``patience`` evaluations without a 1 % gain, at most ``step_cap`` steps."""
+    ``patience`` evaluations without a 1 % gain, at most ``step_cap`` steps; ``autocast``
+    "bfloat16" trains under bf16 autocast (``TrainConfig.autocast``), None in fp32."""
 
     batch_size: int
     lr: float
     validate_every: int
     patience: int
     step_cap: int
+    autocast: str | None = None
 
 
 #: full-mode motion models (``paper_settings.MOTION_ARCHITECTURE``), from the design pilot
@@ -88,8 +90,11 @@ class ConvergenceTraining:
 #: notebook 01's motion models reached 4000 steps without their plateau stop, the held-out
 #: loss still falling 3 % per 1000 steps, so the cap, not convergence, ended them
 #: (docs/TRAINING.md point 9); 12000 as the trajectory family's, the plateau decides.
+#: bf16 autocast (session 13, docs/pilot_bf16_motion.md): 1.7-1.9x faster on an AMX CPU, with
+#: the held-out loss within 0.13 % of fp32's and the gate values within their noise (a rule
+#: written before the runs); on a CPU without AMX it is slower (0.69-0.98x, README).
 MOTION_TRAINING = ConvergenceTraining(batch_size=64, lr=3e-4, validate_every=200, patience=5,
-                                      step_cap=12000)
+                                      step_cap=12000, autocast="bfloat16")
 #: full-mode trajectory models: at 64 × (1, 2, 4) the ε model was still improving at a 4000-step
 #: cap and stopped on its plateau at 6700 of 12000 (docs/TRAINING.md, trajectory pilots).
 TRAJECTORY_TRAINING = ConvergenceTraining(batch_size=64, lr=1e-3, validate_every=100,
@@ -271,10 +276,10 @@ class TrainedGMD:
 def training_fields(task: Task, *, quick: bool, step_cap: int | None = None) -> dict[str, Any]:
     """The architecture and convergence-training fields of a notebook's ``GMDModelSpec`` of
     ``task`` (issue #14): in full mode ``paper_settings``' architecture of the family and its
-    ``ConvergenceTraining`` (batch, lr, validation interval, patience, step cap; ``step_cap``
-    overrides the cap); in quick mode only the convergence path (``QUICK_TRAINING``: validate
-    every few steps, short patience) on the notebook's own tiny model, whose step count
-    (``step_cap``, required) is the cap."""
+    ``ConvergenceTraining`` (batch, lr, validation interval, patience, autocast, step cap;
+    ``step_cap`` overrides the cap); in quick mode only the convergence path
+    (``QUICK_TRAINING``: validate every few steps, short patience) on the notebook's own tiny
+    model, whose step count (``step_cap``, required) is the cap."""
     check_task(task)
     if quick:
         if step_cap is None:
@@ -286,6 +291,7 @@ def training_fields(task: Task, *, quick: bool, step_cap: int | None = None) -> 
     return {"base_channels": architecture.base_channels,
             "channel_mults": architecture.channel_mults, "batch_size": plan.batch_size,
             "lr": plan.lr, "validate_every": plan.validate_every, "patience": plan.patience,
+            "autocast": plan.autocast,
             "train_steps": plan.step_cap if step_cap is None else int(step_cap)}
 
 
@@ -425,8 +431,9 @@ def describe(spec: GMDModelSpec) -> str:
              f"steps)")
     return (f"{spec.task}/{spec.prediction} UNet1D(base {spec.base_channels}, mults [{mults}]), "
             f"T={spec.diffusion_steps} {spec.schedule}, {steps} × batch "
-            f"{spec.batch_size}, lr {spec.lr:g}, {spec.data.frames} frames "
-            f"({spec.data.representation} root)")
+            f"{spec.batch_size}, lr {spec.lr:g}"
+            f"{', bf16 autocast' if spec.autocast == 'bfloat16' else ''}, {spec.data.frames} "
+            f"frames ({spec.data.representation} root)")
 
 
 def parameter_count(trained: TrainedGMD) -> int:
