@@ -37,7 +37,8 @@ def test_quick_bench_writes_every_family_and_keeps_other_keys(quick_bench):
         "fast_mish", "fast_mish+fused_adamw", "bf16_autocast"}
     meta = written["training_bench"]
     assert meta["mode"] == "quick" and meta["threads"] == 1
-    assert set(meta["width_study"]) == {"base16", f"width{QUICK.wide_width}"}
+    assert set(meta["width_study"]) == {"base16", f"width{QUICK.wide_width}", "notebook_motion"}
+    assert "0.5, 0.25]" in meta["width_study"]["notebook_motion"]["model"]
     assert {"fp32", "bf16_autocast"} <= set(meta["pilot"]["validation_loss"])
     for name in ("fast_mish_forward_backward", "fast_mish_forward", "update_foreach_vs_loop",
                  "update_fused_vs_loop"):

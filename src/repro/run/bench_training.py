@@ -16,8 +16,10 @@ denoiser, the evaluator), at the sizes the package trains it with:
   takes them, each as a ratio against the same baseline;
 - the time to pass the family's quality gate: null, no gate is registered yet (#14).
 
-Also fp32 against bf16 autocast for the motion UNet at base 16 and at width 288 (mults 1-1-1,
-wide enough for 263-d ε), the exact-math levers alone (FastMish forward + backward and
+Also fp32 against bf16 autocast for the motion UNet at base 16, at width 288 (mults 1-1-1,
+wide enough for 263-d ε) and as the notebooks train it in full mode (``notebook_motion``:
+``MOTION_ARCHITECTURE`` at ``MOTION_TRAINING``'s batch 64, whose bf16 decision is
+docs/pilot_bf16_motion.md), the exact-math levers alone (FastMish forward + backward and
 forward only; the parameter update as loops, foreach and fused: a whole step's noise on a
 shared machine hides a 5–10 % gain), a numerics pilot (validation loss of each lever's run
 against fp32's after the same steps, tolerance ``PILOT_TOLERANCE``), and samples/s of the DDPM
@@ -55,7 +57,8 @@ from torch.utils.flop_counter import FlopCounterMode
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import TrainConfig, train_diffusion
 from repro.gmd.coefficients import schedule_diffusion
-from repro.gmd.models import GMDModelSpec
+from repro.gmd.models import MOTION_TRAINING, GMDModelSpec
+from repro.gmd.paper_settings import MOTION_ARCHITECTURE
 from repro.infra import paths
 from repro.infra.storage import read_json, write_json
 from repro.models.unet import UNet1D
@@ -73,8 +76,9 @@ __all__ = ["FULL", "PILOT_TOLERANCE", "QUICK", "BenchSizes", "bench_training", "
 
 #: a lever's validation loss may differ from fp32's by this fraction (pilot, stated up front)
 PILOT_TOLERANCE = 0.05
-GATE_NOTE = ("gates are registered (repro.core.gates) but the models do not measure them yet "
-             "(issue: models that work)")
+GATE_NOTE = ("not measured here: the bench trains on synthetic signals, which have no gate; "
+             "each model's gate is measured where a notebook trains it (results/models.json, "
+             "steps and training time beside it)")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -146,7 +150,9 @@ def _width_study(sizes: BenchSizes) -> dict[str, Any]:
                                    spec.prediction)
     data = smooth_signals(sizes.data_items, spec.channels, frames, seed=5)
     cases = {"base16": (spec.base_channels, spec.channel_mults, sizes.batch or spec.batch_size),
-             f"width{sizes.wide_width}": (sizes.wide_width, (1.0, 1.0, 1.0), sizes.wide_batch)}
+             f"width{sizes.wide_width}": (sizes.wide_width, (1.0, 1.0, 1.0), sizes.wide_batch),
+             "notebook_motion": (sizes.wide_width, MOTION_ARCHITECTURE.channel_mults,
+                                 sizes.batch or MOTION_TRAINING.batch_size)}
     out = {}
     for name, (width, mults, batch) in cases.items():
         def loop(autocast: str | None, width: int = width, mults: tuple = mults,
@@ -156,7 +162,8 @@ def _width_study(sizes: BenchSizes) -> dict[str, Any]:
                 TrainConfig(steps=n, batch_size=batch, lr=spec.lr, seed=0, autocast=autocast),
                 progress=False).seconds
 
-        steps = max(1, sizes.steps // 4) if width > spec.base_channels else sizes.steps
+        wide_and_small_batch = width > spec.base_channels and name != "notebook_motion"
+        steps = max(1, sizes.steps // 4) if wide_and_small_batch else sizes.steps
         pair = paired_ratios(loop(None), loop("bfloat16"), steps, sizes.repeats)
         out[name] = {"model": f"UNet1D({spec.channels}, base {width}, mults {list(mults)})",
                      "batch": batch, "frames": frames, "steps_per_measurement": steps,
