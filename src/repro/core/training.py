@@ -55,6 +55,7 @@ from repro.infra.cache import load_or_train
 
 __all__ = ["AUTOCAST_DTYPES", "VALIDATION_SEED_OFFSET", "ConvergenceRecord", "PlateauCriterion",
            "TrainConfig", "TrainResult", "ValidationPairs", "ValidationSet", "autocast_context",
+           "check_autocast",
            "check_convergence_fields", "drop_unset_convergence_fields", "ema_decay_at",
            "load_or_train", "make_adamw", "torch_threads", "train_diffusion",
            "validation_loss"]
@@ -68,6 +69,13 @@ _CONVERGENCE_DEFAULTS: dict[str, Any] = {"validate_every": None, "patience": 5,
 #: the validation noise's generator seed is ``seed + VALIDATION_SEED_OFFSET`` (not the
 #: training generator, so validating leaves the training trajectory unchanged)
 VALIDATION_SEED_OFFSET = 7919
+
+
+def check_autocast(autocast: str | None) -> None:
+    """Raise unless ``autocast`` is one of ``AUTOCAST_DTYPES`` (None: fp32)."""
+    if autocast not in AUTOCAST_DTYPES:
+        raise ValueError(f"autocast must be one of {sorted(map(str, AUTOCAST_DTYPES))}, "
+                         f"got {autocast!r}")
 
 
 def check_convergence_fields(config: Any) -> None:
@@ -188,9 +196,7 @@ class TrainConfig:
             raise ValueError(f"cond_dropout must be in [0, 1], got {self.cond_dropout}")
         if self.feature_weights is not None:
             self.feature_weights = [float(w) for w in self.feature_weights]
-        if self.autocast not in AUTOCAST_DTYPES:
-            raise ValueError(f"autocast must be one of {sorted(map(str, AUTOCAST_DTYPES))}, "
-                             f"got {self.autocast!r}")
+        check_autocast(self.autocast)
         check_convergence_fields(self)
 
     def to_config(self) -> dict[str, Any]:

@@ -20,7 +20,7 @@ import torch
 from torch import Tensor
 
 from repro.core.diffusion import GaussianDiffusion
-from repro.core.training import AUTOCAST_DTYPES, TrainConfig, ValidationSet, train_diffusion
+from repro.core.training import TrainConfig, ValidationSet, check_autocast, train_diffusion
 from repro.gmd.coefficients import schedule_diffusion
 from repro.gmd.paper_settings import MOTION_ARCHITECTURE, TRAJECTORY_ARCHITECTURE
 from repro.gmd.windows import (
@@ -90,7 +90,7 @@ class ConvergenceTraining:
 #: notebook 01's motion models reached 4000 steps without their plateau stop, the held-out
 #: loss still falling 3 % per 1000 steps, so the cap, not convergence, ended them
 #: (docs/TRAINING.md point 9); 12000 as the trajectory family's, the plateau decides.
-#: bf16 autocast (session 13, docs/pilot_bf16_motion.md): 1.7-1.9x faster on an AMX CPU, with
+#: bf16 autocast (session 13, docs/pilot_bf16_motion.md): 1.7-2.1x faster on an AMX CPU, with
 #: the held-out loss within 0.13 % of fp32's and the gate values within their noise (a rule
 #: written before the runs); on a CPU without AMX it is slower (0.69-0.98x, README).
 MOTION_TRAINING = ConvergenceTraining(batch_size=64, lr=3e-4, validate_every=200, patience=5,
@@ -184,9 +184,7 @@ class GMDModelSpec:
             raise ValueError(f"prediction must be 'x0' or 'epsilon', got {self.prediction!r}")
         if self.schedule not in ("cosine", "linear"):
             raise ValueError(f"schedule must be 'cosine' or 'linear', got {self.schedule!r}")
-        if self.autocast not in AUTOCAST_DTYPES:
-            raise ValueError(f"autocast must be one of {sorted(map(str, AUTOCAST_DTYPES))}, "
-                             f"got {self.autocast!r}")
+        check_autocast(self.autocast)
         object.__setattr__(self, "channel_mults", tuple(float(m) for m in self.channel_mults))
         if self.feature_weights is not None:
             weights = tuple(float(w) for w in self.feature_weights)

@@ -28,6 +28,7 @@ from repro.energymogen.config import PipelineConfig
 from repro.energymogen.pipeline import denoiser_kwargs, scaled_linear_betas, vae_kwargs
 from repro.gmd.coefficients import schedule_diffusion
 from repro.gmd.models import GMDModelSpec
+from repro.gmd.paper_settings import MOTION_ARCHITECTURE
 from repro.models.evaluator import (
     Evaluator,
     EvaluatorConfig,
@@ -60,7 +61,7 @@ class BenchSizes:
     ddim_steps: int
     sample_batches: tuple[int, int]
     gemm_n: int
-    wide_width: int
+    wide_width: int            # the wide motion UNet's base width (FULL: the notebooks')
     wide_batch: int
     pilot_steps: int
     pilot_batch: int
@@ -69,7 +70,8 @@ class BenchSizes:
 
 
 FULL = BenchSizes(steps=4, repeats=5, batch=None, frames=None, timesteps=None, ddim_steps=20,
-                  sample_batches=(4, 32), gemm_n=1024, wide_width=288, wide_batch=4,
+                  sample_batches=(4, 32), gemm_n=1024,
+                  wide_width=MOTION_ARCHITECTURE.base_channels, wide_batch=4,
                   pilot_steps=40, pilot_batch=32, data_items=512, text_tokens=12)
 QUICK = BenchSizes(steps=2, repeats=1, batch=4, frames=16, timesteps=5, ddim_steps=3,
                    sample_batches=(2, 4), gemm_n=128, wide_width=32, wide_batch=2,

@@ -14,7 +14,8 @@ denoiser, the evaluator), at the sizes the package trains it with:
   steps/s of the package configuration, as fractions of the fp32 and bf16 GEMM peaks;
 - the opt-in levers (``FastMish``, fused AdamW, bf16 autocast) where the family's training
   takes them, each as a ratio against the same baseline;
-- the time to pass the family's quality gate: null, no gate is registered yet (#14).
+- the time to pass the family's quality gate: null, the synthetic signals have no gate
+  (``GATE_NOTE``).
 
 Also fp32 against bf16 autocast for the motion UNet at base 16, at width 288 (mults 1-1-1,
 wide enough for 263-d ε) and as the notebooks train it in full mode (``notebook_motion``:
@@ -149,12 +150,16 @@ def _width_study(sizes: BenchSizes) -> dict[str, Any]:
     diffusion = schedule_diffusion(spec.schedule, sizes.timesteps or spec.diffusion_steps,
                                    spec.prediction)
     data = smooth_signals(sizes.data_items, spec.channels, frames, seed=5)
-    cases = {"base16": (spec.base_channels, spec.channel_mults, sizes.batch or spec.batch_size),
-             f"width{sizes.wide_width}": (sizes.wide_width, (1.0, 1.0, 1.0), sizes.wide_batch),
+    wide_steps = max(1, sizes.steps // 4)
+    #: name → (width, mults, batch, steps per measurement)
+    cases = {"base16": (spec.base_channels, spec.channel_mults, sizes.batch or spec.batch_size,
+                        sizes.steps),
+             f"width{sizes.wide_width}": (sizes.wide_width, (1.0, 1.0, 1.0), sizes.wide_batch,
+                                          wide_steps),
              "notebook_motion": (sizes.wide_width, MOTION_ARCHITECTURE.channel_mults,
-                                 sizes.batch or MOTION_TRAINING.batch_size)}
+                                 sizes.batch or MOTION_TRAINING.batch_size, sizes.steps)}
     out = {}
-    for name, (width, mults, batch) in cases.items():
+    for name, (width, mults, batch, steps) in cases.items():
         def loop(autocast: str | None, width: int = width, mults: tuple = mults,
                  batch: int = batch) -> Callable[[int], float]:
             return lambda n: train_diffusion(
@@ -162,8 +167,6 @@ def _width_study(sizes: BenchSizes) -> dict[str, Any]:
                 TrainConfig(steps=n, batch_size=batch, lr=spec.lr, seed=0, autocast=autocast),
                 progress=False).seconds
 
-        wide_and_small_batch = width > spec.base_channels and name != "notebook_motion"
-        steps = max(1, sizes.steps // 4) if wide_and_small_batch else sizes.steps
         pair = paired_ratios(loop(None), loop("bfloat16"), steps, sizes.repeats)
         out[name] = {"model": f"UNet1D({spec.channels}, base {width}, mults {list(mults)})",
                      "batch": batch, "frames": frames, "steps_per_measurement": steps,
