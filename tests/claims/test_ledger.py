@@ -1,5 +1,5 @@
-"""The ledger: both registry versions on the same measurements, controls decided by the same
-rule, quality gates, and what the sidecar keeps."""
+"""The ledger: the registry's rule, controls decided by the same rule, fitness gates that make
+inconclusive the parts that read their model, and what the sidecar keeps."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from conftest import make_context
 
 from repro.claims.ledger import load_sidecars, record_claim, verdict_markdown
 from repro.claims.registry import get_claim
-from repro.claims.verdicts import INCONCLUSIVE, PAPER_DISCREPANCY, REPRODUCED
+from repro.claims.verdicts import INCONCLUSIVE, PARTIAL, REPRODUCED, SUPPORTED
 
 A3_GOOD = {"goal_error_x0": [0.5, 0.6, 0.55, 0.52, 0.58],
            "goal_error_eps": [0.1, 0.12, 0.11, 0.1, 0.13],
@@ -21,21 +21,22 @@ A3_GOOD = {"goal_error_x0": [0.5, 0.6, 0.55, 0.52, 0.58],
            "guided_change_survival_x0": [0.3, 0.2, 0.25, 0.22, 0.28]}
 
 
-def test_sidecar_carries_both_versions_parts_and_missing_controls(tmp_path: Path) -> None:
+def test_sidecar_carries_parts_with_what_the_run_could_see_and_missing_controls(
+        tmp_path: Path) -> None:
     decision = record_claim(make_context(tmp_path, quick=False), "GMD-A3", A3_GOOD,
                             seeds=[0, 1, 2, 3, 4])
     sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
-    assert sidecar["registry_version"] == 3
-    assert sidecar["verdict"] == decision.verdict
-    assert sidecar["v1"]["verdict"] == REPRODUCED and sidecar["v1"]["registry_version"] == 1
+    assert sidecar["registry_version"] == 4
+    assert sidecar["verdict"] == decision.verdict == REPRODUCED
+    assert "v1" not in sidecar and "power_note" not in sidecar
     assert [p["name"] for p in sidecar["parts"]] == ["eps_reaches_goal_better",
                                                      "eps_keeps_more_of_best_gain"]
+    numbers = sidecar["parts"][0]["numbers"]["difference"]
+    assert numbers["n"] == 5 and numbers["minimum_detectable_effect"] > 0
     assert sidecar["controls"]["positive"]["status"] == "missing"
     assert sidecar["controls"]["null"]["status"] == "missing"
-    assert "affords 3 seeds" in sidecar["power_note"]
-    assert decision.v1_verdict == REPRODUCED
     text = verdict_markdown(make_context(tmp_path, quick=False), "GMD-A3", decision)
-    assert "registry v1: reproduced" in text and "*Power:*" in text
+    assert "registry v4" in text and "**GMD-A3 — reproduced**" in text
 
 
 def test_controls_are_decided_by_the_same_rule(tmp_path: Path) -> None:
@@ -65,17 +66,17 @@ def test_quality_gate_and_new_measurements(tmp_path: Path) -> None:
     ctx = make_context(tmp_path)
     gated = record_claim(ctx, "GMD-A3", A3_GOOD, seeds=[0], quality_gates={"x0_model_fid": False})
     assert gated.verdict == INCONCLUSIVE and "x0_model_fid" in gated.reason
-    # v2 reads measurements the notebook does not record yet: inconclusive, not an error
+    # a measurement only later versions read, not recorded: inconclusive, not an error
     emg9 = record_claim(ctx, "EMG-9", {"fid_vs_closed_form_relative_error": 1e-15,
                                        "printed_vs_closed_form_relative_error": 0.15},
                         seeds=[0])
-    sidecar = load_sidecars(tmp_path / "claims")["EMG-9"]
-    assert emg9.verdict == INCONCLUSIVE and sidecar["v1"]["verdict"] == PAPER_DISCREPANCY
+    assert emg9.verdict == INCONCLUSIVE and "not recorded" in emg9.reason
     with pytest.raises(ValueError, match="printed_vs_closed_form_relative_error"):
         record_claim(ctx, "EMG-9", {"fid_vs_closed_form_relative_error": 0.0}, seeds=[0])
 
 
-def test_a_model_that_fails_its_gate_makes_the_claim_inconclusive(tmp_path: Path) -> None:
+def test_a_model_that_fails_its_gate_makes_the_parts_that_read_it_inconclusive(
+        tmp_path: Path) -> None:
     from conftest import make_context
 
     from repro.claims.report import models_markdown, models_of
@@ -91,6 +92,16 @@ def test_a_model_that_fails_its_gate_makes_the_claim_inconclusive(tmp_path: Path
     failed = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good, bad])
     assert passed.verdict == "reproduced"
     assert failed.verdict == "inconclusive" and "model eps motion" in failed.reason
+    # the same model read by one part only: the others keep their outcomes
+    one_part = dict(bad, reads=["eps_motion_worse_fid"])
+    partial = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good, one_part])
+    assert partial.verdict == PARTIAL
+    assert partial.checks == {"eps_motion_more_jagged": SUPPORTED,
+                              "eps_motion_worse_fid": INCONCLUSIVE,
+                              "choice_matters_less_for_trajectories": SUPPORTED}
+    with pytest.raises(ValueError, match="reads parts"):
+        record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2],
+                     models=[dict(bad, reads=["no_such_part"])])
     sidecars = {"GMD-A4": read_json(tmp_path / "claims" / "GMD-A4.json")}
     models = models_of(sidecars)
     assert [m["name"] for m in models] == ["eps motion", "x0 motion"]

@@ -26,13 +26,13 @@ def test_update_replaces_only_the_marked_table(tmp_path: Path) -> None:
     assert text.startswith("intro\n<!-- claims-table:start x -->\n") and text.endswith("outro\n")
 
 
-def test_version_2_rows_show_parts_for_anything_but_reproduced() -> None:
+def test_rows_show_parts_for_anything_but_reproduced_and_what_changed() -> None:
     rows = [{"id": "EMG-8", "verdict": "inconclusive", "notebook": "08_composed_augmentation",
-             "registry_version": "2", "v1_verdict": "not reproduced",
+             "registry_version": "4", "previous_verdict": "not reproduced (v1)",
              "parts_short": "r_precision_improves: below resolution; fid_improves: absent"},
             {"id": "GMD-A2", "verdict": "reproduced", "notebook": "01_x0_vs_eps",
-             "registry_version": "2", "v1_verdict": "reproduced", "parts_short": ""}]
+             "registry_version": "4", "previous_verdict": "reproduced (v1)", "parts_short": ""}]
     table = readme_claims_table(rows)
     assert ("| EMG-8 | inconclusive — r_precision_improves: below resolution; fid_improves: "
-            "absent (v1: not reproduced) | `08_composed_augmentation` |") in table
+            "absent (was: not reproduced (v1)) | `08_composed_augmentation` |") in table
     assert "| GMD-A2 | reproduced | `01_x0_vs_eps` |" in table

@@ -1,6 +1,6 @@
 """REPORT.md opens with the trust screen (verdict, parts, controls, gates, limits per claim),
-links the figure of the claims by outcome, and lists the v1 → current verdict changes with
-the changelog's reasons; REPORT.html has the same."""
+links the figure of the claims by outcome, and lists the verdict changes since the previous
+snapshot with the changelog's reasons; REPORT.html has the same."""
 
 from __future__ import annotations
 
@@ -14,7 +14,9 @@ from repro.claims.changelog import EVERY_CLAIM, claim_changes, ids_in, parse_cha
 from repro.claims.ledger import load_sidecars, record_claim
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.claims.report import docs_link, write_report
-from repro.claims.trust import power_short, trust_rows, verdict_changes
+from repro.claims import trust
+from repro.claims.trust import power_short, previous_snapshot, trust_rows, verdict_changes
+from repro.infra.storage import write_json
 
 A3 = CLAIMS["GMD-A3"]
 FAILED_MODEL = {"name": "trajectory-eps", "family": "gmd_trajectory", "gate": {},
@@ -67,32 +69,47 @@ def test_passing_models_and_missing_controls_read_as_such(tmp_path: Path) -> Non
     assert "quality gates" not in row.limits
 
 
-def test_power_limits_name_the_unaffordable_parts() -> None:
-    short = [p for p in A3.parts if p.seeds > A3.affordable_seeds]
-    text = power_short(A3)
-    assert (text.startswith(f"power ({len(short)} of {len(A3.parts)} parts need")
-            if short else text == "")
-    assert power_short(CLAIMS["GMD-A1"]) == ""  # an exact check needs no seeds
+def test_power_limits_say_what_the_run_could_see(tmp_path: Path) -> None:
+    # 3 seeds spread far wider than δ: the parts the run could not decide say how large an
+    # effect it could have seen, in units of δ
+    noisy = {"goal_error_x0": [0.5, 0.9, 0.2], "goal_error_eps": [0.6, 0.4, 0.5],
+             "best_gain_survival_eps": [0.9, 0.3, 0.7], "best_gain_survival_x0": [0.5, 0.8, 0.4],
+             "guided_change_survival_eps": [0.9, 0.3, 0.7],
+             "guided_change_survival_x0": [0.5, 0.8, 0.4]}
+    record_claim(make_context(tmp_path, quick=False), "GMD-A3", noisy, seeds=[0, 1, 2])
+    sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
+    undecided = [p for p in sidecar["parts"] if p["outcome"] == "inconclusive"]
+    assert undecided, "the null example should leave a part undecided"
+    text = power_short(sidecar)
+    assert text.startswith(f"power ({len(undecided)} of 2 parts: this run could see ")
+    assert text.endswith("× δ)")
+    assert power_short({"parts": [{"name": "x", "outcome": "supported"}]}) == ""
 
 
-def test_verdict_changes_cite_the_changelog(tmp_path: Path) -> None:
-    # on data with no effect, the frozen v1 rule says "not reproduced" where v3 cannot decide
+def test_verdict_changes_cite_the_changelog(tmp_path: Path,
+                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    snapshot = tmp_path / "results" / "claims.json"
+    write_json(snapshot, {"sidecars": {"GMD-A3": {"mode": "full", "verdict": "reproduced",
+                                                  "registry_version": 1},
+                                       "GMD-A4": {"mode": "quick", "verdict": "reproduced"}}})
+    monkeypatch.setattr(trust.paths, "results_dir", lambda: snapshot.parent)
+    assert set(previous_snapshot()) == {"GMD-A3"}          # quick sidecars are no snapshot
     record_claim(make_context(tmp_path, quick=False), "GMD-A3",
-                 A3.null_example(np.random.default_rng(0)), seeds=[0, 1, 2])
+                 A3.example_at(np.random.default_rng(0), -3.0, 3), seeds=[0, 1, 2])
     sidecars = load_sidecars(tmp_path / "claims")
-    changes = verdict_changes(sidecars, claim_changes())
-    assert [(c.claim_id, c.v1, c.current) for c in changes] == [
-        ("GMD-A3", "not reproduced", "inconclusive")]
+    changes = verdict_changes(sidecars, previous_snapshot(), claim_changes())
+    assert [(c.claim_id, c.previous, c.previous_version, c.current) for c in changes] == [
+        ("GMD-A3", "reproduced", 1, "not reproduced")]
     assert all(ch.version >= 2 for ch in changes[0].changes) and changes[0].changes
+    assert any(ch.version == REGISTRY_VERSION for ch in claim_changes()[EVERY_CLAIM])
     text = write_report(tmp_path, quick=False).read_text(encoding="utf-8")
-    section = text[text.index("## Verdict changes since registry v1"):]
-    assert "- **GMD-A3**: v1 *not reproduced* → v3 *inconclusive*." in section
+    section = text[text.index("## Verdict changes since the previous snapshot"):]
+    assert f"- **GMD-A3**: v1 *reproduced* → v{REGISTRY_VERSION} *not reproduced*." in section
     docs = docs_link(tmp_path / "report")
-    assert f"]({docs}/REGISTRY_CHANGELOG.md#per-claim)" in section
+    assert f"[v{REGISTRY_VERSION}: For every claim]({docs}/REGISTRY_CHANGELOG.md#" in section
     assert (tmp_path / "report" / docs / "REGISTRY_CHANGELOG.md").is_file()
     assert (tmp_path / "report" / docs / "ERRATA.md").is_file()
     assert f"]({docs}/ERRATA.md)" in text
-    assert "both directions tested with Holm" in section
 
 
 CHANGELOG = """# Registry changelog

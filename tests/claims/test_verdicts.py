@@ -1,5 +1,6 @@
-"""Outcomes and verdicts of registry version 2: the tests behind each outcome, Holm, TOST,
-exact ties, the per-claim combination and controls (constructed inputs)."""
+"""Outcomes and verdicts of registry version 4: the tests behind each outcome, Holm, TOST,
+exact ties, the spread floor, the per-claim combination, controls and per-part gates
+(constructed inputs)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from repro.claims.power import ALPHA, minimum_detectable_effect
 from repro.claims.verdicts import (
     ABSENT,
     BELOW_RESOLUTION,
@@ -29,14 +31,15 @@ from repro.claims.verdicts import (
     equivalent,
     holm,
     one_sided_p,
+    spread_floor,
 )
 
 
-def _part(name: str = "p", *, delta: float = 1.0, seeds: int = 2, resolution: float = 0.0,
-          kind: str = "effect") -> Part:
-    return Part(name=name, text="x > 0", needs=("x",),
-                compare=lambda m: [Comparison("", list(m["x"]), delta)],
-                smallest_effect_reason="test", resolution=resolution, seeds=seeds,
+def _part(name: str = "p", *, delta: float = 1.0, resolution: float = 0.0,
+          kind: str = "effect", key: str = "x") -> Part:
+    return Part(name=name, text="x > 0", needs=(key,),
+                compare=lambda m: [Comparison("", list(m[key]), delta)],
+                smallest_effect_reason="test", resolution=resolution,
                 kind=kind)  # type: ignore[arg-type]
 
 
@@ -47,12 +50,17 @@ def test_verdicts_list_all_five() -> None:
         Decision("maybe", "")
 
 
-def test_one_sided_p_is_scipy_ttest_and_handles_no_spread() -> None:
+def test_one_sided_p_is_scipy_ttest_and_never_zero_without_spread() -> None:
     values = [0.3, 1.2, 0.8, 0.5]
     assert one_sided_p(values, 0.0, "greater") == pytest.approx(
         stats.ttest_1samp(values, 0.0, alternative="greater").pvalue)
-    assert one_sided_p([2.0, 2.0, 2.0], 0.0, "greater") == 0.0
-    assert one_sided_p([2.0, 2.0, 2.0], 0.0, "less") == 1.0
+    assert one_sided_p(values, 0.0, "less") == pytest.approx(
+        stats.ttest_1samp(values, 0.0, alternative="less").pvalue)
+    # v3 gave p = 0 for identical differences: two seeds with the same value were "support"
+    assert one_sided_p([2.0, 2.0, 2.0], 0.0, "greater") == 1.0
+    floored = one_sided_p([2.0, 2.0, 2.0], 0.0, "greater", floor=spread_floor(1.0))
+    t = 2.0 / (spread_floor(1.0) / np.sqrt(3))
+    assert floored == pytest.approx(stats.t.sf(t, 2)) and floored > 0
     assert one_sided_p([5.0], 0.0, "greater") == 1.0  # one seed supports nothing
 
 
@@ -76,11 +84,10 @@ def test_each_outcome_is_reachable() -> None:
         return decide_parts([_part(**kw)], {"x": x})[0].outcome  # type: ignore[arg-type]
 
     assert outcome([2.0, 2.2, 1.9]) == SUPPORTED
-    assert outcome([-2.0, -2.2, -1.9]) == CONTRADICTED
-    assert outcome([-2.0, -2.2, -1.9], seeds=10) == INCONCLUSIVE  # underpowered: not a refutation
+    assert outcome([-2.0, -2.2, -1.9]) == CONTRADICTED   # v4: whatever a power plan asked
     assert outcome([0.01, -0.02, 0.0, 0.01, -0.01]) == ABSENT
-    assert outcome([0.01, -0.02, 0.0, 0.01, -0.01], seeds=10) == INCONCLUSIVE
     assert outcome([3.0, -2.0, 0.5]) == INCONCLUSIVE
+    assert outcome([2.0, 2.0, 2.0]) == INCONCLUSIVE      # no spread, continuous: no test
     assert outcome([-1 / 256] * 3, resolution=1 / 256) == BELOW_RESOLUTION
     assert outcome([0.0, 0.0, 0.0]) == BELOW_RESOLUTION  # identical arms, continuous measure
     assert outcome([1.0]) == INCONCLUSIVE
@@ -146,12 +153,26 @@ def test_a_non_inferiority_part_alone_never_makes_a_claim_partial() -> None:
     assert combine(results, parts) == INCONCLUSIVE
 
 
-def test_inconclusive_reason_names_the_part_and_why() -> None:
-    decision = decide_effects([_part("a"), _part("b", seeds=50)],
-                              {"x": [1.5, -1.4, 0.3]})
+def test_inconclusive_reason_says_what_the_run_could_see() -> None:
+    decision = decide_effects([_part("a"), _part("b")], {"x": [1.5, -1.4, 0.3]})
     assert decision.verdict == INCONCLUSIVE
-    assert "b: inconclusive (power: 3 seeds of the 50" in decision.reason
     assert decision.checks == {"a": INCONCLUSIVE, "b": INCONCLUSIVE}
+    row = decision.parts[1].numbers["difference"]
+    mde = minimum_detectable_effect(3, float(np.std([1.5, -1.4, 0.3], ddof=1)), alpha=ALPHA / 2)
+    assert row["minimum_detectable_effect"] == pytest.approx(mde)
+    assert f"this run could see {mde:.3g} (80 % power, 3 seeds" in decision.parts[1].reason
+    assert "δ is 1" in decision.parts[1].reason
+
+
+def test_zero_spread_is_decided_by_the_resolution() -> None:
+    """Identical differences of a quantised measurement are tested with spread r/√6: two
+    seeds one step apart support nothing; many steps apart in five seeds they do."""
+    def outcome(x: list[float]) -> str:
+        return decide_parts([_part(resolution=0.25, delta=0.5)], {"x": x})[0].outcome
+
+    assert outcome([0.5, 0.5]) == INCONCLUSIVE
+    assert outcome([2.0, 2.0, 2.0, 2.0, 2.0]) == SUPPORTED
+    assert outcome([-2.0, -2.0, -2.0, -2.0, -2.0]) == CONTRADICTED
 
 
 def test_controls_and_gates_make_a_claim_inconclusive() -> None:
@@ -163,6 +184,22 @@ def test_controls_and_gates_make_a_claim_inconclusive() -> None:
     assert fired.verdict == INCONCLUSIVE and "null control fired" in fired.reason
     gated = apply_controls(good, {}, {"denoiser_fid_below_1": False})
     assert gated.verdict == INCONCLUSIVE and "denoiser_fid_below_1" in gated.reason
+
+
+def test_a_failed_gate_makes_only_the_parts_that_read_its_model_inconclusive() -> None:
+    parts = [_part("a"), _part("b", key="y")]
+    decision = decide_effects(parts, {"x": [2.0, 2.2, 1.9], "y": [2.0, 2.1, 1.8]})
+    assert decision.verdict == REPRODUCED
+    gated = apply_controls(decision, {}, {"model m": False}, {"model m": ["b"]}, parts)
+    assert gated.checks == {"a": SUPPORTED, "b": INCONCLUSIVE}
+    assert gated.verdict == PARTIAL and "model m" in gated.parts[1].reason
+    everything = apply_controls(decision, {}, {"model m": False}, {"model m": None}, parts)
+    assert everything.verdict == INCONCLUSIVE
+    assert set(everything.checks.values()) == {INCONCLUSIVE}
+    passed = apply_controls(decision, {}, {"model m": True}, {"model m": ["b"]}, parts)
+    assert passed is decision
+    with pytest.raises(ValueError, match="reads parts"):
+        apply_controls(decision, {}, {"model m": False}, {"model m": ["c"]}, parts)
 
 
 def test_null_rate_of_a_single_part_is_alpha() -> None:

@@ -298,7 +298,7 @@ def test_controls_feed_the_ledger(composition_pipe: EnergyMoGenPipeline) -> None
     claim = get_claim("EMG-5")
     measured = {name: emg5["null"][name] for name in [*claim.measurements,
                                                        *claim.new_measurements]}
-    decision, stored, _ = decide_claim("EMG-5", measured,
+    decision, stored = decide_claim("EMG-5", measured,
                                        controls=ctl.as_ledger_controls(emg5))
     assert stored["positive"]["status"] in ("passed", "failed")
     assert stored["null"]["status"] in ("passed", "failed")

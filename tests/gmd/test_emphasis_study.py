@@ -123,14 +123,15 @@ def test_projection_settings_shrink_in_quick_mode() -> None:
     assert all(getattr(quick, f) < getattr(full, f) for f in vars(full))
 
 
-def test_c4_settings_follow_the_power_plan() -> None:
+def test_c4_settings_follow_the_registry_and_the_run_seeds() -> None:
     from repro.claims.registry import get_claim
     from repro.gmd.emphasis_study import TABLE_B1_VARIANTS, Settings
+    from repro.gmd.run_seeds import FULL_SEEDS
 
     claim = get_claim("GMD-C4")
     full, quick = Settings.for_mode(False), Settings.for_mode(True)
     assert [f"{v:g}" for v in full.values] == [p.name.rsplit("_", 1)[1] for p in claim.parts]
-    assert full.seeds == claim.affordable_seeds
+    assert full.seeds == FULL_SEEDS["GMD-C4"] and quick.seeds == 1
     assert all(v.in_rule for v in full.variants()) and len(full.variants()) == 4
     outside = full.outside_rule_variants()
     assert {v.label for v in outside} == {"Emphasis c=10 (orthogonal)",

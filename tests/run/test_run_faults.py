@@ -29,7 +29,8 @@ plt.plot([0, 1]); plt.savefig(figure)
 measured = {{"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5,
             "cosine_x0_share_argmax_fraction": 0.05, "cosine_eps_share_argmax_fraction": 0.95,
             "round_trip_max_error": 0.0, "rel_late_displacement": 1.0,
-            "abs_late_displacement": 0.1, "rel_sensitivity_growth": 2.0}}
+            "abs_late_displacement": 0.1, "abs_early_displacement": 0.2,
+            "rel_sensitivity_growth": 2.0}}
 for claim in {claims}:
     record_claim(ctx, claim, measured, seeds=[seed], figures=[figure])
 {tail}

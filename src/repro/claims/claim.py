@@ -1,4 +1,4 @@
-"""A registered claim (registry version 2) and the helpers its entries are written with.
+"""A registered claim (registry version 4) and the helpers its entries are written with.
 
 An entry reads as a table row: keyword arguments, the rule's text beside the parts that
 implement it. Claims whose verdict rests on measured effects list ``parts`` (decided by
@@ -20,7 +20,7 @@ Measured = Mapping[str, Any]
 Path = str | tuple[str, ...]
 Example = Callable[[np.random.Generator, float, int], dict[str, Any]]
 
-REGISTRY_VERSION = 3
+REGISTRY_VERSION = 4
 SEEDS = "per-seed list"
 
 
@@ -29,13 +29,12 @@ class Claim:
     """One claim: where it is, what it says, the rule, and the measurements the rule reads.
 
     ``measurements``: names every notebook records today (the ledger requires them);
-    ``new_measurements``: names the current version reads beyond v1's (recorded by the
-    notebooks that run it; a part whose measurement is missing comes out inconclusive,
-    "measurement X not recorded");
-    ``affordable_seeds``: the seeds a full run uses (``power_note`` names the parts that need
-    more: they can only come out supported or inconclusive); ``example(rng, scale, n)``: a
-    measurement dict shaped like the notebook's, with every part's effect at ``scale`` × its
-    smallest effect of interest (0: no effect)."""
+    ``new_measurements``: names later versions read beyond v1's (recorded by the notebooks
+    that run it; a part whose measurement is missing comes out inconclusive, "measurement X
+    not recorded"); ``example(rng, scale, n)``: a measurement dict shaped like the notebook's
+    with ``n`` seeds, every part's effect at ``scale`` × its smallest effect of interest (0:
+    no effect, negative: the paper is wrong). How many seeds a run uses is the paper
+    package's run settings' business, not the claim's (registry v4)."""
 
     id: str
     paper: str
@@ -48,7 +47,6 @@ class Claim:
     parts: tuple[Part, ...] = ()
     exact_rule: Callable[[Measured], Decision] | None = None
     new_measurements: dict[str, str] = field(default_factory=dict)
-    affordable_seeds: int = 1
     example: Example | None = None
 
     def decide(self, measured: Measured) -> Decision:
@@ -60,31 +58,16 @@ class Claim:
     def rests_on_effects(self) -> bool:
         return bool(self.parts)
 
-    @property
-    def power_note(self) -> str:
-        """Where the full run's seeds are fewer than the power calculation asks for."""
-        short = [f"{p.name} needs {p.seeds}{'+' if p.seeds >= 1000 else ''}"
-                 for p in self.parts if p.seeds > self.affordable_seeds]
-        if not short:
-            return ""
-        return (f"the full run affords {self.affordable_seeds} seeds; {', '.join(short)} for 80 % "
-                "power at its smallest effect of interest: those parts can only come out "
-                "supported or inconclusive")
+    def null_example(self, rng: np.random.Generator, n: int = 5) -> dict[str, Any]:
+        """Measurements of ``n`` seeds with no effect in any part."""
+        return self.example_at(rng, 0.0, n)
 
-    @property
-    def seeds_required(self) -> int:
-        return max((p.seeds for p in self.parts), default=1)
+    def planted_example(self, rng: np.random.Generator, n: int = 5) -> dict[str, Any]:
+        """Measurements of ``n`` seeds with every part's registered effect planted."""
+        return self.example_at(rng, 1.0, n)
 
-    def null_example(self, rng: np.random.Generator) -> dict[str, Any]:
-        """Measurements with no effect in any part, with the seeds a full run affords."""
-        return self._example(rng, 0.0, max(self.affordable_seeds, 3))
-
-    def planted_example(self, rng: np.random.Generator) -> dict[str, Any]:
-        """Measurements with every part's registered effect planted, with the registered
-        seeds (at least five)."""
-        return self._example(rng, 1.0, max(self.seeds_required, self.affordable_seeds, 5))
-
-    def _example(self, rng: np.random.Generator, scale: float, n: int) -> dict[str, Any]:
+    def example_at(self, rng: np.random.Generator, scale: float, n: int) -> dict[str, Any]:
+        """Measurements of ``n`` seeds, every part's effect at ``scale`` × its δ."""
         if self.example is None:
             raise ValueError(f"{self.id} rests on exact checks, not on measured effects: it "
                              "has no examples")
@@ -116,7 +99,7 @@ def paired(a: Sequence[Any], b: Sequence[Any]) -> list[float]:
 
 def difference_part(*, name: str, text: str, minuend: Path, subtrahend: Path,
                     smallest_effect: float, relative_to: Path | None, reason: str,
-                    seeds: int, resolution: float = 0.0,
+                    resolution: float = 0.0,
                     resolution_reason: str = "continuous measurement",
                     kind: str = "effect", minuend_factor: float = 1.0) -> Part:
     """A part testing ``minuend_factor``·m[minuend] − m[subtrahend] > 0 over seeds, with
@@ -131,8 +114,7 @@ def difference_part(*, name: str, text: str, minuend: Path, subtrahend: Path,
     needs = tuple(sorted({p if isinstance(p, str) else p[0] for p in (minuend, subtrahend)}))
     return Part(name=name, text=text, needs=needs, compare=compare,
                 smallest_effect_reason=reason, resolution=resolution,
-                resolution_reason=resolution_reason, seeds=seeds,
-                kind=kind)  # type: ignore[arg-type]
+                resolution_reason=resolution_reason, kind=kind)  # type: ignore[arg-type]
 
 
 def arm(rng: np.random.Generator, level: float, spread: float, n: int) -> list[float]:

@@ -1,11 +1,13 @@
 """The claims ledger: a notebook records a claim with one call.
 
-``record_claim`` checks that every measurement the rules need is there, applies the rule of
-registry version 2 and the frozen rule of version 1 to the same measurements, decides the
-notebook's controls with the same version 2 rule, and writes ``build/claims/<ID>.json``
-atomically. The sidecar carries ``registry_version``, the v2 verdict with its per-part
-outcomes, the v1 verdict beside it, and each control's outcome (or "missing"); it says
-whether the run was ``quick`` (a test of the code, never a result) or ``full``.
+``record_claim`` checks that every measurement the rules need is there, applies the
+registry's rule, decides the notebook's controls with the same rule, makes inconclusive the
+parts that read a model that failed its fitness gate, and writes ``build/claims/<ID>.json``
+atomically. The sidecar carries ``registry_version``, the verdict with its per-part outcomes
+(each with its interval and the effect the run could have seen), each control's outcome (or
+"missing") and the models; it says whether the run was ``quick`` (a test of the code, never a
+result) or ``full``. The previous snapshot's verdict is the report's business
+(``claims.trust``), read from the committed ``results/claims.json``.
 """
 
 from __future__ import annotations
@@ -17,7 +19,6 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from repro.claims import registry_v1
 from repro.claims.registry import REGISTRY_VERSION, get_claim, interval_summary
 from repro.claims.verdicts import PARTIAL, REPRODUCED, Decision, apply_controls, parts_in_words
 from repro.infra import paths
@@ -41,7 +42,7 @@ def _git_commit() -> str | None:
 
 def _control_record(claim_id: str, kind: str, measured: Mapping[str, Any] | None,
                     ) -> tuple[dict[str, Any], Decision | None]:
-    """A control decided by the claim's own v2 rule, as the sidecar stores it."""
+    """A control decided by the claim's own rule, as the sidecar stores it."""
     if measured is None:
         return {"status": "missing", "expected": _EXPECTED[kind]}, None
     decision = get_claim(claim_id).decide(measured)
@@ -57,14 +58,22 @@ def _checked_model(claim_id: str, record: Mapping[str, Any]) -> dict[str, Any]:
     if missing:
         raise ValueError(f"{claim_id}: a model record needs {missing} (make it with "
                          "repro.core.gates.model_record)")
+    reads = record.get("reads")
+    parts = [p.name for p in get_claim(claim_id).parts]
+    unknown = sorted(set(reads or ()) - set(parts))
+    if unknown:
+        raise ValueError(f"{claim_id}: model {record['name']!r} reads parts {unknown}; the "
+                         f"claim's parts are {parts}")
     return dict(record)
 
 
 def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
                  controls: Mapping[str, Mapping[str, Any]] | None = None,
                  quality_gates: Mapping[str, bool] | None = None,
-                 ) -> tuple[Decision, dict[str, Any], Decision]:
-    """(v2 decision after controls and gates, the controls as stored, the v1 decision)."""
+                 gate_reads: Mapping[str, Sequence[str] | None] | None = None,
+                 ) -> tuple[Decision, dict[str, Any]]:
+    """(the decision after controls and gates, the controls as stored); ``gate_reads``: the
+    parts each gate's model is read by (absent: every part)."""
     claim = get_claim(claim_id)
     missing = sorted(set(claim.measurements) - set(measured))
     if missing:
@@ -76,10 +85,9 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
     stored, decided = {}, {}
     for kind in CONTROLS:
         stored[kind], decided[kind] = _control_record(claim_id, kind, (controls or {}).get(kind))
-    v1 = registry_v1.get_claim(claim_id).decide(measured)
-    decision = apply_controls(claim.decide(measured), decided, quality_gates)
-    decision.v1_verdict = v1.verdict
-    return decision, stored, v1
+    decision = apply_controls(claim.decide(measured), decided, quality_gates, gate_reads,
+                              claim.parts)
+    return decision, stored
 
 
 def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
@@ -95,18 +103,19 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
             but never reported as a result.
         claim_id: an ID from the registry (unknown IDs raise ValueError listing the known ones).
         measured: every measurement the rules name (missing ones raise ValueError; a
-            measurement only version 2 reads makes its part inconclusive instead).
+            ``new_measurements`` one makes its part inconclusive instead).
         seeds: the seeds behind per-seed lists.
         controls: ``{"positive": measured, "null": measured}`` from the notebook's control
             experiments (the registered effect planted / no effect), decided by the same
             rule: a positive control that is not reproduced or a null control that comes out
             reproduced or partially makes the claim inconclusive. Missing controls are
             recorded as missing, not an error.
-        quality_gates: gate name → passed, for the models behind the measurements; a failed
-            gate makes the claim inconclusive.
+        quality_gates: gate name → passed, for what the measurements rest on beyond the
+            models; a failed one makes every part inconclusive.
         models: the trained models behind the measurements, each a
-            ``repro.core.gates.model_record`` (family, gate values against their registered
-            bounds, steps, training time); a model that fails its gate makes the claim
+            ``repro.core.gates.model_record`` (family, fitness-gate values against their
+            registered bounds, steps, training time, ``reads``: the claim's parts that rest
+            on it, None for every part); a model that fails its gate makes those parts
             inconclusive (``quality_gates`` gains ``model <name>``), and the report's "Models"
             section and ``models.json`` list every model with the claims that use it.
         figures: paths of the figures that show the claim.
@@ -117,8 +126,9 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
     claim = get_claim(claim_id)
     models = [_checked_model(claim_id, m) for m in models]
     gates = {**(quality_gates or {}), **{f"model {m['name']}": bool(m["passed"]) for m in models}}
-    decision, stored_controls, v1 = decide_claim(claim_id, measured, controls=controls,
-                                                 quality_gates=gates or None)
+    reads = {f"model {m['name']}": m.get("reads") for m in models}
+    decision, stored_controls = decide_claim(claim_id, measured, controls=controls,
+                                             quality_gates=gates or None, gate_reads=reads)
     sidecar = {
         "id": claim.id,
         "registry_version": REGISTRY_VERSION,
@@ -128,7 +138,6 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
         "paper_value": claim.paper_value,
         "notebook": claim.notebook,
         "rule": claim.rule,
-        "power_note": claim.power_note,
         "verdict": decision.verdict,
         "reason": decision.reason,
         "checks": decision.checks,
@@ -136,8 +145,6 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
         "controls": stored_controls,
         "quality_gates": gates,
         "models": models,
-        "v1": {"registry_version": 1, "verdict": v1.verdict, "reason": v1.reason,
-               "checks": v1.checks, "rule": registry_v1.get_claim(claim_id).rule},
         "measured": dict(measured),
         "summary": interval_summary(dict(measured)),
         "extra": dict(extra or {}),
@@ -170,21 +177,11 @@ def part_outcomes(sidecar: dict[str, Any], *, reasons: bool = True) -> str:
     return parts_in_words(sidecar["parts"], reasons=reasons)
 
 
-def v1_verdict(sidecar: dict[str, Any]) -> str:
-    """The version 1 verdict beside a v2 sidecar's (a v1 sidecar's own verdict)."""
-    if "v1" in sidecar:
-        return sidecar["v1"]["verdict"]
-    return sidecar.get("verdict", "")
-
-
 def verdict_markdown(ctx: RunContext, claim_id: str, decision: Decision) -> str:
     """A short markdown block for the notebook's verdict cell."""
     claim = get_claim(claim_id)
     mode = " *(quick run: a test of the code, not a result)*" if ctx.quick else ""
-    v1 = f" (registry v1: {decision.v1_verdict})" if decision.v1_verdict else ""
-    lines = [f"**{claim.id} — {decision.verdict}**{v1}{mode}", "",
+    lines = [f"**{claim.id} — {decision.verdict}**{mode}", "",
              f"*Rule (registry v{REGISTRY_VERSION}, fixed before the run):* {claim.rule}", "",
              f"*Why:* {decision.reason}"]
-    if claim.power_note:
-        lines += ["", f"*Power:* {claim.power_note}"]
     return "\n".join(lines)

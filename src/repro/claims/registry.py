@@ -1,11 +1,11 @@
-"""The claims registry, version 2: every claim of ../shared/CLAIMS.md with its verdict rule.
+"""The claims registry, version 4: every claim of ../shared/CLAIMS.md with its verdict rule.
 
 Each rule is written here *before* the experiment that feeds it, names the measurements it
-needs, and is never loosened after a run. Version 2 (issue #13) replaced the rules of
-version 1 (kept frozen in ``repro.claims.registry_v1``, decided beside these on the same
-measurements); what changed and why, claim by claim: docs/REGISTRY_CHANGELOG.md. The entries
-live in ``registry_gmd`` and ``registry_energymogen``; outcomes and verdicts in
-``repro.claims.verdicts``; the seeds each part needs in ``repro.claims.power``.
+needs, and is never loosened after a run; what changed in each version and why, claim by
+claim: docs/REGISTRY_CHANGELOG.md. The entries live in ``registry_gmd`` and
+``registry_energymogen``; outcomes and verdicts in ``repro.claims.verdicts``; what a run
+could see in ``repro.claims.power``. Version 1's frozen rules were retired in version 4: the
+report shows the previous snapshot's verdict beside each new one (``claims.trust``).
 """
 
 from __future__ import annotations

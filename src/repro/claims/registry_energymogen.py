@@ -1,11 +1,11 @@
-"""Registry version 2: the EnergyMoGen claims (seed 004), one keyword entry per claim with its
+"""Registry version 4: the EnergyMoGen claims (seed 004), one keyword entry per claim with its
 rule text beside its parts.
 
 Smallest effects of interest (δ): half the paper's own relative effect where Table 7, 8 or 9
 prints one; otherwise a stated fraction of the measurement's scale. Resolutions: one item of
 the full run's test set (R@3 in percent over 64 items: 1.5625; in fractions over 256: 1/256;
-oracle rates over 80 conjunction / 96 negation items). ``seeds``: ``repro.claims.power`` on
-the v1 full run's spreads (results/claims.json), 80 % power at δ.
+oracle rates over 80 conjunction / 96 negation items). How many seeds a run uses is in
+``repro.energymogen.settings``; each part states what its run could see.
 """
 
 from __future__ import annotations
@@ -115,13 +115,13 @@ def _emg_9(m: Measured) -> Decision:
 
 # --- parts ----------------------------------------------------------------------------------
 
-def _composition_parts(seeds: tuple[int, int, int]) -> tuple[Part, ...]:
+def _composition_parts() -> tuple[Part, ...]:
     return (
         difference_part(name="conjunction_carries_both",
                         text="both-present rate conjunction − best single concept > 0",
                         minuend="conjunction_both_present",
                         subtrahend="best_single_concept_both_present", smallest_effect=0.1,
-                        relative_to=None, resolution=1 / 80, seeds=seeds[0],
+                        relative_to=None, resolution=1 / 80,
                         resolution_reason="one of the 80 conjunction items",
                         reason="qualitative (Fig. 4): ten percentage points of the samples"),
         difference_part(name="negation_removes_concept",
@@ -129,7 +129,7 @@ def _composition_parts(seeds: tuple[int, int, int]) -> tuple[Part, ...]:
                         minuend="baseline_negated_present", subtrahend="negation_negated_present",
                         smallest_effect=0.1, relative_to="baseline_negated_present",
                         resolution=1 / 96, resolution_reason="one of the 96 negation items",
-                        reason="qualitative: 10 % of the rate without negation", seeds=seeds[1]),
+                        reason="qualitative: 10 % of the rate without negation"),
         difference_part(name="negation_keeps_other",
                         text="kept-concept rate with negation − half its baseline > 0",
                         minuend="negation_kept_present", subtrahend="baseline_kept_present",
@@ -137,7 +137,7 @@ def _composition_parts(seeds: tuple[int, int, int]) -> tuple[Part, ...]:
                         relative_to="baseline_kept_present", resolution=2 / 96,
                         resolution_reason="one of the 96 negation items (doubled)",
                         reason="a tenth of the baseline rate on 2·kept − baseline, i.e. 5 % of "
-                               "it on kept − baseline/2", seeds=seeds[2]),
+                               "it on kept − baseline/2"),
     )
 
 
@@ -286,16 +286,15 @@ CLAIMS: list[Claim] = [
     Claim(id="EMG-2", paper="EnergyMoGen", section="3.2, Eq. 7–8",
           statement="latent-aware composition: conjunction (Eq. 7) and negation (Eq. 8)",
           paper_value="qualitative (Fig. 4)", notebook="04_energy_contour_maps",
-          rule=_COMPOSITION_RULE, parts=_composition_parts((8, 5, 18)),
-          measurements=dict(_COMPOSITION_MEASUREMENTS), affordable_seeds=5,
-          example=_example_composition),
+          rule=_COMPOSITION_RULE, parts=_composition_parts(),
+          measurements=dict(_COMPOSITION_MEASUREMENTS), example=_example_composition),
     Claim(id="EMG-3", paper="EnergyMoGen", section="3.3, Eq. 9",
           statement="semantic-aware composition: weighted average of cross-attention outputs "
                     "over concepts; w < 0 negates", paper_value="qualitative (Fig. 4)",
           notebook="04_energy_contour_maps", rule=f"as EMG-2, for the semantic-aware form: "
                                                   f"{_COMPOSITION_RULE}",
-          parts=_composition_parts((6, 19, 7)), measurements=dict(_COMPOSITION_MEASUREMENTS),
-          affordable_seeds=5, example=_example_composition),
+          parts=_composition_parts(), measurements=dict(_COMPOSITION_MEASUREMENTS),
+          example=_example_composition),
     Claim(id="EMG-4", paper="EnergyMoGen", section="3.1 Eq. 3–4; E, Table 9",
           statement="adaptive gradient descent on the text embedding: step [0.1, 0.2] degrades "
                     "badly, [0.001, 0.002] is best",
@@ -310,15 +309,14 @@ CLAIMS: list[Claim] = [
                                  subtrahend=("r_precision_top3", "0.1,0.2"),
                                  smallest_effect=0.417, relative_to=("r_precision_top3", "0.0,0.0"),
                                  resolution=R3_PERCENT_64, resolution_reason=R3_PERCENT_REASON,
-                                 reason="half the paper's relative drop (25.4 → 4.2: 83.5 %)",
-                                 seeds=3),
+                                 reason="half the paper's relative drop (25.4 → 4.2: 83.5 %)"),
                  Part(name="small_step_best", text="R@3 [0.001,0.002] − every other row > 0",
                       needs=("r_precision_top3",), compare=_emg4_best,
                       smallest_effect_reason="the paper's own +0.9 of 25.4 (3.5 %) of the "
                                              "other row; half of it would lie below one item",
-                      resolution=R3_PERCENT_64, resolution_reason=R3_PERCENT_REASON, seeds=24)),
+                      resolution=R3_PERCENT_64, resolution_reason=R3_PERCENT_REASON)),
           measurements={"r_precision_top3": "'γattn,γreg' -> per-seed list"},
-          affordable_seeds=3, example=_example_emg4),
+          example=_example_emg4),
     Claim(id="EMG-5", paper="EnergyMoGen", section="5.5 Q2; Table 3, Table 7",
           statement="latent-only composition aligns worse but is smoother; semantic-only aligns "
                     "best but jitters; SEF (0.1, 0.7, 0.2) balances both",
@@ -339,22 +337,18 @@ CLAIMS: list[Claim] = [
                                  smallest_effect=0.2015,
                                  relative_to=("r_precision_top3", _EMG5["lat"]),
                                  resolution=R3_PERCENT_64, resolution_reason=R3_PERCENT_REASON,
-                                 reason="half the paper's 19.6 → 27.5 (40.3 %)", seeds=4),
+                                 reason="half the paper's 19.6 → 27.5 (40.3 %)"),
                  Part(name="latent_smoother_than_semantic",
                       text="transition at the boundaries and its ratio to the clip's mean "
                            "speed: semantic − latent > 0, both",
                       needs=_TRANSITIONS, compare=_emg5_smoother,
-                      smallest_effect_reason="half the paper's 1.6 → 2.2 (37.5 %) in both; "
-                                             "power on the v1 spread of the all-frames "
-                                             "transition distance (no full-run spread of the "
-                                             "new measurements yet)", seeds=3),
+                      smallest_effect_reason="half the paper's 1.6 → 2.2 (37.5 %) in both"),
                  Part(name="sef_balances_both",
                       text="R@3 SEF − latent > 0 and both transition measurements semantic − "
                            "SEF > 0",
                       needs=("r_precision_top3", *_TRANSITIONS), compare=_emg5_balance,
                       smallest_effect_reason="half the paper's 19.6 → 28.0 (42.9 %) and 2.2 → "
-                                             "1.6 (27.3 %); transition power as above",
-                      seeds=4)),
+                                             "1.6 (27.3 %)")),
           measurements={"r_precision_top3": "'λl,λs,λm' -> per-seed list (held-out pairs)",
                         "transition_distance": "'λl,λs,λm' -> per-seed list: the all-frames "
                                                "distance of v1/v2 (context; the v1 rule reads "
@@ -368,7 +362,7 @@ CLAIMS: list[Claim] = [
                             "'λl,λs,λm' -> per-seed list: per clip (mean distance at its "
                             "boundaries + ε) / (mean over all its frames + ε), ε = 0.01 cm; "
                             "mean over clips"},
-          affordable_seeds=3, example=_example_emg5),
+          example=_example_emg5),
     Claim(id="EMG-6", paper="EnergyMoGen", section="5.5 Q3; Fig. 5, Fig. 6, appendix F",
           statement="energy maps of a composed motion share high/low-energy regions with the "
                     "single multi-concept text's, for conjunction and negation",
@@ -382,12 +376,7 @@ CLAIMS: list[Claim] = [
                                       minuend=f"{case}_similarity_to_multi",
                                       subtrahend=f"{case}_similarity_floor",
                                       smallest_effect=0.1, relative_to=None,
-                                      seeds={"conjunction": 49, "negation": 64}[case],
-                                      reason="qualitative: 0.1 in Pearson r; power on the v1 "
-                                             "spread of one case per seed against the "
-                                             "unrelated control (no full-run spread of the "
-                                             "floor yet; a mean over every case of a seed "
-                                             "spreads less)")
+                                      reason="qualitative: 0.1 in Pearson r")
                       for case in ("conjunction", "negation")),
           measurements={f"{case}_{what}": f"{SEEDS}: {text}" for case in ("conjunction",
                                                                           "negation")
@@ -403,7 +392,7 @@ CLAIMS: list[Claim] = [
                                                      "concept alone, multi-concept) (floor)"),
                                 ("similarity_ceiling", "the same for a paraphrase of the "
                                                        "multi-concept text (ceiling; context)"))},
-          affordable_seeds=5, example=_example_emg6),
+          example=_example_emg6),
     Claim(id="EMG-7", paper="EnergyMoGen", section="D, Table 8",
           statement="a VAE with 7 latent vectors reconstructs best, 5 generates best",
           paper_value="recon FID 0.170/0.117/0.080/0.022; gen FID 0.424/0.418/0.188/0.291 "
@@ -415,15 +404,15 @@ CLAIMS: list[Claim] = [
                       needs=("reconstruction_error",),
                       compare=lambda m: best_option("7", m["reconstruction_error"],
                                                     lower_is_better=True, fraction=0.362),
-                      smallest_effect_reason="half the paper's 0.080 → 0.022 (72.5 %)", seeds=10),
+                      smallest_effect_reason="half the paper's 0.080 → 0.022 (72.5 %)"),
                  Part(name="n5_generates_best", text="generation FID other N − N=5 > 0",
                       needs=("generation_fid",),
                       compare=lambda m: best_option("5", m["generation_fid"],
                                                     lower_is_better=True, fraction=0.177),
-                      smallest_effect_reason="half the paper's 0.291 → 0.188 (35.4 %)", seeds=8)),
+                      smallest_effect_reason="half the paper's 0.291 → 0.188 (35.4 %)")),
           measurements={"reconstruction_error": "N -> per-seed list",
                         "generation_fid": "N -> per-seed list"},
-          affordable_seeds=3, example=_example_emg7),
+          example=_example_emg7),
     Claim(id="EMG-8", paper="EnergyMoGen", section="5.5; Table 1",
           statement="fine-tuning on composed motions (CompML) improves text-to-motion",
           paper_value="Table 1: + CompML improves", notebook="08_composed_augmentation",
@@ -437,19 +426,15 @@ CLAIMS: list[Claim] = [
                                  relative_to=None, resolution=1 / 384,
                                  resolution_reason="one clip of the 384 shared-concept test "
                                                    "clips",
-                                 seeds=2,
                                  reason="Table 1's CompML row is not in our text of the "
-                                        "paper: one percentage point of R@3 (3.8 clips); "
-                                        "seeds from the v1 spread of R@3 on the random-batch "
-                                        "test, the nearest measurement (no full run on the "
-                                        "shared-concept test yet)"),
+                                        "paper: one percentage point of R@3 (3.8 clips)"),
                  difference_part(name="fid_improves", text="FID baseline − augmented > 0",
                                  minuend="fid_baseline", subtrahend="fid_augmented",
-                                 smallest_effect=0.1, relative_to="fid_baseline", seeds=3,
+                                 smallest_effect=0.1, relative_to="fid_baseline",
                                  reason="10 % of the baseline FID")),
           measurements={"r_precision_top3_augmented": SEEDS, "r_precision_top3_baseline": SEEDS,
                         "fid_augmented": SEEDS, "fid_baseline": SEEDS},
-          affordable_seeds=3, example=_example_emg8),
+          example=_example_emg8),
     Claim(id="EMG-9", paper="EnergyMoGen", section="G.2, Eq. 12",
           statement="the FID formula as printed: ‖μ−μ̂‖² − Tr(Σ+Σ̂−2ΣΣ̂)", paper_value="Eq. 12",
           notebook="04_energy_contour_maps",

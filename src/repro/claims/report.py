@@ -3,9 +3,11 @@
 
 REPORT.md opens with one screen on trust (``claims.trust``: per claim its verdict, parts,
 controls, gates and limits) and the figure of the claims by outcome (``claims.figures``);
-then the verdict table, the verdict changes since registry v1 with the changelog's reasons
-(``claims.changelog``), the papers' errata (``docs/ERRATA.md`` via ``claims.errata``), the
-models, the run times and each claim in full. REPORT.html (``index.html``) has the same.
+then the verdict table beside the previous snapshot's verdicts (the committed
+``results/claims.json`` when the report is written), the verdict changes since it with the
+changelog's reasons (``claims.changelog``), the papers' errata (``docs/ERRATA.md`` via
+``claims.errata``), the models, the run times and each claim in full. REPORT.html
+(``index.html``) has the same.
 
 A quick run's verdicts are never presented as results: its table says "quick run" instead.
 Reports are written atomically; a failed run does not call this (the last good one stays).
@@ -31,7 +33,7 @@ from repro.claims.budgets import (
     update_readme_budgets,
 )
 from repro.claims.figures import FIGURE_NAME, claims_by_outcome
-from repro.claims.ledger import load_sidecars, part_outcomes, v1_verdict
+from repro.claims.ledger import load_sidecars, part_outcomes
 from repro.claims.provenance import check_runs, notebooks_section, render_notebooks
 from repro.claims.readme import replace_block
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
@@ -58,7 +60,14 @@ def headline(sidecar: dict[str, Any], limit: int = 4) -> str:
     return "; ".join(parts)
 
 
-def _rows(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, str]]:
+def _previous_text(previous: dict[str, Any] | None) -> str:
+    if previous is None:
+        return ""
+    return f"{previous['verdict']} (v{previous['registry_version']})"
+
+
+def _rows(sidecars: dict[str, dict[str, Any]],
+          previous: dict[str, dict[str, Any]]) -> list[dict[str, str]]:
     rows = []
     for claim in CLAIMS.values():
         sidecar = sidecars.get(claim.id)
@@ -71,7 +80,8 @@ def _rows(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, str]]:
         else:
             row.update(verdict=sidecar["verdict"], ours=headline(sidecar),
                        registry_version=str(sidecar.get("registry_version", 1)),
-                       v1_verdict=v1_verdict(sidecar), parts=part_outcomes(sidecar),
+                       previous_verdict=_previous_text(previous.get(claim.id)),
+                       parts=part_outcomes(sidecar),
                        parts_short=part_outcomes(sidecar, reasons=False))
         rows.append(row)
     return rows
@@ -137,7 +147,8 @@ def docs_link(report_dir: Path) -> str:
 
 def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
               runs: Sequence[Any], figure_names: dict[str, list[str]],
-              provenance: str = "", docs: str = "../docs") -> str:
+              previous: dict[str, dict[str, Any]], provenance: str = "",
+              docs: str = "../docs") -> str:
     when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines = ["# Reproduction report", "",
              f"Generated {when} from "
@@ -149,15 +160,15 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
     lines += trust.trust_markdown(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}")
     lines += ["## Verdicts", "",
               f"| claim | statement | paper | ours | verdict (registry v{REGISTRY_VERSION}) "
-              "| v1 verdict | notebook |", "|---|---|---|---|---|---|---|"]
+              "| previous snapshot | notebook |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         verdict = f"**{r['verdict']}**" + (f" — {r['parts_short']}" if r.get("parts_short")
                                            else "")
         cells = [r["id"], r["statement"], r["paper"], r["ours"], verdict,
-                 r.get("v1_verdict", ""), r["notebook"]]
+                 r.get("previous_verdict", ""), r["notebook"]]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     changes_by_claim = changelog.claim_changes()
-    lines += trust.changes_markdown(trust.verdict_changes(sidecars, changes_by_claim),
+    lines += trust.changes_markdown(trust.verdict_changes(sidecars, previous, changes_by_claim),
                                     changes_by_claim, docs)
     lines += errata.errata_markdown(errata.load_errata(), docs)
     lines += models_markdown(models_of(sidecars))
@@ -172,13 +183,10 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
                   f"- Why: {sidecar['reason']}"]
         if part_outcomes(sidecar) and part_outcomes(sidecar) not in sidecar["reason"]:
             lines.append(f"- Parts: {part_outcomes(sidecar)}")
-        if "v1" in sidecar:
-            lines.append(f"- Registry v1 verdict on the same measurements: "
-                         f"{sidecar['v1']['verdict']} ({sidecar['v1']['reason']})")
+        if claim_id in previous:
+            lines.append(f"- Previous snapshot: {_previous_text(previous[claim_id])}")
         if _controls_line(sidecar):
             lines.append(f"- Controls: {_controls_line(sidecar)}")
-        if sidecar.get("power_note"):
-            lines.append(f"- Power: {sidecar['power_note']}")
         lines.append(f"- Seeds: {sidecar['seeds']}; commit {sidecar.get('commit')}")
         if sidecar.get("notes"):
             lines.append(f"- Notes: {sidecar['notes']}")
@@ -188,7 +196,7 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
 
 
 def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
-          figure_names: dict[str, list[str]]) -> str:
+          figure_names: dict[str, list[str]], previous: dict[str, dict[str, Any]]) -> str:
     esc = html.escape
     head = ("<!doctype html><meta charset='utf-8'><title>repro report</title><style>"
             "body{font-family:sans-serif;max-width:1200px;margin:auto}td,th{border:1px solid "
@@ -197,22 +205,24 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
     body = [f"<h1>Reproduction report{' (QUICK run: not results)' if quick else ''}</h1>",
             trust.trust_html(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}"),
             "<h2>Verdicts</h2><table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
-            f"<th>verdict (registry v{REGISTRY_VERSION})</th><th>parts</th><th>v1 verdict</th>"
-            "<th>notebook</th>"
+            f"<th>verdict (registry v{REGISTRY_VERSION})</th><th>parts</th>"
+            "<th>previous snapshot</th><th>notebook</th>"
             "</tr>"]
     for r in markdown_rows:
         body.append("<tr>" + "".join(f"<td>{esc(r.get(k, ''))}</td>" for k in
                                      ("id", "statement", "paper", "ours", "verdict", "parts",
-                                      "v1_verdict", "notebook"))
+                                      "previous_verdict", "notebook"))
                     + "</tr>")
     body.append("</table>")
-    body.append(trust.changes_html(trust.verdict_changes(sidecars, changelog.claim_changes())))
+    body.append(trust.changes_html(trust.verdict_changes(sidecars, previous,
+                                                         changelog.claim_changes())))
     body.append(errata.errata_html(errata.load_errata()))
     for claim_id, s in sidecars.items():
         body.append(f"<h2>{esc(claim_id)} — {esc(s['verdict'])} ({esc(s['mode'])})</h2>"
                     f"<p><i>{esc(s['statement'])}</i></p><p>Rule: {esc(s['rule'])}</p>"
                     f"<p>Why: {esc(s['reason'])}</p>"
-                    + (f"<p>Registry v1: {esc(s['v1']['verdict'])}</p>" if "v1" in s else ""))
+                    + (f"<p>Previous snapshot: {esc(_previous_text(previous[claim_id]))}</p>"
+                       if claim_id in previous else ""))
         body += [f"<img src='figures/{esc(n)}'>" for n in figure_names.get(claim_id, [])]
     return head + "\n".join(body)
 
@@ -284,7 +294,8 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
                 shutil.copy2(source, figures_out / source.name)
                 figure_names.setdefault(claim_id, []).append(source.name)
     claims_by_outcome(sidecars, figures_out / FIGURE_NAME)
-    rows = _rows(sidecars)
+    previous = {} if quick else trust.previous_snapshot()
+    rows = _rows(sidecars, previous)
     write_json(report_dir / "claims.json", {"mode": "quick" if quick else "full",
                                             "claims": rows, "sidecars": sidecars,
                                             "run_seconds": {r.name: round(r.seconds, 1)
@@ -294,9 +305,9 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
                                                                                  sidecars)})
     write_json(report_dir / "models.json", {"mode": "quick" if quick else "full",
                                             "models": models_of(sidecars)})
-    write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names))
+    write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names, previous))
     return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, quick, runs,
-                                                          figure_names, provenance,
+                                                          figure_names, previous, provenance,
                                                           docs_link(report_dir)))
 
 
@@ -306,16 +317,17 @@ README_TABLE_END = "<!-- claims-table:end -->"
 
 def readme_claims_table(rows: Sequence[dict[str, str]]) -> str:
     """The README's verdict table: claim, verdict, notebook (one row per registry claim).
-    Rows of registry version 2 add, for anything but "reproduced", each part's outcome and
-    the v1 verdict; rows of a version 1 snapshot (no parts) read as they always did."""
+    Rows with parts add, for anything but "reproduced", each part's outcome, and a verdict
+    that differs from the previous snapshot's says what it was; rows of a version 1 snapshot
+    (no parts) read as they always did."""
     lines = ["| claim | verdict (stand-in data, tiny models) | notebook |", "|---|---|---|"]
     for r in rows:
         verdict = r["verdict"]
         if r.get("parts_short"):
             verdict += f" — {r['parts_short']}"
-        if r.get("registry_version", "1") != "1" and r.get("v1_verdict") not in (None, "",
-                                                                                r["verdict"]):
-            verdict += f" (v1: {r['v1_verdict']})"
+        before = r.get("previous_verdict", "")
+        if before and before.rsplit(" (v", 1)[0] != r["verdict"]:
+            verdict += f" (was: {before})"
         lines.append(f"| {r['id']} | {verdict} | `{r['notebook']}` |")
     return "\n".join(lines)
 

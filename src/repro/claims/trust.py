@@ -3,16 +3,17 @@
 Per registry claim, from its sidecar: the verdict; the parts' outcomes counted (supported,
 contradicted, absent, inconclusive, below resolution; ``repro.claims.verdicts``); the controls
 (was the planted effect seen, did the null stay silent); whether the models behind it passed
-their quality gates (``models``, ``quality_gates``); and what limits it — power (the parts a
-full run cannot afford, :attr:`Claim.power_note`), resolution (parts below it), a failed or
-missing control or gate, and the stand-in data. Then the v1 → current verdict changes with
-their reasons from the registry changelog (both verdicts are decided on the same
-measurements, so a change is a change of rule).
+their fitness gates (``models``, ``quality_gates``); and what limits it — power (inconclusive
+parts whose run could not see δ: the minimum detectable effect each part records), resolution
+(parts below it), a failed or missing control or gate, and the stand-in data. Then the verdict
+changes since the previous snapshot (the committed ``results/claims.json`` when the report is
+written), with the registry changelog's reasons for the versions in between.
 """
 
 from __future__ import annotations
 
 import html
+import os
 from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -20,9 +21,10 @@ from typing import Any
 
 from repro.claims.changelog import EVERY_CLAIM, Change
 from repro.claims.claim import Claim
-from repro.claims.ledger import v1_verdict
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
-from repro.claims.verdicts import BELOW_RESOLUTION, OUTCOMES, VERDICTS
+from repro.claims.verdicts import BELOW_RESOLUTION, INCONCLUSIVE, OUTCOMES, VERDICTS
+from repro.infra import paths
+from repro.infra.storage import read_json
 
 NOT_TESTED = "not yet tested"
 QUICK = "quick run (not a result)"
@@ -79,16 +81,25 @@ def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
     return f"{len(gates)}/{len(gates)} pass"
 
 
-def power_short(claim: Claim) -> str:
-    """"power (k of n parts need N–M seeds; S run)" for the parts a full run cannot afford
-    (:attr:`Claim.power_note` names them); "" if none."""
-    short = [p.seeds for p in claim.parts if p.seeds > claim.affordable_seeds]
-    if not short:
+def power_short(sidecar: Mapping[str, Any]) -> str:
+    """"power (k of n parts: this run could see 2.1–40× δ)" over the inconclusive parts whose
+    minimum detectable effect (recorded per comparison) exceeds δ; "" if none."""
+    ratios = []
+    for part in sidecar.get("parts", []):
+        if part["outcome"] != INCONCLUSIVE:
+            continue
+        rows = [r for r in (part.get("numbers") or {}).values()
+                if isinstance(r, dict) and r.get("smallest_effect")]
+        seen = [r["minimum_detectable_effect"] / abs(r["smallest_effect"]) for r in rows
+                if "minimum_detectable_effect" in r]
+        if seen and max(seen) > 1.0:
+            ratios.append(max(seen))
+    if not ratios:
         return ""
-    low, high = min(short), max(short)
-    need = f"{low}" if low == high else f"{low}–{high}"
-    return (f"power ({len(short)} of {len(claim.parts)} parts need {need}"
-            f"{'+' if high >= 1000 else ''} seeds; {claim.affordable_seeds} run)")
+    low, high = f"{min(ratios):.2g}", f"{max(ratios):.2g}"
+    span = low if low == high else f"{low}–{high}"
+    return (f"power ({len(ratios)} of {len(sidecar.get('parts', []))} parts: this run could "
+            f"see {span}× δ)")
 
 
 def _controls_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
@@ -107,13 +118,13 @@ def _gates_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
 
 def limits_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
     """What limits the verdict: power, resolution, a control or gate, the stand-in; first, a
-    sidecar recorded under another registry version (power is the current registry's)."""
+    sidecar recorded under another registry version."""
     limits = []
     version = int(sidecar.get("registry_version", 1))
     if version != REGISTRY_VERSION:
         limits.append(f"decided under registry v{version}, not v{REGISTRY_VERSION}")
-    if power_short(claim):
-        limits.append(power_short(claim))
+    if power_short(sidecar):
+        limits.append(power_short(sidecar))
     below = [p["name"] for p in sidecar.get("parts", []) if p["outcome"] == BELOW_RESOLUTION]
     if below:
         limits.append(f"resolution ({', '.join(below)})")
@@ -133,8 +144,7 @@ def trust_rows(sidecars: Mapping[str, Mapping[str, Any]]) -> list[TrustRow]:
     for claim in CLAIMS.values():
         sidecar = sidecars.get(claim.id)
         if sidecar is None:
-            rows.append(TrustRow(claim.id, NOT_TESTED, "—", "—", "—", power_short(claim) or "—",
-                                 {}))
+            rows.append(TrustRow(claim.id, NOT_TESTED, "—", "—", "—", "—", {}))
             continue
         counts = outcome_counts(sidecar)
         controls, gates = controls_text(claim, sidecar), gates_text(claim, sidecar)
@@ -156,8 +166,8 @@ def trust_markdown(rows: list[TrustRow], figure: str | None = None) -> list[str]
              f"{len(rows)} claims: {counts} (registry v{REGISTRY_VERSION}). Parts: each "
              "registered part's outcome. Controls: the claim's own rule on a planted effect "
              "(must be seen) and on no effect (must stay silent). Gates: the models behind the "
-             "measurements against their registered quality gates. A missed control or a "
-             "failed gate makes a verdict inconclusive.", "",
+             "measurements against their registered fitness gates. A missed control makes a "
+             "verdict inconclusive; a failed gate, the parts that read its model.", "",
              "| claim | verdict | parts | controls | gates | limited by |",
              "|---|---|---|---|---|---|"]
     for r in rows:
@@ -185,28 +195,45 @@ def trust_html(rows: list[TrustRow], figure: str | None = None) -> str:
     return "\n".join(body)
 
 
+def previous_snapshot(path: str | os.PathLike | None = None) -> dict[str, dict[str, Any]]:
+    """Claim ID → ``verdict``, ``registry_version`` and ``run_id`` of the committed snapshot's
+    full-run sidecars (``results/claims.json``, or ``path``); {} without one."""
+    try:
+        sidecars = read_json(path or paths.results_dir() / "claims.json").get("sidecars", {})
+    except (OSError, ValueError, AttributeError):
+        return {}
+    return {claim_id: {"verdict": s["verdict"],
+                       "registry_version": int(s.get("registry_version", 1)),
+                       "run_id": s.get("run_id")}
+            for claim_id, s in sidecars.items() if s.get("mode") == "full" and "verdict" in s}
+
+
 @dataclass(frozen=True)
 class VerdictChange:
-    """A claim whose current verdict differs from the frozen v1 rule's on the same
-    measurements, with the changelog bullets that concern it."""
+    """A claim whose verdict differs from the previous snapshot's, with the changelog bullets
+    of the registry versions after the one that snapshot was decided under."""
 
     claim_id: str
-    v1: str
+    previous: str
+    previous_version: int
     current: str
     changes: list[Change]
 
 
 def verdict_changes(sidecars: Mapping[str, Mapping[str, Any]],
+                    previous: Mapping[str, Mapping[str, Any]],
                     changelog: Mapping[str, list[Change]]) -> list[VerdictChange]:
-    """Every full-run claim whose v1 verdict (kept in its sidecar) differs from its own."""
+    """Every full-run claim whose verdict differs from the previous snapshot's."""
     out = []
     for claim_id in CLAIMS:
-        sidecar = sidecars.get(claim_id)
-        if sidecar is None or sidecar.get("mode") != "full" or "v1" not in sidecar:
+        sidecar, before = sidecars.get(claim_id), previous.get(claim_id)
+        if sidecar is None or sidecar.get("mode") != "full" or before is None:
             continue
-        if v1_verdict(dict(sidecar)) != sidecar["verdict"]:
-            out.append(VerdictChange(claim_id, v1_verdict(dict(sidecar)), sidecar["verdict"],
-                                     list(changelog.get(claim_id, []))))
+        if before["verdict"] != sidecar["verdict"]:
+            version = int(before["registry_version"])
+            out.append(VerdictChange(claim_id, before["verdict"], version, sidecar["verdict"],
+                                     [c for c in changelog.get(claim_id, [])
+                                      if c.version > version]))
     return out
 
 
@@ -217,32 +244,34 @@ def _cite(change: Change, docs: str) -> str:
 
 def changes_markdown(changes: list[VerdictChange], changelog: Mapping[str, list[Change]],
                      docs: str = "../docs") -> list[str]:
-    """The "Verdict changes since registry v1" section; ``docs``: the link from the report's
-    folder to the repository's docs/."""
-    lines = ["", "## Verdict changes since registry v1", ""]
+    """The "Verdict changes since the previous snapshot" section; ``docs``: the link from the
+    report's folder to the repository's docs/."""
+    lines = ["", "## Verdict changes since the previous snapshot", ""]
     if not changes:
-        return lines + ["No full-run verdict here differs from the frozen version 1 rule's on "
-                        "the same measurements (quick runs and version 1 sidecars have none to "
-                        "compare).", ""]
-    every = changelog.get(EVERY_CLAIM, [])
-    lines += [f"{len(changes)} verdicts differ from the frozen version 1 rule's, decided on the "
-              "same measurements: each change is a change of rule, for the reasons below "
-              f"(quoted from [the registry changelog]({docs}/REGISTRY_CHANGELOG.md)"
+        return lines + ["No full-run verdict here differs from the previous snapshot's (the "
+                        "committed `results/` when this report was written; quick runs have "
+                        "none to compare).", ""]
+    oldest = min(c.previous_version for c in changes)
+    every = [c for c in changelog.get(EVERY_CLAIM, []) if c.version > oldest]
+    lines += [f"{len(changes)} verdicts differ from the previous snapshot's. A change comes "
+              "from new measurements (another run, models or design) or from a change of rule "
+              f"(quoted from [the registry changelog]({docs}/REGISTRY_CHANGELOG.md) for the "
+              "versions after the snapshot's"
               + (f"; the rules of every claim changed too: "
                  f"{', '.join(dict.fromkeys(_cite(c, docs) for c in every))}" if every else "")
               + ").", ""]
     for c in changes:
         reasons = " ".join(f"{ch.text} ({_cite(ch, docs)})" for ch in c.changes) or (
-            "no bullet of the changelog names this claim: only the rules of every claim "
-            "changed.")
-        lines.append(f"- **{c.claim_id}**: v1 *{c.v1}* → v{REGISTRY_VERSION} *{c.current}*. "
-                     f"{reasons}")
+            "no bullet of the changelog names this claim after the snapshot's version.")
+        lines.append(f"- **{c.claim_id}**: v{c.previous_version} *{c.previous}* → "
+                     f"v{REGISTRY_VERSION} *{c.current}*. {reasons}")
     return lines + [""]
 
 
 def changes_html(changes: list[VerdictChange]) -> str:
     esc = html.escape
-    items = "".join(f"<li><b>{esc(c.claim_id)}</b>: v1 {esc(c.v1)} → {esc(c.current)}. "
-                    + " ".join(esc(ch.text) for ch in c.changes) + "</li>" for c in changes)
-    return ("<h2>Verdict changes since registry v1</h2>"
+    items = "".join(f"<li><b>{esc(c.claim_id)}</b>: v{c.previous_version} {esc(c.previous)} → "
+                    f"{esc(c.current)}. " + " ".join(esc(ch.text) for ch in c.changes)
+                    + "</li>" for c in changes)
+    return ("<h2>Verdict changes since the previous snapshot</h2>"
             + (f"<ul>{items}</ul>" if changes else "<p>None.</p>"))

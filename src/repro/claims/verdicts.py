@@ -1,8 +1,9 @@
-"""Verdicts of registry version 2: five outcomes per part, five verdicts per claim.
+"""Verdicts of registry version 4: five outcomes per part, five verdicts per claim.
 
 A claim is decided from *parts*; each part is one or more per-seed paired differences
 (``Comparison``), oriented so that a positive difference is the paper's direction, each with
 the smallest effect of interest δ and the measurement's resolution r registered beside it.
+Every outcome comes from the run's own seeds: no seed count registered elsewhere changes it.
 
 Per part (``decide_parts``):
 
@@ -11,22 +12,31 @@ Per part (``decide_parts``):
   resolve the effect, so the part is neither supported nor contradicted.
 - **supported**: the one-sided t-test of "difference > 0" (non-inferiority parts: "> −δ")
   rejects at family-wise α = 0.025 over the claim's parts (Holm), for every comparison of
-  the part (an intersection–union test: its p-value is the largest). For one part this is
-  v1's "the 95 % t-interval excludes zero".
+  the part (an intersection–union test: its p-value is the largest).
 - **contradicted**: the same test in the other direction (Holm over parts and comparisons).
+  A significant result against the paper is evidence exactly as one for it is (v4: v3 turned
+  it into "inconclusive" when the run had fewer seeds than a power plan asked for).
 - **absent**: equivalence by two one-sided tests (TOST, Schuirmann 1987): the 90 % t-interval
   of the difference lies inside ±δ, for every comparison.
-- **inconclusive**: none of these; the reason says why: a measurement not recorded, one seed,
-  too few seeds for the registered power (such a part can only come out supported or
-  inconclusive), or an interval that reaches beyond ±δ on both sides of zero.
+- **inconclusive**: none of these; the reason says why — a measurement not recorded, one seed,
+  no spread to test with, or an interval that reaches beyond ±δ on both sides of zero, with
+  the smallest effect this run could have seen (``power.minimum_detectable_effect`` at its n
+  and its own spread) beside δ.
+
+The spread of a comparison's differences is never taken below r/√6, the rounding error of a
+difference of two values each rounded to a multiple of r (uniform on ±r/2, sd r/√12 each):
+differences that tie to the last quantisation step have not shown that they do not vary, so
+identical differences never give p = 0. A continuous measurement (r = 0) whose differences
+are identical in every seed has no error estimate: inconclusive.
 
 Per claim (``combine``): *reproduced* if every part is supported; *partially reproduced* if
 at least one effect part is supported (a non-inferiority part — "not worse" — never makes a
 claim partial on its own); *not reproduced* if every effect part is absent or contradicted
 (a finding: the intersection–union test needs no correction); *inconclusive* otherwise,
 naming each undecided part and why; *discrepancy in the paper* for exact checks of printed
-formulas. A failed positive control, a null control that fires, or a model that failed its
-quality gate makes any verdict inconclusive (``apply_controls``).
+formulas. A failed positive control or a null control that fires makes the claim
+inconclusive; a model that failed its fitness gate makes inconclusive the parts that read it
+(``apply_controls``).
 """
 
 from __future__ import annotations
@@ -38,6 +48,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy import stats
 
+from repro.claims.power import ALPHA, minimum_detectable_effect
 from repro.core.stats import t_interval
 
 SUPPORTED = "supported"
@@ -53,9 +64,7 @@ NOT_REPRODUCED = "not reproduced"
 PAPER_DISCREPANCY = "discrepancy in the paper"
 VERDICTS = (REPRODUCED, PARTIAL, NOT_REPRODUCED, INCONCLUSIVE, PAPER_DISCREPANCY)
 
-ALPHA = 0.025            # one-sided, family-wise over a claim's parts (Holm)
 EQUIVALENCE_ALPHA = 0.05  # each one-sided test of TOST: the 90 % interval
-POWER = 0.8
 
 Measured = Mapping[str, Any]
 Kind = Literal["effect", "non-inferiority"]
@@ -76,8 +85,7 @@ class Part:
     """A registered part of a claim: what it tests, how, and at what size.
 
     ``compare`` turns the notebook's measurements into comparisons; ``needs`` are the
-    measurement names it reads (a missing one makes the part inconclusive, never an error);
-    ``seeds`` is the number the power calculation asks for (``repro.claims.power``)."""
+    measurement names it reads (a missing one makes the part inconclusive, never an error)."""
 
     name: str
     text: str
@@ -86,7 +94,6 @@ class Part:
     smallest_effect_reason: str
     resolution: float = 0.0
     resolution_reason: str = "continuous measurement"
-    seeds: int = 2
     kind: Kind = "effect"
 
 
@@ -113,7 +120,6 @@ class Decision:
     reason: str
     checks: dict[str, object] = field(default_factory=dict)
     parts: list[PartResult] = field(default_factory=list)
-    v1_verdict: str | None = None  # set by the ledger: the frozen version 1 rule's verdict
 
     def __post_init__(self) -> None:
         if self.verdict not in VERDICTS:
@@ -131,25 +137,43 @@ def parts_in_words(parts: Sequence[Mapping[str, Any]], *, reasons: bool = True) 
     return "; ".join(f"{p['name']}: {p['outcome']}" for p in parts)
 
 
-def one_sided_p(differences: Sequence[float], null_value: float,
-                alternative: Literal["greater", "less"]) -> float:
-    """p of the one-sided one-sample t-test of mean(differences) vs ``null_value`` (scipy).
-    Identical differences have no spread: p = 0 on the far side of the null value, else 1."""
+def spread_floor(resolution: float) -> float:
+    """The least spread a comparison's differences are tested with: r/√6, the sd of the
+    rounding error of a difference of two values each rounded to a multiple of r."""
+    return resolution / np.sqrt(6.0)
+
+
+def _spread(differences: Sequence[float], floor: float) -> float:
     array = np.asarray(differences, dtype=np.float64)
-    if array.size < 2:
+    return max(float(array.std(ddof=1)) if array.size > 1 else 0.0, floor)
+
+
+def one_sided_p(differences: Sequence[float], null_value: float,
+                alternative: Literal["greater", "less"], floor: float = 0.0) -> float:
+    """p of the one-sided one-sample t-test of mean(differences) vs ``null_value``, the spread
+    taken as at least ``floor`` (:func:`spread_floor`). Without two seeds, or without any
+    spread (identical differences of a continuous measurement), nothing is tested: p = 1."""
+    array = np.asarray(differences, dtype=np.float64)
+    spread = _spread(array, floor)
+    if array.size < 2 or spread == 0.0:
         return 1.0
-    if np.ptp(array) == 0.0:
-        beyond = array[0] > null_value if alternative == "greater" else array[0] < null_value
-        return 0.0 if beyond else 1.0
-    return float(stats.ttest_1samp(array, null_value, alternative=alternative).pvalue)
+    t = (float(array.mean()) - null_value) / (spread / np.sqrt(array.size))
+    tail = stats.t.sf if alternative == "greater" else stats.t.cdf
+    return float(tail(t, array.size - 1))
 
 
-def equivalent(differences: Sequence[float], smallest_effect: float) -> bool:
-    """TOST at 5 % per side: the 90 % t-interval lies strictly inside ±δ."""
-    if len(differences) < 2 or smallest_effect <= 0:
+def equivalent(differences: Sequence[float], smallest_effect: float,
+               floor: float = 0.0) -> bool:
+    """TOST at 5 % per side: the 90 % t-interval (spread at least ``floor``) lies strictly
+    inside ±δ."""
+    array = np.asarray(differences, dtype=np.float64)
+    spread = _spread(array, floor)
+    if array.size < 2 or smallest_effect <= 0 or spread == 0.0:
         return False
-    interval = t_interval(differences, confidence=1 - 2 * EQUIVALENCE_ALPHA)
-    return -smallest_effect < interval.low and interval.high < smallest_effect
+    half = float(stats.t.ppf(1 - EQUIVALENCE_ALPHA, array.size - 1) * spread
+                 / np.sqrt(array.size))
+    mean = float(array.mean())
+    return -smallest_effect < mean - half and mean + half < smallest_effect
 
 
 def holm(p_values: Sequence[float], alpha: float = ALPHA) -> list[bool]:
@@ -183,22 +207,36 @@ def best_option(claimed: str, per_option: Mapping[str, Sequence[float]], *,
     return comparisons
 
 
+def _resolution(comparison: Comparison, part: Part) -> float:
+    return part.resolution if comparison.resolution is None else comparison.resolution
+
+
 def _below(comparison: Comparison, part: Part) -> bool:
     """Every difference within ± the resolution (effect parts only: a non-inferiority part
     tests "> −δ", which quantised values can pass)."""
     if part.kind != "effect":
         return False
-    resolution = part.resolution if comparison.resolution is None else comparison.resolution
-    return bool(np.max(np.abs(comparison.differences)) <= resolution * (1 + 1e-9))
+    return bool(np.max(np.abs(comparison.differences))
+                <= _resolution(comparison, part) * (1 + 1e-9))
 
 
-def _part_numbers(part: Part, comparisons: list[Comparison]) -> dict[str, Any]:
-    numbers: dict[str, Any] = {"seeds_required": part.seeds, "resolution": part.resolution}
+def _floor(comparison: Comparison, part: Part) -> float:
+    return spread_floor(_resolution(comparison, part))
+
+
+def _part_numbers(part: Part, comparisons: list[Comparison], parts_tested: int
+                  ) -> dict[str, Any]:
+    """Per comparison: mean, 95 % interval, n, δ, the spread tested with and the minimum
+    detectable effect at this run's n and spread (80 % power at α/parts: Holm's first step)."""
+    numbers: dict[str, Any] = {"resolution": part.resolution}
     for c in comparisons:
         interval = t_interval(c.differences)
-        numbers[c.label or "difference"] = {"mean": interval.mean, "low": interval.low,
-                                            "high": interval.high, "n": interval.n,
-                                            "smallest_effect": c.smallest_effect}
+        spread = _spread(c.differences, _floor(c, part))
+        numbers[c.label or "difference"] = {
+            "mean": interval.mean, "low": interval.low, "high": interval.high, "n": interval.n,
+            "smallest_effect": c.smallest_effect, "spread": spread,
+            "minimum_detectable_effect": minimum_detectable_effect(
+                interval.n, spread, alpha=ALPHA / max(parts_tested, 1))}
     return numbers
 
 
@@ -225,7 +263,7 @@ def decide_parts(parts: Sequence[Part], measured: Measured) -> list[PartResult]:
 
     def p_of(part: Part, c: Comparison, alternative: Literal["greater", "less"]) -> float:
         null = -c.smallest_effect if part.kind == "non-inferiority" else 0.0
-        return one_sided_p(c.differences, null, alternative)
+        return one_sided_p(c.differences, null, alternative, _floor(c, part))
 
     # a part with a comparison below resolution cannot be supported: it enters Holm's family
     # with p = 1, so it cannot loosen the other parts' thresholds; the comparisons it does
@@ -244,19 +282,28 @@ def decide_parts(parts: Sequence[Part], measured: Measured) -> list[PartResult]:
             results.append(entry)
             continue
         part, comparisons = entry
+        numbers = _part_numbers(part, comparisons, len(testable))
+        numbers["p_support"], numbers["p_contradict"] = support_p[index], contra_p[index]
         results.append(_outcome(part, comparisons, supported[index], contradicted[index],
-                                support_p[index]))
+                                numbers))
         index += 1
     return results
 
 
+def _could_see(comparisons: list[Comparison], numbers: Mapping[str, Any]) -> str:
+    """"this run could see X (80 % power, n seeds, its own spread); δ is Y" per comparison."""
+    words = []
+    for c in comparisons:
+        row = numbers[c.label or "difference"]
+        label = f"{c.label}: " if c.label else ""
+        words.append(f"{label}this run could see {row['minimum_detectable_effect']:.3g} (80 % "
+                     f"power, {row['n']} seeds, its own spread); δ is {c.smallest_effect:.3g}")
+    return "; ".join(words)
+
+
 def _outcome(part: Part, comparisons: list[Comparison], supported: bool, contradicted: bool,
-             p_support: float) -> PartResult:
-    numbers = _part_numbers(part, comparisons)
-    numbers["p_support"] = p_support
+             numbers: dict[str, Any]) -> PartResult:
     n = min(len(c.differences) for c in comparisons)
-    underpowered = n < part.seeds
-    power_note = f"{n} seeds of the {part.seeds} the power calculation asks for"
     ties = [c.label or "difference" for c in comparisons if _below(c, part)]
     if len(ties) == len(comparisons):
         return PartResult(part.name, BELOW_RESOLUTION, f"every difference within ±"
@@ -264,29 +311,29 @@ def _outcome(part: Part, comparisons: list[Comparison], supported: bool, contrad
     if n < 2:
         return PartResult(part.name, INCONCLUSIVE, "one seed cannot decide a direction",
                           numbers)
+    if all(_spread(c.differences, _floor(c, part)) == 0.0 for c in comparisons):
+        return PartResult(part.name, INCONCLUSIVE, "the same difference in every seed of a "
+                          "continuous measurement: no spread to test with (the seeds vary "
+                          "nothing this measurement sees)", numbers)
     if supported and not ties:
         return PartResult(part.name, SUPPORTED, "every interval on the paper's side (Holm)"
                           if len(comparisons) > 1 else "on the paper's side (Holm over parts)",
                           numbers)
     if contradicted:
-        if underpowered:
-            return PartResult(part.name, INCONCLUSIVE, f"points the other way, but power: "
-                              f"{power_note}", numbers)
         return PartResult(part.name, CONTRADICTED, "significantly against the paper's "
                           "direction (Holm)", numbers)
     if ties:
         return PartResult(part.name, BELOW_RESOLUTION, f"{', '.join(ties)}: every difference "
                           f"within ±{part.resolution:.3g} (an exact tie at "
                           f"{part.resolution_reason})", numbers)
-    if underpowered:
-        return PartResult(part.name, INCONCLUSIVE, f"power: {power_note}", numbers)
-    if part.kind == "effect" and all(equivalent(c.differences, c.smallest_effect)
-                                     for c in comparisons):
+    if part.kind == "effect" and all(equivalent(c.differences, c.smallest_effect,
+                                                _floor(c, part)) for c in comparisons):
         deltas = ", ".join(f"{c.smallest_effect:.3g}" for c in comparisons)
         return PartResult(part.name, ABSENT, f"no effect of the registered size: the 90 % "
                           f"interval lies inside ±δ = {deltas} (TOST)", numbers)
-    return PartResult(part.name, INCONCLUSIVE, f"neither on the paper's side after Holm (p = "
-                      f"{p_support:.2g}) nor inside ± the smallest effect of interest", numbers)
+    return PartResult(part.name, INCONCLUSIVE, f"neither side after Holm (p = "
+                      f"{numbers['p_support']:.2g} for, {numbers['p_contradict']:.2g} against) "
+                      f"nor inside ±δ: {_could_see(comparisons, numbers)}", numbers)
 
 
 def combine(results: Sequence[PartResult], parts: Sequence[Part] | None = None) -> str:
@@ -319,10 +366,16 @@ def exact_decision(verdict: str, reason: str, checks: Mapping[str, bool]) -> Dec
 
 
 def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
-                   quality_gates: Mapping[str, bool] | None = None) -> Decision:
-    """The claim's decision after its controls and quality gates: a positive control (the
-    registered effect planted) that is not reproduced, a null control (no effect) that comes
-    out reproduced or partially, or a failed quality gate makes it inconclusive."""
+                   quality_gates: Mapping[str, bool] | None = None,
+                   gate_reads: Mapping[str, Sequence[str] | None] | None = None,
+                   parts: Sequence[Part] | None = None) -> Decision:
+    """The claim's decision after its controls and fitness gates.
+
+    A positive control (the registered effect planted) that is not reproduced, or a null
+    control (no effect) that comes out reproduced or partially, makes the claim inconclusive:
+    the measurement itself is in question. A failed gate makes inconclusive the parts that
+    read its model (``gate_reads``: gate name → part names; absent or None: every part), and
+    the verdict is combined again from the parts (``parts``: their kinds)."""
     problems = []
     positive, null = controls.get("positive"), controls.get("null")
     if positive is not None and positive.verdict != REPRODUCED:
@@ -331,10 +384,29 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
     if null is not None and null.verdict in (REPRODUCED, PARTIAL):
         problems.append(f"the null control fired: the measurement finds an effect where none "
                         f"was planted (control: {null.verdict})")
-    problems += [f"failed quality gate: {name}" for name, ok in (quality_gates or {}).items()
-                 if not ok]
-    if not problems:
+    if problems:
+        return Decision(INCONCLUSIVE, "; ".join(problems) + f" — without controls: "
+                        f"{decision.verdict}: {decision.reason}", dict(decision.checks),
+                        list(decision.parts))
+    failed = [name for name, ok in (quality_gates or {}).items() if not ok]
+    if not failed:
         return decision
-    return Decision(INCONCLUSIVE, "; ".join(problems) + f" — without controls: "
-                    f"{decision.verdict}: {decision.reason}", dict(decision.checks),
-                    list(decision.parts))
+    names = [p.name for p in decision.parts]
+    resting: dict[str, list[str]] = {}
+    for gate in failed:
+        reads = (gate_reads or {}).get(gate)
+        unknown = sorted(set(reads or ()) - set(names))
+        if unknown:
+            raise ValueError(f"gate {gate!r} reads parts {unknown}; the claim's parts are "
+                             f"{names}")
+        for name in (names if reads is None else reads):
+            resting.setdefault(name, []).append(gate)
+    results = [PartResult(p.name, INCONCLUSIVE, f"rests on {', '.join(resting[p.name])}, which "
+                          f"failed its fitness gate (without it: {p.outcome})", p.numbers)
+               if p.name in resting else p for p in decision.parts]
+    verdict = (INCONCLUSIVE if not names or decision.verdict == PAPER_DISCREPANCY
+               else combine(results, parts))
+    gated = Decision(verdict, "", {r.name: r.outcome for r in results}, results)
+    gated.reason = (f"failed fitness gate: {', '.join(failed)}; "
+                    + (gated.parts_in_words() or f"without it: {decision.verdict}"))
+    return gated

@@ -35,6 +35,7 @@ from repro.gmd.models import (
     training_fields,
     trajectory_loss_weights,
 )
+from repro.gmd.run_seeds import FULL_SEEDS
 from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows
 from repro.infra import cache
 from repro.motion.features import FEATURE_DIM, FPS
@@ -46,17 +47,15 @@ METHODS = ("loss_scaling", "emphasis")
 IMPUTED_FEATURES = (1, 2)
 #: features 193:196 are the root joint's velocity in the body's facing frame.
 ROOT_VELOCITY = slice(193, 196)
-#: GMD-C4's matched values and seeds in full mode (registry v3; the power plan in the GMD-C4
-#: entry of ``claims.registry_gmd``): 2 and 10 (GMD's released c) with 6 seeds each, the
-#: 24 models v1 spread over four values with 3 seeds.
+#: GMD-C4's matched values (registry v3): 2 and 10 (GMD's released c); its seeds are
+#: ``run_seeds.FULL_SEEDS["GMD-C4"]``.
 C4_VALUES = (2, 10)
-C4_SEEDS = 6
 #: the values at which the sensitivity arms (orthogonal matrix, GMD's float32 construction)
 #: run: GMD's released c = 10.
 SENSITIVITY_VALUES = (10,)
 
 __all__ = [
-    "C4_SEEDS", "C4_VALUES", "IMPUTED_FEATURES", "METHODS", "SENSITIVITY_VALUES",
+    "C4_VALUES", "IMPUTED_FEATURES", "METHODS", "SENSITIVITY_VALUES",
     "ImputedX0", "ProjectedFeatureSpace",
     "Settings", "Targets", "Variant", "coherence", "draw_targets", "from_normalised",
     "ProjectionSettings", "load_or_train_variant", "measure_imputed", "measure_text_to_motion",
@@ -304,7 +303,8 @@ class Settings:
             return cls(quick=True, seeds=1, stand_in_clips=200, stride=8, diffusion_steps=20,
                        train_steps=10 if train_steps is None else int(train_steps), samples=32,
                        evaluator_steps=50)
-        return cls(quick=False, seeds=C4_SEEDS, stand_in_clips=2000, stride=24, diffusion_steps=50,
+        return cls(quick=False, seeds=FULL_SEEDS["GMD-C4"], stand_in_clips=2000, stride=24,
+                   diffusion_steps=50,
                    train_steps=(MOTION_TRAINING.step_cap if train_steps is None
                                 else int(train_steps)),
                    samples=64, evaluator_steps=500)

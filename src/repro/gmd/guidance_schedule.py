@@ -34,6 +34,7 @@ from repro.gmd.guidance import Clamp, goal_error, goal_reaching_loss, sample
 from repro.gmd.measurements import foot_skating_of, jitter_of
 from repro.gmd.models import GMDModelSpec, TrainedGMD
 from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_STOP_T
+from repro.gmd.run_seeds import FULL_SEEDS
 from repro.gmd.windows import FeatureSpace
 from repro.gmd.x0_vs_eps import Settings as ModelSettings
 
@@ -471,7 +472,7 @@ class Settings:
     goals_shown: int = 6
 
     @classmethod
-    def for_mode(cls, quick: bool, *, seeds: int = 3) -> Settings:
+    def for_mode(cls, quick: bool, *, seeds: int = FULL_SEEDS["GMD-F1"]) -> Settings:
         model = ModelSettings.for_mode(quick, seeds=seeds)
         if quick:
             return cls(quick=True, seeds=seeds, goals=4, obstacle_goals=4, model=model)

@@ -37,6 +37,7 @@ from torch import Tensor
 from repro.gmd import paper_settings
 from repro.gmd.guidance import default_stop_step
 from repro.gmd.models import MOTION_TRAINING, TRAJECTORY_TRAINING, GMDModelSpec, training_fields
+from repro.gmd.run_seeds import FULL_SEEDS
 from repro.gmd.windows import REPRESENTATIONS, DataConfig, short_label
 from repro.models.evaluator import EvaluatorConfig
 from repro.motion.features import (
@@ -64,15 +65,6 @@ __all__ = [
 
 #: the root entries a perturbation touches: [0] rotation (ω or a), [1:3] linear (v or p).
 ROOT_PARAMETERS = slice(0, 3)
-#: seeds of the full run. The power plan (the parts' registered ``seeds``) asks GMD-B2 for
-#: 1000+ / 44 / 18 (imputation difference / 10 cm threshold / guidance difference) and GMD-B3
-#: for 5 / 5 / 32 (FID / diversity gap / R@3 non-inferiority). B2 trains two trajectory
-#: models and samples six methods at T = 1000 per seed: it affords 3, as v1 (every part can
-#: then only come out supported or inconclusive). B3 trains two motion models per seed: it
-#: runs the effect parts' 5; the R@3 part can only come out supported or inconclusive
-#: (``Claim.power_note``).
-B2_SEEDS = 3
-B3_SEEDS = 5
 
 
 # ------------------------------------------------------------------------------- round trip
@@ -228,10 +220,18 @@ class SensitivityResult:
             return float(curve[-1] / curve[1])
         return float("inf") if curve[-1] > 0 else float("nan")
 
+    def change_size(self, perturbation: str = "both") -> float:
+        """The perturbation's own size where it is made (m): abs's displacement at gap 0, the
+        mean over clips (``abs_early_displacement``): what a late displacement is measured
+        against (registry v4; v3 compared rel with abs's late frames, which are 0 by
+        construction)."""
+        return float(self.displacement["absolute"][perturbation][:, 0].mean())
+
     def measurements(self) -> dict[str, float]:
         """Exactly the names GMD-B1's rule reads (besides ``round_trip_max_error``)."""
         return {"rel_late_displacement": self.late_mean("relative"),
                 "abs_late_displacement": self.late_mean("absolute"),
+                "abs_early_displacement": self.change_size(),
                 "rel_sensitivity_growth": self.growth("relative")}
 
     def summary(self) -> dict[str, object]:
@@ -303,9 +303,8 @@ class Settings:
     both trained to convergence (``models.training_fields``; ``trajectory_steps`` /
     ``motion_steps`` are the step caps), the motion model sampled with
     classifier-free guidance at GMD's scale (``repro.gmd.cfg``). ``seeds`` (B2) and
-    ``motion_seeds`` (B3) follow the power plan as far as the run affords
-    (``registry_gmd``: the parts' ``seeds``). Quick mode shrinks everything, T included (a
-    test of the code, never a result).
+    ``motion_seeds`` (B3) come from ``run_seeds.FULL_SEEDS``. Quick mode shrinks everything,
+    T included (a test of the code, never a result).
     """
 
     quick: bool
@@ -328,7 +327,8 @@ class Settings:
                        diffusion_steps=20, trajectory_steps=20, motion_steps=20,
                        sensitivity_clips=8, targets=8, evaluation_windows=96,
                        evaluator_steps=30)
-        return cls(quick=False, seeds=B2_SEEDS, motion_seeds=B3_SEEDS, stand_in_clips=2000,
+        return cls(quick=False, seeds=FULL_SEEDS["GMD-B2"], motion_seeds=FULL_SEEDS["GMD-B3"],
+                   stand_in_clips=2000,
                    stride=24, diffusion_steps=100,
                    trajectory_steps=TRAJECTORY_TRAINING.step_cap,
                    motion_steps=MOTION_TRAINING.step_cap, sensitivity_clips=64, targets=64,

@@ -30,6 +30,7 @@ from repro.gmd.guidance import (
 from repro.gmd.measurements import foot_skating_of, jitter_of, motion_fid
 from repro.gmd.models import GMDModelSpec, TrainedGMD, training_fields
 from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_SCHEDULE
+from repro.gmd.run_seeds import FULL_SEEDS
 from repro.gmd.windows import (
     DataConfig,
     FeatureSpace,
@@ -259,8 +260,8 @@ class Settings:
     motion_representation: Representation = "relative"
 
     @classmethod
-    def for_mode(cls, quick: bool, *, seeds: int = 3, train_steps: int | None = None
-                 ) -> Settings:
+    def for_mode(cls, quick: bool, *, seeds: int = FULL_SEEDS["GMD-A4"],
+                 train_steps: int | None = None) -> Settings:
         if quick:
             return cls(quick=True, seeds=seeds, stand_in_clips=120, frames=24,
                        train_steps=20 if train_steps is None else int(train_steps),
