@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from conftest import make_context
 
+from repro.claims import trust
 from repro.claims.changelog import EVERY_CLAIM, claim_changes, ids_in, parse_changelog
 from repro.claims.ledger import load_sidecars, record_claim
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.claims.report import docs_link, write_report
-from repro.claims import trust
 from repro.claims.trust import power_short, previous_snapshot, trust_rows, verdict_changes
 from repro.infra.storage import write_json
 
