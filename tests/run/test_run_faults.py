@@ -171,7 +171,10 @@ BAD_VALUES = [
     (["-p", "n_seeds=true"], "parameter n_seeds must be int"),
     (["-p", "scale=\"big\""], "parameter scale must be float or int"),
     (["-p", "stepz=3"], "has no parameter(s) ['stepz']"),
-    (["--seed", "-1"], "parameter seed=-1 must be at least 0"),
+    (["--seed", "-1"], "parameter seed=-1 must be between 0 and 2^48 - 1 = 281474976710655"),
+    # issue #35 case 1: 2^64 - 1 used to fail inside the kernels of notebooks 05 and 06
+    (["--seed", str(2**64 - 1)], "parameter seed=18446744073709551615 must be between 0 and "
+                                 "2^48 - 1 = 281474976710655"),
     (["--device", "cuda:0"], "names CUDA, which is not available here"),
     (["--device", "gpu"], "parameter device='gpu' is not a torch device"),
     (["-p", 'data_dir="/no/such/folder"'], "is not a folder (/no/such/folder does not exist)"),
@@ -210,12 +213,21 @@ def _damage(folder: Path, how: str) -> str:
     elif how == "missing-statistics":
         (folder / "Mean.npy").unlink()
         return "Mean.npy"
+    elif how == "garbled-statistics":  # issue #35 case 3
+        (folder / "Mean.npy").write_bytes(b"\x80\x04 not an array " * 40)
+        return f"{folder / 'Mean.npy'}: is not a .npy array: it does not start with numpy's header"
+    elif how == "truncated-without-layout":  # issue #35 case 4: four layout errors besides
+        features.write_bytes(features.read_bytes()[:200])
+        shutil.rmtree(folder / "texts")
+        for split in ("train", "val", "test"):
+            (folder / f"{split}.txt").unlink()
+        return f"{features}: cannot be read as a .npy array (truncated"
     return f"{clip}.npy"
 
 
 @pytest.mark.parametrize("how", [
-    "missing",
-    "empty", "truncated", "wrong-shape", "missing-statistics"])
+    "missing", "empty", "truncated", "wrong-shape", "missing-statistics", "garbled-statistics",
+    "truncated-without-layout"])
 def test_bad_dataset_files_are_named_before_any_kernel_starts(
         sandbox: Path, guarded, how: str, capsys: pytest.CaptureFixture[str]) -> None:
     data = sandbox / "data"
@@ -224,7 +236,10 @@ def test_bad_dataset_files_are_named_before_any_kernel_starts(
     assert main(["reproduce", "--quick", "-p", f'data_dir="{data}"']) == 2
     err = capsys.readouterr().err
     assert "is not a valid HumanML3D-layout folder" in err and named in err
+    assert "allow_pickle" not in err and "validator failed" not in err
     assert guarded()
+    assert main(["validate-dataset", str(data)]) == 1  # the check it names shows the same
+    assert named in capsys.readouterr().out
 
 
 def test_an_empty_dataset_file_is_refused_before_any_kernel_starts(
@@ -237,3 +252,33 @@ def test_an_empty_dataset_file_is_refused_before_any_kernel_starts(
     assert "is not a valid HumanML3D-layout folder" in err and "No data left in file" in err
     assert not (sandbox / "build" / "quick" / "runs").exists()
     assert guarded()
+
+
+def test_the_largest_base_seed_fits_every_seed_derived_from_it(tmp_path: Path) -> None:
+    """Issue #35 case 1: the range checked up front is what every notebook can use."""
+    import torch
+
+    from repro.gmd.controls import control_seed
+    from repro.infra.context import MAX_SEED
+    from repro.run.notebook import setup_notebook
+
+    largest = 10_000 * (MAX_SEED + 100) + 10_000  # gmd.table_b1, 100 seeds from the base
+    assert largest < 2**63 and control_seed(MAX_SEED + 100, 99, stream=99) < 2**63
+    torch.Generator().manual_seed(largest)
+    np.random.default_rng(largest)
+    with pytest.raises(ValueError, match=f"seed={MAX_SEED + 1} must be between 0 and 2"):
+        setup_notebook(quick=True, seed=MAX_SEED + 1, device="cpu", build_dir=str(tmp_path))
+
+
+def test_a_relative_data_dir_is_read_from_the_callers_folder(
+        sandbox: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue #35 case 2: the kernels run in notebooks/, so the runner makes it absolute."""
+    shutil.copytree(paths.data_stubs_dir(), sandbox / "mydata")
+    _notebook(sandbox / "notebooks" / "01_two_claims.ipynb",
+              "from repro.run.notebook import setup_notebook\n"
+              "ctx = setup_notebook(quick=quick, seed=seed, device=device, "
+              "build_dir=build_dir, data_dir=data_dir)\nprint('data:', ctx.data_dir)")
+    monkeypatch.chdir(sandbox)
+    assert main(["reproduce", "--quick", "-p", 'data_dir="mydata"']) == 0
+    executed = (sandbox / "build" / "quick" / "notebooks" / "01_two_claims.ipynb").read_text()
+    assert f"data: {sandbox / 'mydata'}" in executed

@@ -88,6 +88,34 @@ def read_json(path: str | os.PathLike) -> Any:
         return json.load(handle)
 
 
+def read_npy(path: str | os.PathLike) -> np.ndarray:
+    """``np.load`` of one array (never a pickle); a file that is not a readable ``.npy`` raises
+    ValueError naming it, what is wrong and what to do (numpy's own messages name no file,
+    and its allow_pickle hint is the wrong advice for a damaged array).
+
+    FileNotFoundError passes through unchanged."""
+    try:
+        array = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise
+    except EOFError as error:  # an empty file
+        reason = f"is empty or cut short ({error})"
+    except (ValueError, OSError) as error:
+        text = str(error)
+        if "contains pickled" in text:  # no .npy header: numpy took it for a pickle
+            reason = ("is not a .npy array: it does not start with numpy's header (garbled, "
+                      "or not written by numpy.save)")
+        elif "Object arrays" in text:
+            reason = "holds Python objects, not numbers"
+        else:
+            reason = f"cannot be read as a .npy array (truncated or damaged: {text})"
+    else:
+        if isinstance(array, np.ndarray):
+            return array
+        reason = "holds several arrays (an .npz archive), not one .npy array"
+    raise ValueError(f"{path} {reason}; replace it with the original file") from None
+
+
 def write_text(path: str | os.PathLike, text: str) -> Path:
     with atomic_open(path, "w", encoding="utf-8") as handle:
         handle.write(text)

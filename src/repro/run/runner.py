@@ -221,6 +221,7 @@ def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device:
         raise ValueError(f"--threads must be at least 1, got {threads}")
     extra = dict(extra_parameters or {})
     params.check_extra_parameters(extra)
+    extra = params.absolute_folders(extra)
     parameters = {"quick": quick, "seed": seed, "device": device, "build_dir": None, **extra}
     params.forget_checks()
     for name in targets:  # validate everything before running anything
