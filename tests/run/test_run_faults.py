@@ -1,5 +1,6 @@
-"""Every fault of issue #18 ends with an error naming the problem, and leaves ``results/`` and
-the last good report untouched. Tiny notebooks written by the tests; no model training."""
+"""Every fault of issues #18 and #35 ends with an error naming the problem, and leaves
+``results/`` and the last good report untouched. Tiny notebooks written by the tests; no model
+training."""
 
 from __future__ import annotations
 
@@ -124,9 +125,11 @@ def test_report_refuses_to_mix_runs_unless_allowed(
     _notebook(sandbox / "notebooks" / "02_other.ipynb", _recording("two", ["GMD-B1"]))
     quick = sandbox / "build" / "quick"
     report_before = (quick / "report" / "REPORT.md").read_bytes()
-    assert runner.reproduce(quick=True, only=["02"], seed=7) == 1
-    err = capsys.readouterr().err
-    assert "come from 2 runs" in err and first in err and "--allow-mixed" in err
+    # issue #35 case 8: the partial run succeeded: exit 0, saying how to report mixed runs
+    assert runner.reproduce(quick=True, only=["02"], seed=7) == 0
+    out = capsys.readouterr().out
+    assert "published" in out and "come from 2 runs" in out and first in out
+    assert "python -m repro report --quick --allow-mixed" in out
     assert (quick / "report" / "REPORT.md").read_bytes() == report_before
     assert main(["report", "--quick"]) == 2
     assert "come from 2 runs" in capsys.readouterr().err
@@ -282,3 +285,122 @@ def test_a_relative_data_dir_is_read_from_the_callers_folder(
     assert main(["reproduce", "--quick", "-p", 'data_dir="mydata"']) == 0
     executed = (sandbox / "build" / "quick" / "notebooks" / "01_two_claims.ipynb").read_text()
     assert f"data: {sandbox / 'mydata'}" in executed
+
+
+def test_a_read_only_build_is_named_before_any_kernel_starts(
+        sandbox: Path, guarded, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 5 (as root, chmod does not stop a write: the failing call is made to
+    fail as it does for another user)."""
+    lock = sandbox / "cache" / "gmd" / "abc" / ".lock"
+
+    def read_only(*_: object, **__: object) -> None:
+        raise PermissionError(13, "Permission denied", str(lock))
+
+    monkeypatch.setattr(runner.cache, "clean_cache", read_only)
+    assert main(["reproduce", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot write {lock}: Permission denied; make its folder writable" in err
+    assert "REPRO_BUILD_ROOT" in err and "Traceback" not in err
+    assert not list((sandbox / "build" / "quick" / "runs").glob("*"))
+    assert guarded()
+    from repro.claims import report
+
+    report_file = sandbox / "build" / "quick" / "report" / "claims.json"
+    monkeypatch.setattr(report, "write_json", lambda path, _: (_ for _ in ()).throw(
+        PermissionError(13, "Permission denied", str(report_file))))
+    assert main(["report", "--quick"]) == 2
+    assert f"cannot write {report_file}: Permission denied" in capsys.readouterr().err
+    assert guarded()
+
+
+def test_a_garbled_claim_sidecar_is_named(sandbox: Path, guarded,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 6."""
+    quick = sandbox / "build" / "quick"
+    report_before = (quick / "report" / "REPORT.md").read_bytes()
+    (quick / "claims" / "GMD-A2.json").write_text('{"id": "GMD-A2", "verdict": ')
+    assert main(["report", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert f"the claim sidecar {quick / 'claims' / 'GMD-A2.json'} is not valid JSON" in err
+    assert "python -m repro reproduce --only GMD-A2" in err and "Traceback" not in err
+    assert "the last good report" in err
+    assert (quick / "report" / "REPORT.md").read_bytes() == report_before
+
+
+def test_a_full_disk_is_named_before_and_during_a_run(
+        sandbox: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 7: before a run (staging cannot be written) and after a worker that
+    could write neither its result nor its log; with no report yet, none is said kept."""
+    from types import SimpleNamespace
+
+    staging = sandbox / "build" / "quick" / "runs" / "x" / "run.json"
+
+    def full(**_: object) -> None:
+        raise OSError(28, "No space left on device", str(staging))
+
+    monkeypatch.setattr(runner.transaction, "new_run", full)
+    assert main(["reproduce", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot write {staging}: No space left on device (the disk is full" in err
+    assert "free space on it and rerun; nothing ran" in err
+    folder = sandbox / "staged"
+    folder.mkdir()
+    (folder / "worker.log").write_bytes(b"")
+    job = SimpleNamespace(name="01_two_claims", process=SimpleNamespace(returncode=1))
+    monkeypatch.setattr(runner, "free_bytes", lambda _: 4096)
+    error = runner._no_result(job, folder)
+    assert f"the disk holding {folder} is full (4096 bytes free)" in error
+    assert "worker.log" not in error
+    failed = runner.NotebookResult("01_two_claims", False, 1.0, str(folder), error)
+    monkeypatch.setattr(runner, "run_notebooks", lambda *_, **__: [failed])
+    assert runner.reproduce(quick=True) == 1
+    err = capsys.readouterr().err
+    assert "there is no report in" in err and "last good report" not in err
+
+
+def test_two_runs_ending_together_both_succeed_and_say_how_to_report(
+        sandbox: Path, guarded, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 8: two identical runs started together leave claims of both runs."""
+    from conftest import make_context
+
+    from repro.claims.ledger import record_claim
+
+    quick = sandbox / "build" / "quick"
+    record_claim(make_context(quick, run_id="the-other-run"), "GMD-A2",
+                 {"cosine_x0_share_argmax_fraction": 0.05,
+                  "cosine_eps_share_argmax_fraction": 0.95}, seeds=[0])
+    done = runner.NotebookResult("01_two_claims", True, 1.0, "x", claims=("GMD-A1", "GMD-A2"))
+    monkeypatch.setattr(runner, "run_notebooks", lambda *_, **__: [done])
+    report_before = (quick / "report" / "REPORT.md").read_bytes()
+    assert runner.reproduce(quick=True) == 0
+    out = capsys.readouterr().out
+    assert "come from 2 runs: run earlier-run (GMD-A1); run the-other-run (GMD-A2)" in out
+    assert "--allow-mixed" in out
+    assert (quick / "report" / "REPORT.md").read_bytes() == report_before
+
+
+CORRUPT_CACHE = """
+import torch
+from repro.infra import cache
+def make():
+    return torch.nn.Linear(2, 2)
+cache.load_or_train("issue35", {"a": 1}, make, lambda module: module)
+next(cache.paths.cache_dir().glob("issue35/*/model.pt")).write_bytes(b"garbage")
+cache.load_or_train("issue35", {"a": 1}, make, lambda module: module)
+"""
+
+
+def test_a_corrupt_cached_model_is_reported_on_the_terminal_and_in_the_report(
+        sandbox: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 9."""
+    _notebook(sandbox / "notebooks" / "01_two_claims.ipynb",
+              CORRUPT_CACHE + _recording("one", ["GMD-A1"]))
+    assert runner.reproduce(quick=True) == 0
+    out = capsys.readouterr().out
+    warning = [line for line in out.splitlines() if "warning: cache:" in line]
+    assert len(warning) == 1 and "model.pt" in warning[0] and "moved it aside" in warning[0]
+    report = (sandbox / "build" / "quick" / "report" / "REPORT.md").read_text()
+    assert "Warnings of this run: 01_two_claims: cache:" in report and "moved it aside" in report

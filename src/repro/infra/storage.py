@@ -9,8 +9,10 @@ private 0600.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -58,6 +60,33 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kwargs: Any) -> Iter
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+def free_bytes(path: str | os.PathLike) -> int:
+    """Free bytes on the disk holding ``path`` (its nearest existing folder); -1 if unknown."""
+    folder = Path(path)
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return -1
+
+
+def write_problem(error: OSError) -> str:
+    """An ``OSError`` of a write in words: the file, the system's reason and what to do (a
+    full disk: free space; no permission or a read-only disk: a writable folder)."""
+    where = error.filename or "a file"
+    reason = error.strerror or str(error)
+    if error.errno in (errno.ENOSPC, errno.EDQUOT):
+        free = free_bytes(where) if error.filename else -1
+        room = f"; {free / 2**20:.1f} MiB free there now" if free >= 0 else ""
+        return (f"cannot write {where}: {reason} (the disk is full{room}); free space on it "
+                "and rerun")
+    if error.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return (f"cannot write {where}: {reason}; make its folder writable for this user, or "
+                "point REPRO_BUILD_ROOT (and REPRO_CACHE_DIR) at a writable folder")
+    return f"cannot write {where}: {reason}"
 
 
 def json_default(value: Any) -> Any:
