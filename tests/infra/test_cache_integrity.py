@@ -104,3 +104,20 @@ def test_lock_only_folders_and_stale_temporaries_are_cleaned(cache_root: Path) -
     assert not _entry().exists() and (other / "model.pt").is_file()
     with cache.artifact_lock(_entry()):            # a folder in use is left alone
         assert cache.clean_cache() == []
+
+
+def test_the_move_aside_warning_is_sent_to_the_runner(cache_root: Path, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue #35 case 9: under a runner the warning also goes to its notices file (the
+    runner prints it and records it in the report's provenance)."""
+    from repro.infra import progress
+
+    stage = tmp_path / "nb.stage.json"
+    monkeypatch.setenv(progress.ENV_VARIABLE, str(stage))
+    calls, train = _train_counter()
+    cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    (_entry() / "model.pt").write_bytes(b"garbage")
+    with pytest.warns(RuntimeWarning, match="moved it aside"):
+        cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    [notice] = progress.notices(stage)
+    assert notice.startswith(f"cache: {_entry() / 'model.pt'}") and "retraining" in notice

@@ -1,5 +1,6 @@
-"""Every fault of issue #18 ends with an error naming the problem, and leaves ``results/`` and
-the last good report untouched. Tiny notebooks written by the tests; no model training."""
+"""Every fault of issues #18 and #35 ends with an error naming the problem, and leaves
+``results/`` and the last good report untouched. Tiny notebooks written by the tests; no model
+training."""
 
 from __future__ import annotations
 
@@ -125,9 +126,11 @@ def test_report_refuses_to_mix_runs_unless_allowed(
     _notebook(sandbox / "notebooks" / "02_other.ipynb", _recording("two", ["GMD-B1"]))
     quick = sandbox / "build" / "quick"
     report_before = (quick / "report" / "REPORT.md").read_bytes()
-    assert runner.reproduce(quick=True, only=["02"], seed=7) == 1
-    err = capsys.readouterr().err
-    assert "come from 2 runs" in err and first in err and "--allow-mixed" in err
+    # issue #35 case 8: the partial run succeeded: exit 0, saying how to report mixed runs
+    assert runner.reproduce(quick=True, only=["02"], seed=7) == 0
+    out = capsys.readouterr().out
+    assert "published" in out and "come from 2 runs" in out and first in out
+    assert "python -m repro report --quick --allow-mixed" in out
     assert (quick / "report" / "REPORT.md").read_bytes() == report_before
     assert main(["report", "--quick"]) == 2
     assert "come from 2 runs" in capsys.readouterr().err
@@ -172,7 +175,10 @@ BAD_VALUES = [
     (["-p", "n_seeds=true"], "parameter n_seeds must be int"),
     (["-p", "scale=\"big\""], "parameter scale must be float or int"),
     (["-p", "stepz=3"], "has no parameter(s) ['stepz']"),
-    (["--seed", "-1"], "parameter seed=-1 must be at least 0"),
+    (["--seed", "-1"], "parameter seed=-1 must be between 0 and 2^48 - 1 = 281474976710655"),
+    # issue #35 case 1: 2^64 - 1 used to fail inside the kernels of notebooks 05 and 06
+    (["--seed", str(2**64 - 1)], "parameter seed=18446744073709551615 must be between 0 and "
+                                 "2^48 - 1 = 281474976710655"),
     (["--device", "cuda:0"], "names CUDA, which is not available here"),
     (["--device", "gpu"], "parameter device='gpu' is not a torch device"),
     (["-p", 'data_dir="/no/such/folder"'], "is not a folder (/no/such/folder does not exist)"),
@@ -211,12 +217,21 @@ def _damage(folder: Path, how: str) -> str:
     elif how == "missing-statistics":
         (folder / "Mean.npy").unlink()
         return "Mean.npy"
+    elif how == "garbled-statistics":  # issue #35 case 3
+        (folder / "Mean.npy").write_bytes(b"\x80\x04 not an array " * 40)
+        return f"{folder / 'Mean.npy'}: is not a .npy array: it does not start with numpy's header"
+    elif how == "truncated-without-layout":  # issue #35 case 4: four layout errors besides
+        features.write_bytes(features.read_bytes()[:200])
+        shutil.rmtree(folder / "texts")
+        for split in ("train", "val", "test"):
+            (folder / f"{split}.txt").unlink()
+        return f"{features}: cannot be read as a .npy array (truncated"
     return f"{clip}.npy"
 
 
 @pytest.mark.parametrize("how", [
-    "missing",
-    "empty", "truncated", "wrong-shape", "missing-statistics"])
+    "missing", "empty", "truncated", "wrong-shape", "missing-statistics", "garbled-statistics",
+    "truncated-without-layout"])
 def test_bad_dataset_files_are_named_before_any_kernel_starts(
         sandbox: Path, guarded, how: str, capsys: pytest.CaptureFixture[str]) -> None:
     data = sandbox / "data"
@@ -225,7 +240,10 @@ def test_bad_dataset_files_are_named_before_any_kernel_starts(
     assert main(["reproduce", "--quick", "-p", f'data_dir="{data}"']) == 2
     err = capsys.readouterr().err
     assert "is not a valid HumanML3D-layout folder" in err and named in err
+    assert "allow_pickle" not in err and "validator failed" not in err
     assert guarded()
+    assert main(["validate-dataset", str(data)]) == 1  # the check it names shows the same
+    assert named in capsys.readouterr().out
 
 
 def test_an_empty_dataset_file_is_refused_before_any_kernel_starts(
@@ -238,3 +256,152 @@ def test_an_empty_dataset_file_is_refused_before_any_kernel_starts(
     assert "is not a valid HumanML3D-layout folder" in err and "No data left in file" in err
     assert not (sandbox / "build" / "quick" / "runs").exists()
     assert guarded()
+
+
+def test_the_largest_base_seed_fits_every_seed_derived_from_it(tmp_path: Path) -> None:
+    """Issue #35 case 1: the range checked up front is what every notebook can use."""
+    import torch
+
+    from repro.gmd.controls import control_seed
+    from repro.infra.context import MAX_SEED
+    from repro.run.notebook import setup_notebook
+
+    largest = 10_000 * (MAX_SEED + 100) + 10_000  # gmd.table_b1, 100 seeds from the base
+    assert largest < 2**63 and control_seed(MAX_SEED + 100, 99, stream=99) < 2**63
+    torch.Generator().manual_seed(largest)
+    np.random.default_rng(largest)
+    with pytest.raises(ValueError, match=f"seed={MAX_SEED + 1} must be between 0 and 2"):
+        setup_notebook(quick=True, seed=MAX_SEED + 1, device="cpu", build_dir=str(tmp_path))
+
+
+def test_a_relative_data_dir_is_read_from_the_callers_folder(
+        sandbox: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue #35 case 2: the kernels run in notebooks/, so the runner makes it absolute."""
+    shutil.copytree(paths.data_stubs_dir(), sandbox / "mydata")
+    _notebook(sandbox / "notebooks" / "01_two_claims.ipynb",
+              "from repro.run.notebook import setup_notebook\n"
+              "ctx = setup_notebook(quick=quick, seed=seed, device=device, "
+              "build_dir=build_dir, data_dir=data_dir)\nprint('data:', ctx.data_dir)")
+    monkeypatch.chdir(sandbox)
+    assert main(["reproduce", "--quick", "-p", 'data_dir="mydata"']) == 0
+    executed = (sandbox / "build" / "quick" / "notebooks" / "01_two_claims.ipynb").read_text()
+    assert f"data: {sandbox / 'mydata'}" in executed
+
+
+def test_a_read_only_build_is_named_before_any_kernel_starts(
+        sandbox: Path, guarded, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 5 (as root, chmod does not stop a write: the failing call is made to
+    fail as it does for another user)."""
+    lock = sandbox / "cache" / "gmd" / "abc" / ".lock"
+
+    def read_only(*_: object, **__: object) -> None:
+        raise PermissionError(13, "Permission denied", str(lock))
+
+    monkeypatch.setattr(runner.cache, "clean_cache", read_only)
+    assert main(["reproduce", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot write {lock}: Permission denied; make its folder writable" in err
+    assert "REPRO_BUILD_ROOT" in err and "Traceback" not in err
+    assert not list((sandbox / "build" / "quick" / "runs").glob("*"))
+    assert guarded()
+    from repro.claims import report
+
+    report_file = sandbox / "build" / "quick" / "report" / "claims.json"
+    monkeypatch.setattr(report, "write_json", lambda path, _: (_ for _ in ()).throw(
+        PermissionError(13, "Permission denied", str(report_file))))
+    assert main(["report", "--quick"]) == 2
+    assert f"cannot write {report_file}: Permission denied" in capsys.readouterr().err
+    assert guarded()
+
+
+def test_a_garbled_claim_sidecar_is_named(sandbox: Path, guarded,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 6."""
+    quick = sandbox / "build" / "quick"
+    report_before = (quick / "report" / "REPORT.md").read_bytes()
+    (quick / "claims" / "GMD-A2.json").write_text('{"id": "GMD-A2", "verdict": ')
+    assert main(["report", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert f"the claim sidecar {quick / 'claims' / 'GMD-A2.json'} is not valid JSON" in err
+    assert "python -m repro reproduce --only GMD-A2" in err and "Traceback" not in err
+    assert "the last good report" in err
+    assert (quick / "report" / "REPORT.md").read_bytes() == report_before
+
+
+def test_a_full_disk_is_named_before_and_during_a_run(
+        sandbox: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 7: before a run (staging cannot be written) and after a worker that
+    could write neither its result nor its log; with no report yet, none is said kept."""
+    from types import SimpleNamespace
+
+    staging = sandbox / "build" / "quick" / "runs" / "x" / "run.json"
+
+    def full(**_: object) -> None:
+        raise OSError(28, "No space left on device", str(staging))
+
+    monkeypatch.setattr(runner.transaction, "new_run", full)
+    assert main(["reproduce", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot write {staging}: No space left on device (the disk is full" in err
+    assert "free space on it and rerun; nothing ran" in err
+    folder = sandbox / "staged"
+    folder.mkdir()
+    (folder / "worker.log").write_bytes(b"")
+    job = SimpleNamespace(name="01_two_claims", process=SimpleNamespace(returncode=1))
+    monkeypatch.setattr(runner, "free_bytes", lambda _: 4096)
+    error = runner._no_result(job, folder)
+    assert f"the disk holding {folder} is full (4096 bytes free)" in error
+    assert "worker.log" not in error
+    failed = runner.NotebookResult("01_two_claims", False, 1.0, str(folder), error)
+    monkeypatch.setattr(runner, "run_notebooks", lambda *_, **__: [failed])
+    assert runner.reproduce(quick=True) == 1
+    err = capsys.readouterr().err
+    assert "there is no report in" in err and "last good report" not in err
+
+
+def test_two_runs_ending_together_both_succeed_and_say_how_to_report(
+        sandbox: Path, guarded, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 8: two identical runs started together leave claims of both runs."""
+    from conftest import make_context
+
+    from repro.claims.ledger import record_claim
+
+    quick = sandbox / "build" / "quick"
+    record_claim(make_context(quick, run_id="the-other-run"), "GMD-A2",
+                 {"cosine_x0_share_argmax_fraction": 0.05,
+                  "cosine_eps_share_argmax_fraction": 0.95}, seeds=[0])
+    done = runner.NotebookResult("01_two_claims", True, 1.0, "x", claims=("GMD-A1", "GMD-A2"))
+    monkeypatch.setattr(runner, "run_notebooks", lambda *_, **__: [done])
+    report_before = (quick / "report" / "REPORT.md").read_bytes()
+    assert runner.reproduce(quick=True) == 0
+    out = capsys.readouterr().out
+    assert "come from 2 runs: run earlier-run (GMD-A1); run the-other-run (GMD-A2)" in out
+    assert "--allow-mixed" in out
+    assert (quick / "report" / "REPORT.md").read_bytes() == report_before
+
+
+CORRUPT_CACHE = """
+import torch
+from repro.infra import cache
+def make():
+    return torch.nn.Linear(2, 2)
+cache.load_or_train("issue35", {"a": 1}, make, lambda module: module)
+next(cache.paths.cache_dir().glob("issue35/*/model.pt")).write_bytes(b"garbage")
+cache.load_or_train("issue35", {"a": 1}, make, lambda module: module)
+"""
+
+
+def test_a_corrupt_cached_model_is_reported_on_the_terminal_and_in_the_report(
+        sandbox: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue #35 case 9."""
+    _notebook(sandbox / "notebooks" / "01_two_claims.ipynb",
+              CORRUPT_CACHE + _recording("one", ["GMD-A1"]))
+    assert runner.reproduce(quick=True) == 0
+    out = capsys.readouterr().out
+    warning = [line for line in out.splitlines() if "warning: cache:" in line]
+    assert len(warning) == 1 and "model.pt" in warning[0] and "moved it aside" in warning[0]
+    report = (sandbox / "build" / "quick" / "report" / "REPORT.md").read_text()
+    assert "Warnings of this run: 01_two_claims: cache:" in report and "moved it aside" in report

@@ -19,6 +19,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from repro.claims.provenance import ReportError
 from repro.claims.registry import REGISTRY_VERSION, get_claim, interval_summary
 from repro.claims.verdicts import PARTIAL, REPRODUCED, Decision, apply_controls, parts_in_words
 from repro.infra import paths
@@ -166,7 +167,22 @@ def load_sidecars(directory: str | os.PathLike) -> dict[str, dict[str, Any]]:
     folder = Path(directory)
     if not folder.is_dir():
         return {}
-    return {p.stem: read_json(p) for p in sorted(folder.glob("*.json"))}
+    return {p.stem: _read_sidecar(p) for p in sorted(folder.glob("*.json"))}
+
+
+def _read_sidecar(path: Path) -> dict[str, Any]:
+    """One sidecar; a garbled one raises :class:`ReportError` naming it and the fix."""
+    try:
+        sidecar = read_json(path)
+    except (ValueError, UnicodeDecodeError) as error:  # JSONDecodeError is a ValueError
+        problem = f"is not valid JSON ({error})"
+    else:
+        if isinstance(sidecar, dict):
+            return sidecar
+        problem = f"holds a JSON {type(sidecar).__name__}, not a claim's record"
+    raise ReportError(f"the claim sidecar {path} {problem}: delete it and record the claim "
+                      f"again (python -m repro reproduce --only {path.stem}, with --quick in a "
+                      "quick run's folder), or restore it from a copy")
 
 
 def part_outcomes(sidecar: dict[str, Any], *, reasons: bool = True) -> str:

@@ -7,7 +7,9 @@ both are there and agree. Every file goes through ``storage.atomic_open``.
 
 Integrity: a payload whose checksum does not match, or that cannot be read, is moved aside
 (``model.pt.corrupt-<UTC time>``, kept for inspection) and the model retrained, with a warning
-naming the file; :func:`clean_cache` removes folders a failed run left holding only ``.lock``.
+naming the file (also sent to the runner, which prints it and records it in the report's
+provenance: ``progress.notice``); :func:`clean_cache` removes folders a failed run left
+holding only ``.lock``.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from repro.infra import paths, storage
+from repro.infra import paths, progress, storage
 
 __all__ = ["CHECKSUMS", "CorruptArtifactError", "artifact_lock", "cached_artifact_dir",
            "canonical_json", "clean_cache", "config_hash", "file_checksum", "fingerprint",
@@ -191,6 +193,7 @@ def _move_aside(path: Path, problem: str) -> Path:
     message = (f"cache: {problem}; moved it aside to {aside} and retraining (delete that file "
                "once inspected)")
     warnings.warn(message, RuntimeWarning, stacklevel=3)
+    progress.notice(message)  # under the runner: its terminal and the report's provenance
     return aside
 
 

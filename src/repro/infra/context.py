@@ -12,6 +12,24 @@ from pathlib import Path
 
 import torch
 
+#: The largest base seed: every derived seed must fit a signed 64-bit integer (torch's and
+#: numpy's int64) wherever a notebook uses it, and the largest derivation is
+#: ``10_000 * seed + k`` (``gmd.table_b1``; ``gmd.controls.control_seed`` adds about 10⁷), so
+#: 2⁴⁸ − 1 leaves room: 10⁴ · 2⁴⁸ ≈ 2.8·10¹⁸ < 2⁶³ ≈ 9.2·10¹⁸. 2⁶⁴ − 1 fails inside the
+#: kernel of notebooks 05 and 06 ("Overflow when unpacking long long").
+MAX_SEED = 2**48 - 1
+
+
+def seed_problem(seed: object) -> str | None:
+    """Why ``seed`` cannot be a base seed (a bool, not an int, or outside 0…:data:`MAX_SEED`);
+    None when it can."""
+    if not isinstance(seed, int) or isinstance(seed, bool):
+        return f"must be an integer, got {type(seed).__name__}"
+    if not 0 <= seed <= MAX_SEED:
+        return (f"must be between 0 and 2^48 - 1 = {MAX_SEED} (every seed a notebook derives "
+                "from it, up to 10000 x seed, must fit a 64-bit integer); pick a smaller one")
+    return None
+
 
 @dataclass(frozen=True)
 class RunContext:

@@ -5,6 +5,10 @@ long loop in the library calls :func:`report` (``report("training", step, steps,
 and the runner polls the file to show the notebook's current stage. Without the variable (a
 notebook opened by hand, a unit test) :func:`report` does nothing.
 
+A warning the person running should see (a corrupt cached model moved aside and retrained)
+goes through :func:`notice`: one line appended to ``<progress file>.notices`` beside it, which
+the runner prints and records in the report's provenance (:func:`notices` reads them).
+
 The file holds one JSON object, replaced atomically: ``{"stage", "step", "total", "values",
 "time"}``. Writes are throttled to one every :data:`MIN_INTERVAL_S` seconds, except the first
 and the last step of a stage, so that a tight loop pays almost nothing.
@@ -18,7 +22,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-__all__ = ["ENV_VARIABLE", "MIN_INTERVAL_S", "read", "report"]
+__all__ = ["ENV_VARIABLE", "MIN_INTERVAL_S", "notice", "notices", "read", "report"]
 
 ENV_VARIABLE = "REPRO_PROGRESS_FILE"
 MIN_INTERVAL_S = 0.5
@@ -71,3 +75,30 @@ def read(path: str | os.PathLike) -> dict[str, Any] | None:
         return json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
+
+
+def _notices_file(progress_file: str | os.PathLike) -> Path:
+    return Path(progress_file).with_suffix(".notices")
+
+
+def notice(message: str) -> None:
+    """Tell the runner (if any) a warning that must reach the terminal and the report; one
+    line per call, appended. Without a runner (no ``REPRO_PROGRESS_FILE``) it does nothing:
+    the caller's ``warnings.warn`` is what a person working by hand sees."""
+    target = os.environ.get(ENV_VARIABLE)
+    if not target:
+        return
+    try:
+        with open(_notices_file(target), "a", encoding="utf-8") as handle:
+            handle.write(" ".join(str(message).split()) + "\n")
+    except OSError:
+        pass  # the warning still reaches the notebook's stderr
+
+
+def notices(progress_file: str | os.PathLike) -> list[str]:
+    """The warnings sent with :func:`notice` by the process reporting to ``progress_file``."""
+    try:
+        text = _notices_file(progress_file).read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return []
+    return [line for line in text.splitlines() if line.strip()]

@@ -9,8 +9,10 @@ private 0600.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -60,6 +62,33 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kwargs: Any) -> Iter
         raise
 
 
+def free_bytes(path: str | os.PathLike) -> int:
+    """Free bytes on the disk holding ``path`` (its nearest existing folder); -1 if unknown."""
+    folder = Path(path)
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return -1
+
+
+def write_problem(error: OSError) -> str:
+    """An ``OSError`` of a write in words: the file, the system's reason and what to do (a
+    full disk: free space; no permission or a read-only disk: a writable folder)."""
+    where = error.filename or "a file"
+    reason = error.strerror or str(error)
+    if error.errno in (errno.ENOSPC, errno.EDQUOT):
+        free = free_bytes(where) if error.filename else -1
+        room = f"; {free / 2**20:.1f} MiB free there now" if free >= 0 else ""
+        return (f"cannot write {where}: {reason} (the disk is full{room}); free space on it "
+                "and rerun")
+    if error.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return (f"cannot write {where}: {reason}; make its folder writable for this user, or "
+                "point REPRO_BUILD_ROOT (and REPRO_CACHE_DIR) at a writable folder")
+    return f"cannot write {where}: {reason}"
+
+
 def json_default(value: Any) -> Any:
     """JSON for numpy scalars and arrays, paths, sets (sorted) and tuples."""
     if isinstance(value, set | frozenset):
@@ -86,6 +115,34 @@ def write_json(path: str | os.PathLike, data: Any) -> Path:
 def read_json(path: str | os.PathLike) -> Any:
     with open(path, encoding="utf-8") as handle:
         return json.load(handle)
+
+
+def read_npy(path: str | os.PathLike) -> np.ndarray:
+    """``np.load`` of one array (never a pickle); a file that is not a readable ``.npy`` raises
+    ValueError naming it, what is wrong and what to do (numpy's own messages name no file,
+    and its allow_pickle hint is the wrong advice for a damaged array).
+
+    FileNotFoundError passes through unchanged."""
+    try:
+        array = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise
+    except EOFError as error:  # an empty file
+        reason = f"is empty or cut short ({error})"
+    except (ValueError, OSError) as error:
+        text = str(error)
+        if "contains pickled" in text:  # no .npy header: numpy took it for a pickle
+            reason = ("is not a .npy array: it does not start with numpy's header (garbled, "
+                      "or not written by numpy.save)")
+        elif "Object arrays" in text:
+            reason = "holds Python objects, not numbers"
+        else:
+            reason = f"cannot be read as a .npy array (truncated or damaged: {text})"
+    else:
+        if isinstance(array, np.ndarray):
+            return array
+        reason = "holds several arrays (an .npz archive), not one .npy array"
+    raise ValueError(f"{path} {reason}; replace it with the original file") from None
 
 
 def write_text(path: str | os.PathLike, text: str) -> Path:

@@ -183,7 +183,7 @@ def absolute_statistics(root: str | os.PathLike, *,
     _require_files(root, ids, "train")
     folder = paths.cache_dir() / "statistics" / _absolute_cache_key(root, ids, min_length)
     if (folder / "std.npy").is_file():
-        return np.load(folder / "mean.npy"), np.load(folder / "std.npy")
+        return storage.read_npy(folder / "mean.npy"), storage.read_npy(folder / "std.npy")
     entries, _ = _load_entries(root, ids, min_length, "absolute")
     mean, std = compute_statistics([entry.motion for entry in entries])
     storage.write_npy(folder / "mean.npy", mean)
@@ -204,7 +204,7 @@ def load_statistics(root: str | os.PathLike,
     for name in ("Mean.npy", "Std.npy"):
         if not (root / name).is_file():
             raise FileNotFoundError(f"statistics file {root / name} not found")
-        arrays.append(np.load(root / name).astype(np.float32))
+        arrays.append(storage.read_npy(root / name).astype(np.float32))
     _check_statistics(arrays[0], arrays[1], str(root))
     return arrays[0], arrays[1]
 
@@ -241,7 +241,7 @@ def _read_labels(path: Path) -> dict[str, Any]:
 
 
 def _load_features(path: Path) -> np.ndarray:
-    motion = np.load(path)
+    motion = storage.read_npy(path)
     if motion.ndim != 2 or motion.shape[1] != FEATURE_DIM:
         raise ValueError(f"{path}: features must have shape (T, {FEATURE_DIM}), "
                          f"got {motion.shape}")
@@ -410,6 +410,30 @@ def format_problems(problems: Sequence[Problem]) -> str:
     return "\n".join(lines)
 
 
+def _unreadable(path: Path, error: ValueError) -> Problem:
+    return Problem(path, "unreadable", str(error).removeprefix(f"{path} "))
+
+
+def _validate_unlisted(root: Path, listed: set[str]) -> list[Problem]:
+    """Features files no split lists (all of them when the split files are missing): each
+    must still be a readable (T, 263) array, so that a damaged one is named whatever else
+    is wrong with the folder."""
+    problems = []
+    folder = root / "new_joint_vecs"
+    for path in sorted(folder.glob("*.npy")) if folder.is_dir() else []:
+        if path.stem in listed:
+            continue
+        try:
+            features = storage.read_npy(path)
+        except ValueError as error:
+            problems.append(_unreadable(path, error))
+            continue
+        if features.ndim != 2 or features.shape[1] != FEATURE_DIM:
+            problems.append(Problem(path, "shape", f"expected (T, {FEATURE_DIM}), "
+                                                   f"got {features.shape}"))
+    return problems
+
+
 def _validate_statistics(root: Path) -> list[Problem]:
     problems = []
     for name in ("Mean.npy", "Std.npy"):
@@ -417,7 +441,11 @@ def _validate_statistics(root: Path) -> list[Problem]:
         if not path.is_file():
             problems.append(Problem(path, "missing", "statistics file not found"))
             continue
-        array = np.load(path)
+        try:
+            array = storage.read_npy(path)
+        except ValueError as error:
+            problems.append(_unreadable(path, error))
+            continue
         if array.shape != (FEATURE_DIM,):
             problems.append(Problem(path, "shape", f"expected ({FEATURE_DIM},), got {array.shape}"))
         elif not np.isfinite(array).all():
@@ -455,9 +483,9 @@ def _validate_joints(joints_path: Path | None, features_path: Path,
     joints = None
     if joints_path is not None and joints_path.is_file():
         try:
-            joints = np.load(joints_path)
-        except (OSError, ValueError, EOFError) as error:  # an empty .npy raises EOFError
-            return [Problem(joints_path, "unreadable", f"np.load failed: {error}")]
+            joints = storage.read_npy(joints_path)
+        except ValueError as error:
+            return [_unreadable(joints_path, error)]
         if joints.shape != (frames, NUM_JOINTS, 3):
             return [Problem(joints_path, "shape", f"expected ({frames}, {NUM_JOINTS}, 3) to "
                                                   f"match the features, got {joints.shape}")]
@@ -491,9 +519,9 @@ def _validate_clip(root: Path, clip: str, check_joints: bool) -> list[Problem]:
     if not path.is_file():
         return problems + [Problem(path, "missing", "features of a listed clip not found")]
     try:
-        features = np.load(path)
-    except (OSError, ValueError, EOFError) as error:  # an empty .npy raises EOFError
-        return problems + [Problem(path, "unreadable", f"np.load failed: {error}")]
+        features = storage.read_npy(path)
+    except ValueError as error:
+        return problems + [_unreadable(path, error)]
     if features.ndim != 2 or features.shape[1] != FEATURE_DIM:
         return problems + [Problem(path, "shape", f"expected (T, {FEATURE_DIM}), "
                                                   f"got {features.shape}")]
@@ -520,7 +548,8 @@ def validate_dataset(root: str | os.PathLike) -> list[Problem]:
     (T, 263), dtype float32 (float64: warning), NaN/inf; text lines parse; labels are JSON
     objects; no ID in two splits; joints — ``new_joints/`` when present (shape (T, 22, 3),
     features recover to them within 1e-4 m), else recovered from the features — keep
-    their bone lengths within 1e-3 m over frames.
+    their bone lengths within 1e-3 m over frames; a features file no split lists (every one,
+    when the split files are missing) must still be a readable (T, 263) array.
     """
     root = Path(root)
     if not root.is_dir():
@@ -544,7 +573,7 @@ def validate_dataset(root: str | os.PathLike) -> list[Problem]:
     check_joints = (root / "new_joints").is_dir()
     for clip in seen:
         problems += _validate_clip(root, clip, check_joints)
-    return problems
+    return problems + _validate_unlisted(root, set(seen))
 
 
 def recover_joints(motion: np.ndarray | torch.Tensor,

@@ -51,6 +51,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from repro.claims.provenance import ReportError
     from repro.claims.report import write_report, write_snapshot
     from repro.infra import paths
+    from repro.infra.storage import write_problem
+    from repro.run.runner import report_state
 
     build = paths.run_build_dir(args.quick)
     if not (build / "claims").is_dir():
@@ -60,15 +62,19 @@ def _cmd_report(args: argparse.Namespace) -> int:
     try:
         report = write_report(build, quick=args.quick, provenance=args.note or "",
                               allow_mixed=args.allow_mixed)
-    except ReportError as error:
-        print(f"error: {error}; the last good report is kept", file=sys.stderr)
-        return 2
-    print(f"report: {report}")
-    if args.snapshot:
-        if args.quick:
+        print(f"report: {report}")
+        if args.snapshot and args.quick:
             print("error: a quick run is a test, not a result: no snapshot", file=sys.stderr)
             return 2
-        print(f"results snapshot: {write_snapshot(build)}")
+        if args.snapshot:
+            print(f"results snapshot: {write_snapshot(build)}")
+    except ReportError as error:
+        print(f"error: {error}; {report_state(build)}", file=sys.stderr)
+        return 2
+    except OSError as error:
+        print(f"error: {write_problem(error)}; the report may be partly rewritten: run this "
+              "again once it can be written", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -130,7 +136,12 @@ def _cmd_stability(args: argparse.Namespace) -> int:
         return 2
     if args.run:
         for label, folder in folders.items():
-            if load_sidecars(folder / "claims"):
+            try:
+                recorded = load_sidecars(folder / "claims")
+            except ValueError as error:  # a garbled sidecar (claims.provenance.ReportError)
+                print(f"error: {error}", file=sys.stderr)
+                return 2
+            if recorded:
                 print(f"{label}: {folder} holds a run already (delete its claims/ to rerun)")
                 continue
             code = run_base_seed(seeds[label], quick=args.quick, jobs=args.jobs,

@@ -14,7 +14,7 @@ from pathlib import Path
 import torch
 
 from repro.infra import paths
-from repro.infra.context import RunContext
+from repro.infra.context import RunContext, seed_problem
 
 __all__ = ["RunContext", "seeds_for", "setup_notebook"]
 
@@ -33,8 +33,9 @@ def setup_notebook(*, quick: bool, seed: int, device: str, build_dir: str | None
     """
     if not isinstance(quick, bool):
         raise ValueError(f"parameter quick must be true or false, got {quick!r}")
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise ValueError(f"parameter seed must be a non-negative integer, got {seed!r}")
+    problem = seed_problem(seed)
+    if problem:
+        raise ValueError(f"parameter seed={seed!r} {problem}")
     try:
         torch_device = torch.device(device)
     except (RuntimeError, TypeError) as error:
@@ -45,7 +46,8 @@ def setup_notebook(*, quick: bool, seed: int, device: str, build_dir: str | None
     if data_dir is not None:
         data = Path(data_dir).expanduser().resolve()
         if not data.is_dir():
-            raise ValueError(f"parameter data_dir={data_dir!r} is not a folder")
+            raise ValueError(f"parameter data_dir={data_dir!r} is not a folder ({data} does "
+                             f"not exist; a relative folder is read from {Path.cwd()})")
     if build_dir is None:
         build_dir = os.environ.get("REPRO_BUILD_DIR") or str(paths.run_build_dir(quick))
     threads = int(os.environ.get("REPRO_TORCH_THREADS", "0")) or (os.cpu_count() or 1)

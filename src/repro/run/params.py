@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from repro.infra import paths
+from repro.infra.context import seed_problem
 
 STANDARD_PARAMETERS = ("quick", "seed", "device", "build_dir")
 SET_BY_RUNNER = {
@@ -77,10 +78,9 @@ def _dataset_problem(resolved: str) -> str | None:
         return f"is not a folder ({folder.resolve()} does not exist)"
     try:
         problems = [p for p in validate_dataset(folder) if p.severity == "error"]
-    except Exception as error:  # a file the validator itself cannot read
-        return (f"is not a valid HumanML3D-layout folder: the validator failed with "
-                f"{type(error).__name__}: {error} (python -m repro validate-dataset {folder} "
-                "shows where)")
+    except Exception as error:  # the validator names every file it can read; not this one
+        return (f"could not be validated: the validator failed with {type(error).__name__}: "
+                f"{error} (a bug of the validator: please report it with the folder)")
     if problems:
         return (f"is not a valid HumanML3D-layout folder:\n{format_problems(problems)}\n"
                 f"(python -m repro validate-dataset {folder} shows the same)")
@@ -89,7 +89,7 @@ def _dataset_problem(resolved: str) -> str | None:
 
 RULES: dict[str, Rule] = {
     "quick": Rule((bool,)),
-    "seed": Rule((int,), _at_least(0)),
+    "seed": Rule((int,), seed_problem),
     "device": Rule((str,), _device_problem),
     "build_dir": Rule((str, type(None))),
     "data_dir": Rule((str, type(None)), _data_dir_problem),
@@ -158,6 +158,19 @@ def notebook_parameters(name: str) -> dict[str, Any]:
 def forget_checks() -> None:
     """Forget the dataset folders validated so far (the runner calls this per run)."""
     _dataset_problem.cache_clear()
+
+
+#: parameters naming a folder: a relative one is read from the caller's working folder, so the
+#: runner makes it absolute before validating it (the kernels run in notebooks/)
+FOLDER_PARAMETERS = ("data_dir",)
+
+
+def absolute_folders(extra: dict[str, Any]) -> dict[str, Any]:
+    """``extra`` with every folder parameter (a string) made absolute against the working
+    folder, ``~`` expanded."""
+    return {name: str(Path(value).expanduser().resolve())
+            if name in FOLDER_PARAMETERS and isinstance(value, str) else value
+            for name, value in extra.items()}
 
 
 def check_extra_parameters(extra: dict[str, Any]) -> None:

@@ -30,8 +30,8 @@ from typing import IO, Any
 
 from repro.claims.registry import CLAIMS
 from repro.claims.report import slowest_of, slowest_seconds
-from repro.infra import cache, lifetime, paths
-from repro.infra.storage import read_json
+from repro.infra import cache, lifetime, paths, progress
+from repro.infra.storage import free_bytes, read_json, write_problem
 from repro.run import params, transaction, worker
 from repro.run.params import STANDARD_PARAMETERS, validate_parameters
 from repro.run.progress_view import ProgressView
@@ -60,6 +60,7 @@ class NotebookResult:
     output: str
     error: str = ""
     claims: tuple[str, ...] = ()
+    notices: tuple[str, ...] = ()
 
 
 def available_notebooks() -> list[str]:
@@ -184,22 +185,48 @@ def _result(run: transaction.Run, job: _Running) -> NotebookResult:
     job.log.close()
     seconds = time.perf_counter() - job.started
     output = str(folder / f"{job.name}.ipynb")
+    notices = tuple(progress.notices(run.progress_dir / f"{job.name}.stage.json"))
     try:
         outcome = read_json(folder / "result.json")
     except (OSError, ValueError):
-        return NotebookResult(job.name, False, seconds, output,
-                              f"notebook {job.name}: its worker ended with exit code "
-                              f"{job.process.returncode} and no result; see "
-                              f"{folder / 'worker.log'}")
+        return NotebookResult(job.name, False, seconds, output, _no_result(job, folder),
+                              notices=notices)
     if not outcome["ok"]:
-        return NotebookResult(job.name, False, outcome["seconds"], output, outcome["error"])
+        return NotebookResult(job.name, False, outcome["seconds"], output, outcome["error"],
+                              notices=notices)
     try:
         claims = transaction.publish(run, job.name)
     except (OSError, ValueError) as error:
+        text = write_problem(error) if isinstance(error, OSError) else str(error)
         return NotebookResult(job.name, False, outcome["seconds"], output,
-                              f"notebook {job.name}: {error}")
+                              f"notebook {job.name}: {text}", notices=notices)
     published = str(run.build_dir / "notebooks" / f"{job.name}.ipynb")
-    return NotebookResult(job.name, True, outcome["seconds"], published, claims=tuple(claims))
+    return NotebookResult(job.name, True, outcome["seconds"], published, claims=tuple(claims),
+                          notices=notices)
+
+
+#: below this many free bytes, a worker that left no result and no log met a full disk
+FULL_DISK_BYTES = 16 * 2**20
+
+
+def _no_result(job: _Running, folder: Path) -> str:
+    """Why a worker left no ``result.json``: the last line of its log, else a full disk or
+    the signal that killed it (its log is empty then, so pointing at it helps nobody)."""
+    code = job.process.returncode
+    start = f"notebook {job.name}: its worker ended with exit code {code} and no result"
+    log = folder / "worker.log"
+    try:
+        lines = log.read_text(encoding="utf-8", errors="replace").strip().splitlines()
+    except OSError:
+        lines = []
+    if lines:
+        return f"{start}: {lines[-1].strip()} (the whole traceback: {log})"
+    free = free_bytes(folder)
+    if 0 <= free < FULL_DISK_BYTES:
+        return (f"{start} and an empty log: the disk holding {folder} is full ({free} bytes "
+                "free); free space on it and rerun")
+    killed = f", killed by {signal.Signals(-code).name}" if code and code < 0 else ""
+    return f"{start} and an empty log{killed}"
 
 
 def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device: str = "cpu",
@@ -221,19 +248,23 @@ def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device:
         raise ValueError(f"--threads must be at least 1, got {threads}")
     extra = dict(extra_parameters or {})
     params.check_extra_parameters(extra)
+    extra = params.absolute_folders(extra)
     parameters = {"quick": quick, "seed": seed, "device": device, "build_dir": None, **extra}
     params.forget_checks()
     for name in targets:  # validate everything before running anything
         validate_parameters(name, parameters)
-    removed = cache.clean_cache()
-    if removed:
-        log(f"cache: removed {len(removed)} leftover(s) of failed runs (lock-only folders, "
-            "interrupted writes)")
     workers = min(jobs, len(targets)) or 1
     threads = threads or max(1, (os.cpu_count() or 1) // workers)
     timeout = timeout or (600 if quick else 3600)
-    run = transaction.new_run(quick=quick, seed=seed, device=device, targets=targets,
-                              parameters=parameters)
+    try:
+        removed = cache.clean_cache()
+        run = transaction.new_run(quick=quick, seed=seed, device=device, targets=targets,
+                                  parameters=parameters)
+    except OSError as error:  # a read-only or full build/ or cache: refused before any kernel
+        raise ValueError(f"{write_problem(error)}; nothing ran") from None
+    if removed:
+        log(f"cache: removed {len(removed)} leftover(s) of failed runs (lock-only folders, "
+            "interrupted writes)")
     log(f"run {run.run_id}: {len(targets)} notebook(s) ({run.mode} parameters, {workers} at a "
         f"time, {threads} thread(s) each); staging {run.staging}, publishing into "
         f"{run.build_dir}")
@@ -263,6 +294,8 @@ def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device:
                     status = "ok" if result.ok else "FAILED"
                     view.log(f"[{len(results)}/{len(targets)}] {name}: {status} in "
                              f"{result.seconds:.1f} s")
+                    for notice in result.notices:
+                        view.log(f"    warning: {notice}")
                     if not result.ok:
                         view.log(f"    {result.error}\n    executed notebook (not published): "
                                  f"{result.output}")
@@ -284,45 +317,89 @@ def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device:
     return sorted(results, key=lambda r: order[r.name])
 
 
+def report_state(build_dir: Path) -> str:
+    """What became of the report in ``build_dir`` when a run or ``report`` wrote none."""
+    report = build_dir / "report" / "REPORT.md"
+    if report.is_file():
+        return f"the last good report ({report}) is kept"
+    return f"there is no report in {report.parent} yet"
+
+
+def _mixed_runs(build_dir: Path, quick: bool) -> str:
+    """Why the report is not rewritten after this run: its claims now come from several
+    runs (e.g. ``--only`` after a complete run); "" when they come from one."""
+    from repro.claims.ledger import load_sidecars
+    from repro.claims.provenance import runs_of
+
+    runs = runs_of(load_sidecars(build_dir / "claims"))
+    if len(runs) < 2:
+        return ""
+    named = "; ".join(f"run {run} ({', '.join(claims)})" for run, claims in runs.items())
+    return (f"the report is not rewritten: the claims in {build_dir / 'claims'} now come from "
+            f"{len(runs)} runs: {named}. python -m repro report{' --quick' if quick else ''} "
+            "--allow-mixed writes a report over them naming every run; a run of every "
+            "notebook together (python -m repro reproduce) makes them one run again")
+
+
+def _cache_notices(results: Sequence[NotebookResult]) -> str:
+    """The run's cache warnings, for the report's provenance ("" when there were none)."""
+    notices = [f"{r.name}: {notice}" for r in results for notice in r.notices]
+    return f"Warnings of this run: {' | '.join(notices)}." if notices else ""
+
+
 def reproduce(*, quick: bool, only: Sequence[str] | None = None, jobs: int = 1, seed: int = 0,
               device: str = "cpu", snapshot: bool = False,
               extra_parameters: dict[str, Any] | None = None, threads: int | None = None,
               allow_mixed: bool = False) -> int:
     """The ``reproduce`` command: run, then write the report (only when every notebook ran).
-    Exit codes: 0 done, 1 a notebook failed or the report could not be written, 130/143
-    stopped by SIGINT/SIGTERM; a bad argument raises ValueError (the CLI's exit 2)."""
+    Exit codes: 0 done (also when the notebooks ran but the build's claims now come from
+    several runs: the report is then left as it was, and the message says how to write one),
+    1 a notebook failed, a file could not be written or the report could not be made,
+    130/143 stopped by SIGINT/SIGTERM; a bad argument raises ValueError (the CLI's exit 2)."""
     from repro.claims.provenance import ReportError
     from repro.claims.report import write_report, write_snapshot
 
     targets = resolve_targets(only)
+    build_dir = paths.run_build_dir(quick)
     try:
         results = run_notebooks(targets, quick=quick, seed=seed, device=device, jobs=jobs,
                                 extra_parameters=extra_parameters, threads=threads)
     except RunInterrupted as stop:
-        print(f"interrupted ({stop}); the last good report is kept.", file=sys.stderr)
+        print(f"interrupted ({stop}); {report_state(build_dir)}.", file=sys.stderr)
         return 128 + stop.signum
+    except OSError as error:  # during the run: its kernels and workers are stopped
+        print(f"error: {write_problem(error)}; the run stopped; notebooks that finished "
+              f"before were published; {report_state(build_dir)}.", file=sys.stderr)
+        return 1
     failed = [r for r in results if not r.ok]
-    build_dir = paths.run_build_dir(quick)
     if failed:
         print(f"{len(failed)} notebook(s) failed: {', '.join(r.name for r in failed)}; the "
-              f"others were published; the last good report in {build_dir / 'report'} is "
-              "kept.", file=sys.stderr)
+              f"others were published; {report_state(build_dir)}.", file=sys.stderr)
         return 1
     if not any(r.claims for r in results):
         print(f"this run recorded no claim ({', '.join(targets)}): the report in "
               f"{build_dir / 'report'} is not rewritten")
         return 0
     try:
-        report = write_report(build_dir, quick=quick, runs=results, allow_mixed=allow_mixed)
+        mixed = "" if allow_mixed else _mixed_runs(build_dir, quick)
+        if mixed:
+            print(f"the notebooks ran and were published into {build_dir}; {mixed}")
+            return 0
+        report = write_report(build_dir, quick=quick, runs=results, allow_mixed=allow_mixed,
+                              provenance=_cache_notices(results))
+        print(f"report: {report}")
+        if snapshot and quick:
+            print("not refreshing results/: a quick run is a test, not a result")
+        elif snapshot and only:
+            print("not refreshing results/: only a subset of notebooks ran")
+        elif snapshot:
+            print(f"results snapshot: {write_snapshot(build_dir)}")
     except ReportError as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
-    print(f"report: {report}")
-    if snapshot:
-        if quick:
-            print("not refreshing results/: a quick run is a test, not a result")
-        elif only:
-            print("not refreshing results/: only a subset of notebooks ran")
-        else:
-            print(f"results snapshot: {write_snapshot(build_dir)}")
+    except OSError as error:  # the notebooks were published; the report may be half written
+        print(f"error: {write_problem(error)}; the notebooks were published: once it can be "
+              f"written, python -m repro report{' --quick' if quick else ''}"
+              f"{' --snapshot' if snapshot else ''} writes the report", file=sys.stderr)
+        return 1
     return 0
