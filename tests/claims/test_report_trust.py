@@ -186,8 +186,14 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
     nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("# 01")]),
                    build / "notebooks" / "01_x0_vs_eps.ipynb")
     write_report(build, quick=False)
+    (repo / "results").mkdir()
+    (repo / "results" / "STABILITY.md").write_text("# seeds 0 and 3\n")
+    (repo / "results" / "old.png").write_text("a file of the previous run")
     results = write_snapshot(build)
     assert "[docs/ERRATA.md](../docs/ERRATA.md)" in (results / "REPORT.md").read_text()
+    # another command's file is kept (README links it); the previous run's files are not
+    assert (results / "STABILITY.md").read_text() == "# seeds 0 and 3\n"
+    assert not (results / "old.png").exists()
     page = (results / "REPORT.html").read_text(encoding="utf-8")
     assert "How far each verdict can be trusted" in page
     assert "<a href='notebooks/01_x0_vs_eps.html'>01_x0_vs_eps</a>" in page

@@ -351,7 +351,7 @@ CLAIMS: list[Claim] = [
                                              "1.6 (27.3 %)")),
           measurements={"r_precision_top3": "'λl,λs,λm' -> per-seed list (held-out pairs)",
                         "transition_distance": "'λl,λs,λm' -> per-seed list: the all-frames "
-                                               "distance of v1/v2 (context; the v1 rule reads "
+                                               "distance of v1/v2 (context, no part reads "
                                                "it)"},
           new_measurements={
                         "transition_distance_at_transitions":
@@ -383,8 +383,8 @@ CLAIMS: list[Claim] = [
                         for what, text in (
                             ("similarity_to_multi", "mean over the seed's cases of r(composed, "
                                                     "multi-concept)"),
-                            ("similarity_to_control", "r(composed, unrelated control) (context; "
-                                                      "the v1 rule reads it)"))},
+                            ("similarity_to_control", "r(composed, unrelated control) (context, "
+                                                      "no part reads it)"))},
           new_measurements={f"{case}_{what}": f"{SEEDS}: {text}" for case in ("conjunction",
                                                                               "negation")
                             for what, text in (

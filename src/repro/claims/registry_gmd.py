@@ -136,7 +136,7 @@ def _pair(rng: Rng, level: float, delta: float, scale: float, n: int,
 def _example_a3(rng: Rng, scale: float, n: int) -> dict[str, Any]:
     x0, eps = _pair(rng, 1.0, 0.1, scale, n)
     s_eps, s_x0 = _pair(rng, 0.9, 0.1, scale, n)
-    # v1's stop-step survival, recorded for the v1 verdict (no v3 part reads it)
+    # v1's stop-step survival, recorded as context (no part reads it)
     stop_survival = arm(rng, 1.0, 0.01, n)
     return {"goal_error_x0": x0, "goal_error_eps": eps, "best_gain_survival_x0": s_x0,
             "best_gain_survival_eps": s_eps, "guided_change_survival_x0": stop_survival,
@@ -317,7 +317,7 @@ CLAIMS: list[Claim] = [
                         "guided_change_survival_x0": f"{SEEDS}: fraction of the guided change "
                                                      "in x̂0 at the stop step still present in "
                                                      "the final sample (v1/v2's measurement, "
-                                                     "kept for the v1 verdict)",
+                                                     "context: no part reads it)",
                         "guided_change_survival_eps": SEEDS},
           new_measurements={"best_gain_survival_x0": f"{SEEDS}: (ē_unguided − ē_guided final) / "
                                                      "(ē_unguided − min_t ē_guided x̂0(t)), "
@@ -391,9 +391,9 @@ CLAIMS: list[Claim] = [
                                  smallest_effect=0.1, relative_to="rel_guidance_error",
                                  reason=TENTH)),
           measurements={"rel_location_error": f"{SEEDS} (m): rel guidance (v1's name and "
-                                              "meaning, for the v1 rule)",
+                                              "meaning, context)",
                         "abs_location_error": f"{SEEDS} (m): abs imputation (v1's name and "
-                                              "meaning, for the v1 rule)"},
+                                              "meaning, context)"},
           new_measurements={"abs_imputation_error": f"{SEEDS} (m): mean distance to waypoint "
                                                     "and goal, x/z entries replaced",
                         "rel_imputation_error": f"{SEEDS} (m): the same, root entries of every "
@@ -515,8 +515,8 @@ CLAIMS: list[Claim] = [
           measurements={"goal_error_unguided": SEEDS, "jitter_unguided": SEEDS,
                         "goal_error_by_strength": "s -> per-seed list",
                         "jitter_by_strength": "s -> list",
-                        "jitter_stop_0": f"{SEEDS}: root jerk of the trajectories (v1's, kept "
-                                         "for the v1 verdict)", "jitter_stop_20": SEEDS,
+                        "jitter_stop_0": f"{SEEDS}: root jerk of the trajectories (v1's, "
+                                         "context)", "jitter_stop_20": SEEDS,
                         "goal_error_stop_0": SEEDS,
                         "goal_error_stop_20": SEEDS},
           new_measurements={"joint_jerk_stop_0": f"{SEEDS}: mean jerk (m/s³) of the recovered "

@@ -337,12 +337,17 @@ def update_readme_table(readme: str | os.PathLike, rows: Sequence[dict[str, str]
     return replace_block(readme, README_TABLE_START, README_TABLE_END, readme_claims_table(rows))
 
 
+#: files of ``results/`` that another command writes (``stability --snapshot``: the verdicts of
+#: several base seeds side by side, which names its runs), kept when a run replaces the rest
+KEPT_FROM_PREVIOUS_SNAPSHOT = ("STABILITY.md",)
+
+
 def write_snapshot(build_dir: str | os.PathLike) -> Path:
     """Replace ``results/`` with the full run's REPORT.md and REPORT.html, claims.json, PNG
     figures and every executed notebook rendered to ``notebooks/<name>.html`` (linked from
     both reports), and the README's verdict table with the same verdicts and its budgets
     block with the run's times (``claims.budgets``; ``timings``: the ``make bench`` totals in
-    build/bench).
+    build/bench); ``results/STABILITY.md`` is kept (:data:`KEPT_FROM_PREVIOUS_SNAPSHOT`).
     ``slowest_seconds`` keeps the slowest wall time of each notebook over the snapshots
     (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's)."""
     report_dir = Path(build_dir) / "report"
@@ -368,6 +373,9 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     page_text = (report_dir / "index.html").read_text(encoding="utf-8")
     write_text(staging / "REPORT.html", page_text + "\n<h2>Executed notebooks</h2><ul>"
                + links + "</ul>")
+    for kept in KEPT_FROM_PREVIOUS_SNAPSHOT:  # written by other commands, not by this run
+        if (target / kept).is_file():
+            shutil.copy2(target / kept, staging / kept)
     old = target.with_name(".results.old")
     if old.exists():
         shutil.rmtree(old)
