@@ -22,7 +22,7 @@ from typing import Any
 from repro.core.tables import markdown_table
 
 __all__ = ["GATES", "GATES_VERSION", "Gate", "family_measures", "gate_results",
-           "gates_markdown", "model_record"]
+           "gates_markdown", "model_record", "reading"]
 
 #: 3: fitness gates (issue #31): held-out x̂0 error against the Gaussian denoiser for every
 #: diffusion model, the evaluator's R@3 of real data and its FID of trivial fakes; no gate on
@@ -173,6 +173,14 @@ def model_record(*, name: str, family: str, values: Mapping[str, float],
             "parameters": parameters, "steps": steps, "train_seconds": train_seconds,
             "converged": converged, "validation_curve": list(validation_curve or []),
             "gate": gates, "passed": all(g["passed"] for g in gates.values())}
+
+
+def reading(records: Sequence[Mapping[str, Any]],
+            parts: Sequence[str] | None) -> list[dict[str, Any]]:
+    """Copies of ``records`` whose ``reads`` are ``parts`` (None: every part of the claim): for
+    a notebook that passes the same models to claims whose parts rest on them differently."""
+    return [{**record, "reads": None if parts is None else [str(p) for p in parts]}
+            for record in records]
 
 
 def _number(value: float | None) -> str:
