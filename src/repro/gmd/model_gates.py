@@ -186,7 +186,12 @@ def denoising_gate_values(trained: TrainedGMD, held_out: MotionWindows, train: M
     """``x0_error_vs_gaussian`` (``core.fitness.x0_error_ratio``) of ``trained`` on at most
     ``limit`` of the ``held_out`` windows (drawn with ``seed``; noise drawn with ``seed``),
     against the Gaussian of ``train``'s frames, both in the model's space
-    (:func:`model_space_windows`); a text-conditioned model is given the windows' captions."""
+    (:func:`model_space_windows`); a text-conditioned model is given the windows' captions.
+    ``train`` must be the windows the model trained on (``trained.spec.data``)."""
+    if train.config != trained.spec.data or held_out.config.representation != \
+            trained.spec.data.representation:
+        raise ValueError(f"the model trained on {trained.spec.data}; got training windows of "
+                         f"{train.config} and held-out windows of {held_out.config}")
     x_train = model_space_windows(trained, train)
     mean, cov = fitness.gaussian_fit(x_train.permute(0, 2, 1).reshape(-1, x_train.shape[1]))
     picks = np.sort(np.random.default_rng(seed).choice(
@@ -346,18 +351,21 @@ def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float],
 
 def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
                            test: MotionWindows, device: str | torch.device = "cpu",
-                           reads: Sequence[str] | None = None) -> list[dict[str, Any]]:
+                           parts: Mapping[float, Sequence[str]] | None = None
+                           ) -> list[dict[str, Any]]:
     """``gmd_motion`` records of every GMD-C4 model (``emphasis_study.run_experiment``'s
     ``results``: each variant × seed): :func:`denoising_gate_values` on the test windows
     against the training windows, in the variant's own space (an Emphasis model's projected
-    one), the seed's noise. The models are the study's cached ones
-    (``load_or_train_variant`` only loads)."""
+    one), the seed's noise. ``parts``: matched value v → the claim parts that read the models
+    of v (their records' ``reads``; a value not in it: read by no part); None: every part.
+    The models are the study's cached ones (``load_or_train_variant`` only loads)."""
     from repro.gmd import emphasis_study as study
 
     records = []
     for seed in results.seeds:
         for variant in results.variants:
             trained = study.load_or_train_variant(base, variant, train, seed, device=device)
+            reads = None if parts is None else list(parts.get(variant.value, ()))
             records.append(gmd_model_record(
                 trained, family="gmd_motion", label=variant.label, reads=reads,
                 values=denoising_gate_values(trained, test, train, seed=seed)))
