@@ -1,4 +1,8 @@
-"""Does notebook 01's motion x0 model pass its ``gmd_motion`` gate? (issue #14)
+"""Does notebook 01's motion x0 model pass gates version 2's ``gmd_motion`` gate? (issue #14)
+
+Gates version 3 (issue #31) replaced that gate (foot skating, joint jerk and FID of samples:
+GMD-A4's, C4's and F1's outcomes) with a fitness gate; this pilot keeps measuring the v2 gate
+(:data:`V2_MOTION_GATES`), which its recorded rows in docs/ were decided against.
 
 Trains (or loads from the cache) notebook 01's full-mode GMD-A4 motion model as the notebook's
 spec defines it (``x0_vs_eps.Settings.spec`` on ``motion_data()``: relative-root windows,
@@ -41,12 +45,34 @@ from typing import Any
 import numpy as np
 import torch
 
-from repro.core.gates import GATES, gate_results
+from repro.core.gates import Gate
 from repro.core.tables import markdown_table
 from repro.gmd import model_gates
 from repro.gmd import x0_vs_eps as x0eps
+from repro.gmd.measurements import sample_quality, unguided_sample_quality
 from repro.gmd.models import MOTION_TRAINING, TrainedGMD, load_or_train_gmd
 from repro.gmd.windows import load_windows
+
+#: gates version 2's ``gmd_motion`` gate, relative to the data's values (the FID's reference:
+#: the training windows' mean FID over ``model_gates.REFERENCE_FID_DRAWS`` draws)
+V2_MOTION_GATES = (
+    Gate("foot_skating", "foot skating of samples", "≤ 3× the data's", at_most=3.0),
+    Gate("joint_jerk", "joint jerk of samples", "≤ 3× the data's", at_most=3.0),
+    Gate("fid", "FID of samples", "≤ 5× the training windows' own", at_most=5.0),
+)
+
+
+def gate_results(family: str, values: dict[str, float],
+                 reference: dict[str, float]) -> dict[str, dict[str, Any]]:
+    """Per v2 gate: value, allowed range and passed (``family`` must be gmd_motion)."""
+    assert family == "gmd_motion"
+    out = {}
+    for gate in V2_MOTION_GATES:
+        low, high = gate.bounds(reference)
+        value = values.get(gate.metric)
+        out[gate.metric] = {"value": value, "at_least": low, "at_most": high,
+                            "passed": value is not None and gate.passes(value, reference)}
+    return out
 
 
 def main() -> None:
@@ -97,7 +123,7 @@ def main() -> None:
     checking = [0.0]  # CPU seconds spent in the checks so far
 
     def gate_of(trained: TrainedGMD) -> tuple[dict[str, float], dict[str, Any]]:
-        values = model_gates.unguided_motion_gate_values(
+        values = unguided_sample_quality(
             trained, settings.generated, seed=args.seed, evaluator=evaluation.evaluator,
             test_embeddings=evaluation.test_embeddings)
         return values, gate_results("gmd_motion", values, reference)
@@ -125,7 +151,7 @@ def main() -> None:
     if args.reference_draws is not None:
         from repro.gmd.measurements import evaluator_inputs
 
-        fid_gate = next(g for g in GATES["gmd_motion"] if g.metric == "fid")
+        fid_gate = next(g for g in V2_MOTION_GATES if g.metric == "fid")
         features, _ = evaluator_inputs(train.space("motion"), train.x)
         t0 = time.process_time()
         mean, draws = model_gates.reference_fid(
@@ -146,7 +172,7 @@ def main() -> None:
         for draw in range(args.draws):
             t0 = time.process_time()
             sampling_seed = args.seed + 1000 * draw
-            values = model_gates.unguided_motion_gate_values(
+            values = unguided_sample_quality(
                 trained, settings.generated, seed=sampling_seed, evaluator=evaluation.evaluator,
                 test_embeddings=evaluation.test_embeddings)
             gates = gate_results("gmd_motion", values, reference)
@@ -177,8 +203,8 @@ def notebook_reference(settings: x0eps.Settings) -> tuple[Any, Any, dict[str, fl
     evaluation = model_gates.motion_evaluation(
         train, test, settings.evaluator_config(train.fingerprint),
         reference_samples=settings.generated, seed=0)
-    reference = model_gates.motion_gate_values(test.space("motion").joints(test.x),
-                                               fid=evaluation.reference_fid)
+    reference = sample_quality(test.space("motion").joints(test.x),
+                               fid=evaluation.reference_fid)
     return train, evaluation, reference
 
 

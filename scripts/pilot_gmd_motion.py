@@ -32,8 +32,8 @@ from repro.core.tables import markdown_table
 from repro.core.training import ValidationSet, train_diffusion
 from repro.gmd import x0_vs_eps as x0eps
 from repro.gmd.guidance import sample
-from repro.gmd.measurements import evaluator_inputs
-from repro.gmd.model_gates import motion_evaluation, motion_gate_values, one_caption_each
+from repro.gmd.measurements import evaluator_inputs, sample_quality
+from repro.gmd.model_gates import motion_evaluation, one_caption_each
 from repro.gmd.models import (
     GMDModelSpec,
     TrainedGMD,
@@ -123,7 +123,7 @@ def run_config(config: PilotConfig, *, train: Any, test: Any, evaluator: Any,
             drawn = sample(trained, samples, seed=0, text=texts)
         features, lengths = evaluator_inputs(trained, drawn)
         fid = metrics.fid(evaluator.embed_motions(features, lengths), test_embeddings)
-        values = motion_gate_values(trained.space.joints(drawn), fid=fid)
+        values = sample_quality(trained.space.joints(drawn), fid=fid)
         gates = gate_results("gmd_motion", values, reference)
         passed = all(g["passed"] for g in gates.values())
         outcome.checks.append(Check(step, loss, values, passed))
@@ -232,7 +232,7 @@ def main() -> None:
     evaluation = motion_evaluation(train, test, settings.evaluator_config(train.fingerprint),
                                    reference_samples=args.samples, seed=0)
     evaluator, test_embeddings = evaluation.evaluator, evaluation.test_embeddings
-    reference = motion_gate_values(test.space("motion").joints(test.x), fid=evaluation.real_fid)
+    reference = sample_quality(test.space("motion").joints(test.x), fid=evaluation.real_fid)
     chosen = [c for c in CONFIGS if not args.only or c.name in args.only.split(",")]
     cpu_share = (args.budget_minutes * 60 - (time.process_time() - started)) / len(chosen)
     wall_share = (args.wall_minutes * 60 - (time.perf_counter() - started_wall)) / len(chosen)

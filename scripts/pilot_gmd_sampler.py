@@ -49,8 +49,8 @@ from repro.gmd.denoiser_diagnostics import (
     x0_error_by_block,
 )
 from repro.gmd.guidance import sample
-from repro.gmd.measurements import motion_fid
-from repro.gmd.model_gates import motion_evaluation, motion_gate_values
+from repro.gmd.measurements import motion_fid, sample_quality
+from repro.gmd.model_gates import motion_evaluation
 from repro.gmd.models import (
     GMDModelSpec,
     TrainedGMD,
@@ -64,7 +64,7 @@ NOISE_SIGMAS = (0.0, 0.0015, 0.003, 0.0065, 0.0125, 0.025, 0.05)
 
 
 def measure(joints: torch.Tensor) -> dict[str, float]:
-    return motion_gate_values(joints, fid=None)
+    return sample_quality(joints, fid=None)
 
 
 def nearest_upsampling(model: torch.nn.Module) -> torch.nn.Module:

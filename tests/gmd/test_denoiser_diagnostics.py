@@ -16,7 +16,7 @@ from repro.gmd.denoiser_diagnostics import (
     reconstruction,
     x0_error_by_block,
 )
-from repro.gmd.model_gates import motion_gate_values
+from repro.gmd.measurements import sample_quality
 from repro.gmd.windows import FeatureSpace
 from repro.motion.features import FEATURE_DIM
 
@@ -98,7 +98,7 @@ def test_noise_floor_grows_with_sigma_and_starts_at_the_data() -> None:
     features[:, :, 4:67] = np.tile(rng.normal(0, 0.3, 63), (4, FRAMES, 1))
     x = torch.from_numpy(features).transpose(1, 2).contiguous()
     rows = noise_floor(space, x, [0.0, 0.01, 0.05], {"root": slice(0, 4)},
-                       lambda joints: motion_gate_values(joints, fid=None))
+                       sample_quality)
     assert [r["sigma"] for r in rows] == [0.0, 0.01, 0.05]
     jerks = [r["joint_jerk"] for r in rows]
     assert jerks[0] == pytest.approx(0.0, abs=0.01)            # float32 rounding × fps³

@@ -1,14 +1,20 @@
-"""The gate measurements of tiny GMD's models: known answers, the data passes its own gate, a
-constant or noise "model" fails it."""
+"""The fitness-gate measurements of tiny GMD's models (gates version 3): known answers, a model
+that knows the held-out data passes, a constant one fails; no gate measures what a GMD claim
+compares (the registry's parts against ``model_gates.COMPARED``)."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
 import torch
 
-from repro.core.gates import gate_results, gates_markdown
+from repro.claims.registry import CLAIMS
+from repro.core import metrics
+from repro.core.gates import family_measures, gate_results, gates_markdown
 from repro.gmd import model_gates as mg
+from repro.gmd.measurements import sample_quality
 from repro.gmd.models import load_or_train_gmd
 from repro.gmd.windows import load_windows
 from repro.models.evaluator import EvaluatorConfig, train_evaluator
@@ -24,12 +30,12 @@ def _walk(frames: int = 20, speed: float = 1.0) -> np.ndarray:
     return joints
 
 
-def test_motion_values_of_a_gliding_body_are_its_speed_and_no_jerk() -> None:
-    values = mg.motion_gate_values(_walk(speed=1.5), fid=0.25)
+def test_sample_quality_of_a_gliding_body_is_its_speed_and_no_jerk() -> None:
+    values = sample_quality(_walk(speed=1.5), fid=0.25)
     assert values["foot_skating"] == pytest.approx(1.5)
     assert values["joint_jerk"] == pytest.approx(0.0, abs=1e-9)
     assert values["fid"] == 0.25
-    assert "fid" not in mg.motion_gate_values(_walk(), fid=None)
+    assert "fid" not in sample_quality(_walk())
 
 
 def test_path_length_of_a_straight_walk_and_a_square() -> None:
@@ -48,26 +54,74 @@ def windows(small_config):
     return train, test
 
 
-def test_the_data_passes_its_own_gates_and_noise_or_a_constant_fails(windows) -> None:
-    train, test = windows
-    motion, trajectory = test.space("motion"), test.space("trajectory")
-    data_motion = mg.motion_gate_values(motion.joints(test.x), fid=1.0)
-    data_path = mg.trajectory_gate_values(trajectory, test.trajectory())
-    assert data_path["path_length"] > 0 and data_path["root_jerk"] > 0
-    assert all(g["passed"] for g in gate_results("gmd_motion", data_motion, data_motion).values())
-    assert all(g["passed"]
-               for g in gate_results("gmd_trajectory", data_path, data_path).values())
+class _Memorised(torch.nn.Module):
+    """An x0 "model" that has learnt the held-out windows: x̂0 is the window w nearest to x_t
+    in ‖x_t − √ᾱ_t w‖ (or, ``constant``, the normalised data's mean 0)."""
 
-    generator = torch.Generator().manual_seed(0)
-    noise = torch.randn(test.x.shape, generator=generator)
-    noisy_motion = mg.motion_gate_values(motion.joints(noise), fid=1.0)
-    assert not gate_results("gmd_motion", noisy_motion, data_motion)["joint_jerk"]["passed"]
-    noisy_path = mg.trajectory_gate_values(trajectory, noise[:, :4])
-    assert not gate_results("gmd_trajectory", noisy_path, data_path)["root_jerk"]["passed"]
+    def __init__(self, windows: torch.Tensor, alphas: np.ndarray, constant: bool = False):
+        super().__init__()
+        self.windows, self.alphas, self.constant = windows, alphas, constant
+        self.weight = torch.nn.Parameter(torch.zeros(1))
+
+    def forward(self, x_t: torch.Tensor, t: torch.Tensor, **kwargs) -> torch.Tensor:
+        if self.constant:
+            return torch.zeros_like(x_t)
+        scaled = float(np.sqrt(self.alphas[int(t[0])])) * self.windows
+        nearest = torch.cdist(x_t.flatten(1), scaled.flatten(1)).argmin(dim=1)
+        return self.windows[nearest]
+
+
+@pytest.mark.parametrize("task", ["trajectory", "motion"])
+def test_a_model_that_knows_the_held_out_windows_passes_and_a_constant_fails(
+        cache, small_spec, windows, task) -> None:
+    train, test = windows
+    trained = load_or_train_gmd(small_spec(task=task, prediction="x0"), train)
+    family = f"gmd_{task}"
+    held = test.channels(task)
+    alphas = trained.diffusion.alphas_cumprod
+
+    def measured(constant: bool) -> dict[str, float]:
+        model = _Memorised(held, alphas, constant=constant)
+        return mg.denoising_gate_values(dataclasses.replace(trained, model=model), test,
+                                        train, seed=0)
+
+    learned, trivial = measured(False), measured(True)
+    assert learned["x0_error_vs_gaussian"] < 0.1   # a near neighbour picked at high noise
+    assert trivial["x0_error_vs_gaussian"] > 1.0
+    path = {"path_length": 1.0}
+    assert gate_results(family, {**learned, **path}, path)["x0_error_vs_gaussian"]["passed"]
+    assert not gate_results(family, {**trivial, **path}, path)["x0_error_vs_gaussian"][
+        "passed"]
+    assert measured(True) == trivial  # the same windows and noise for the same seed
+
+
+def test_the_path_length_gate_passes_the_data_and_fails_a_model_that_stands_still(
+        windows) -> None:
+    _, test = windows
+    trajectory = test.space("trajectory")
+    data_path = mg.trajectory_gate_values(trajectory, test.trajectory())
+    assert data_path["path_length"] > 0
+    fit = {"x0_error_vs_gaussian": 0.5}
+    assert all(g["passed"] for g in gate_results("gmd_trajectory", {**fit, **data_path},
+                                                 data_path).values())
     # a model that always returns the mean window stands still: no path
     still = mg.trajectory_gate_values(trajectory, torch.zeros_like(test.trajectory()))
     assert still["path_length"] == pytest.approx(0.0, abs=1e-6)
-    assert not gate_results("gmd_trajectory", still, data_path)["path_length"]["passed"]
+    assert not gate_results("gmd_trajectory", {**fit, **still}, data_path)["path_length"][
+        "passed"]
+
+
+def test_no_gate_of_a_family_measures_what_a_claim_resting_on_it_compares() -> None:
+    """Issue #31: a gate on an outcome makes the claim inconclusive by construction. Every
+    measurement a GMD claim's parts read has its quantity in COMPARED, and no family whose
+    records the claim's notebook passes measures one of them."""
+    gmd_claims = {cid: claim for cid, claim in CLAIMS.items()
+                  if cid.startswith("GMD-") and claim.parts}
+    assert set(mg.FAMILIES_READ) == set(gmd_claims)
+    for cid, claim in gmd_claims.items():
+        compared = {mg.COMPARED[need] for part in claim.parts for need in part.needs}
+        for family in mg.FAMILIES_READ[cid]:
+            assert not family_measures(family) & compared, (cid, family)
 
 
 def test_evaluator_r_precision_is_high_for_a_trained_evaluator_and_chance_when_shuffled() -> None:
@@ -81,13 +135,21 @@ def test_evaluator_r_precision_is_high_for_a_trained_evaluator_and_chance_when_s
     lengths = [frames] * n
     evaluator = train_evaluator(motions, lengths, captions,
                                 EvaluatorConfig(dim=16, hidden=32, steps=150))
-    good = mg.evaluator_gate_values(evaluator, motions, lengths, captions, seed=0)
-    assert good["r_precision_top3"] > 0.3
+    measured = dict(train_features=motions, samples=32)
+    good = mg.evaluator_gate_values(evaluator, motions, lengths, captions, seed=0, **measured)
+    assert good["r_precision_top3"] > 0.3 and good["trivial_fid_ratio"] > 0
     shuffled = [captions[i] for i in rng.permutation(n)]
-    bad = mg.evaluator_gate_values(evaluator, motions, lengths, shuffled, seed=0)
+    bad = mg.evaluator_gate_values(evaluator, motions, lengths, shuffled, seed=0, **measured)
     assert bad["r_precision_top3"] < good["r_precision_top3"]
-    record = mg.evaluator_model_record(evaluator, values=good)
+    assert bad["trivial_fid_ratio"] == good["trivial_fid_ratio"]  # the captions play no part
+    texts = evaluator.embed_texts(captions)  # R@3: the mean over R_PRECISION_SHUFFLES shuffles
+    embedded = evaluator.embed_motions(motions, lengths)
+    assert good["r_precision_top3"] == pytest.approx(np.mean([
+        metrics.r_precision(texts, embedded, 32, 3, seed=k)[2]
+        for k in range(mg.R_PRECISION_SHUFFLES)]))
+    record = mg.evaluator_model_record(evaluator, values=good, reads=["abs_lower_fid"])
     assert record["family"] == "evaluator" and record["steps"] == 150
+    assert record["reads"] == ["abs_lower_fid"]
     assert record["name"] == mg.evaluator_model_record(evaluator, values=bad)["name"]
 
 
@@ -106,40 +168,24 @@ def test_gmd_model_record_reads_the_cache_metrics(cache, small_spec, windows) ->
     train, test = windows
     trained = load_or_train_gmd(small_spec(), train)
     reference = mg.trajectory_gate_values(test.space("trajectory"), test.trajectory())
-    record = mg.gmd_model_record(trained, family="gmd_trajectory", values=reference,
-                                 reference=reference)
+    values = {**reference, "x0_error_vs_gaussian": 0.5}
+    record = mg.gmd_model_record(trained, family="gmd_trajectory", values=values,
+                                 reference=reference, reads=["eps_reaches_goal_better"])
     assert record["steps"] == 3 and record["passed"] and record["precision"] == "fp32"
+    assert record["reads"] == ["eps_reaches_goal_better"]
     assert record["train_seconds"] == trained.metrics["seconds"]
     assert record["validation_curve"] == pytest.approx(trained.metrics["losses"])
     assert trained.cache_key[:10] in record["name"] and "seed 0" in record["name"]
     failing = mg.gmd_model_record(trained, family="gmd_trajectory",
-                                  values={"root_jerk": reference["root_jerk"] * 10},
-                                  reference=reference)
+                                  values={"x0_error_vs_gaussian": 1.2}, reference=reference)
     assert not failing["passed"] and failing["gate"]["path_length"]["value"] is None
+    assert failing["reads"] is None
     assert "**fail**" in gates_markdown([record, failing])
     with pytest.raises(ValueError, match="family"):
         mg.gmd_model_record(trained, family="vae", values={}, reference={})
 
 
-def test_relative_features_give_the_same_values_as_the_joints(small_config) -> None:
-    train = load_windows(small_config())  # absolute root: joints and features by other paths
-    space = train.space("motion")
-    with torch.no_grad():
-        features = space.relative_features(train.x)
-        joints = space.joints(train.x)
-    from_features = mg.relative_features_gate_values(features.numpy(), fid=None)
-    from_joints = mg.motion_gate_values(joints, fid=None)
-    assert from_features == pytest.approx(from_joints, rel=1e-4)
-
-
-def test_sample_quality_values_map_to_the_gate_metrics() -> None:
-    values = {"motion_foot_skating_eps": [0.1, 0.2], "motion_jitter_eps": [5.0, 6.0],
-              "motion_fid_eps": [1.0, 2.0], "motion_jitter_x0": [9.0, 9.0]}
-    assert mg.sample_quality_gate_values(values, "eps", 1) == {
-        "foot_skating": 0.2, "joint_jerk": 6.0, "fid": 2.0}
-
-
-def test_emphasis_study_records_reuse_table_b1_samples_and_measure_the_rest(
+def test_emphasis_study_records_measure_each_variant_in_its_own_space(
         cache, dataset_dir) -> None:
     from repro.gmd import emphasis_study as study
     from repro.gmd.models import GMDModelSpec
@@ -159,33 +205,19 @@ def test_emphasis_study_records_reuse_table_b1_samples_and_measure_the_rest(
     evaluator = study.window_evaluator(train_relative, 5)
     results = study.run_experiment(settings, base, train, test, evaluator, [0], log=lambda _: None)
     records = mg.emphasis_study_records(results, base=base, train=train, test=test,
-                                        train_relative=train_relative, evaluator=evaluator,
-                                        samples=settings.samples)
+                                        parts={1: ["emphasis_less_foot_skating_at_1"]})
     assert [r["name"].split(" seed")[0] for r in records] == [
         "gmd motion/x0 loss scaling k=1", "gmd motion/x0 Emphasis c=1"]
-    # loss scaling k=1 is a Table B.1 model: its text-to-motion values are reused as measured
-    reused = records[0]["gate"]
-    assert reused["foot_skating"]["value"] == results.text_to_motion["loss scaling k=1"][
-        "foot_skating"][0]
-    # Emphasis c=1 is not: measured here the same way, so a re-measurement agrees
+    assert all(r["reads"] == ["emphasis_less_foot_skating_at_1"] for r in records)
+    assert mg.emphasis_study_records(results, base=base, train=train, test=test,
+                                     parts={2: ["x"]})[0]["reads"] == []
+    assert set(records[0]["gate"]) == {"x0_error_vs_gaussian"}
+    # the Emphasis model is measured in its projected space: the same as by hand
     trained = study.load_or_train_variant(base, study.Variant("emphasis", 1), train, 0)
-    again = study.measure_text_to_motion(trained, study.draw_targets(test, 32, seed=0),
-                                         evaluator, seed=0)
-    measured = records[1]["gate"]
-    assert measured["joint_jerk"]["value"] == pytest.approx(again["jerk"])
-    assert measured["fid"]["value"] == pytest.approx(again["fid"])
-    # the reference is the targets' own skating, so the allowed bound is 3× it
-    assert measured["foot_skating"]["at_most"] == pytest.approx(
-        3 * results.ground_truth["foot_skating"][0])
-    # and the FID bound 5× the training windows' mean FID against the targets (gates v2)
-    with torch.no_grad():
-        features = train_relative.space("motion").relative_features(train_relative.x)
-    targets = study.draw_targets(test, 32, seed=0)
-    lengths = [targets.relative.shape[1]] * len(targets)
-    reference, _ = mg.reference_fid(evaluator, features.numpy().astype(np.float32), lengths[0],
-                                    evaluator.embed_motions(targets.relative, lengths),
-                                    len(targets), seed=0)
-    assert measured["fid"]["at_most"] == pytest.approx(5 * reference)
+    assert not torch.allclose(mg.model_space_windows(trained, test), test.channels("motion"))
+    again = mg.denoising_gate_values(trained, test, train, seed=0)
+    assert records[1]["gate"]["x0_error_vs_gaussian"]["value"] == pytest.approx(
+        again["x0_error_vs_gaussian"])
 
 
 def test_motion_evaluation_gives_the_reference_fid_of_training_windows(cache, windows) -> None:

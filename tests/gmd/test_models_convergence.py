@@ -114,9 +114,9 @@ def test_a_model_trained_with_validation_records_its_convergence(small_spec,
     assert convergence["step_cap"] == 8
     assert convergence["steps_used"] == len(trained.metrics["losses"]) <= 8
     assert [step for step, _ in convergence["validation"]][:2] == [0, 2]
-    values = {"root_jerk": 1.0, "path_length": 1.0}
+    values = {"x0_error_vs_gaussian": 0.5, "path_length": 1.0}
     record = model_gates.gmd_model_record(trained, family="gmd_trajectory", values=values,
-                                          reference=values)
+                                          reference={"path_length": 1.0})
     assert record["steps"] == convergence["steps_used"]
     assert record["converged"] is convergence["converged"]
     assert record["validation_curve"] == [loss for _, loss in convergence["validation"]]

@@ -1,42 +1,46 @@
-"""Quality gates: what a trained model must be able to do before a verdict may rest on it.
+"""Fitness gates: what a trained model must have learned before a verdict may rest on it.
 
 Registered before the models are trained as results (issue "Models that work"); never lowered
-to let a model pass. Each gate compares one measurement of the model against the same
-measurement of the data it was trained on (``reference``), or against a fixed bound, and
-gives its reason. A model passes when every gate of its family passes; a claim whose model
-fails is inconclusive for the parts that rest on it (``repro.claims.ledger.record_claim``,
-``models=``).
-
-The factors are wide on purpose: a tiny CPU model is not expected to match the data, only to
-make motion of the data's kind. What failure looked like before the gates (registry v1 runs):
-samples whose joint jerk was 10–10⁴ times the data's and whose feet skated at metres per
-second, where the data's feet skate at centimetres per second.
+to let a model pass. Since gates version 3 (issue #31) every gate is a *fitness* gate: it asks
+whether a model learned what a claim's measurement needs, anchored to a trivial baseline
+(a Gaussian with the data's per-feature mean and covariance, shuffled frames, chance), and it
+never measures a quantity that a claim resting on the model compares — a gate on an outcome
+makes the claim inconclusive by construction when the paper's effect is large. Each gate says
+what it measures (``Gate.measures``), so the paper packages can check that against what their
+claims compare (``gmd.model_gates.COMPARED``, ``energymogen.model_gates.COMPARED``). A model
+passes when every gate of its family passes; a model that fails makes inconclusive the parts
+of a claim that read it (``model_record(reads=...)``, ``repro.claims.ledger.record_claim``).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from repro.core.tables import markdown_table
 
-__all__ = ["GATES", "GATES_VERSION", "Gate", "gate_results", "gates_markdown",
-           "model_record"]
+__all__ = ["GATES", "GATES_VERSION", "Gate", "family_measures", "gate_results",
+           "gates_markdown", "model_record", "reading"]
 
-#: 2: the ``gmd_motion`` FID gate's reference is the training windows' mean FID over
-#: ``gmd.model_gates.REFERENCE_FID_DRAWS`` draws (1: one draw, whose FID moved by 17 % (sd)
-#: between draws, and the bound with it; docs/REGISTRY_CHANGELOG.md "Gates version 2").
-GATES_VERSION = 2
+#: 3: fitness gates (issue #31): held-out x̂0 error against the Gaussian denoiser for every
+#: diffusion model, the evaluator's R@3 of real data and its FID of trivial fakes; no gate on
+#: a compared quantity (foot skating, jerk, FID of samples, reconstruction MPJPE, oracle
+#: accuracy of samples). 2: the ``gmd_motion`` FID gate's reference was the training windows'
+#: mean FID over 64 draws. docs/REGISTRY_CHANGELOG.md "Gates version 2" and "Gates version 3".
+GATES_VERSION = 3
 
 
 @dataclass(frozen=True)
 class Gate:
     """``metric`` of the model within [``at_least``, ``at_most``] (either may be None): bounds
-    in units of the data's own value of the metric when ``relative``, else absolute."""
+    in units of the data's own value of the metric when ``relative``, else absolute.
+    ``measures``: the quantity in words, as the claims' tables of compared quantities name
+    theirs (``gmd.model_gates.COMPARED``, ``energymogen.model_gates.COMPARED``)."""
 
     metric: str
+    measures: str
     reason: str
     at_most: float | None = None
     at_least: float | None = None
@@ -60,47 +64,80 @@ class Gate:
                 and (high is None or value <= high))
 
 
-_PHYSICAL = ("a model within a factor 3 of the data's own value makes motion of the data's "
-             "kind; the failures seen before gates were 10–10⁴× off")
+#: what the x̂0-error gates measure (``core.fitness.x0_error_ratio``)
+X0_ERROR = "x̂0 error of held-out data"
+
+_X0_REASON = (
+    "held-out x̂0 error at ᾱ = 0.75, 0.5, 0.25 (one forward pass each, the same x_t) ≤ 0.9× "
+    "that of the best denoiser of a Gaussian with the training data's per-feature mean and "
+    "covariance (core.fitness.x0_error_ratio): a model at or above 1 has learned nothing "
+    "beyond the data's first two moments, and 10 % below it is the stated margin. A mean over "
+    "every held-out {unit} and three levels, no sampling draw. No claim compares x̂0 errors: "
+    "{claims}")
 
 #: family → gates. Families: the GMD UNets (``gmd_motion``, ``gmd_trajectory``), the MLD-style
 #: VAE (``vae``), the latent denoiser (``latent_denoiser``), the evaluator (``evaluator``).
 GATES: dict[str, tuple[Gate, ...]] = {
     "gmd_motion": (
-        Gate("foot_skating", f"foot skating (m/s) of unguided samples ≤ 3× the data's: "
-             f"{_PHYSICAL}", at_most=3.0),
-        Gate("joint_jerk", f"joint jerk (m/s³) of unguided samples ≤ 3× the data's: {_PHYSICAL}",
-             at_most=3.0),
-        Gate("fid", "FID against the test windows ≤ 5× the training windows' own FID against "
-             "them, the mean over 64 draws of as many windows as samples (the data's sampling "
-             "noise sets the floor; 5× leaves room for a tiny model without admitting motion "
-             "of another kind)", at_most=5.0),
+        Gate("x0_error_vs_gaussian", X0_ERROR, _X0_REASON.format(
+            unit="window's frames (text-conditioned models with the window's captions)",
+            claims="GMD-A4 compares joint jerk and FID of samples, B3 FID, diversity and R@3 "
+                   "of samples, C4 and F1 foot skating and joint jerk of samples, so the old "
+                   "gates on foot skating, jerk and FID sat on their outcomes"),
+             at_most=0.9, relative=False),
     ),
     "gmd_trajectory": (
-        Gate("root_jerk", f"root jerk (m/s³) of unguided samples ≤ 3× the data's: {_PHYSICAL}",
-             at_most=3.0),
-        Gate("path_length", "path length (m) of unguided samples within ½–2× the data's: a "
-             "model that stands still or drifts has not learnt the data's speed",
+        Gate("x0_error_vs_gaussian", X0_ERROR, _X0_REASON.format(
+            unit="window's frames",
+            claims="GMD-A3, B2 and F1 compare goal and location errors of guided samples, "
+                   "A4 and F1 root jerk of samples, so the old root-jerk gate sat on theirs"),
+             at_most=0.9, relative=False),
+        Gate("path_length", "path length of unguided samples", "path length (m) of unguided "
+             "samples within ½–2× the test windows': a model that stands still or drifts has "
+             "not learnt the data's speed, which every goal and location error needs; no claim "
+             "compares path lengths (the goal errors it bounds are of guided samples)",
              at_least=0.5, at_most=2.0),
     ),
     "vae": (
-        Gate("reconstruction_mpjpe", "reconstruction MPJPE (m) of held-out clips ≤ 5 cm, the "
-             "oracles' contact threshold, so what a concept looks like survives", at_most=0.05,
-             relative=False),
-        Gate("concept_preservation", "oracle concept recall on reconstructions ≥ 0.9× the "
-             "oracles' recall on the clips themselves", at_least=0.9),
+        Gate("concept_preservation", "oracle concept recall of reconstructions", "oracle "
+             "concept recall on reconstructions of held-out clips ≥ 0.9× the oracles' recall on "
+             "the clips themselves: what a concept looks like survives the autoencoder, which "
+             "every oracle, R@3 and FID reading of decoded samples needs. The old MPJPE gate "
+             "sat on EMG-7's outcome (reconstruction error by N); no claim compares the recall "
+             "of reconstructions (EMG-2/3 read the oracles on generated samples)",
+             at_least=0.9),
     ),
     "latent_denoiser": (
-        Gate("single_text_accuracy", "oracle accuracy of single-text samples ≥ ½ the oracles' "
-             "accuracy on real clips of those concepts: the model follows its text",
-             at_least=0.5),
+        Gate("x0_error_vs_gaussian", X0_ERROR, _X0_REASON.format(
+            unit="clip's latent (with one of its captions)",
+            claims="EMG-2/3 compare oracle concept presence of samples (the old gate's "
+                   "oracle accuracy of single-text samples), EMG-4/5/8 R@3 of samples, EMG-5 "
+                   "transition distances, EMG-6 the correlation of energy maps, EMG-7/8 FID of "
+                   "samples"),
+             at_most=0.9, relative=False),
     ),
     "evaluator": (
-        Gate("r_precision_top3", "R@3 on held-out real windows (batches of 32, chance 3/32) "
-             "≥ 0.8: the evaluator ranks true text–motion pairs far above chance",
-             at_least=0.8, relative=False),
+        Gate("r_precision_top3", "R-precision of held-out real data", "R@3 of held-out real "
+             "windows with their own captions (batches of 32, chance 3/32 ≈ 0.09; the mean over "
+             "8 shuffles of the batches) ≥ 0.8, chance + 0.7: the evaluator ranks true "
+             "text–motion pairs far above chance, which every R@3 and FID of samples needs; "
+             "claims compare R@3 of samples, never of real data", at_least=0.8,
+             relative=False),
+        Gate("trivial_fid_ratio", "FID of trivial fakes over real data's", "FID of trivial "
+             "fakes (frames i.i.d. from the data's per-feature Gaussian; real windows with "
+             "shuffled frames; each the mean of 4 draws) against held-out windows ≥ 1.5× the "
+             "real training windows' own FID (core.fitness.trivial_fid_ratio): an evaluator "
+             "whose FID cannot tell motion from either fake, beyond the FID's own sampling "
+             "spread (one draw of real windows: sd 17 %; 1.5 is 3 sd), cannot rank samples by "
+             "FID; claims compare FID of samples, never of fakes", at_least=1.5,
+             relative=False),
     ),
 }
+
+
+def family_measures(family: str) -> set[str]:
+    """The quantities (``Gate.measures``) the gates of ``family`` measure."""
+    return {gate.measures for gate in GATES[family]}
 
 
 def gate_results(family: str, values: Mapping[str, float],
@@ -125,13 +162,27 @@ def model_record(*, name: str, family: str, values: Mapping[str, float],
                  reference: Mapping[str, float] | None = None, parameters: int | None = None,
                  steps: int | None = None, train_seconds: float | None = None,
                  validation_curve: list[float] | None = None,
-                 converged: bool | None = None) -> dict[str, Any]:
-    """What the report's "Models" section and ``models.json`` show of one trained model."""
+                 converged: bool | None = None,
+                 reads: Sequence[str] | None = None) -> dict[str, Any]:
+    """What the report's "Models" section and ``models.json`` show of one trained model.
+
+    ``reads``: the names of the claim's parts that rest on this model (None: every part); a
+    model that fails its gate makes only those inconclusive (issue #31: "a model that fails
+    its gate makes inconclusive only the parts that read it")."""
     gates = gate_results(family, values, reference)
     return {"name": name, "family": family, "gates_version": GATES_VERSION,
+            "reads": None if reads is None else [str(part) for part in reads],
             "parameters": parameters, "steps": steps, "train_seconds": train_seconds,
             "converged": converged, "validation_curve": list(validation_curve or []),
             "gate": gates, "passed": all(g["passed"] for g in gates.values())}
+
+
+def reading(records: Sequence[Mapping[str, Any]],
+            parts: Sequence[str] | None) -> list[dict[str, Any]]:
+    """Copies of ``records`` whose ``reads`` are ``parts`` (None: every part of the claim): for
+    a notebook that passes the same models to claims whose parts rest on them differently."""
+    return [{**record, "reads": None if parts is None else [str(p) for p in parts]}
+            for record in records]
 
 
 def _number(value: float | None) -> str:

@@ -54,6 +54,7 @@ from repro.energymogen.config import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPT
 from repro.energymogen.convergence import TrainingRecord, cached_training_record
 from repro.energymogen.data import composition_items, concept_text
 from repro.energymogen.harness import TextToMotionTest, generation_metrics
+from repro.energymogen.model_gates import denoiser_gate_values
 from repro.energymogen.pipeline import (
     EnergyMoGenPipeline,
     PipelineSource,
@@ -252,13 +253,16 @@ def augmentation_study(source: PipelineSource, test: TextToMotionTest,
     ``threads`` torch threads. Returns ``{"t2m": {row: {metric: per-seed list}},
     "held_out": {row: {...}}, "composed": {metric: per-seed list}, "example": ComposedSet of
     the first seed, "seconds": {...}, "training": {row: per-seed ``TrainingRecord`` of the
-    fine-tuned denoisers}, "pretrained_train_seeds": per-seed training seed}``; composed-set
-    metrics: the oracles' both-present rate on the set itself, overall and on held-out
+    fine-tuned denoisers}, "fitness": {row: per-seed held-out x̂0 error of the fine-tuned
+    denoisers over the Gaussian denoiser's on ``test`` (``model_gates.denoiser_gate_values``,
+    their ``latent_denoiser`` gate)}, "pretrained_train_seeds": per-seed training seed}``;
+    composed-set metrics: the oracles' both-present rate on the set itself, overall and on held-out
     pairs, and their per-concept accuracy."""
     out: dict[str, Any] = {"t2m": {r: {} for r in ROWS}, "held_out": {r: {} for r in ROWS},
                            "composed": {}, "seconds": {"compose": [], "control": [],
                                                        "augmented": [], "evaluate": []},
                            "training": {"control": [], "augmented": []},
+                           "fitness": {"control": [], "augmented": []},
                            "pretrained_train_seeds": []}
     with torch_threads(threads):
         _augment_and_measure(source, test, seeds, size, threads, log, out)
@@ -298,6 +302,8 @@ def _augment_and_measure(source: PipelineSource, test: TextToMotionTest,
             denoisers[row], record = load_or_finetune(pipe, rows, config)
             out["seconds"][row].append(time.perf_counter() - start)
             out["training"][row].append(record)
+            out["fitness"][row].append(denoiser_gate_values(
+                pipe, test, seed, denoiser=denoisers[row])["x0_error_vs_gaussian"])
         start = time.perf_counter()
         for row in ROWS:
             variant = replace(pipe, denoiser=denoisers[row])

@@ -1,27 +1,28 @@
-"""The quality gates of the EnergyMoGen pipeline's trained models (``repro.core.gates``).
+"""The fitness gates of the EnergyMoGen pipeline's trained models (``repro.core.gates``).
 
 One measurement function per model family, each on the held-out **text-to-motion test set**
 (``harness.TextToMotionTest``: clips drawn as the training clips, with keys no model or the
-evaluator ever trained on), and one record builder per family (``core.gates.model_record``):
+evaluator ever trained on), and one record builder per family (``core.gates.model_record``);
+gates version 3 (issue #31) measures no quantity an EnergyMoGen claim compares (:data:`COMPARED`,
+:data:`FAMILIES_READ`):
 
-- ``vae`` — :func:`vae_gate_values`: reconstruction MPJPE (m) of decode(μ(x)) of the test clips
-  (``latent_count.mpjpe``: global joint positions, root path included) and the oracles' concept
-  recall on the reconstructions, against their recall on the clips themselves
-  (:func:`real_concept_recall`);
-- ``latent_denoiser`` — :func:`denoiser_gate_values`: oracle accuracy of single-text samples
-  (one caption per test clip, ``TextToMotionTest.texts(seed)``, classifier-free guidance with
-  the pipeline's scale, DDIM from ``pipe.noise(seed)``: exactly ``harness.generation_metrics``'s
-  ``oracle_accuracy``, so EMG-7 and EMG-8 pass the value their studies measured), against the
-  oracles' accuracy on the real test clips of those concepts;
+- ``vae`` — :func:`vae_gate_values`: the oracles' concept recall on decode(μ(x)) of the test
+  clips, against their recall on the clips themselves (:func:`real_concept_recall`);
+- ``latent_denoiser`` — :func:`denoiser_gate_values`: the held-out x̂0 error of the test clips'
+  latents (one caption each, ``TextToMotionTest.texts(seed)``) over that of the Gaussian
+  denoiser of the training clips' latents (``core.fitness.x0_error_ratio``); no sampling;
 - ``evaluator`` — :func:`evaluator_gate_values`: R@3 of the test clips' captions against the
-  test clips themselves, batches of 32 (``core.metrics.r_precision``).
+  test clips themselves, batches of 32 (``core.metrics.r_precision``, the mean over
+  :data:`R_PRECISION_SHUFFLES` shuffles), and the FID of trivial fakes over the training clips'
+  FID against the test clips (``core.fitness.trivial_fid_ratio``).
 
 Our choice: a model is measured with seed ``train_seed − data_seed`` (the evaluation seed whose
 model it is, ``pipeline.train_seed_for``), so one model gets one gate value in every notebook.
 Steps, training seconds, whether it converged and the held-out validation curve come from the
 pipeline (``EnergyMoGenPipeline.training``: the records ``pipeline.load_pipeline`` read from
 exactly the models' own cache entries, ``convergence.TrainingRecord``); a model trained without
-validation has an empty curve. Fine-tuned denoisers (EMG-8) pass their own record.
+validation has an empty curve. Fine-tuned denoisers (EMG-8) pass their own record, with the
+value ``augmentation.augmentation_study`` measured with :func:`denoiser_gate_values`.
 """
 
 from __future__ import annotations
@@ -29,23 +30,51 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numpy as np
 import torch
-from torch import nn
+from torch import Tensor, nn
 
-from repro.core import metrics
+from repro.core import fitness, metrics
 from repro.core.gates import model_record
 from repro.core.training import torch_threads
 from repro.energymogen.convergence import TrainingRecord
 from repro.energymogen.harness import TextToMotionTest, oracle_accuracy
-from repro.energymogen.latent_count import load_or_train_variant, mpjpe
-from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
+from repro.energymogen.latent_count import load_or_train_variant
+from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, pipeline_for
 
 __all__ = [
-    "denoiser_gate_values", "denoiser_record", "evaluator_gate_values",
-    "evaluator_record", "gate_seed", "parameter_count",
-    "augmentation_records", "latent_count_records", "pipeline_records", "real_concept_recall",
-    "vae_gate_values", "vae_record",
+    "COMPARED", "FAMILIES_READ", "R_PRECISION_SHUFFLES", "augmentation_records",
+    "denoiser_gate_values", "denoiser_record", "evaluator_gate_values", "evaluator_record",
+    "gate_seed", "latent_count_records", "parameter_count", "pipeline_records",
+    "real_concept_recall", "vae_gate_values", "vae_record",
 ]
+
+#: shuffles of the R-precision batches whose mean R@3 is the ``evaluator`` gate's value
+R_PRECISION_SHUFFLES = 8
+
+#: the quantity behind each measurement the EnergyMoGen claims' parts read (``Part.needs`` in
+#: ``claims.registry_energymogen``), in the words of ``core.gates.Gate.measures``
+COMPARED: dict[str, str] = {
+    **{name: "oracle concept presence in samples" for name in (
+        "conjunction_both_present", "best_single_concept_both_present",
+        "negation_negated_present", "baseline_negated_present", "negation_kept_present",
+        "baseline_kept_present")},
+    **{name: "R-precision of samples" for name in (
+        "r_precision_top3", "r_precision_top3_augmented", "r_precision_top3_baseline")},
+    "transition_distance_at_transitions": "transition distance of samples",
+    "transition_speed_ratio": "transition distance of samples",
+    **{f"{kind}_similarity_{what}": "energy-map similarity"
+       for kind in ("conjunction", "negation") for what in ("to_multi", "floor")},
+    "reconstruction_error": "reconstruction error of held-out clips",
+    **{name: "FID of samples" for name in ("generation_fid", "fid_augmented", "fid_baseline")},
+}
+
+#: claim → the model families whose records its notebook passes (``record_claim(models=)``)
+FAMILIES_READ: dict[str, tuple[str, ...]] = {
+    **{claim: ("vae", "latent_denoiser") for claim in ("EMG-1", "EMG-2", "EMG-3", "EMG-6")},
+    **{claim: ("vae", "latent_denoiser", "evaluator")
+       for claim in ("EMG-4", "EMG-5", "EMG-7", "EMG-8")},
+}
 
 
 def gate_seed(pipe: EnergyMoGenPipeline) -> int:
@@ -72,33 +101,51 @@ def real_concept_recall(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> fl
 
 @torch.no_grad()
 def vae_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dict[str, float]:
-    """Gate ``vae``: ``reconstruction_mpjpe`` (m) of decode(μ(x)) of the test clips and
-    ``concept_preservation``, the oracles' recall on those reconstructions."""
+    """Gate ``vae``: ``concept_preservation``, the oracles' recall on decode(μ(x)) of the test
+    clips."""
     recon = pipe.decode(pipe.encode_motion(test.features))
-    return {"reconstruction_mpjpe": mpjpe(recon, test.features),
-            "concept_preservation": oracle_accuracy(pipe.joints(recon), test.concepts)}
+    return {"concept_preservation": oracle_accuracy(pipe.joints(recon), test.concepts)}
 
 
-def denoiser_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
-                         seed: int) -> dict[str, float]:
-    """Gate ``latent_denoiser``: ``single_text_accuracy``, the oracles' accuracy on samples of
-    ``pipe.denoiser`` from one caption per test clip (``test.texts(seed)``, single-text
-    guidance, DDIM from ``pipe.noise(seed)``, decoded by ``pipe.vae``) — the measurement of
-    ``harness.generation_metrics``. The global torch RNG is left as it was."""
-    texts = test.texts(seed)
+def denoiser_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest, seed: int, *,
+                         denoiser: nn.Module | None = None) -> dict[str, float]:
+    """Gate ``latent_denoiser``: ``x0_error_vs_gaussian`` of ``denoiser`` (default
+    ``pipe.denoiser``) on the test clips' scaled latents (``pipe.encode_motion``), each with
+    one of its captions (``test.texts(seed)``), x̂0 from ε̂ (``predict_x0_from_eps``), against
+    the Gaussian of the training clips' latents; noise drawn with ``seed``
+    (``core.fitness.x0_error_ratio``). The global torch RNG is left as it was."""
+    model = pipe.denoiser if denoiser is None else denoiser
+    train = pipe.encode_motion(pipe.data.train_features)
+    mean, cov = fitness.gaussian_fit(train.reshape(len(train), -1))
+    z0 = pipe.encode_motion(test.features)
+    tokens, mask = pipe.encode(test.texts(seed))
+
+    def predict_x0(z_t: Tensor, t: Tensor) -> Tensor:
+        return pipe.diffusion.predict_x0_from_eps(z_t, t, model(z_t, t, tokens, mask))
+
     with torch.random.fork_rng(devices=[]):
-        features = pipe.decode(pipe.sample(Sampler("single"), [], texts, seed,
-                                           batch=len(texts)))
-    return {"single_text_accuracy": oracle_accuracy(pipe.joints(features), test.concepts)}
+        ratio = fitness.x0_error_ratio(predict_x0, pipe.diffusion.alphas_cumprod, z0,
+                                       lambda z: z.reshape(len(z), -1), mean, cov, seed=seed)
+    return {"x0_error_vs_gaussian": ratio}
 
 
 def evaluator_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                           seed: int = 0) -> dict[str, float]:
     """Gate ``evaluator``: ``r_precision_top3`` (fraction) of one caption per test clip
-    (``test.texts(seed)``) against the test clips, batches of 32 (``metrics.r_precision``)."""
-    text = pipe.evaluator.embed_texts(test.texts(seed))
-    motion = pipe.evaluator.embed_motions(test.features, test.lengths)
-    return {"r_precision_top3": float(metrics.r_precision(text, motion, 32, 3, seed)[2])}
+    (``test.texts(seed)``) against the test clips, batches of 32 (``metrics.r_precision``),
+    the mean over :data:`R_PRECISION_SHUFFLES` shuffles (the k-th with seed ``8·seed + k``);
+    ``trivial_fid_ratio`` of fakes made from as many training clips as test clips (at most
+    all of them) against the test clips (``core.fitness.trivial_fid_ratio``)."""
+    evaluator = pipe.evaluator
+    text = evaluator.embed_texts(test.texts(seed))
+    motion = evaluator.embed_motions(test.features, test.lengths)
+    hits = [metrics.r_precision(text, motion, 32, 3, R_PRECISION_SHUFFLES * seed + k)[2]
+            for k in range(R_PRECISION_SHUFFLES)]
+    train = pipe.data.train_features
+    baselines = fitness.trivial_fid_ratio(
+        lambda w: evaluator.embed_motions(w, [w.shape[1]] * len(w)), train, motion,
+        min(len(test), len(train)), seed=seed)
+    return {"r_precision_top3": float(np.mean(hits)), "trivial_fid_ratio": baselines["ratio"]}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -108,89 +155,90 @@ def evaluator_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 
 def _record(*, name: str, family: str, values: Mapping[str, float],
             reference: Mapping[str, float], model: nn.Module,
-            training: TrainingRecord | None) -> dict[str, Any]:
+            training: TrainingRecord | None, reads: Sequence[str] | None) -> dict[str, Any]:
     record = model_record(
         name=name, family=family, values=values, reference=reference,
         parameters=parameter_count(model), steps=None if training is None else training.steps,
         train_seconds=None if training is None else training.train_seconds,
         validation_curve=[] if training is None else [v for _, v in training.validation_curve],
-        converged=None if training is None else training.converged)
+        converged=None if training is None else training.converged, reads=reads)
     if training is not None:
         record["training"] = training.to_dict()
     return record
 
 
-def vae_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float],
-               real_recall: float) -> dict[str, Any]:
+def vae_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float], real_recall: float, *,
+               reads: Sequence[str] | None = None) -> dict[str, Any]:
     """The ``vae`` record of ``pipe.vae`` (N latents, training seed): ``values`` of
     :func:`vae_gate_values` (or the same measurement from a study), reference
     ``concept_preservation`` = ``real_recall`` (:func:`real_concept_recall`); training from
-    ``pipe.training["vae"]``."""
+    ``pipe.training["vae"]``; ``reads`` the claim's parts resting on it (None: all)."""
     return _record(name=f"EMG VAE N={pipe.config.latent_count} train seed {pipe.train_seed}",
                    family="vae", values=values,
                    reference={"concept_preservation": real_recall}, model=pipe.vae,
-                   training=pipe.training.get("vae"))
+                   training=pipe.training.get("vae"), reads=reads)
 
 
-def denoiser_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float], real_recall: float,
-                    *, name: str | None = None, denoiser: nn.Module | None = None,
-                    training: TrainingRecord | None = None) -> dict[str, Any]:
+def denoiser_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float], *,
+                    name: str | None = None, denoiser: nn.Module | None = None,
+                    training: TrainingRecord | None = None,
+                    reads: Sequence[str] | None = None) -> dict[str, Any]:
     """The ``latent_denoiser`` record of ``pipe.denoiser`` (training from
     ``pipe.training["denoiser"]``), or of a fine-tuned ``denoiser`` (EMG-8) with its own
-    ``name`` and ``training``: ``values`` of :func:`denoiser_gate_values` (or
-    ``harness.generation_metrics``'s ``oracle_accuracy`` as ``single_text_accuracy``),
-    reference = ``real_recall``."""
+    ``name`` and ``training``: ``values`` of :func:`denoiser_gate_values`; ``reads`` the
+    claim's parts resting on it (None: all)."""
     if denoiser is None:
         denoiser, training = pipe.denoiser, pipe.training.get("denoiser")
     return _record(name=name or (f"EMG latent denoiser N={pipe.config.latent_count} train seed "
                                  f"{pipe.train_seed}"),
-                   family="latent_denoiser", values=values,
-                   reference={"single_text_accuracy": real_recall}, model=denoiser,
-                   training=training)
+                   family="latent_denoiser", values=values, reference={}, model=denoiser,
+                   training=training, reads=reads)
 
 
-def evaluator_record(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dict[str, Any]:
+def evaluator_record(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
+                     reads: Sequence[str] | None = None) -> dict[str, Any]:
     """The ``evaluator`` record (:func:`evaluator_gate_values` with seed 0): its configured
     steps and training losses (the evaluator trains for a fixed number of steps, without
-    validation; its cache keeps no training seconds)."""
+    validation; its cache keeps no training seconds); ``reads`` the claim's parts resting on
+    it (None: all)."""
     record = model_record(name="EMG evaluator", family="evaluator",
                           values=evaluator_gate_values(pipe, test), reference={},
                           parameters=parameter_count(pipe.evaluator),
-                          steps=pipe.evaluator.config.steps, train_seconds=None)
+                          steps=pipe.evaluator.config.steps, train_seconds=None, reads=reads)
     record["training_losses"] = [float(v) for v in pipe.evaluator.losses]
     return record
 
 
-def pipeline_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
-                     real_recall: float) -> list[dict[str, Any]]:
+def pipeline_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest, real_recall: float, *,
+                     reads: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """[``vae`` record, ``latent_denoiser`` record] of one pipeline, both measured here
-    (the denoiser with :func:`gate_seed`)."""
-    return [vae_record(pipe, vae_gate_values(pipe, test), real_recall),
+    (the denoiser with :func:`gate_seed`), both with ``reads``."""
+    return [vae_record(pipe, vae_gate_values(pipe, test), real_recall, reads=reads),
             denoiser_record(pipe, denoiser_gate_values(pipe, test, gate_seed(pipe)),
-                            real_recall)]
+                            reads=reads)]
 
 
 def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
-                         counts: Sequence[int], seeds: Sequence[int], *,
-                         threads: int | None = 1) -> list[dict[str, Any]]:
+                         counts: Sequence[int], seeds: Sequence[int], test: TextToMotionTest,
+                         *, threads: int | None = 1,
+                         reads: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """EMG-7: the ``vae`` and ``latent_denoiser`` records of every (N, training seed) of
-    ``latent_count.latent_count_study``'s ``results``, from the values it measured (its
-    reconstruction ``mpjpe`` and ``oracle_accuracy``, its generation ``oracle_accuracy`` at
-    the seed that is the model's training seed, and the real clips' ``oracle_accuracy``); the
-    models are reloaded from the cache (``latent_count.load_or_train_variant``) for their
-    sizes and training records."""
+    ``latent_count.latent_count_study``'s ``results``: the VAE's concept preservation as the
+    study measured it (its reconstructions' ``oracle_accuracy`` against the real clips'), the
+    denoiser's x̂0 error measured here on ``test`` (:func:`denoiser_gate_values`,
+    :func:`gate_seed`); the models are reloaded from the cache
+    (``latent_count.load_or_train_variant``)."""
     records = []
     for i, seed in enumerate(seeds):
         real_recall = float(results["real"]["oracle_accuracy"][i])
         for n in counts:
             with torch_threads(threads):     # the study's threads: the same cache entries
                 variant = load_or_train_variant(pipe, n, seed, threads=threads)
-            recon, gen = results["reconstruction"][str(n)], results["generation"][str(n)]
+                fit = denoiser_gate_values(variant, test, gate_seed(variant))
+            recon = results["reconstruction"][str(n)]
             records.append(vae_record(variant, {
-                "reconstruction_mpjpe": recon["mpjpe"][i],
-                "concept_preservation": recon["oracle_accuracy"][i]}, real_recall))
-            records.append(denoiser_record(
-                variant, {"single_text_accuracy": gen["oracle_accuracy"][i]}, real_recall))
+                "concept_preservation": recon["oracle_accuracy"][i]}, real_recall, reads=reads))
+            records.append(denoiser_record(variant, fit, reads=reads))
     return records
 
 
@@ -198,23 +246,21 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
                          results: Mapping[str, Any], seeds: Sequence[int]
                          ) -> dict[str, list[dict[str, Any]]]:
     """EMG-8: per seed s, the records of the pretrained pipeline of s (``pipeline_for``: its
-    VAE measured here on ``gate_test``; its denoiser with the value
-    ``augmentation.augmentation_study`` measured at s) and of the control and augmented
-    denoisers fine-tuned from it (the study's values and training records). Returns
-    ``{"vae": [...], "pretrained": [...], "control": [...], "augmented": [...]}``."""
-    t2m = results["t2m"]
+    VAE and denoiser measured here on ``gate_test``, the denoiser with :func:`gate_seed`) and
+    of the control and augmented denoisers fine-tuned from it (the x̂0 error
+    ``augmentation.augmentation_study`` measured on its own test at s, its training records).
+    Returns ``{"vae": [...], "pretrained": [...], "control": [...], "augmented": [...]}``."""
     out: dict[str, list[dict[str, Any]]] = {"vae": [], "pretrained": [], "control": [],
                                             "augmented": []}
     for i, seed in enumerate(seeds):
         pipe = pipeline_for(source, seed)
         real_recall = real_concept_recall(pipe, gate_test)
-        out["vae"].append(vae_record(pipe, vae_gate_values(pipe, gate_test), real_recall))
-        out["pretrained"].append(denoiser_record(
-            pipe, {"single_text_accuracy": t2m["pretrained"]["oracle_accuracy"][i]},
-            real_recall))
+        vae, pretrained = pipeline_records(pipe, gate_test, real_recall)
+        out["vae"].append(vae)
+        out["pretrained"].append(pretrained)
         for row in ("control", "augmented"):
             out[row].append(denoiser_record(      # fine-tuned: the pretrained architecture
-                pipe, {"single_text_accuracy": t2m[row]["oracle_accuracy"][i]}, real_recall,
+                pipe, {"x0_error_vs_gaussian": results["fitness"][row][i]},
                 name=f"EMG {row} denoiser (fine-tuned from train seed {pipe.train_seed}, "
                      f"seed {seed})",
                 denoiser=pipe.denoiser, training=results["training"][row][i]))

@@ -9,13 +9,15 @@ import torch
 from torch import Tensor
 
 from repro.core import metrics
+from repro.gmd.guidance import sample
 from repro.gmd.models import TrainedGMD
 from repro.gmd.windows import FeatureSpace
 from repro.models.evaluator import Evaluator
 from repro.motion.features import FPS
 from repro.motion.skeleton import NUM_JOINTS
 
-__all__ = ["evaluator_inputs", "foot_skating_of", "jitter_of"]
+__all__ = ["evaluator_inputs", "foot_skating_of", "jitter_of", "motion_fid", "sample_quality",
+           "unguided_sample_quality"]
 
 
 def _root_as_joints(root: np.ndarray) -> np.ndarray:
@@ -64,3 +66,30 @@ def motion_fid(space: TrainedGMD | FeatureSpace, x: Tensor, evaluator: Evaluator
     through the evaluator's embedding of their relative-root features."""
     features, lengths = evaluator_inputs(space, x)
     return float(metrics.fid(evaluator.embed_motions(features, lengths), test_embeddings))
+
+
+def sample_quality(joints: np.ndarray | Tensor, *, fid: float | None = None) -> dict[str, float]:
+    """Foot skating (mean horizontal foot speed in contact, m/s, ``metrics.foot_skating``) and
+    joint jerk (mean ‖Δ³p‖·fps³, m/s³, ``metrics.jitter``) of joint positions (B, T, 22, 3) in
+    metres, with ``fid`` when given: the quantities GMD-A4, C4 and F1 compare (gates versions 1
+    and 2 gated on them; the pilots and ``denoiser_diagnostics.noise_floor`` still measure them)."""
+    points = joints.detach().cpu().double().numpy() if isinstance(joints, Tensor) \
+        else np.asarray(joints, dtype=np.float64)
+    values = {"foot_skating": float(metrics.foot_skating(points, fps=FPS)),
+              "joint_jerk": float(metrics.jitter(points, fps=FPS).jerk)}
+    if fid is not None:
+        values["fid"] = float(fid)
+    return values
+
+
+def unguided_sample_quality(trained: TrainedGMD, n: int, *, seed: int, evaluator: Evaluator,
+                            test_embeddings: np.ndarray) -> dict[str, float]:
+    """:func:`sample_quality` of ``n`` unguided samples of a motion model (seed ``seed``; an ε
+    model's x̂0 clamped as in GMD-A4) with their FID against ``test_embeddings``."""
+    if trained.spec.task != "motion":
+        raise ValueError(f"need a motion model, got a {trained.spec.task} model")
+    x = sample(trained, n, seed=seed)
+    fid = motion_fid(trained, x, evaluator, test_embeddings)
+    with torch.no_grad():
+        joints = trained.space.joints(x)
+    return sample_quality(joints, fid=fid)

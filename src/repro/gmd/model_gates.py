@@ -1,22 +1,25 @@
-"""The quality gates of tiny GMD's models and of the evaluator, measured (``core.gates``).
+"""The fitness gates of tiny GMD's models and of the evaluator, measured (``core.gates``).
 
-One function per gate family measures what the registered gate names, the same way for a
-model's samples and for the data it was trained on (the data's value is the gate's
-``reference``):
+One function per gate family measures what the registered gate names (gates version 3):
 
-* ``gmd_motion`` — :func:`motion_gate_values`: foot skating (m/s, ``metrics.foot_skating``)
-  and joint jerk (m/s³, ``metrics.jitter``) of the recovered joints, and an FID measured by
-  the caller's evaluator (samples against test windows; for the data, :func:`reference_fid`:
-  training windows against the same test windows, the mean over
-  :data:`REFERENCE_FID_DRAWS` draws since gates version 2);
-* ``gmd_trajectory`` — :func:`trajectory_gate_values`: root jerk (m/s³, ``jitter_of``) and
-  horizontal path length (m) of the root;
+* ``gmd_motion`` and ``gmd_trajectory`` — :func:`denoising_gate_values`: the held-out x̂0
+  error over the Gaussian denoiser's (``core.fitness.x0_error_ratio``) on test windows in the
+  model's own space (:func:`model_space_windows`; a text-conditioned model with the windows'
+  captions), the Gaussian fitted to the training windows' frames; ``gmd_trajectory`` also
+  :func:`trajectory_gate_values`: the horizontal root path length (m) of unguided samples,
+  against the test windows' own;
 * ``evaluator`` — :func:`evaluator_gate_values`: R-precision top-3 (``metrics.r_precision``,
-  batches of 32) of held-out real windows with their own captions.
+  batches of 32, the mean over :data:`R_PRECISION_SHUFFLES` shuffles) of held-out real windows
+  with their own captions, and the FID of trivial fakes over the real training windows' FID
+  (``core.fitness.trivial_fid_ratio``; the real FID the mean over :data:`REFERENCE_FID_DRAWS`
+  draws, :func:`reference_fid`).
 
-:func:`gmd_model_record` / :func:`evaluator_model_record` turn the values into
-``core.gates.model_record``s with what the model cache keeps (steps, seconds, and the held-out
-validation curve of a model trained to convergence, else the training loss); nothing here
+:data:`COMPARED` names the quantity behind every measurement a GMD claim's parts compare and
+:data:`FAMILIES_READ` the model families whose records each notebook passes to a claim, so a
+test can hold every gate off every outcome (issue #31). :func:`gmd_model_record` /
+:func:`evaluator_model_record` turn the values into ``core.gates.model_record``s with what the
+model cache keeps (steps, seconds, and the held-out validation curve of a model trained to
+convergence, else the training loss) and the claim parts that read the model; nothing here
 touches a cache key.
 """
 
@@ -30,30 +33,62 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from repro.core import metrics
+from repro.core import fitness, metrics
 from repro.core.gates import model_record
 from repro.core.tables import markdown_table
-from repro.gmd.measurements import evaluator_inputs, jitter_of, motion_fid
-from repro.gmd.models import TrainedGMD, parameter_count
+from repro.gmd.measurements import evaluator_inputs
+from repro.gmd.models import TrainedGMD, bag_of_words, parameter_count
 from repro.gmd.windows import FeatureSpace, MotionWindows
 from repro.infra import cache
 from repro.models.evaluator import Evaluator, EvaluatorConfig, load_or_train_evaluator
-from repro.motion.features import FPS, features_to_joints
 
-__all__ = ["CURVE_POINTS", "MotionEvaluation", "budget_markdown", "emphasis_study_records",
-           "evaluator_gate_values", "evaluator_model_record", "gmd_model_name",
-           "gmd_model_record", "loss_curve", "motion_evaluation", "motion_gate_values",
-           "one_caption_each", "path_length", "REFERENCE_FID_DRAWS", "reference_fid",
-           "relative_features_gate_values", "sample_quality_gate_values",
-           "trajectory_gate_values", "training_summary", "unguided_motion_gate_values"]
+__all__ = ["COMPARED", "CURVE_POINTS", "FAMILIES_READ", "FITNESS_WINDOWS", "MotionEvaluation",
+           "R_PRECISION_SHUFFLES", "REFERENCE_FID_DRAWS", "budget_markdown",
+           "denoising_gate_values", "emphasis_study_records", "evaluator_gate_values",
+           "evaluator_model_record", "gmd_model_name", "gmd_model_record", "loss_curve",
+           "model_space_windows", "motion_evaluation", "one_caption_each", "path_length",
+           "reference_fid", "trajectory_gate_values", "training_summary"]
+
+#: the quantity behind each measurement the GMD claims' parts read (``Part.needs`` in
+#: ``claims.registry_gmd``), in the words of ``core.gates.Gate.measures``
+COMPARED: dict[str, str] = {
+    **{f"goal_error_{arm}": "goal error of guided samples" for arm in (
+        "x0", "eps", "unguided", "by_strength", "stop_0", "stop_20")},
+    **{f"{kind}_survival_{arm}": "survival of the guided change in samples"
+       for kind in ("best_gain", "guided_change") for arm in ("x0", "eps")},
+    **{f"motion_jitter_{arm}": "joint jerk of samples" for arm in ("x0", "eps")},
+    **{f"motion_fid_{arm}": "FID of samples" for arm in ("x0", "eps")},
+    **{f"trajectory_jitter_{arm}": "root jerk of samples" for arm in ("x0", "eps")},
+    **{f"{rep}_{method}_error": "goal error of guided samples"
+       for rep in ("abs", "rel") for method in ("imputation", "guidance")},
+    **{f"fid_{rep}": "FID of samples" for rep in ("abs", "rel")},
+    **{f"diversity_{rep}": "diversity of samples" for rep in ("abs", "rel", "real")},
+    **{f"r_precision_top3_{rep}": "R-precision of samples" for rep in ("abs", "rel")},
+    **{f"foot_skating_{arm}": "foot skating of samples" for arm in (
+        "emphasis", "loss_scaling", "stop_0", "stop_20")},
+    **{f"joint_jerk_stop_{g}": "joint jerk of samples" for g in (0, 20)},
+    "jitter_unguided": "root jerk of samples", "jitter_by_strength": "root jerk of samples",
+}
+
+#: claim → the model families whose records its notebook passes (``record_claim(models=)``)
+FAMILIES_READ: dict[str, tuple[str, ...]] = {
+    "GMD-A3": ("gmd_trajectory",), "GMD-A4": ("gmd_motion", "gmd_trajectory", "evaluator"),
+    "GMD-B2": ("gmd_trajectory",), "GMD-B3": ("gmd_motion", "evaluator"),
+    "GMD-C4": ("gmd_motion",), "GMD-F1": ("gmd_trajectory", "gmd_motion"),
+}
 
 #: points of the training-loss curve kept in a model record (means of equal chunks of steps).
 CURVE_POINTS = 50
-#: draws of training windows whose mean FID is the ``gmd_motion`` FID gate's reference (gates
-#: version 2): over 64 draws of notebook 01's 256 training windows the data's FID ran from
-#: 0.022 to 0.047 (sd 17 % of the mean), and the 5× bound with it; the mean of 64 is within
-#: about 2 %. The windows are embedded once, so the draws cost seconds.
+#: draws of training windows whose mean FID is the ``evaluator`` gate's real FID (the
+#: ``gmd_motion`` FID gate's reference in gates version 2): over 64 draws of notebook 01's 256
+#: training windows the data's FID ran from 0.022 to 0.047 (sd 17 % of the mean); the mean of
+#: 64 is within about 2 %. The windows are embedded once, so the draws cost seconds.
 REFERENCE_FID_DRAWS = 64
+#: shuffles of the R-precision batches whose mean R@3 is the ``evaluator`` gate's value
+R_PRECISION_SHUFFLES = 8
+#: at most this many held-out windows in a model's x̂0-error gate (a forward pass of each at
+#: three noise levels: seconds on the CPU)
+FITNESS_WINDOWS = 256
 
 
 def reference_fid(evaluator: Evaluator, features: np.ndarray, length: int,
@@ -77,34 +112,17 @@ def reference_fid(evaluator: Evaluator, features: np.ndarray, length: int,
     return float(np.mean(values)), values
 
 
-def motion_gate_values(joints: np.ndarray | Tensor, *, fid: float | None) -> dict[str, float]:
-    """The ``gmd_motion`` gate's measurements of joint positions (B, T, 22, 3) in metres:
-    ``foot_skating`` (mean horizontal foot speed in contact, m/s, ``metrics.foot_skating``),
-    ``joint_jerk`` (mean ‖Δ³p‖·fps³ over joints and frames, m/s³, ``metrics.jitter``) and
-    ``fid`` as the caller measured it with its evaluator (None: not measured, the gate fails).
-
-    Pass unguided samples' joints with their FID against the test windows, or the data's
-    joints with the training windows' own FID against the same test windows (the reference).
-    """
-    points = joints.detach().cpu().double().numpy() if isinstance(joints, Tensor) \
-        else np.asarray(joints, dtype=np.float64)
-    values = {"foot_skating": float(metrics.foot_skating(points, fps=FPS)),
-              "joint_jerk": float(metrics.jitter(points, fps=FPS).jerk)}
-    if fid is not None:
-        values["fid"] = float(fid)
-    return values
-
-
 @dataclass(frozen=True)
 class MotionEvaluation:
-    """What the ``gmd_motion`` gate's FID needs: the evaluator trained on the training windows,
-    the test windows' features and embeddings, and ``real_fid``, the FID of
-    ``reference_samples`` training windows against the test windows: ``real_fid`` one draw
+    """The evaluator trained on the training windows, their relative-root features
+    (``train_features``), the test windows' features and embeddings, and ``real_fid``, the FID
+    of ``reference_samples`` training windows against the test windows: ``real_fid`` one draw
     (the data's FID the experiments report), ``reference_fid`` the mean of
-    ``reference_fid_draws`` (the gate's reference, :func:`reference_fid`; its draw 0 is
-    ``real_fid``'s windows)."""
+    ``reference_fid_draws`` (the ``evaluator`` gate's real FID, :func:`reference_fid`; its
+    draw 0 is ``real_fid``'s windows)."""
 
     evaluator: Evaluator
+    train_features: np.ndarray
     test_features: np.ndarray
     test_lengths: list[int]
     test_embeddings: np.ndarray
@@ -128,7 +146,8 @@ def motion_evaluation(train: MotionWindows, test: MotionWindows, config: Evaluat
                            test_embeddings)
     mean, draws = reference_fid(evaluator, train_features, train.frames, test_embeddings,
                                 reference_samples, seed=seed)
-    return MotionEvaluation(evaluator=evaluator, test_features=test_features,
+    return MotionEvaluation(evaluator=evaluator, train_features=train_features,
+                            test_features=test_features,
                             test_lengths=test_lengths, test_embeddings=test_embeddings,
                             real_fid=float(real_fid), reference_fid=mean,
                             reference_fid_draws=tuple(draws))
@@ -143,15 +162,53 @@ def path_length(root_positions: np.ndarray | Tensor) -> np.ndarray:
 
 
 def trajectory_gate_values(space: TrainedGMD | FeatureSpace, x: Tensor) -> dict[str, float]:
-    """The ``gmd_trajectory`` gate's measurements of model-space windows (B, C, T) in
-    ``space``: ``root_jerk`` (mean root jerk, m/s³, ``measurements.jitter_of`` on the root) and
-    ``path_length`` (mean horizontal root path length, m, :func:`path_length`). The same
-    function measures unguided samples and the data's windows (the reference)."""
+    """``path_length``: the mean horizontal root path length (m, :func:`path_length`) of
+    model-space windows (B, C, T) in ``space`` — a trajectory model's unguided samples, or the
+    test windows (the ``gmd_trajectory`` path-length gate's reference)."""
     space = space.space if isinstance(space, TrainedGMD) else space
     with torch.no_grad():
         root = space.root_positions(x.detach())
-    return {"root_jerk": float(jitter_of(space, x, "root").jerk),
-            "path_length": float(path_length(root).mean())}
+    return {"path_length": float(path_length(root).mean())}
+
+
+def model_space_windows(trained: TrainedGMD, windows: MotionWindows) -> Tensor:
+    """``windows`` (B, C, T) in ``trained``'s model space: its task's channels, projected when
+    the model is an Emphasis variant (``emphasis_study.ProjectedFeatureSpace``)."""
+    x = windows.channels(trained.spec.task)
+    projection = getattr(trained.space, "projection", None)
+    if projection is None:
+        return x
+    return projection.project_channels_first(x).to(torch.float32)
+
+
+def denoising_gate_values(trained: TrainedGMD, held_out: MotionWindows, train: MotionWindows,
+                          *, seed: int, limit: int = FITNESS_WINDOWS) -> dict[str, float]:
+    """``x0_error_vs_gaussian`` (``core.fitness.x0_error_ratio``) of ``trained`` on at most
+    ``limit`` of the ``held_out`` windows (drawn with ``seed``; noise drawn with ``seed``),
+    against the Gaussian of ``train``'s frames, both in the model's space
+    (:func:`model_space_windows`); a text-conditioned model is given the windows' captions.
+    ``train`` must be the windows the model trained on (``trained.spec.data``)."""
+    if train.config != trained.spec.data or held_out.config.representation != \
+            trained.spec.data.representation:
+        raise ValueError(f"the model trained on {trained.spec.data}; got training windows of "
+                         f"{train.config} and held-out windows of {held_out.config}")
+    x_train = model_space_windows(trained, train)
+    mean, cov = fitness.gaussian_fit(x_train.permute(0, 2, 1).reshape(-1, x_train.shape[1]))
+    picks = np.sort(np.random.default_rng(seed).choice(
+        len(held_out), min(limit, len(held_out)), replace=False))
+    x0 = model_space_windows(trained, held_out)[torch.from_numpy(picks)].to(trained.device)
+    kwargs: dict[str, Any] = {}
+    if trained.vocabulary is not None:
+        kwargs["cond"] = bag_of_words(trained.vocabulary,
+                                      [held_out.captions[i] for i in picks]).to(trained.device)
+
+    def predict_x0(x_t: Tensor, t: Tensor) -> Tensor:
+        return trained.diffusion.p_mean_variance(trained.model, x_t, t, kwargs).pred_x0
+
+    ratio = fitness.x0_error_ratio(predict_x0, trained.diffusion.alphas_cumprod, x0,
+                                   lambda x: x.permute(0, 2, 1).reshape(-1, x.shape[1]),
+                                   mean, cov, seed=seed)
+    return {"x0_error_vs_gaussian": ratio}
 
 
 def one_caption_each(captions: Sequence[str | Sequence[str]], *, seed: int) -> list[str]:
@@ -162,16 +219,31 @@ def one_caption_each(captions: Sequence[str | Sequence[str]], *, seed: int) -> l
 
 
 def evaluator_gate_values(evaluator: Evaluator, features: np.ndarray, lengths: Sequence[int],
-                          captions: Sequence[str | Sequence[str]], *,
-                          seed: int) -> dict[str, float]:
-    """The ``evaluator`` gate's measurement: R-precision top-3 (``metrics.r_precision``,
-    Guo et al.'s protocol, batches of 32, pairs shuffled with ``seed``) of held-out *real*
-    windows (relative-root features (N, T, 263), N ≥ 32) against their own captions (one per
-    window, :func:`one_caption_each`)."""
+                          captions: Sequence[str | Sequence[str]], *, seed: int,
+                          train_features: np.ndarray, samples: int,
+                          real_fid: float | None = None) -> dict[str, float]:
+    """The ``evaluator`` gate's measurements of held-out *real* windows ``features``
+    (relative-root, (N, T, 263), N ≥ 32; one caption each, :func:`one_caption_each`):
+    ``r_precision_top3`` (``metrics.r_precision``, Guo et al.'s protocol, batches of 32), the
+    mean over :data:`R_PRECISION_SHUFFLES` shuffles of the pairs (the k-th with seed
+    ``8·seed + k``), and ``trivial_fid_ratio`` (``core.fitness.trivial_fid_ratio``: fakes of
+    ``samples`` windows made from the ``train_features`` windows, against the held-out
+    windows; ``real_fid`` the real training windows' FID against them, :func:`reference_fid`
+    with ``seed`` when None)."""
+    features = np.asarray(features, dtype=np.float32)
     texts = evaluator.embed_texts(one_caption_each(captions, seed=seed))
-    motions = evaluator.embed_motions(np.asarray(features, dtype=np.float32), list(lengths))
-    hits = metrics.r_precision(texts, motions, batch_size=32, top_k=3, seed=seed)
-    return {"r_precision_top3": float(hits[2])}
+    motions = evaluator.embed_motions(features, list(lengths))
+    hits = [metrics.r_precision(texts, motions, batch_size=32, top_k=3,
+                                seed=R_PRECISION_SHUFFLES * seed + k)[2]
+            for k in range(R_PRECISION_SHUFFLES)]
+    frames = int(np.asarray(train_features).shape[1])
+    if real_fid is None:
+        real_fid, _ = reference_fid(evaluator, train_features, frames, motions, samples,
+                                    seed=seed)
+    baselines = fitness.trivial_fid_ratio(
+        lambda w: evaluator.embed_motions(w, [w.shape[1]] * len(w)), train_features, motions,
+        samples, seed=seed, real_fid=real_fid)
+    return {"r_precision_top3": float(np.mean(hits)), "trivial_fid_ratio": baselines["ratio"]}
 
 
 def loss_curve(losses: Sequence[float], points: int = CURVE_POINTS) -> list[float]:
@@ -191,14 +263,16 @@ def gmd_model_name(trained: TrainedGMD, label: str = "") -> str:
 
 
 def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, float],
-                     reference: Mapping[str, float], label: str = "") -> dict[str, Any]:
+                     reference: Mapping[str, float] | None = None, label: str = "",
+                     reads: Sequence[str] | None = None) -> dict[str, Any]:
     """``core.gates.model_record`` of a tiny GMD model: parameters counted, steps and training
     seconds from the cache's metrics.json. A model trained to convergence (``GMDModelSpec.
     validate_every``) brings its record (``TrainResult.metrics()["convergence"]``): steps
     used, whether the plateau stopped it, and its held-out validation loss (EMA weights) as
     the curve; an older model gives its *training* loss (online weights, per step) as the
     curve and ``converged`` None (unknown). ``precision`` is "fp32" or the autocast dtype it
-    was trained under (``GMDModelSpec.autocast``)."""
+    was trained under (``GMDModelSpec.autocast``). ``reads``: the claim's parts that rest on
+    the model (``core.gates.model_record``; None: every part)."""
     if family not in ("gmd_motion", "gmd_trajectory"):
         raise ValueError(f"a GMD model's family is gmd_motion or gmd_trajectory, not {family!r}")
     convergence = trained.metrics.get("convergence")
@@ -209,7 +283,7 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
                           reference=reference, parameters=parameter_count(trained),
                           steps=int(summary["steps_used"]),
                           train_seconds=trained.metrics.get("seconds"), validation_curve=curve,
-                          converged=summary["converged"])
+                          converged=summary["converged"], reads=reads)
     record["precision"] = trained.spec.autocast or "fp32"
     if convergence:
         record["convergence"] = {"step_cap": convergence["step_cap"],
@@ -238,8 +312,8 @@ def budget_markdown(arms: Mapping[str, Sequence[TrainedGMD]],
                     records: Mapping[str, Sequence[Mapping[str, Any]]]) -> str:
     """GMD-A4's training budget (issue #14): per arm (label → its models, one per seed, and
     their ``gmd_model_record``s in the same order) and seed, the steps used of the cap, what
-    stopped the run and the ``gmd_motion`` gate's values; then, per arm, in how many seeds the
-    gate passed."""
+    stopped the run and the ``gmd_motion`` gate's value (held-out x̂0 error over the Gaussian
+    denoiser's); then, per arm, in how many seeds the gate passed."""
     rows, tallies = [], []
     for label, models in arms.items():
         passed = 0
@@ -250,20 +324,21 @@ def budget_markdown(arms: Mapping[str, Sequence[TrainedGMD]],
             rows.append([label, str(trained.spec.seed), str(summary["steps_used"]),
                          str(summary["step_cap"]), summary["stop_reason"] or "fixed steps",
                          *(f"{gate[m]['value']:.3g}" if gate[m]["value"] is not None else "—"
-                           for m in ("foot_skating", "joint_jerk", "fid")),
+                           for m in ("x0_error_vs_gaussian",)),
                          "pass" if record["passed"] else "**fail**"])
         tallies.append(f"{label}: {passed} of {len(models)} seeds")
     return (markdown_table(["arm", "seed", "steps used", "step cap", "stopped by",
-                            "foot skating m/s", "joint jerk m/s³", "FID", "gate"], rows)
+                            "x̂0 error / Gaussian's", "gate"], rows)
             + "\n\nModels passing the registered `gmd_motion` gate — " + "; ".join(tallies)
             + ".")
 
 
-def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float]
-                           ) -> dict[str, Any]:
+def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float],
+                           reads: Sequence[str] | None = None) -> dict[str, Any]:
     """``core.gates.model_record`` of the evaluator, named by a hash of its weights (so the
     one cached evaluator two notebooks share is one entry); steps from its config, its
-    contrastive training loss as the curve; the cache does not keep its training time."""
+    contrastive training loss as the curve; the cache does not keep its training time.
+    ``reads``: the claim's parts that rest on it (None: every part)."""
     weights = [t for _, t in sorted(evaluator.state_dict().items())]
     name = (f"evaluator dim {evaluator.config.dim} hidden {evaluator.config.hidden} "
             f"[{cache.fingerprint(*weights, digits=10)}]")
@@ -271,82 +346,27 @@ def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float]
                         parameters=sum(p.numel() for p in evaluator.parameters()),
                         steps=len(evaluator.losses) or evaluator.config.steps,
                         train_seconds=None, validation_curve=loss_curve(evaluator.losses),
-                        converged=None)
+                        converged=None, reads=reads)
 
 
-def unguided_motion_gate_values(trained: TrainedGMD, n: int, *, seed: int,
-                                evaluator: Evaluator,
-                                test_embeddings: np.ndarray) -> dict[str, float]:
-    """:func:`motion_gate_values` of ``n`` unguided samples of a motion model (seed ``seed``,
-    ``guidance.sample``; an ε model's x̂0 clamped as in GMD-A4): their joints' foot skating
-    and jerk, and the FID of their evaluator embeddings against ``test_embeddings`` — what
-    ``x0_vs_eps.sample_quality`` measures of the two arms, for a model outside them (GMD-A4's
-    longer ε run)."""
-    from repro.gmd.guidance import sample
-
-    if trained.spec.task != "motion":
-        raise ValueError(f"need a motion model, got a {trained.spec.task} model")
-    x = sample(trained, n, seed=seed)
-    fid = motion_fid(trained, x, evaluator, test_embeddings)
-    with torch.no_grad():
-        joints = trained.space.joints(x)
-    return motion_gate_values(joints, fid=fid)
-
-
-def sample_quality_gate_values(values: Mapping[str, Sequence[float]], tag: str,
-                               index: int) -> dict[str, float]:
-    """The ``gmd_motion`` gate's measurements of one motion model as GMD-A4's
-    ``x0_vs_eps.sample_quality`` already measured them on its unguided samples (``tag`` "x0"
-    or "eps", ``index`` the seed's position): foot skating, joint jerk (``motion_jitter``) and
-    FID against the test windows — the same functions as :func:`motion_gate_values`."""
-    return {"foot_skating": float(values[f"motion_foot_skating_{tag}"][index]),
-            "joint_jerk": float(values[f"motion_jitter_{tag}"][index]),
-            "fid": float(values[f"motion_fid_{tag}"][index])}
-
-
-def relative_features_gate_values(features: np.ndarray | Tensor, *,
-                                  fid: float | None) -> dict[str, float]:
-    """:func:`motion_gate_values` of HumanML3D relative-root features (B, T, 263) — samples
-    as ``table_b1.generate_for_captions`` returns them, or real windows — through their
-    recovered joints (``features.features_to_joints``)."""
-    features = torch.as_tensor(np.asarray(features), dtype=torch.float64)
-    return motion_gate_values(features_to_joints(features), fid=fid)
-
-
-def emphasis_study_records(results: Any, *, base: Any, train: Any, test: Any,
-                           train_relative: Any, evaluator: Evaluator, samples: int,
-                           device: str | torch.device = "cpu") -> list[dict[str, Any]]:
+def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
+                           test: MotionWindows, device: str | torch.device = "cpu",
+                           parts: Mapping[float, Sequence[str]] | None = None
+                           ) -> list[dict[str, Any]]:
     """``gmd_motion`` records of every GMD-C4 model (``emphasis_study.run_experiment``'s
-    ``results``: each variant × seed), measured on *unguided* caption-conditioned samples —
-    Table B.1's text-to-motion samples where the study drew them, else drawn here the same
-    way (``measure_text_to_motion``: one per target caption, the study's seed) — against the
-    seed's targets: their own foot skating and jerk (``results.ground_truth``) and the FID of
-    as many training windows against them (:func:`reference_fid`: the mean of its draws, the
-    first drawn with the seed). The models are the study's
-    cached ones (``load_or_train_variant`` only loads)."""
+    ``results``: each variant × seed): :func:`denoising_gate_values` on the test windows
+    against the training windows, in the variant's own space (an Emphasis model's projected
+    one), the seed's noise. ``parts``: matched value v → the claim parts that read the models
+    of v (their records' ``reads``; a value not in it: read by no part); None: every part.
+    The models are the study's cached ones (``load_or_train_variant`` only loads)."""
     from repro.gmd import emphasis_study as study
 
-    with torch.no_grad():
-        train_features = train_relative.space("motion").relative_features(train_relative.x)
-    train_features = train_features.numpy().astype(np.float32)
     records = []
-    for k, seed in enumerate(results.seeds):
-        targets = study.draw_targets(test, samples, seed=seed)
-        lengths = [targets.relative.shape[1]] * len(targets)
-        real_fid, _ = reference_fid(evaluator, train_features, lengths[0],
-                                    evaluator.embed_motions(targets.relative, lengths),
-                                    len(targets), seed=seed)
-        reference = {"foot_skating": float(results.ground_truth["foot_skating"][k]),
-                     "joint_jerk": float(results.ground_truth["jerk"][k]),
-                     "fid": real_fid}
+    for seed in results.seeds:
         for variant in results.variants:
             trained = study.load_or_train_variant(base, variant, train, seed, device=device)
-            drawn = results.text_to_motion.get(variant.label)
-            measured = ({name: drawn[name][k] for name in ("fid", "foot_skating", "jerk")}
-                        if drawn else study.measure_text_to_motion(trained, targets, evaluator,
-                                                                   seed=seed))
-            values = {"foot_skating": float(measured["foot_skating"]),
-                      "joint_jerk": float(measured["jerk"]), "fid": float(measured["fid"])}
-            records.append(gmd_model_record(trained, family="gmd_motion", values=values,
-                                            reference=reference, label=variant.label))
+            reads = None if parts is None else list(parts.get(variant.value, ()))
+            records.append(gmd_model_record(
+                trained, family="gmd_motion", label=variant.label, reads=reads,
+                values=denoising_gate_values(trained, test, train, seed=seed)))
     return records
