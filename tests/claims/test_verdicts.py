@@ -198,6 +198,8 @@ def test_a_failed_gate_makes_only_the_parts_that_read_its_model_inconclusive() -
     assert set(everything.checks.values()) == {INCONCLUSIVE}
     passed = apply_controls(decision, {}, {"model m": True}, {"model m": ["b"]}, parts)
     assert passed is decision
+    # a model no part rests on (reads = []) is shown, never decides
+    assert apply_controls(decision, {}, {"model m": False}, {"model m": []}, parts) is decision
     with pytest.raises(ValueError, match="reads parts"):
         apply_controls(decision, {}, {"model m": False}, {"model m": ["c"]}, parts)
 

@@ -374,8 +374,9 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
     A positive control (the registered effect planted) that is not reproduced, or a null
     control (no effect) that comes out reproduced or partially, makes the claim inconclusive:
     the measurement itself is in question. A failed gate makes inconclusive the parts that
-    read its model (``gate_reads``: gate name → part names; absent or None: every part), and
-    the verdict is combined again from the parts (``parts``: their kinds)."""
+    read its model (``gate_reads``: gate name → part names; absent or None: every part; []: a
+    model no part rests on, shown but never deciding), and the verdict is combined again from
+    the parts (``parts``: their kinds)."""
     problems = []
     positive, null = controls.get("positive"), controls.get("null")
     if positive is not None and positive.verdict != REPRODUCED:
@@ -388,7 +389,9 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
         return Decision(INCONCLUSIVE, "; ".join(problems) + f" — without controls: "
                         f"{decision.verdict}: {decision.reason}", dict(decision.checks),
                         list(decision.parts))
-    failed = [name for name, ok in (quality_gates or {}).items() if not ok]
+    # a gate whose model no part reads (``reads`` = []) is reported, never decides
+    failed = [name for name, ok in (quality_gates or {}).items()
+              if not ok and (gate_reads or {}).get(name, None) != []]
     if not failed:
         return decision
     names = [p.name for p in decision.parts]
