@@ -11,9 +11,9 @@ metrics shared by EMG-7 and EMG-8) · ``energy`` (EMG-1, 6, 9) · ``gradient_fie
 per-t residual Jacobian asymmetry and loop integrals) · ``fid_checks`` (EMG-9's fixed cases) ·
 ``timelines`` (EMG-5's MTT-style timelines and the real "then" clips) · ``studies`` (EMG-2,
 3, 4, 5) · ``planted`` (the planted transition effects of EMG-5's controls) ·
-``latent_count`` (EMG-7) · ``augmentation`` (EMG-8) ·
-``controls`` (the positive and null controls of EMG-2 to 8) · ``model_gates`` (the quality
-gates of the VAE, latent denoiser and evaluator) · ``settings`` (quick/full
+``latent_count`` (EMG-7) · ``model_gates`` (the fitness gates of the VAE, latent denoiser
+and evaluator) · ``augmentation`` (EMG-8, which measures its fine-tuned denoisers' gate) ·
+``controls`` (the positive and null controls of EMG-2 to 8) · ``settings`` (quick/full
 settings per notebook) · ``figures`` (the notebooks' figures) · ``training_report`` (the
 notebooks' training tables and validation curves).
 
