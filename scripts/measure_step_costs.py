@@ -227,6 +227,20 @@ def rows(quick: bool) -> Iterator[tuple[Row, Callable[[int], float]]]:
                evaluator_training(dim, hidden, frames))
 
 
+def _cpu() -> str:
+    """The CPU's model name and whether it has AMX / AVX-512 bf16 (bf16 autocast pays only
+    with them), from /proc/cpuinfo; ``platform.machine()`` where that is not readable."""
+    try:
+        info = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return platform.machine()
+    name = next((line.split(":", 1)[1].strip() for line in info.splitlines()
+                 if line.startswith("model name")), platform.machine())
+    flags = set(next((line.split(":", 1)[1].split() for line in info.splitlines()
+                      if line.startswith("flags")), []))
+    return f"{name}; amx_bf16 {'amx_bf16' in flags}, avx512_bf16 {'avx512_bf16' in flags}"
+
+
 def _key(row: Row) -> str:
     """A row's description without its measurement (what ``--out`` matches rows by)."""
     return json.dumps({k: v for k, v in row.items() if k not in ("ms_per_step", "steps_timed")},
@@ -243,8 +257,8 @@ def main() -> None:
                              "and not measured again (a later run appends under a new header)")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    header = {"cpu": platform.processor() or platform.machine(), "torch": torch.__version__,
-              "threads": torch.get_num_threads(), "when": time.strftime("%Y-%m-%d %H:%M")}
+    header = {"cpu": _cpu(), "torch": torch.__version__, "threads": torch.get_num_threads(),
+              "when": time.strftime("%Y-%m-%d %H:%M")}
     lines = [json.dumps({"header": header})]
     print(lines[0], flush=True)
     done: set[str] = set()   # rows an earlier run wrote to --out: kept, not measured again
