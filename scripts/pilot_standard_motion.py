@@ -1,0 +1,71 @@
+"""Pilot for the standard scale (issue #32, docs/COMPUTE.md §5): does a tiny motion UNet pass
+its fitness gate (gates version 3: held-out x̂0 error ≤ 0.9× the Gaussian denoiser's) within
+the standard scale's per-model share, and what does a step cost here?
+
+Notebook 01's full-mode windows (GMD-A4's relative-root motion windows, 48 frames), one torch
+thread, fp32, no plateau stop: the EMA weights' gate value is measured at every held-out
+evaluation (``validate_every``) on the way to ``--steps``. One JSON line per check goes to
+``--out`` (appended, so a stopped run keeps its rows)::
+
+    PYTHONPATH=src python scripts/pilot_standard_motion.py --width 64 --mults 1 1 \
+        --prediction x0 --steps 1200 --every 300 --out docs/pilot_standard_motion.jsonl
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import time
+from pathlib import Path
+
+import torch
+
+from repro.gmd import model_gates
+from repro.gmd import x0_vs_eps as x0eps
+from repro.gmd.models import TrainedGMD, load_or_train_gmd
+from repro.gmd.windows import load_windows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--width", type=int, default=64)
+    parser.add_argument("--mults", type=float, nargs="+", default=[1.0, 1.0])
+    parser.add_argument("--prediction", choices=("x0", "epsilon"), default="x0")
+    parser.add_argument("--steps", type=int, default=1200)
+    parser.add_argument("--every", type=int, default=300)
+    parser.add_argument("--batch", type=int, default=32)
+    parser.add_argument("--lr", type=float, default=1e-3)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+
+    settings = x0eps.Settings.for_mode(False)
+    data = settings.data(representation=settings.motion_representation)
+    train = load_windows(data)
+    test = load_windows(data, "test", statistics=(train.mean, train.std))
+    spec = settings.spec("motion", args.prediction, data, seed=args.seed).replace(
+        base_channels=args.width, channel_mults=tuple(args.mults), train_steps=args.steps,
+        batch_size=args.batch, lr=args.lr, validate_every=args.every, patience=10**6,
+        autocast=None)
+    started = time.perf_counter()
+    diffusion = spec.diffusion()
+
+    def check(step: int, loss: float, ema: torch.nn.Module) -> None:
+        trained = TrainedGMD(copy.deepcopy(ema).eval(), diffusion, train.space("motion"), spec)
+        gate = model_gates.denoising_gate_values(trained, test, train, seed=args.seed)
+        row = {"width": args.width, "mults": args.mults, "prediction": args.prediction,
+               "batch": args.batch, "lr": args.lr, "seed": args.seed, "step": step,
+               "held_out_loss": loss, "parameters": sum(p.numel() for p in ema.parameters()),
+               "cpu_seconds": round(time.process_time(), 1),
+               "wall_seconds": round(time.perf_counter() - started, 1), **gate}
+        with args.out.open("a", encoding="utf-8") as handle:
+            handle.write(json.dumps(row) + "\n")
+        print(row, flush=True)
+
+    load_or_train_gmd(spec, train, on_validation=check, retrain=True)
+
+
+if __name__ == "__main__":
+    main()
