@@ -37,6 +37,8 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=32)
     parser.add_argument("--lr", type=float, default=1e-3)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--input-skip", action="store_true",
+                        help="UNet1D(input_skip=True): a full-rank input-to-output path")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -48,7 +50,7 @@ def main() -> None:
     spec = settings.spec("motion", args.prediction, data, seed=args.seed).replace(
         base_channels=args.width, channel_mults=tuple(args.mults), train_steps=args.steps,
         batch_size=args.batch, lr=args.lr, validate_every=args.every, patience=10**6,
-        autocast=None)
+        autocast=None, input_skip=args.input_skip)
     started = time.perf_counter()
     diffusion = spec.diffusion()
 
@@ -56,6 +58,7 @@ def main() -> None:
         trained = TrainedGMD(copy.deepcopy(ema).eval(), diffusion, train.space("motion"), spec)
         gate = model_gates.denoising_gate_values(trained, test, train, seed=args.seed)
         row = {"width": args.width, "mults": args.mults, "prediction": args.prediction,
+               "input_skip": args.input_skip,
                "batch": args.batch, "lr": args.lr, "seed": args.seed, "step": step,
                "held_out_loss": loss, "parameters": sum(p.numel() for p in ema.parameters()),
                "cpu_seconds": round(time.process_time(), 1),

@@ -160,6 +160,21 @@ def test_autocast_is_opt_in_and_in_the_key_only_when_set() -> None:
         GMDModelSpec(autocast="float16")
 
 
+def test_input_skip_is_opt_in_in_the_key_only_when_set_and_reaches_the_unet() -> None:
+    from types import SimpleNamespace
+
+    from repro.infra.cache import config_hash
+
+    data = SimpleNamespace(fingerprint="0123456789abcdef")
+    plain = GMDModelSpec(task="motion")
+    skip = plain.replace(input_skip=True)
+    assert "input_skip" not in plain.as_dict() and skip.as_dict()["input_skip"] is True
+    assert (config_hash(model_cache_config(plain, data))
+            != config_hash(model_cache_config(skip, data)))
+    assert plain.build_model().input_gain is None
+    assert skip.build_model().input_gain is not None
+
+
 def test_full_mode_motion_trains_under_bf16_and_the_rest_in_fp32() -> None:
     assert models.training_fields("motion", quick=False)["autocast"] == "bfloat16"
     assert models.training_fields("trajectory", quick=False)["autocast"] is None

@@ -72,3 +72,22 @@ def test_a_unet_as_wide_as_the_data_fits_eps_at_the_last_step_and_a_narrow_one_c
         torch.set_num_threads(threads)
     assert wide_mse < 0.75, wide_mse
     assert narrow_mse > 1 - 2 * 16 / MOTION_FEATURES, narrow_mse
+
+
+def test_a_narrow_unet_with_the_input_skip_fits_eps_and_starts_at_zero():
+    """Issue #32: ``input_skip`` gives a full-rank path y = UNet(x) + g(t) ⊙ x, so a 16-wide
+    UNet can return x_t's 263 values (ε ≈ x_t at the last step), which the plain 16-wide one
+    cannot (the test above); its output at initialisation is still exactly zero."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        torch.manual_seed(0)
+        narrow = UNet1D(MOTION_FEATURES, base_channels=16, channel_mults=(1, 2, 4),
+                        input_skip=True)
+        x = torch.randn(2, MOTION_FEATURES, 8)
+        assert torch.equal(narrow(x, torch.tensor([3, 50])), torch.zeros_like(x))
+        assert narrowest_full_resolution_width(narrow) < MOTION_FEATURES
+        mse = _eps_mse_after_fit_at_last_step(narrow, steps=120)
+    finally:
+        torch.set_num_threads(threads)
+    assert mse < 0.1, mse

@@ -170,6 +170,8 @@ class GMDModelSpec:
     validation_fraction: float = 0.05
     #: None (fp32) or "bfloat16": ``TrainConfig.autocast`` (opt-in; in the key only when set)
     autocast: str | None = None
+    #: ``UNet1D(input_skip=True)``: a full-rank input-to-output path (in the key only when set)
+    input_skip: bool = False
 
     def __post_init__(self) -> None:
         check_task(self.task)
@@ -214,6 +216,8 @@ class GMDModelSpec:
                 config.pop(name)
         if self.autocast is None:  # keeps the keys of fp32 specs made before the field
             config.pop("autocast")
+        if not self.input_skip:  # keeps the keys of specs made before the field
+            config.pop("input_skip")
         return config
 
     def diffusion(self) -> GaussianDiffusion:
@@ -225,7 +229,7 @@ class GMDModelSpec:
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(self.seed)
             return UNet1D(self.channels, self.base_channels, self.channel_mults,
-                          cond_dim=cond_dim)
+                          cond_dim=cond_dim, input_skip=self.input_skip)
 
     def train_config(self, device: str | torch.device = "cpu") -> TrainConfig:
         return TrainConfig(steps=self.train_steps, batch_size=self.batch_size, lr=self.lr,

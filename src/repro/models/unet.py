@@ -118,11 +118,17 @@ class UNet1D(nn.Module):
     ``cond`` is None, or with ``force_unconditional=True``, a learned null embedding is used
     instead (classifier-free guidance; the training loop draws ``cond_mask``).
     ``fast_mish`` uses ``FastMish`` for every Mish (same weights and initialisation).
+    ``input_skip`` adds a full-rank path from input to output, y = UNet(x) + g(t) ⊙ x with a
+    per-channel gain g(t) = Linear(emb(t)), zero at initialisation: an ε model can then return
+    the 263 independent values of x_t (ε ≈ x_t/√(1−ᾱ_t) at large t) through layers narrower
+    than its data, which the plain UNet cannot (:func:`narrowest_full_resolution_width`;
+    issue #32). An x0 model of the same architecture has the same path.
     """
 
     def __init__(self, in_channels: int, base_channels: int = 64,
                  channel_mults: Sequence[float] = (1, 2, 4), cond_dim: int | None = None,
-                 num_res_blocks: int = 1, groups: int = 8, fast_mish: bool = False) -> None:
+                 num_res_blocks: int = 1, groups: int = 8, fast_mish: bool = False,
+                 input_skip: bool = False) -> None:
         super().__init__()
         if in_channels < 1 or base_channels < 1:
             raise ValueError("in_channels and base_channels must be >= 1")
@@ -174,6 +180,10 @@ class UNet1D(nn.Module):
         self.out_conv = nn.Conv1d(channels, in_channels, 1)
         nn.init.zeros_(self.out_conv.weight)
         nn.init.zeros_(self.out_conv.bias)
+        self.input_gain = nn.Linear(embed_dim, in_channels) if input_skip else None
+        if self.input_gain is not None:
+            nn.init.zeros_(self.input_gain.weight)
+            nn.init.zeros_(self.input_gain.bias)
         if fast_mish:
             use_fast_mish(self)
 
@@ -233,7 +243,10 @@ class UNet1D(nn.Module):
                 h = block(h, emb)
             if i < self.num_levels - 1:
                 h = self.upsamplers[i](h)
-        return self.out_conv(self.out_block(h))
+        out = self.out_conv(self.out_block(h))
+        if self.input_gain is not None:
+            out = out + self.input_gain(emb)[:, :, None] * x      # g(t) ⊙ x, full rank
+        return out
 
 
 def narrowest_full_resolution_width(model: UNet1D) -> int:
