@@ -1,14 +1,17 @@
-"""Pilot for the standard scale (issue #32, docs/COMPUTE.md §5): does a tiny motion UNet pass
-its fitness gate (gates version 3: held-out x̂0 error ≤ 0.9× the Gaussian denoiser's) within
-the standard scale's per-model share, and what does a step cost here?
+"""Pilot for the standard scale (issue #32, docs/COMPUTE.md §4): does a tiny GMD UNet pass its
+fitness gate (gates version 3: held-out x̂0 error ≤ 0.9× the Gaussian denoiser's) within the
+standard scale's per-model share, and what does a step cost here?
 
-Notebook 01's full-mode windows (GMD-A4's relative-root motion windows, 48 frames), one torch
-thread, fp32, no plateau stop: the EMA weights' gate value is measured at every held-out
-evaluation (``validate_every``) on the way to ``--steps``. One JSON line per check goes to
-``--out`` (appended, so a stopped run keeps its rows)::
+Notebook 01's full-mode windows (48 frames): ``--task motion`` GMD-A4's motion model on the
+relative-root windows; ``--task trajectory`` the guidance experiments' trajectory model
+(absolute root, T = 1000 cosine: GMD-A3, B2, F1; the path-length gate needs samples and is
+not measured here). One torch thread, fp32, no plateau stop: the EMA weights' x̂0 gate value
+is measured at every held-out evaluation (``validate_every``) on the way to ``--steps``. One
+JSON line per check goes to ``--out`` (appended, so a stopped run keeps its rows)::
 
-    PYTHONPATH=src python scripts/pilot_standard_motion.py --width 64 --mults 1 1 \
-        --prediction x0 --steps 1200 --every 300 --out docs/pilot_standard_motion.jsonl
+    PYTHONPATH=src python scripts/pilot_standard_gmd.py --task motion --width 64 --mults 1 1 \
+        --input-skip --prediction x0 --steps 1500 --every 300 \
+        --out docs/pilot_standard_motion.jsonl
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from repro.gmd.windows import load_windows
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--task", choices=("motion", "trajectory"), default="motion")
     parser.add_argument("--width", type=int, default=64)
     parser.add_argument("--mults", type=float, nargs="+", default=[1.0, 1.0])
     parser.add_argument("--prediction", choices=("x0", "epsilon"), default="x0")
@@ -44,10 +48,15 @@ def main() -> None:
     torch.set_num_threads(1)
 
     settings = x0eps.Settings.for_mode(False)
-    data = settings.data(representation=settings.motion_representation)
+    if args.task == "motion":
+        data = settings.data(representation=settings.motion_representation)
+        spec = settings.spec("motion", args.prediction, data, seed=args.seed)
+    else:
+        data = settings.data()
+        spec = settings.guidance_trajectory_spec(args.prediction, data, seed=args.seed)
     train = load_windows(data)
     test = load_windows(data, "test", statistics=(train.mean, train.std))
-    spec = settings.spec("motion", args.prediction, data, seed=args.seed).replace(
+    spec = spec.replace(
         base_channels=args.width, channel_mults=tuple(args.mults), train_steps=args.steps,
         batch_size=args.batch, lr=args.lr, validate_every=args.every, patience=10**6,
         autocast=None, input_skip=args.input_skip)
@@ -55,9 +64,10 @@ def main() -> None:
     diffusion = spec.diffusion()
 
     def check(step: int, loss: float, ema: torch.nn.Module) -> None:
-        trained = TrainedGMD(copy.deepcopy(ema).eval(), diffusion, train.space("motion"), spec)
+        trained = TrainedGMD(copy.deepcopy(ema).eval(), diffusion, train.space(args.task), spec)
         gate = model_gates.denoising_gate_values(trained, test, train, seed=args.seed)
-        row = {"width": args.width, "mults": args.mults, "prediction": args.prediction,
+        row = {"task": args.task, "width": args.width, "mults": args.mults,
+               "prediction": args.prediction, "T": spec.diffusion_steps,
                "input_skip": args.input_skip,
                "batch": args.batch, "lr": args.lr, "seed": args.seed, "step": step,
                "held_out_loss": loss, "parameters": sum(p.numel() for p in ema.parameters()),
