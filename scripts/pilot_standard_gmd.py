@@ -33,6 +33,10 @@ from repro.gmd.windows import load_windows
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--task", choices=("motion", "trajectory"), default="motion")
+    parser.add_argument("--representation", choices=("relative", "absolute"), default=None,
+                        help="the motion windows' root (default: A4's relative)")
+    parser.add_argument("--text", action="store_true",
+                        help="text-conditioned motion model (GMD-B3, C4, F1's second stage)")
     parser.add_argument("--width", type=int, default=64)
     parser.add_argument("--mults", type=float, nargs="+", default=[1.0, 1.0])
     parser.add_argument("--prediction", choices=("x0", "epsilon"), default="x0")
@@ -49,8 +53,10 @@ def main() -> None:
 
     settings = x0eps.Settings.for_mode(False)
     if args.task == "motion":
-        data = settings.data(representation=settings.motion_representation)
-        spec = settings.spec("motion", args.prediction, data, seed=args.seed)
+        data = settings.data(representation=args.representation
+                             or settings.motion_representation)
+        spec = settings.spec("motion", args.prediction, data, seed=args.seed).replace(
+            text_conditioned=args.text)
     else:
         data = settings.data()
         spec = settings.guidance_trajectory_spec(args.prediction, data, seed=args.seed)
@@ -68,6 +74,7 @@ def main() -> None:
         gate = model_gates.denoising_gate_values(trained, test, train, seed=args.seed)
         row = {"task": args.task, "width": args.width, "mults": args.mults,
                "prediction": args.prediction, "T": spec.diffusion_steps,
+               "representation": data.representation, "text": spec.text_conditioned,
                "input_skip": args.input_skip,
                "batch": args.batch, "lr": args.lr, "seed": args.seed, "step": step,
                "held_out_loss": loss, "parameters": sum(p.numel() for p in ema.parameters()),
