@@ -4,19 +4,21 @@ on reconstructions of held-out clips ≥ 0.9× their recall on the clips themsel
 ~1000 steps, and what does a step cost here?
 
 The full-mode pipeline's VAE (``pipeline_config(False)``, ``pipeline.vae_kwargs``,
-``pipeline.vae_train_config`` for evaluation seed 0: batch 32, AdamW lr 1e-3, KL 1e-4, clip
-1.0), trained by ``models.vae.train_vae``'s loop (the same generator draws the batches and
+``pipeline.vae_train_config`` for evaluation seed ``--seed``: batch 32, AdamW lr 1e-3, KL 1e-4,
+clip 1.0), trained by ``models.vae.train_vae``'s loop (the same generator draws the batches and
 the reparameterisation noise) for a fixed ``--steps`` (no plateau stop), one torch thread,
 fp32. Every ``--every`` steps: the gate value as ``model_gates.vae_gate_values`` measures it
 (decode(μ(x)) of the ``--test-clips`` held-out text-to-motion test clips, the notebooks'
 ``gate_test_clips``) against the bound 0.9 × the real clips' recall, the held-out
-reconstruction loss (``vae_validation_loss`` on the plan's 128 validation clips, the
-training loop's validation hook), MPJPE (no longer a gate, for the record) and the training
-CPU seconds (``time.process_time``: the machine was shared, wall time is not a speed).
-``--width`` runs the same design at other widths (e.g. 32, half). One JSON line per check
-goes to ``--out`` (appended, so a stopped run keeps its rows)::
+reconstruction loss (``vae_validation_loss`` on the plan's 128 validation clips, the training
+loop's validation hook), MPJPE (no longer a gate, for the record) and the training CPU seconds
+(``time.process_time``: the machine was shared, wall time is not a speed). ``--width`` runs the
+same design at other widths (e.g. 32, half). One JSON line per check goes to ``--out``
+(appended, so a stopped run keeps its rows); the rows of docs/pilot_standard_vae.jsonl::
 
     PYTHONPATH=src python scripts/pilot_standard_vae.py --width 64 32 --steps 1200 \
+        --every 150 --out docs/pilot_standard_vae.jsonl
+    PYTHONPATH=src python scripts/pilot_standard_vae.py --width 64 --seed 1 --steps 1200 \
         --every 150 --out docs/pilot_standard_vae.jsonl
 """
 
@@ -73,7 +75,7 @@ def check(vae: MotionVAE, data: StandInData, test: TextToMotionTest, val_x: torc
 def run(width: int, args: argparse.Namespace) -> None:
     """Train the full-mode VAE at ``width`` to ``args.steps``, appending a row per check."""
     config = replace(pipeline_config(False), vae_width=width)
-    train_config = vae_train_config(config, train_seed_for(config, 0), threads=1)
+    train_config = vae_train_config(config, train_seed_for(config, args.seed), threads=1)
     plan = TrainingPlan.for_mode(False)
     data = load_or_build_data(config)
     test = load_or_build_text_to_motion_test(config, args.test_clips)
@@ -112,7 +114,7 @@ def run(width: int, args: argparse.Namespace) -> None:
             row = {"pilot": "standard_vae", "gates_version": GATES_VERSION, "width": width,
                    "layers": config.vae_layers, "latent_count": config.latent_count,
                    "params": params, "batch": train_config.batch_size, "lr": train_config.lr,
-                   "train_seed": train_config.seed, "steps": step,
+                   "seed": args.seed, "train_seed": train_config.seed, "steps": step,
                    "test_clips": len(test), "real_recall": real, "bound": bound,
                    **values, "passes": values["concept_preservation"] >= bound,
                    "train_cpu_seconds": spent, "cpu_ms_per_step": 1000 * spent / step,
@@ -128,6 +130,8 @@ def main() -> None:
     parser.add_argument("--width", type=int, nargs="+", default=[64])
     parser.add_argument("--steps", type=int, default=1200)
     parser.add_argument("--every", type=int, default=150)
+    parser.add_argument("--seed", type=int, default=0,
+                        help="evaluation seed (training seed ``pipeline.train_seed_for``)")
     parser.add_argument("--test-clips", type=int, default=256)
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
