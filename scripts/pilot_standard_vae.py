@@ -20,6 +20,8 @@ same design at other widths (e.g. 32, half). One JSON line per check goes to ``-
         --every 150 --out docs/pilot_standard_vae.jsonl
     PYTHONPATH=src python scripts/pilot_standard_vae.py --width 64 --seed 1 --steps 1200 \
         --every 150 --out docs/pilot_standard_vae.jsonl
+    PYTHONPATH=src python scripts/pilot_standard_vae.py --width 32 --steps 1800 --every 150 \
+        --check-from 1350 --out docs/pilot_standard_vae.jsonl
 """
 
 from __future__ import annotations
@@ -108,7 +110,7 @@ def run(width: int, args: argparse.Namespace) -> None:
             torch.nn.utils.clip_grad_norm_(vae.parameters(), train_config.grad_clip)
         optimizer.step()
         spent += time.process_time() - start
-        if step % args.every == 0 or step == args.steps:
+        if step >= args.check_from and (step % args.every == 0 or step == args.steps):
             values = check(vae, data, test, val_x, config, train_config.seed,
                            train_config.kl_weight)
             row = {"pilot": "standard_vae", "gates_version": GATES_VERSION, "width": width,
@@ -132,6 +134,8 @@ def main() -> None:
     parser.add_argument("--every", type=int, default=150)
     parser.add_argument("--seed", type=int, default=0,
                         help="evaluation seed (training seed ``pipeline.train_seed_for``)")
+    parser.add_argument("--check-from", type=int, default=0,
+                        help="check only from this step on (to extend a run already recorded)")
     parser.add_argument("--test-clips", type=int, default=256)
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
