@@ -183,7 +183,7 @@ def _example_b3(rng: Rng, scale: float, n: int) -> dict[str, Any]:
             "diversity_real": real}
 
 
-#: GMD-C4's matched values (v3): 2 and GMD's released 10 (the power plan in the entry).
+#: GMD-C4's matched values (v3): 2 and GMD's released 10 (chosen for power on v1's spreads).
 _C4_VALUES = ("2", "10")
 
 
