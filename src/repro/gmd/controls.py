@@ -76,20 +76,10 @@ def controls_markdown(controls: Controls, verdicts: Mapping[str, str]) -> str:
     return markdown_table(["control", "arms", "verdict (same rule)", "must be"], rows)
 
 
-#: the arms and streams :func:`control_seed` keeps apart (its layout's radices)
-CONTROL_ARMS, CONTROL_STREAMS = 100, 128
-
-
 def control_seed(seed: int, arm: int, stream: int = 0) -> int:
-    """The sampling/draw seed of one control arm: BASE + (seed·100 + arm)·128 + stream, one
-    value per (seed, arm < 100, stream < 128), so distinct for every base seed a run accepts
-    (< 2⁴⁸, ``infra.context.MAX_SEED``: the largest is below 2⁶²) and above the experiments'
-    seeds of the usual base seeds. The former layout BASE + 100 000·stream + 100·seed + arm
-    collided from seed 1000 on (stream 0, seed 1000 = stream 1, seed 0)."""
-    if not 0 <= arm < CONTROL_ARMS or not 0 <= stream < CONTROL_STREAMS or int(seed) < 0:
-        raise ValueError(f"control_seed needs seed ≥ 0, 0 ≤ arm < {CONTROL_ARMS} and "
-                         f"0 ≤ stream < {CONTROL_STREAMS}; got {seed}, {arm}, {stream}")
-    return CONTROL_SEED_BASE + (int(seed) * CONTROL_ARMS + arm) * CONTROL_STREAMS + stream
+    """The sampling/draw seed of one control arm (``arm`` < 100, ``seed`` < 1000): distinct
+    for every stream, seed and arm, and apart from the experiment's seeds."""
+    return CONTROL_SEED_BASE + 100_000 * stream + 100 * int(seed) + arm
 
 
 def calibrate_increasing(effect: Callable[[float], float], target: float, *, high: float,
