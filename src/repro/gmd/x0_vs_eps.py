@@ -328,17 +328,12 @@ def guidance_trajectory_spec(quick: bool, prediction: Literal["x0", "epsilon"] =
 PREDICTIONS = {"x0": "x0", "epsilon": "eps"}
 
 #: GMD-A4's parts that rest on each of its models' fitness gates, (task, prediction) → the
-#: record's ``reads`` (None: every part), fixed in registry v4 before any run. The x0 motion
-#: arm shows that the shared architecture and training learn the 263-d data: every part. The
-#: ε motion arm's own fitness is the claim's mechanism (an ε model that learns the 263-d data
-#: worse is what A4 predicts), so no part rests on it; its x̂0 error is recorded beside the
-#: outcome. That the ε parametrisation itself works is shown by A4's ε trajectory model,
-#: the same code on the 4-d trajectory: every part. The x0 trajectory model feeds the
-#: trajectory part.
+#: record's ``reads`` (None: every part), as gates version 3 registered them: the motion
+#: models every part, A4's own T = 100 trajectory models the trajectory part only.
 A4_READS: dict[tuple[str, str], list[str] | None] = {
     ("motion", "x0"): None,
-    ("motion", "epsilon"): [],
-    ("trajectory", "epsilon"): None,
+    ("motion", "epsilon"): None,
+    ("trajectory", "epsilon"): ["choice_matters_less_for_trajectories"],
     ("trajectory", "x0"): ["choice_matters_less_for_trajectories"],
 }
 
