@@ -19,6 +19,27 @@ import torch
 #: kernel of notebooks 05 and 06 ("Overflow when unpacking long long").
 MAX_SEED = 2**48 - 1
 
+#: The three scales (issue #32): ``quick`` a test of the code (never a result); ``standard``
+#: what ``make reproduce`` runs and ``results/`` holds (a cold run within 60 minutes on 2 CPU
+#: cores, docs/COMPUTE.md); ``paper`` the papers' settings, for a GPU or a cluster. Each paper
+#: package reads its settings for a scale from its one table.
+SCALES = ("quick", "standard", "paper")
+
+
+def scale_problem(scale: object) -> str | None:
+    """Why ``scale`` is not one of :data:`SCALES`; None when it is."""
+    if scale not in SCALES:
+        return f"must be one of {', '.join(SCALES)}, got {scale!r}"
+    return None
+
+
+def check_scale(scale: object) -> str:
+    """``scale`` itself, or a ValueError naming the scales."""
+    problem = scale_problem(scale)
+    if problem:
+        raise ValueError(f"scale {problem}")
+    return str(scale)
+
 
 def seed_problem(seed: object) -> str | None:
     """Why ``seed`` cannot be a base seed (a bool, not an int, or outside 0…:data:`MAX_SEED`);
@@ -36,17 +57,17 @@ class RunContext:
     """Where a run writes and how it runs.
 
     Attributes:
-        quick: tiny data and few steps (a test of the code; never a result).
+        scale: "quick" (a test of the code; never a result), "standard" or "paper".
         seed: base seed; experiments take ``seeds(...)`` from it.
         device: where models train and sample.
         threads: torch threads of this process.
         build_dir: the run's output folder (claims/, figures/ below it).
         cache_dir: trained models and generated data, keyed by their configuration.
         data_dir: a HumanML3D-layout folder, or None for the generated stand-in set.
-        run_id: names the run in every sidecar (commit, base seed, mode, start); "" by hand.
+        run_id: names the run in every sidecar (commit, base seed, scale, start); "" by hand.
     """
 
-    quick: bool
+    scale: str
     seed: int
     device: torch.device
     threads: int
@@ -55,9 +76,13 @@ class RunContext:
     data_dir: Path | None = None
     run_id: str = ""
 
+    def __post_init__(self) -> None:
+        check_scale(self.scale)
+
     @property
-    def mode(self) -> str:
-        return "quick" if self.quick else "full"
+    def quick(self) -> bool:
+        """A quick run: a test of the code, whose verdicts are never shown as results."""
+        return self.scale == "quick"
 
     @property
     def figures_dir(self) -> Path:

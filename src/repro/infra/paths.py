@@ -15,19 +15,24 @@ REPO_ROOT = Path(__file__).resolve().parents[3]
 
 
 def build_root() -> Path:
-    """``build/`` (git-ignored): full runs write here, quick runs under ``build/quick``."""
+    """``build/`` (git-ignored): standard runs write here, quick and paper runs under
+    ``build/quick`` and ``build/paper``."""
     return Path(os.environ.get("REPRO_BUILD_ROOT", REPO_ROOT / "build")).resolve()
 
 
-def run_build_dir(quick: bool) -> Path:
-    """A run's output folder: quick (test) runs never overwrite a full run's outputs."""
-    return build_root() / "quick" if quick else build_root()
+def run_build_dir(scale: str) -> Path:
+    """A run's output folder, one per scale: ``build/`` for the standard scale (what
+    ``results/`` is written from), ``build/quick`` and ``build/paper`` for the others, so a
+    quick (test) run never overwrites a result."""
+    from repro.infra.context import check_scale
+
+    return build_root() if check_scale(scale) == "standard" else build_root() / scale
 
 
 def cache_dir() -> Path:
     """Trained weights and generated datasets, keyed by a hash of their configuration.
 
-    Shared by quick and full runs (their configurations differ, so their hashes do)."""
+    Shared by every scale (their configurations differ, so their hashes do)."""
     return Path(os.environ.get("REPRO_CACHE_DIR", build_root() / "cache")).resolve()
 
 

@@ -14,25 +14,27 @@ from pathlib import Path
 import torch
 
 from repro.infra import paths
-from repro.infra.context import RunContext, seed_problem
+from repro.infra.context import RunContext, scale_problem, seed_problem
 
 __all__ = ["RunContext", "seeds_for", "setup_notebook"]
 
 
-def setup_notebook(*, quick: bool, seed: int, device: str, build_dir: str | None,
+def setup_notebook(*, scale: str, seed: int, device: str, build_dir: str | None,
                    data_dir: str | None = None) -> RunContext:
     """Validate the standard parameters, prepare the process and return the run context.
 
     Args:
-        quick: tiny data and few steps (a test of the code, never a result).
+        scale: "quick" (tiny data and few steps: a test of the code, never a result),
+            "standard" (``make reproduce``, ``results/``) or "paper" (the papers' settings).
         seed: base seed; experiments derive their per-seed lists from it.
         device: "cpu", "cuda" or "cuda:N".
         build_dir: where figures and claim sidecars go; None = the runner's folder, else
-            ``build/`` (``build/quick`` when quick).
+            the scale's folder (``paths.run_build_dir``).
         data_dir: a HumanML3D-layout folder; None = the generated stand-in set.
     """
-    if not isinstance(quick, bool):
-        raise ValueError(f"parameter quick must be true or false, got {quick!r}")
+    problem = scale_problem(scale)
+    if problem:
+        raise ValueError(f"parameter scale {problem}")
     problem = seed_problem(seed)
     if problem:
         raise ValueError(f"parameter seed={seed!r} {problem}")
@@ -49,7 +51,7 @@ def setup_notebook(*, quick: bool, seed: int, device: str, build_dir: str | None
             raise ValueError(f"parameter data_dir={data_dir!r} is not a folder ({data} does "
                              f"not exist; a relative folder is read from {Path.cwd()})")
     if build_dir is None:
-        build_dir = os.environ.get("REPRO_BUILD_DIR") or str(paths.run_build_dir(quick))
+        build_dir = os.environ.get("REPRO_BUILD_DIR") or str(paths.run_build_dir(scale))
     threads = int(os.environ.get("REPRO_TORCH_THREADS", "0")) or (os.cpu_count() or 1)
     torch.set_num_threads(threads)
     torch.manual_seed(seed)
@@ -57,7 +59,7 @@ def setup_notebook(*, quick: bool, seed: int, device: str, build_dir: str | None
 
     matplotlib.rcParams.update({"figure.dpi": 100, "savefig.dpi": 110, "figure.figsize": (7, 4),
                                 "axes.grid": True, "grid.alpha": 0.3})
-    ctx = RunContext(quick=quick, seed=seed, device=torch_device, threads=threads,
+    ctx = RunContext(scale=scale, seed=seed, device=torch_device, threads=threads,
                      build_dir=Path(build_dir).resolve(), cache_dir=paths.cache_dir(),
                      data_dir=data, run_id=os.environ.get("REPRO_RUN_ID", ""))
     ctx.figures_dir.mkdir(parents=True, exist_ok=True)
