@@ -8,6 +8,7 @@ STAMP  := $(VENV)/.installed
 LAB    := $(VENV)/.installed-lab
 JOBS   ?= 2
 SEED   ?= 0
+SCALE  ?= standard
 ARGS   ?=
 # Bytecode is compiled once, on every core, for what can be imported: not the packages' own
 # test suites, nor transformers' other model families (MiniLM is a BERT). pip alone compiles
@@ -48,8 +49,8 @@ test: $(STAMP)  ## lint + unit tests + every notebook executed with quick parame
 	$(PY) -m ruff check src tests notebooks scripts
 	$(PY) -m pytest -q -n $(JOBS) --dist loadfile
 
-reproduce: $(STAMP)  ## execute every notebook with full parameters; write build/report and refresh results/
-	$(PY) -m repro reproduce --jobs $(JOBS) --seed $(SEED) --snapshot $(ARGS)
+reproduce: $(STAMP)  ## every notebook at the standard scale (SCALE=paper: the papers' settings); build/report, results/
+	$(PY) -m repro reproduce --scale $(SCALE) --jobs $(JOBS) --seed $(SEED) --snapshot $(ARGS)
 
 bench: $(STAMP)  ## time budgets and training throughput; writes build/bench/bench.json (ARGS="--full", "--warm-cache DIR")
 	$(PY) -m repro bench $(ARGS)

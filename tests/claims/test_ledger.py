@@ -23,7 +23,7 @@ A3_GOOD = {"goal_error_x0": [0.5, 0.6, 0.55, 0.52, 0.58],
 
 def test_sidecar_carries_parts_with_what_the_run_could_see_and_missing_controls(
         tmp_path: Path) -> None:
-    decision = record_claim(make_context(tmp_path, quick=False), "GMD-A3", A3_GOOD,
+    decision = record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", A3_GOOD,
                             seeds=[0, 1, 2, 3, 4])
     sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
     assert sidecar["registry_version"] == 4
@@ -35,13 +35,13 @@ def test_sidecar_carries_parts_with_what_the_run_could_see_and_missing_controls(
     assert numbers["n"] == 5 and numbers["minimum_detectable_effect"] > 0
     assert sidecar["controls"]["positive"]["status"] == "missing"
     assert sidecar["controls"]["null"]["status"] == "missing"
-    text = verdict_markdown(make_context(tmp_path, quick=False), "GMD-A3", decision)
+    text = verdict_markdown(make_context(tmp_path, scale="standard"), "GMD-A3", decision)
     assert "registry v4" in text and "**GMD-A3 — reproduced**" in text
 
 
 def test_controls_are_decided_by_the_same_rule(tmp_path: Path) -> None:
     claim, rng = get_claim("GMD-A3"), np.random.default_rng(3)
-    ctx = make_context(tmp_path, quick=False)
+    ctx = make_context(tmp_path, scale="standard")
     planted, null = claim.planted_example(rng), claim.null_example(rng)
     seeds = list(range(len(planted["goal_error_x0"])))
     decision = record_claim(ctx, "GMD-A3", planted, seeds=seeds,
@@ -88,7 +88,7 @@ def test_a_model_that_fails_its_gate_makes_the_parts_that_read_it_inconclusive(
     good = model_record(name="x0 motion", family="evaluator",
                         values={"r_precision_top3": 0.9, "trivial_fid_ratio": 5.0})
     bad = model_record(name="eps motion", family="evaluator", values={"r_precision_top3": 0.2})
-    ctx = make_context(tmp_path, quick=False)
+    ctx = make_context(tmp_path, scale="standard")
     passed = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good])
     failed = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good, bad])
     assert passed.verdict == "reproduced"

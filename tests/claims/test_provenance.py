@@ -19,24 +19,24 @@ from repro.claims.provenance import (
 )
 
 
-def _sidecar(run_id: str, mode: str = "full") -> dict:
-    return {"run_id": run_id, "mode": mode}
+def _sidecar(run_id: str, scale: str = "standard") -> dict:
+    return {"run_id": run_id, "scale": scale}
 
 
 def test_one_run_is_named_and_several_are_refused() -> None:
     one = {"GMD-A1": _sidecar("r1"), "GMD-A2": _sidecar("r1")}
-    assert check_runs(one, quick=False, folder=Path("c")) == "Run r1."
+    assert check_runs(one, scale="standard", folder=Path("c")) == "Run r1."
     mixed = {"GMD-A1": _sidecar("r7"), "GMD-A3": _sidecar("r0"), "GMD-A4": _sidecar("")}
     assert runs_of(mixed) == {"r7": ["GMD-A1"], "r0": ["GMD-A3"], NO_RUN_ID: ["GMD-A4"]}
     with pytest.raises(ReportError, match=r"come from 3 runs: run r7 \(GMD-A1\); run r0"):
-        check_runs(mixed, quick=False, folder=Path("c"))
-    line = check_runs(mixed, quick=False, folder=Path("c"), allow_mixed=True)
+        check_runs(mixed, scale="standard", folder=Path("c"))
+    line = check_runs(mixed, scale="standard", folder=Path("c"), allow_mixed=True)
     assert line.startswith("Mixed runs (--allow-mixed): run r7 (GMD-A1); run r0 (GMD-A3)")
     with pytest.raises(ReportError, match="no claim is recorded in c"):
-        check_runs({}, quick=False, folder=Path("c"))
-    with pytest.raises(ReportError, match="full run's folder but holds sidecars of another "
-                                          "mode: GMD-A1"):
-        check_runs({"GMD-A1": _sidecar("r1", "quick")}, quick=False, folder=Path("c"))
+        check_runs({}, scale="standard", folder=Path("c"))
+    with pytest.raises(ReportError, match="standard-scale run's folder but holds sidecars of "
+                                          "another scale"):
+        check_runs({"GMD-A1": _sidecar("r1", "quick")}, scale="standard", folder=Path("c"))
 
 
 
@@ -88,12 +88,12 @@ def test_the_snapshot_holds_the_rendered_notebooks_linked_from_the_report(
     (repo / "README.md").write_text(f"# r\n\n{README_TABLE_START} -->\n{README_TABLE_END}\n")
     monkeypatch.setattr(paths, "REPO_ROOT", repo)
     build = tmp_path / "build"
-    record_claim(make_context(build, quick=False, run_id="run-1"), "GMD-A1",
+    record_claim(make_context(build, scale="standard", run_id="run-1"), "GMD-A1",
                  {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
     (build / "notebooks").mkdir()
     nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("# 01")]),
                    build / "notebooks" / "01_x0_vs_eps.ipynb")
-    write_report(build, quick=False)
+    write_report(build, scale="standard")
     results = write_snapshot(build)
     assert results == repo / "results"
     assert (results / "notebooks" / "01_x0_vs_eps.html").is_file()

@@ -21,7 +21,7 @@ def test_report_shows_the_previous_snapshot_beside_and_parts_in_words(
         "GMD-A3": {"mode": "full", "verdict": "not reproduced", "registry_version": 1},
         "GMD-A2": {"mode": "full", "verdict": "reproduced", "registry_version": 1}}})
     monkeypatch.setattr(trust.paths, "results_dir", lambda: snapshot.parent)
-    ctx = make_context(tmp_path, quick=False)
+    ctx = make_context(tmp_path, scale="standard")
     record_claim(ctx, "GMD-A3", {"goal_error_x0": [0.5, 0.6, 0.55],
                                  "goal_error_eps": [0.1, 0.12, 0.11],
                                  "best_gain_survival_eps": [0.9, 0.95, 0.92],
@@ -31,7 +31,7 @@ def test_report_shows_the_previous_snapshot_beside_and_parts_in_words(
                  seeds=[0, 1, 2])
     record_claim(ctx, "GMD-A2", {"cosine_x0_share_argmax_fraction": 0.0,
                                  "cosine_eps_share_argmax_fraction": 1.0}, seeds=[0])
-    text = write_report(tmp_path, quick=False).read_text(encoding="utf-8")
+    text = write_report(tmp_path, scale="standard").read_text(encoding="utf-8")
     assert "| verdict (registry v4) | previous snapshot |" in text
     # v4: x0 keeps more of the best gain in every seed: a contradiction, not "power"
     assert ("**partially reproduced** — eps_reaches_goal_better: supported; "

@@ -25,16 +25,16 @@ FAILED_MODEL = {"name": "trajectory-eps", "family": "gmd_trajectory", "gate": {}
 
 def _record_a3_with_controls(build: Path, *, models: list[dict]) -> None:
     rng = np.random.default_rng(0)
-    record_claim(make_context(build, quick=False), "GMD-A3", A3.planted_example(rng),
+    record_claim(make_context(build, scale="standard"), "GMD-A3", A3.planted_example(rng),
                  seeds=list(range(5)), models=models,
                  controls={"positive": A3.planted_example(rng), "null": A3.null_example(rng)})
 
 
 def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> None:
     _record_a3_with_controls(tmp_path, models=[FAILED_MODEL])
-    record_claim(make_context(tmp_path, quick=False), "GMD-A1",
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-A1",
                  {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
-    text = write_report(tmp_path, quick=False).read_text(encoding="utf-8")
+    text = write_report(tmp_path, scale="standard").read_text(encoding="utf-8")
     trust_at, table_at = text.index("## How far each verdict can be trusted"), text.index(
         "## Verdicts")
     assert trust_at < table_at < text.index("## Paper errata") < text.index("## Models")
@@ -60,7 +60,7 @@ def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> No
 
 def test_passing_models_and_missing_controls_read_as_such(tmp_path: Path) -> None:
     rng = np.random.default_rng(1)
-    record_claim(make_context(tmp_path, quick=False), "GMD-A3", A3.planted_example(rng),
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", A3.planted_example(rng),
                  seeds=list(range(5)), models=[{**FAILED_MODEL, "passed": True}])
     row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
     assert row.verdict != "quick run (not a result)"
@@ -76,7 +76,7 @@ def test_power_limits_say_what_the_run_could_see(tmp_path: Path) -> None:
              "best_gain_survival_eps": [0.9, 0.3, 0.7], "best_gain_survival_x0": [0.5, 0.8, 0.4],
              "guided_change_survival_eps": [0.9, 0.3, 0.7],
              "guided_change_survival_x0": [0.5, 0.8, 0.4]}
-    record_claim(make_context(tmp_path, quick=False), "GMD-A3", noisy, seeds=[0, 1, 2])
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", noisy, seeds=[0, 1, 2])
     sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
     undecided = [p for p in sidecar["parts"] if p["outcome"] == "inconclusive"]
     assert undecided, "the null example should leave a part undecided"
@@ -94,7 +94,7 @@ def test_verdict_changes_cite_the_changelog(tmp_path: Path,
                                        "GMD-A4": {"mode": "quick", "verdict": "reproduced"}}})
     monkeypatch.setattr(trust.paths, "results_dir", lambda: snapshot.parent)
     assert set(previous_snapshot()) == {"GMD-A3"}          # quick sidecars are no snapshot
-    record_claim(make_context(tmp_path, quick=False), "GMD-A3",
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-A3",
                  A3.example_at(np.random.default_rng(0), -3.0, 3), seeds=[0, 1, 2])
     sidecars = load_sidecars(tmp_path / "claims")
     changes = verdict_changes(sidecars, previous_snapshot(), claim_changes())
@@ -102,7 +102,7 @@ def test_verdict_changes_cite_the_changelog(tmp_path: Path,
         ("GMD-A3", "reproduced", 1, "not reproduced")]
     assert all(ch.version >= 2 for ch in changes[0].changes) and changes[0].changes
     assert any(ch.version == REGISTRY_VERSION for ch in claim_changes()[EVERY_CLAIM])
-    text = write_report(tmp_path, quick=False).read_text(encoding="utf-8")
+    text = write_report(tmp_path, scale="standard").read_text(encoding="utf-8")
     section = text[text.index("## Verdict changes since the previous snapshot"):]
     assert f"- **GMD-A3**: v1 *reproduced* → v{REGISTRY_VERSION} *not reproduced*." in section
     docs = docs_link(tmp_path / "report")
@@ -185,7 +185,7 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
     (build / "notebooks").mkdir()
     nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell("# 01")]),
                    build / "notebooks" / "01_x0_vs_eps.ipynb")
-    write_report(build, quick=False)
+    write_report(build, scale="standard")
     (repo / "results").mkdir()
     (repo / "results" / "STABILITY.md").write_text("# seeds 0 and 3\n")
     (repo / "results" / "old.png").write_text("a file of the previous run")
@@ -205,7 +205,7 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
 
 def test_a_quick_run_shows_its_machinery_never_its_verdict(tmp_path: Path) -> None:
     rng = np.random.default_rng(2)
-    record_claim(make_context(tmp_path, quick=True), "GMD-A3", A3.planted_example(rng),
+    record_claim(make_context(tmp_path, scale="quick"), "GMD-A3", A3.planted_example(rng),
                  seeds=[0], models=[FAILED_MODEL])
     row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
     assert row.verdict == "quick run (not a result)"

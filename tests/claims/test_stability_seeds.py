@@ -25,13 +25,12 @@ def build_root(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return tmp_path / "build"
 
 
-def _run(base_seed: int, *, planted: bool, quick: bool = False, folder: Path | None = None,
+def _run(base_seed: int, *, planted: bool, scale: str = "standard", folder: Path | None = None,
          n_seeds: int = 5) -> Path:
     """A synthetic run from ``base_seed``: GMD-A2 and GMD-A3 recorded, notebook 01 executed."""
-    build = folder or seed_build_dir(base_seed, quick=quick)
-    mode = "quick" if quick else "full"
-    ctx = make_context(build, quick=quick, seed=base_seed,
-                       run_id=f"20261201T000000.000Z-abc1234-seed{base_seed}-{mode}")
+    build = folder or seed_build_dir(base_seed, scale=scale)
+    ctx = make_context(build, scale=scale, seed=base_seed,
+                       run_id=f"20261201T000000.000Z-abc1234-seed{base_seed}-{scale}")
     seeds = [base_seed + i for i in range(n_seeds)]
     rng = np.random.default_rng(base_seed)
     a3 = A3.planted_example(rng) if planted else A3.null_example(rng)
@@ -87,16 +86,16 @@ def test_run_executes_only_the_missing_base_seeds(build_root: Path,
     _run(0, planted=True)
     calls = []
 
-    def fake_run(seed: int, *, quick: bool, jobs: int, threads: int | None,
+    def fake_run(seed: int, *, scale: str, jobs: int, threads: int | None,
                  only: list[str] | None) -> int:
-        calls.append((seed, quick, jobs, only))
+        calls.append((seed, scale, jobs, only))
         _run(seed, planted=True)
         return 0
 
     monkeypatch.setattr(cli, "run_base_seed", fake_run)
     assert cli.main(["stability", "--base-seeds", "0", "5", "--run", "--jobs", "2",
                      "--only", "01"]) == 0
-    assert calls == [(5, False, 2, ["01"])]
+    assert calls == [(5, "standard", 2, ["01"])]
     assert (build_root / "report" / "STABILITY.md").is_file()
     monkeypatch.setattr(cli, "run_base_seed", lambda seed, **_: 1)
     assert cli.main(["stability", "--base-seeds", "0", "9", "--run"]) == 1
@@ -105,10 +104,10 @@ def test_run_executes_only_the_missing_base_seeds(build_root: Path,
 def test_quick_runs_only_when_asked_and_never_into_results(build_root: Path,
                                                            capsys: pytest.CaptureFixture[str],
                                                            ) -> None:
-    _run(0, planted=True, quick=True)
-    _run(3, planted=True, quick=True)
+    _run(0, planted=True, scale="quick")
+    _run(3, planted=True, scale="quick")
     assert cli.main(["stability", "--base-seeds", "0", "3"]) == 2
-    assert "no claim sidecars" in capsys.readouterr().err  # the full folders are empty
+    assert "no claim sidecars" in capsys.readouterr().err  # the standard folders are empty
     assert cli.main(["stability", "--base-seeds", "0", "3", "--quick", "--snapshot"]) == 2
     assert cli.main(["stability", "--base-seeds", "0", "3", "--quick"]) == 0
     text = (build_root / "quick" / "report" / "STABILITY.md").read_text(encoding="utf-8")
@@ -139,8 +138,8 @@ def test_run_base_seed_reproduces_into_the_seed_folder_on_the_shared_cache(
 
     monkeypatch.delenv("REPRO_CACHE_DIR", raising=False)
     monkeypatch.setattr(subprocess, "run", fake_run)
-    assert cli.run_base_seed(5, quick=True, jobs=2, threads=1, only=["02"]) == 0
+    assert cli.run_base_seed(5, scale="quick", jobs=2, threads=1, only=["02"]) == 0
     assert seen["command"][1:] == ["-m", "repro", "reproduce", "--seed", "5", "--jobs", "2",
-                                   "--threads", "1", "--quick", "--only", "02"]
+                                   "--threads", "1", "--scale", "quick", "--only", "02"]
     assert seen["env"]["REPRO_BUILD_ROOT"] == str(build_root / "seed5")
     assert seen["env"]["REPRO_CACHE_DIR"] == str(paths.cache_dir()) == str(build_root / "cache")

@@ -49,7 +49,7 @@ def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
     monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path))
     monkeypatch.setenv("REPRO_BUILD_DIR", str(tmp_path))
     assert main(["report"]) == 2  # nothing recorded yet
-    record_claim(make_context(tmp_path, quick=False), "GMD-A1",
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-A1",
                  {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
     assert main(["report", "--note", "assembled by hand"]) == 0
     text = (tmp_path / "report" / "REPORT.md").read_text()

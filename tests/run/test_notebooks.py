@@ -18,9 +18,9 @@ pytestmark = pytest.mark.notebook
 @pytest.fixture(scope="module")
 def quick_run() -> dict[str, runner.NotebookResult]:
     # stale sidecars from an earlier run must not count for this one
-    for stale in (paths.run_build_dir(quick=True) / "claims").glob("*.json"):
+    for stale in (paths.run_build_dir("quick") / "claims").glob("*.json"):
         stale.unlink()
-    results = runner.run_notebooks(NOTEBOOKS, quick=True, jobs=2)
+    results = runner.run_notebooks(NOTEBOOKS, scale="quick", jobs=2)
     return {r.name: r for r in results}
 
 
@@ -29,9 +29,9 @@ def test_notebook_runs_quick_and_records_its_claims(
         name: str, quick_run: dict[str, runner.NotebookResult]) -> None:
     result = quick_run[name]
     assert result.ok, result.error
-    sidecars = load_sidecars(paths.run_build_dir(quick=True) / "claims")
+    sidecars = load_sidecars(paths.run_build_dir("quick") / "claims")
     for claim in claims_for_notebook(name):
         assert claim.id in sidecars, f"{name} did not record {claim.id}"
         sidecar = sidecars[claim.id]
-        assert sidecar["mode"] == "quick"
+        assert sidecar["scale"] == "quick"
         assert sidecar["verdict"] in VERDICTS

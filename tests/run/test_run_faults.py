@@ -17,13 +17,13 @@ from repro.infra.storage import read_json
 from repro.run import runner
 from repro.run.cli import main
 
-PARAMETERS = ("quick = True\nseed = 0\ndevice = 'cpu'\nbuild_dir = None\ndata_dir = None\n"
-              "train_steps = None\nn_seeds = 3\nscale = 0.5\n")
+PARAMETERS = ("scale = 'quick'\nseed = 0\ndevice = 'cpu'\nbuild_dir = None\ndata_dir = None\n"
+              "train_steps = None\nn_seeds = 3\nguidance = 0.5\n")
 
 RECORD = """
 from repro.run.notebook import setup_notebook
 from repro.claims.ledger import record_claim
-ctx = setup_notebook(quick=quick, seed=seed, device=device, build_dir=build_dir)
+ctx = setup_notebook(scale=scale, seed=seed, device=device, build_dir=build_dir)
 import matplotlib.pyplot as plt
 figure = ctx.figure_path("{name}.png")
 plt.plot([0, 1]); plt.savefig(figure)
@@ -80,17 +80,17 @@ def guarded(sandbox: Path):
     quick = sandbox / "build" / "quick"
     record_claim(make_context(quick, run_id="earlier-run"), "GMD-A1",
                  {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
-    write_report(quick, quick=True)
+    write_report(quick, scale="quick")
     before = _tree_digest(paths.results_dir(), quick / "report", quick / "claims")
     yield lambda: _tree_digest(paths.results_dir(), quick / "report",
                                quick / "claims") == before
 
 
 def test_a_run_publishes_sidecars_notebook_and_figures_under_its_run_id(sandbox: Path) -> None:
-    assert runner.reproduce(quick=True) == 0
+    assert runner.reproduce(scale="quick") == 0
     quick = sandbox / "build" / "quick"
     sidecar = read_json(quick / "claims" / "GMD-A1.json")
-    assert sidecar["run_id"].endswith("-seed0-quick") and sidecar["mode"] == "quick"
+    assert sidecar["run_id"].endswith("-seed0-quick") and sidecar["scale"] == "quick"
     assert sidecar["figures"] == [str(quick / "figures" / "one.png")]
     assert (quick / "figures" / "one.png").is_file()
     assert (quick / "notebooks" / "01_two_claims.ipynb").is_file()
@@ -106,7 +106,7 @@ def test_a_failed_notebook_publishes_nothing_and_the_others_do(
     _notebook(notebooks / "01_two_claims.ipynb",
               _recording("one", ["GMD-A1"], "raise RuntimeError('half-way failure')"))
     _notebook(notebooks / "02_other.ipynb", _recording("two", ["GMD-B1"]))
-    assert runner.reproduce(quick=True, seed=7, jobs=2) == 1
+    assert runner.reproduce(scale="quick", seed=7, jobs=2) == 1
     out = capsys.readouterr()
     assert "half-way failure" in out.out and "not published" in out.out
     assert "the last good report" in out.err
@@ -121,16 +121,16 @@ def test_a_failed_notebook_publishes_nothing_and_the_others_do(
 
 def test_report_refuses_to_mix_runs_unless_allowed(
         sandbox: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert runner.reproduce(quick=True) == 0
+    assert runner.reproduce(scale="quick") == 0
     first = read_json(sandbox / "build" / "quick" / "claims" / "GMD-A1.json")["run_id"]
     _notebook(sandbox / "notebooks" / "02_other.ipynb", _recording("two", ["GMD-B1"]))
     quick = sandbox / "build" / "quick"
     report_before = (quick / "report" / "REPORT.md").read_bytes()
     # issue #35 case 8: the partial run succeeded: exit 0, saying how to report mixed runs
-    assert runner.reproduce(quick=True, only=["02"], seed=7) == 0
+    assert runner.reproduce(scale="quick", only=["02"], seed=7) == 0
     out = capsys.readouterr().out
     assert "published" in out and "come from 2 runs" in out and first in out
-    assert "python -m repro report --quick --allow-mixed" in out
+    assert "python -m repro report --scale quick --allow-mixed" in out
     assert (quick / "report" / "REPORT.md").read_bytes() == report_before
     assert main(["report", "--quick"]) == 2
     assert "come from 2 runs" in capsys.readouterr().err
@@ -142,13 +142,13 @@ def test_report_refuses_to_mix_runs_unless_allowed(
     assert f"run {first} (GMD-A1, GMD-A2)" in text and f"run {second} (GMD-B1)" in text
 
 
-@pytest.mark.parametrize("name", ["quick", "build_dir", "seed", "device"])
+@pytest.mark.parametrize("name", ["scale", "build_dir", "seed", "device"])
 def test_runner_parameters_cannot_be_passed_with_p(sandbox: Path, guarded, name: str,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
-    value = {"quick": "true", "build_dir": '"/tmp/x"', "seed": "3", "device": '"cpu"'}[name]
+    value = {"scale": '"quick"', "build_dir": '"/tmp/x"', "seed": "3", "device": '"cpu"'}[name]
     assert main(["reproduce", "-p", f"{name}={value}"]) == 2
     assert f"-p cannot set {name}" in capsys.readouterr().err
-    assert not (sandbox / "build" / "claims").exists()  # nothing reached the full folder
+    assert not (sandbox / "build" / "claims").exists()  # nothing reached the standard folder
     assert guarded()
 
 
@@ -161,11 +161,11 @@ def test_report_over_no_claim_or_the_wrong_mode_is_an_error(
 
     from repro.claims.ledger import record_claim
 
-    record_claim(make_context(sandbox / "build", quick=True, run_id="r"), "GMD-A1",
+    record_claim(make_context(sandbox / "build", scale="quick", run_id="r"), "GMD-A1",
                  {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5},
-                 seeds=[0])  # a quick sidecar in the full folder
+                 seeds=[0])  # a quick sidecar in the standard folder
     assert main(["report"]) == 2
-    assert "holds sidecars of another mode: GMD-A1" in capsys.readouterr().err
+    assert "holds sidecars of another scale" in capsys.readouterr().err
     assert not (sandbox / "build" / "report").exists()
 
 
@@ -173,7 +173,7 @@ BAD_VALUES = [
     (["-p", 'train_steps="abc"'], "parameter train_steps must be int or None"),
     (["-p", "train_steps=0"], "parameter train_steps=0 must be at least 1"),
     (["-p", "n_seeds=true"], "parameter n_seeds must be int"),
-    (["-p", "scale=\"big\""], "parameter scale must be float or int"),
+    (["-p", "guidance=\"big\""], "parameter guidance must be float or int"),
     (["-p", "stepz=3"], "has no parameter(s) ['stepz']"),
     (["--seed", "-1"], "parameter seed=-1 must be between 0 and 2^48 - 1 = 281474976710655"),
     # issue #35 case 1: 2^64 - 1 used to fail inside the kernels of notebooks 05 and 06
@@ -271,7 +271,7 @@ def test_the_largest_base_seed_fits_every_seed_derived_from_it(tmp_path: Path) -
     torch.Generator().manual_seed(largest)
     np.random.default_rng(largest)
     with pytest.raises(ValueError, match=f"seed={MAX_SEED + 1} must be between 0 and 2"):
-        setup_notebook(quick=True, seed=MAX_SEED + 1, device="cpu", build_dir=str(tmp_path))
+        setup_notebook(scale="quick", seed=MAX_SEED + 1, device="cpu", build_dir=str(tmp_path))
 
 
 def test_a_relative_data_dir_is_read_from_the_callers_folder(
@@ -280,7 +280,7 @@ def test_a_relative_data_dir_is_read_from_the_callers_folder(
     shutil.copytree(paths.data_stubs_dir(), sandbox / "mydata")
     _notebook(sandbox / "notebooks" / "01_two_claims.ipynb",
               "from repro.run.notebook import setup_notebook\n"
-              "ctx = setup_notebook(quick=quick, seed=seed, device=device, "
+              "ctx = setup_notebook(scale=scale, seed=seed, device=device, "
               "build_dir=build_dir, data_dir=data_dir)\nprint('data:', ctx.data_dir)")
     monkeypatch.chdir(sandbox)
     assert main(["reproduce", "--quick", "-p", 'data_dir="mydata"']) == 0
@@ -356,7 +356,7 @@ def test_a_full_disk_is_named_before_and_during_a_run(
     assert "worker.log" not in error
     failed = runner.NotebookResult("01_two_claims", False, 1.0, str(folder), error)
     monkeypatch.setattr(runner, "run_notebooks", lambda *_, **__: [failed])
-    assert runner.reproduce(quick=True) == 1
+    assert runner.reproduce(scale="quick") == 1
     err = capsys.readouterr().err
     assert "there is no report in" in err and "last good report" not in err
 
@@ -376,7 +376,7 @@ def test_two_runs_ending_together_both_succeed_and_say_how_to_report(
     done = runner.NotebookResult("01_two_claims", True, 1.0, "x", claims=("GMD-A1", "GMD-A2"))
     monkeypatch.setattr(runner, "run_notebooks", lambda *_, **__: [done])
     report_before = (quick / "report" / "REPORT.md").read_bytes()
-    assert runner.reproduce(quick=True) == 0
+    assert runner.reproduce(scale="quick") == 0
     out = capsys.readouterr().out
     assert "come from 2 runs: run earlier-run (GMD-A1); run the-other-run (GMD-A2)" in out
     assert "--allow-mixed" in out
@@ -399,7 +399,7 @@ def test_a_corrupt_cached_model_is_reported_on_the_terminal_and_in_the_report(
     """Issue #35 case 9."""
     _notebook(sandbox / "notebooks" / "01_two_claims.ipynb",
               CORRUPT_CACHE + _recording("one", ["GMD-A1"]))
-    assert runner.reproduce(quick=True) == 0
+    assert runner.reproduce(scale="quick") == 0
     out = capsys.readouterr().out
     warning = [line for line in out.splitlines() if "warning: cache:" in line]
     assert len(warning) == 1 and "model.pt" in warning[0] and "moved it aside" in warning[0]

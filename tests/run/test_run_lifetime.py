@@ -16,7 +16,7 @@ from conftest import write_notebook
 from repro.infra import paths
 
 REPO_SRC = str(paths.REPO_ROOT / "src")
-PARAMETERS = "quick = True\nseed = 0\ndevice = 'cpu'\nbuild_dir = None\n"
+PARAMETERS = "scale = 'quick'\nseed = 0\ndevice = 'cpu'\nbuild_dir = None\n"
 
 # writes a sidecar into its build_dir (the run's staging folder; no torch import, to stay
 # quick), starts a spawn-multiprocessing worker (as the GMD training does) and a subprocess,
@@ -27,7 +27,7 @@ from pathlib import Path
 claims = Path(build_dir) / "claims"
 claims.mkdir(parents=True)
 (claims / "GMD-A1.json").write_text(json.dumps({"id": "GMD-A1", "run_id": os.environ[
-    "REPRO_RUN_ID"], "mode": "quick", "figures": []}))
+    "REPRO_RUN_ID"], "scale": "quick", "figures": []}))
 beats = Path(os.environ["TEST_BEATS"])
 pool_worker = multiprocessing.get_context("spawn").Process(target=time.sleep, args=(600,))
 pool_worker.start()

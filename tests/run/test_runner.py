@@ -7,9 +7,10 @@ from pathlib import Path
 import pytest
 from conftest import write_notebook
 
+from repro.infra import paths
 from repro.run import runner
 
-PARAMETERS = "quick = True\nseed = 0\ndevice = 'cpu'\nbuild_dir = None\n"
+PARAMETERS = "scale = 'quick'\nseed = 0\ndevice = 'cpu'\nbuild_dir = None\n"
 
 
 def _notebook(path: Path, body: str) -> None:
@@ -19,7 +20,7 @@ def _notebook(path: Path, body: str) -> None:
 GOOD = """
 from repro.run.notebook import setup_notebook
 from repro.claims.ledger import record_claim
-ctx = setup_notebook(quick=quick, seed=seed, device=device, build_dir=build_dir)
+ctx = setup_notebook(scale=scale, seed=seed, device=device, build_dir=build_dir)
 record_claim(ctx, "GMD-A1", {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5},
              seeds=[seed])
 """
@@ -47,17 +48,17 @@ def test_resolve_targets(sandbox: Path) -> None:
 
 def test_unknown_parameter_is_rejected_before_running(sandbox: Path) -> None:
     with pytest.raises(ValueError, match="no parameter.*'stepz'"):
-        runner.run_notebooks(["01_good"], quick=True, extra_parameters={"stepz": 3})
+        runner.run_notebooks(["01_good"], scale="quick", extra_parameters={"stepz": 3})
     assert not (sandbox / "build" / "quick" / "notebooks" / "01_good.ipynb").exists()
 
 
 def test_failure_names_notebook_and_cell_and_keeps_last_report(
         sandbox: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert runner.reproduce(quick=True, only=["01"]) == 0
+    assert runner.reproduce(scale="quick", only=["01"]) == 0
     report = sandbox / "build" / "quick" / "report" / "REPORT.md"
     text = report.read_text()
     assert "quick run: not a result" in text and "GMD-A1" in text
-    assert runner.reproduce(quick=True, jobs=2) == 1
+    assert runner.reproduce(scale="quick", jobs=2) == 1
     out = capsys.readouterr()
     assert "notebook 02_bad, cell 2 of the executed notebook" in out.out
     assert "boom in cell two" in out.out
@@ -73,10 +74,31 @@ def test_slowest_known_notebooks_are_started_first(tmp_path: Path,
     assert runner.longest_first(["00_a", "01_b", "02_c"], {"00_a": 5.0, "01_b": 50.0}) == [
         "02_c", "01_b", "00_a"]
     monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path))
-    assert runner.previous_seconds(quick=True) == {}
-    write_json(tmp_path / "quick" / "report" / "claims.json", {"run_seconds": {"01_b": 7.5}})
-    assert runner.previous_seconds(quick=True) == {"01_b": 7.5}
+    assert runner.known_seconds("quick") == {}
+    write_json(tmp_path / "quick" / "report" / "claims.json",
+               {"scale": "quick", "run_seconds": {"01_b": 7.5}})
+    assert runner.known_seconds("quick") == {"01_b": 7.5}
     # a later, faster (warm) run does not hide the slowest time known for a notebook
     write_json(tmp_path / "quick" / "report" / "claims.json",
-               {"run_seconds": {"01_b": 2.0}, "slowest_seconds": {"01_b": 7.5, "02_c": 3.0}})
-    assert runner.previous_seconds(quick=True) == {"01_b": 7.5, "02_c": 3.0}
+               {"scale": "quick", "run_seconds": {"01_b": 2.0},
+                "slowest_seconds": {"01_b": 7.5, "02_c": 3.0}})
+    assert runner.known_seconds("quick") == {"01_b": 7.5, "02_c": 3.0}
+
+
+def test_the_standard_estimate_is_the_plan_until_a_standard_run_measured_it(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from repro.infra.storage import write_json
+    from repro.run.plan import STANDARD_PLAN_MINUTES
+
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path))
+    monkeypatch.setattr(paths, "results_dir", lambda: tmp_path / "results")
+    plan = {name: minutes * 60 for name, minutes in STANDARD_PLAN_MINUTES.items()}
+    assert runner.known_seconds("standard") == plan
+    # a report of another scale (or of the runs before the scales) is not this scale's time
+    write_json(tmp_path / "results" / "claims.json",
+               {"mode": "full", "slowest_seconds": {"01_x0_vs_eps": 99999.0}})
+    assert runner.known_seconds("standard") == plan
+    write_json(tmp_path / "report" / "claims.json",
+               {"scale": "standard", "slowest_seconds": {"01_x0_vs_eps": 900.0}})
+    assert runner.known_seconds("standard") == {**plan, "01_x0_vs_eps": 900.0}
+    assert runner.known_seconds("paper") == {}

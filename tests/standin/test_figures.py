@@ -13,11 +13,13 @@ from repro.standin.cooccurrence import caption_co_occurrence
 from repro.standin.dataset import DatasetConfig, read_clip
 
 
-def test_settings_for_each_mode() -> None:
-    quick, full = figures.Settings.for_mode(True), figures.Settings.for_mode(False)
-    assert quick.quick and not full.quick
-    assert quick.n_clips < full.n_clips and quick.shown_concepts <= full.shown_concepts
-    assert full.dataset(3) == DatasetConfig(n_clips=full.n_clips, seed=3)
+def test_settings_for_each_scale() -> None:
+    quick, standard, paper = (figures.Settings.for_scale(s) for s in ("quick", "standard", "paper"))
+    assert quick.n_clips < standard.n_clips and quick.shown_concepts <= standard.shown_concepts
+    assert standard.dataset(3) == paper.dataset(3) == DatasetConfig(n_clips=standard.n_clips,
+                                                                    seed=3)
+    with pytest.raises(ValueError, match="scale must be one of"):
+        figures.Settings.for_scale("full")
 
 
 def test_shown_clips_are_single_concept_examples_in_order_of_appearance() -> None:

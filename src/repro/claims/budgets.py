@@ -17,6 +17,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from repro.claims.provenance import is_result
 from repro.claims.readme import replace_block
 from repro.infra.storage import read_json
 
@@ -80,7 +81,7 @@ def budgets_markdown(snapshot: Mapping[str, Any]) -> str:
     """README's budgets block from a snapshot's ``claims.json``."""
     budgets = ", ".join(f"{TIMING_NAMES[k].split(' (')[0]} ≤ {v / 60:.0f} min"
                         for k, v in BUDGETS_SECONDS.items())
-    if snapshot.get("mode") != "full" or snapshot_registry_version(snapshot) < 2:
+    if not is_result(snapshot) or snapshot_registry_version(snapshot) < 2:
         return (f"Budgets of #15: {budgets}. **No full run under registry v2 or later exists "
                 "yet**, so none is measured on one: the committed snapshot is a version 1 run "
                 "(its times are in the paragraph below). The next full `make reproduce` "

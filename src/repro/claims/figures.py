@@ -21,6 +21,7 @@ matplotlib.use(os.environ.get("MPLBACKEND", "Agg"))
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
+from repro.claims.provenance import is_result  # noqa: E402
 from repro.claims.registry import CLAIMS  # noqa: E402
 from repro.claims.verdicts import (  # noqa: E402
     ABSENT,
@@ -46,7 +47,7 @@ NOT_RECORDED = "#bdbdbd"
 def _segments(sidecar: Mapping[str, Any] | None) -> tuple[list[str], str]:
     """The colours of one claim's row, left to right, and their hatch ("//": no parts
     recorded, the verdict's colour)."""
-    if sidecar is None or sidecar.get("mode") != "full":
+    if sidecar is None or not is_result(sidecar):
         return [NOT_RECORDED], ""
     parts = sidecar.get("parts") or []
     if parts:
@@ -67,7 +68,7 @@ def claims_by_outcome(sidecars: Mapping[str, Mapping[str, Any]],
         for k, colour in enumerate(colours):
             ax.barh(row, width, left=k * width, color=colour, edgecolor="white", height=0.8,
                     hatch=hatch, alpha=0.55 if hatch else 1.0)
-        label = ("not recorded" if sidecar is None else "quick run" if sidecar.get("mode") != "full"
+        label = ("not recorded" if sidecar is None else "quick run" if not is_result(sidecar)
                  else sidecar.get("verdict", ""))
         ax.text(1.02, row, label, va="center", fontsize=7)
     ax.set_yticks(range(len(ids)), ids, fontsize=7)

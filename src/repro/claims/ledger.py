@@ -5,9 +5,10 @@ registry's rule, decides the notebook's controls with the same rule, makes incon
 parts that read a model that failed its fitness gate, and writes ``build/claims/<ID>.json``
 atomically. The sidecar carries ``registry_version``, the verdict with its per-part outcomes
 (each with its interval and the effect the run could have seen), each control's outcome (or
-"missing") and the models; it says whether the run was ``quick`` (a test of the code, never a
-result) or ``full``. The previous snapshot's verdict is the report's business
-(``claims.trust``), read from the committed ``results/claims.json``.
+"missing") and the models; it names the run's scale (``quick``: a test of the code, never a
+result; ``standard`` or ``paper``), as does every model record in it. The previous
+snapshot's verdict is the report's business (``claims.trust``), read from the committed
+``results/claims.json``.
 """
 
 from __future__ import annotations
@@ -26,7 +27,6 @@ from repro.infra import paths
 from repro.infra.context import RunContext
 from repro.infra.storage import read_json, write_json
 
-MODES = ("quick", "full")
 CONTROLS = ("positive", "null")
 _EXPECTED = {"positive": f"{REPRODUCED} (the registered effect planted)",
              "null": f"neither {REPRODUCED} nor partially (no effect planted)"}
@@ -100,7 +100,7 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
     """Apply the registered rules of ``claim_id`` to ``measured`` and write its sidecar.
 
     Args:
-        ctx: the run (its mode, run ID and claims folder); a quick run's verdict is recorded
+        ctx: the run (its scale, run ID and claims folder); a quick run's verdict is recorded
             but never reported as a result.
         claim_id: an ID from the registry (unknown IDs raise ValueError listing the known ones).
         measured: every measurement the rules name (missing ones raise ValueError; a
@@ -125,7 +125,7 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
         extra: further numbers to keep beside the rule's inputs (tables, paper rows).
     """
     claim = get_claim(claim_id)
-    models = [_checked_model(claim_id, m) for m in models]
+    models = [{**_checked_model(claim_id, m), "scale": ctx.scale} for m in models]
     gates = {**(quality_gates or {}), **{f"model {m['name']}": bool(m["passed"]) for m in models}}
     reads = {f"model {m['name']}": m.get("reads") for m in models}
     decision, stored_controls = decide_claim(claim_id, measured, controls=controls,
@@ -150,7 +150,7 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
         "summary": interval_summary(dict(measured)),
         "extra": dict(extra or {}),
         "seeds": list(seeds),
-        "mode": ctx.mode,
+        "scale": ctx.scale,
         "run_id": ctx.run_id,
         "figures": [str(Path(f).resolve()) for f in figures],
         "notes": notes,
@@ -181,8 +181,8 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
             return sidecar
         problem = f"holds a JSON {type(sidecar).__name__}, not a claim's record"
     raise ReportError(f"the claim sidecar {path} {problem}: delete it and record the claim "
-                      f"again (python -m repro reproduce --only {path.stem}, with --quick in a "
-                      "quick run's folder), or restore it from a copy")
+                      f"again (python -m repro reproduce --only {path.stem} --scale SCALE, "
+                      "the scale of the run whose folder holds it), or restore it from a copy")
 
 
 def part_outcomes(sidecar: dict[str, Any], *, reasons: bool = True) -> str:

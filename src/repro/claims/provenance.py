@@ -33,22 +33,34 @@ def runs_of(sidecars: Mapping[str, Mapping[str, Any]]) -> dict[str, list[str]]:
     return runs
 
 
+def scale_of(sidecar: Mapping[str, Any]) -> str | None:
+    """The scale of the run that wrote ``sidecar`` (or of a report's ``claims.json``):
+    "quick", "standard" or "paper"; "full" for one written before the scales; None if
+    neither is recorded."""
+    return sidecar.get("scale") or sidecar.get("mode")
+
+
+def is_result(sidecar: Mapping[str, Any]) -> bool:
+    """Whether ``sidecar`` comes from a run whose verdicts are results (any scale but quick)."""
+    return scale_of(sidecar) not in (None, "quick")
+
+
 def _runs_text(runs: Mapping[str, list[str]]) -> str:
     return "; ".join(f"run {run} ({', '.join(claims)})" for run, claims in runs.items())
 
 
-def check_runs(sidecars: Mapping[str, Mapping[str, Any]], *, quick: bool, folder: Path,
+def check_runs(sidecars: Mapping[str, Mapping[str, Any]], *, scale: str, folder: Path,
                allow_mixed: bool = False) -> str:
     """Raise :class:`ReportError` unless the sidecars make one report; return the provenance
     line naming the run(s)."""
     if not sidecars:
         raise ReportError(f"no claim is recorded in {folder}: there is nothing to report (run "
                           "the notebooks first: python -m repro reproduce)")
-    mode = "quick" if quick else "full"
-    wrong = sorted(c for c, s in sidecars.items() if s.get("mode") != mode)
+    wrong = sorted(c for c, s in sidecars.items() if s.get("scale") != scale)
     if wrong:
-        raise ReportError(f"{folder} is a {mode} run's folder but holds sidecars of another "
-                          f"mode: {', '.join(wrong)}; remove them and rerun those notebooks")
+        raise ReportError(f"{folder} is a {scale}-scale run's folder but holds sidecars of "
+                          f"another scale (or of a run before the scales): {', '.join(wrong)}; "
+                          "remove them and rerun those notebooks")
     runs = runs_of(sidecars)
     if len(runs) > 1 and not allow_mixed:
         raise ReportError(f"the claims in {folder} come from {len(runs)} runs: "

@@ -34,7 +34,14 @@ from repro.claims.budgets import (
 )
 from repro.claims.figures import FIGURE_NAME, claims_by_outcome
 from repro.claims.ledger import load_sidecars, part_outcomes
-from repro.claims.provenance import check_runs, notebooks_section, render_notebooks
+from repro.claims.provenance import (
+    ReportError,
+    check_runs,
+    is_result,
+    notebooks_section,
+    render_notebooks,
+    scale_of,
+)
 from repro.claims.readme import replace_block
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.infra import paths
@@ -63,7 +70,9 @@ def headline(sidecar: dict[str, Any], limit: int = 4) -> str:
 def _previous_text(previous: dict[str, Any] | None) -> str:
     if previous is None:
         return ""
-    return f"{previous['verdict']} (v{previous['registry_version']})"
+    scale = previous.get("scale")
+    return (f"{previous['verdict']} (v{previous['registry_version']}"
+            + (f", {scale} scale)" if scale and scale != "full" else ")"))
 
 
 def _rows(sidecars: dict[str, dict[str, Any]],
@@ -75,7 +84,7 @@ def _rows(sidecars: dict[str, dict[str, Any]],
                "notebook": claim.notebook}
         if sidecar is None:
             row.update(verdict="not yet tested", ours="")
-        elif sidecar["mode"] == "quick":
+        elif not is_result(sidecar):
             row.update(verdict="— (quick run: not a result)", ours=headline(sidecar))
         else:
             row.update(verdict=sidecar["verdict"], ours=headline(sidecar),
@@ -145,14 +154,15 @@ def docs_link(report_dir: Path) -> str:
     return os.path.relpath(paths.REPO_ROOT / "docs", report_dir)
 
 
-def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
+def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], scale: str,
               runs: Sequence[Any], figure_names: dict[str, list[str]],
               previous: dict[str, dict[str, Any]], provenance: str = "",
               docs: str = "../docs") -> str:
     when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    source = ("a QUICK (test) run: no verdict here is a result." if scale == "quick"
+              else f"a {scale}-scale run.")
     lines = ["# Reproduction report", "",
-             f"Generated {when} from "
-             f"{'a QUICK (test) run: no verdict here is a result' if quick else 'a full run'}.",
+             f"Generated {when} from {source}",
              "Stand-in data and tiny models: the direction and shape of each effect is tested, "
              "never the paper's absolute numbers.", ""]
     if provenance:
@@ -177,7 +187,7 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
         lines += [f"| {r.name} | {r.seconds:.1f} |" for r in runs]
     for claim_id, sidecar in sidecars.items():
         version = sidecar.get("registry_version", 1)
-        lines += ["", f"## {claim_id} — {sidecar['verdict']} ({sidecar['mode']})", "",
+        lines += ["", f"## {claim_id} — {sidecar['verdict']} ({scale_of(sidecar)} scale)", "",
                   f"*{sidecar['statement']}* ({sidecar['paper']}, {sidecar['section']})", "",
                   f"- Rule (registry v{version}, fixed before the run): {sidecar['rule']}",
                   f"- Why: {sidecar['reason']}"]
@@ -195,14 +205,15 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], q
     return "\n".join(lines) + "\n"
 
 
-def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], quick: bool,
+def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], scale: str,
           figure_names: dict[str, list[str]], previous: dict[str, dict[str, Any]]) -> str:
     esc = html.escape
     head = ("<!doctype html><meta charset='utf-8'><title>repro report</title><style>"
             "body{font-family:sans-serif;max-width:1200px;margin:auto}td,th{border:1px solid "
             "#ccc;padding:4px;vertical-align:top}table{border-collapse:collapse}img{max-width:"
             "100%}</style>")
-    body = [f"<h1>Reproduction report{' (QUICK run: not results)' if quick else ''}</h1>",
+    title = " (QUICK run: not results)" if scale == "quick" else f" ({scale} scale)"
+    body = [f"<h1>Reproduction report{title}</h1>",
             trust.trust_html(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}"),
             "<h2>Verdicts</h2><table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
             f"<th>verdict (registry v{REGISTRY_VERSION})</th><th>parts</th>"
@@ -218,7 +229,8 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
                                                          changelog.claim_changes())))
     body.append(errata.errata_html(errata.load_errata()))
     for claim_id, s in sidecars.items():
-        body.append(f"<h2>{esc(claim_id)} — {esc(s['verdict'])} ({esc(s['mode'])})</h2>"
+        body.append(f"<h2>{esc(claim_id)} — {esc(s['verdict'])} "
+                    f"({esc(str(scale_of(s)))} scale)</h2>"
                     f"<p><i>{esc(s['statement'])}</i></p><p>Rule: {esc(s['rule'])}</p>"
                     f"<p>Why: {esc(s['reason'])}</p>"
                     + (f"<p>Previous snapshot: {esc(_previous_text(previous[claim_id]))}</p>"
@@ -265,7 +277,7 @@ def slowest_of(*records: dict[str, float]) -> dict[str, float]:
     return out
 
 
-def write_report(build_dir: str | os.PathLike, *, quick: bool,
+def write_report(build_dir: str | os.PathLike, *, scale: str,
                  runs: Sequence[Any] = (), provenance: str = "",
                  allow_mixed: bool = False) -> Path:
     """Write ``<build>/report/{REPORT.md, index.html, claims.json, figures/}``; returns the md.
@@ -273,11 +285,11 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
     ``runs``: the notebooks just run (name, seconds); the run times of the report being
     replaced are kept for the notebooks not run again (``--only``, or ``report`` alone).
     Raises :class:`ReportError` (writing nothing) when no claim is recorded, a sidecar is of
-    the other mode, or the claims come from several runs and ``allow_mixed`` is False.
+    another scale, or the claims come from several runs and ``allow_mixed`` is False.
     """
     build_dir = Path(build_dir)
     sidecars = load_sidecars(build_dir / "claims")
-    run_line = check_runs(sidecars, quick=quick, folder=build_dir / "claims",
+    run_line = check_runs(sidecars, scale=scale, folder=build_dir / "claims",
                           allow_mixed=allow_mixed)
     provenance = f"{provenance} {run_line}".strip()
     report_dir = build_dir / "report"
@@ -294,19 +306,19 @@ def write_report(build_dir: str | os.PathLike, *, quick: bool,
                 shutil.copy2(source, figures_out / source.name)
                 figure_names.setdefault(claim_id, []).append(source.name)
     claims_by_outcome(sidecars, figures_out / FIGURE_NAME)
-    previous = {} if quick else trust.previous_snapshot()
+    previous = {} if scale == "quick" else trust.previous_snapshot()
     rows = _rows(sidecars, previous)
-    write_json(report_dir / "claims.json", {"mode": "quick" if quick else "full",
+    write_json(report_dir / "claims.json", {"scale": scale,
                                             "claims": rows, "sidecars": sidecars,
                                             "run_seconds": {r.name: round(r.seconds, 1)
                                                             for r in runs},
                                             "slowest_seconds": slowest,
                                             "run_span_seconds": run_span_seconds(build_dir,
                                                                                  sidecars)})
-    write_json(report_dir / "models.json", {"mode": "quick" if quick else "full",
+    write_json(report_dir / "models.json", {"scale": scale,
                                             "models": models_of(sidecars)})
-    write_text(report_dir / "index.html", _html(rows, sidecars, quick, figure_names, previous))
-    return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, quick, runs,
+    write_text(report_dir / "index.html", _html(rows, sidecars, scale, figure_names, previous))
+    return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, scale, runs,
                                                           figure_names, previous, provenance,
                                                           docs_link(report_dir)))
 
@@ -352,12 +364,18 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's)."""
     report_dir = Path(build_dir) / "report"
     target = paths.results_dir()
+    claims = read_json(report_dir / "claims.json")
+    if claims.get("scale") != "standard":
+        raise ReportError(f"{report_dir} is a {scale_of(claims)}-scale report: results/ holds "
+                          "the standard scale's run only (python -m repro reproduce --scale "
+                          "standard --snapshot)")
     staging = Path(tempfile.mkdtemp(prefix=".results.", dir=target.parent))
     report_text = (report_dir / "REPORT.md").read_text(encoding="utf-8")
     write_text(staging / "REPORT.md", report_text.replace(f"]({docs_link(report_dir)}/",
                                                           f"]({docs_link(target)}/"))
-    claims = read_json(report_dir / "claims.json")
-    claims["slowest_seconds"] = slowest_of(slowest_seconds(target / "claims.json"),
+    before = target / "claims.json"
+    same_scale = before.is_file() and read_json(before).get("scale") == "standard"
+    claims["slowest_seconds"] = slowest_of(slowest_seconds(before) if same_scale else {},
                                          slowest_seconds(report_dir / "claims.json"))
     claims["timings"] = bench_timings(paths.build_root() / "bench" / "bench.json")
     write_json(staging / "claims.json", claims)

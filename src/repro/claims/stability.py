@@ -8,8 +8,8 @@ checks that each holds the run of its base seed, and writes STABILITY.md: the ve
 by side, which changed, each changed claim's parts side by side, every notebook's coverage
 (executed in every run, its claims compared), seed lists that overlap between runs (such runs
 are not independent), and how far each of the rule's measurements moved (the mean over a
-run's seeds, per run). Only full runs are results; quick runs are compared only when asked
-(``quick=True``: a test of the machinery, headed as such).
+run's seeds, per run). Runs of one scale are compared (``scale``, default "standard": the
+snapshot's); quick runs only as a test of the machinery, headed as such.
 """
 
 from __future__ import annotations
@@ -26,9 +26,10 @@ import numpy as np
 from repro.claims.ledger import load_sidecars, part_outcomes
 from repro.claims.registry import CLAIMS, claims_for_notebook
 from repro.infra import paths
+from repro.infra.context import check_scale
 from repro.infra.storage import write_text
 
-_RUN_SEED = re.compile(r"-seed(\d+)-(?:quick|full)$")
+_RUN_SEED = re.compile(r"-seed(\d+)-(?:quick|standard|paper|full)$")
 
 
 @dataclass(frozen=True)
@@ -71,32 +72,32 @@ def flatten_measurements(measured: Mapping[str, Any], prefix: str = "") -> dict[
     return flat
 
 
-def load_full_sidecars(build_dir: str | os.PathLike, *, quick: bool = False,
-                       ) -> dict[str, dict[str, Any]]:
-    """The full-run sidecars of ``build_dir`` (``quick``: the quick-run ones); a sidecar of
-    the other mode or no sidecars raise ValueError."""
+def load_scale_sidecars(build_dir: str | os.PathLike, *, scale: str = "standard",
+                        ) -> dict[str, dict[str, Any]]:
+    """The sidecars of ``build_dir``, every one of a ``scale`` run; a sidecar of another
+    scale or no sidecars raise ValueError."""
+    check_scale(scale)
     folder = Path(build_dir) / "claims"
     sidecars = load_sidecars(folder)
     if not sidecars:
         raise ValueError(f"no claim sidecars in {folder}: run the notebooks there first")
-    mode = "quick" if quick else "full"
-    wrong = sorted(k for k, s in sidecars.items() if s.get("mode") != mode)
-    if wrong and not quick:
-        raise ValueError(f"{folder} holds quick-run sidecars {wrong}: a quick run is a test of "
-                         "the code, not a result, and is never compared")
+    wrong = sorted(k for k, s in sidecars.items() if s.get("scale") != scale)
     if wrong:
-        raise ValueError(f"{folder} holds full-run sidecars {wrong} where quick ones were asked")
+        raise ValueError(f"{folder} holds sidecars {wrong} of another scale than {scale} (a "
+                         "quick run is a test of the code, never compared with a result; "
+                         "runs of different scales are different experiments)")
     return sidecars
 
 
-def seed_build_dir(base_seed: int, *, quick: bool = False) -> Path:
-    """The build folder of the run from ``base_seed``: ``build/`` for 0 (the default
-    ``reproduce``), ``build/seed<N>/`` otherwise (``REPRO_BUILD_ROOT`` of that run); quick
-    runs below it in ``quick/``."""
+def seed_build_dir(base_seed: int, *, scale: str = "standard") -> Path:
+    """The build folder of the ``scale`` run from ``base_seed``: below ``build/`` for 0 (the
+    default ``reproduce``), below ``build/seed<N>/`` otherwise (``REPRO_BUILD_ROOT`` of that
+    run); the standard scale's at that root, the others in ``quick/`` and ``paper/``."""
+    check_scale(scale)
     if base_seed < 0:
         raise ValueError(f"base seeds are ≥ 0, got {base_seed}")
     root = paths.build_root() if base_seed == 0 else paths.build_root() / f"seed{base_seed}"
-    return root / "quick" if quick else root
+    return root if scale == "standard" else root / scale
 
 
 def base_seed_of(sidecar: Mapping[str, Any]) -> int | None:
@@ -203,14 +204,16 @@ def changed_parts_markdown(rows: list[StabilityRow],
 def stability_markdown(rows: list[StabilityRow], labels: list[str],
                        missing: Sequence[str] = (), *,
                        runs: Mapping[str, Mapping[str, dict[str, Any]]] | None = None,
-                       coverage: Sequence[Sequence[str]] = (), quick: bool = False) -> str:
+                       coverage: Sequence[Sequence[str]] = (), scale: str = "standard") -> str:
     """A verdict table (changed verdicts marked), the changed claims' parts side by side
     (``runs``), every notebook's coverage, overlapping seeds, and per claim each measurement's
     means; ``missing``: claims not recorded in every run, named as not compared."""
     changed = [r.claim_id for r in rows if not r.stable]
     lines = ["# Seed stability", ""]
-    if quick:
+    if scale == "quick":
         lines += ["**QUICK runs: a test of the machinery; no verdict here is a result.**", ""]
+    else:
+        lines += [f"Runs of the {scale} scale.", ""]
     lines += [f"The same notebooks from {len(labels)} base seeds ({', '.join(labels)}); every "
               "notebook's seed list starts at the base seed, so models, test items and noise "
               "all change. Measurements are means over each run's seeds.", "",
@@ -253,11 +256,12 @@ def stability_markdown(rows: list[StabilityRow], labels: list[str],
 
 
 def write_stability(build_dirs: Mapping[str, str | os.PathLike], output: str | os.PathLike,
-                    *, base_seeds: Mapping[str, int] | None = None, quick: bool = False) -> Path:
-    """Compare the runs in ``build_dirs`` (label → build folder; full runs unless ``quick``)
+                    *, base_seeds: Mapping[str, int] | None = None,
+                    scale: str = "standard") -> Path:
+    """Compare the runs in ``build_dirs`` (label → build folder; runs of ``scale``)
     and write the markdown to ``output`` atomically. ``base_seeds`` (label → seed): each
     folder must hold the run of its seed."""
-    runs = {label: load_full_sidecars(folder, quick=quick)
+    runs = {label: load_scale_sidecars(folder, scale=scale)
             for label, folder in build_dirs.items()}
     for label, seed in (base_seeds or {}).items():
         check_base_seed(runs[label], seed, build_dirs[label])
@@ -266,4 +270,4 @@ def write_stability(build_dirs: Mapping[str, str | os.PathLike], output: str | o
         raise ValueError("no claim is recorded in every run: nothing to compare")
     return write_text(output, stability_markdown(
         rows, list(build_dirs), not_compared(runs), runs=runs,
-        coverage=notebook_coverage(build_dirs, runs), quick=quick))
+        coverage=notebook_coverage(build_dirs, runs), scale=scale))

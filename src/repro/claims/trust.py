@@ -21,6 +21,7 @@ from typing import Any
 
 from repro.claims.changelog import EVERY_CLAIM, Change
 from repro.claims.claim import Claim
+from repro.claims.provenance import is_result, scale_of
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.claims.verdicts import BELOW_RESOLUTION, INCONCLUSIVE, OUTCOMES, VERDICTS
 from repro.infra import paths
@@ -148,7 +149,7 @@ def trust_rows(sidecars: Mapping[str, Mapping[str, Any]]) -> list[TrustRow]:
             continue
         counts = outcome_counts(sidecar)
         controls, gates = controls_text(claim, sidecar), gates_text(claim, sidecar)
-        verdict = QUICK if sidecar.get("mode") == "quick" else sidecar["verdict"]
+        verdict = sidecar["verdict"] if is_result(sidecar) else QUICK
         rows.append(TrustRow(claim.id, verdict, _parts_text(counts), controls, gates,
                              limits_text(claim, sidecar), counts))
     return rows
@@ -204,8 +205,8 @@ def previous_snapshot(path: str | os.PathLike | None = None) -> dict[str, dict[s
         return {}
     return {claim_id: {"verdict": s["verdict"],
                        "registry_version": int(s.get("registry_version", 1)),
-                       "run_id": s.get("run_id")}
-            for claim_id, s in sidecars.items() if s.get("mode") == "full" and "verdict" in s}
+                       "run_id": s.get("run_id"), "scale": scale_of(s)}
+            for claim_id, s in sidecars.items() if is_result(s) and "verdict" in s}
 
 
 @dataclass(frozen=True)
@@ -227,7 +228,7 @@ def verdict_changes(sidecars: Mapping[str, Mapping[str, Any]],
     out = []
     for claim_id in CLAIMS:
         sidecar, before = sidecars.get(claim_id), previous.get(claim_id)
-        if sidecar is None or sidecar.get("mode") != "full" or before is None:
+        if sidecar is None or not is_result(sidecar) or before is None:
             continue
         if before["verdict"] != sidecar["verdict"]:
             version = int(before["registry_version"])

@@ -34,12 +34,29 @@ def _cmd_list(_: argparse.Namespace) -> int:
     return 0
 
 
+def _scale(args: argparse.Namespace) -> str:
+    """The scale a command was given: ``--scale`` (default standard), ``--quick`` for
+    ``--scale quick``; both, disagreeing, is an error."""
+    if args.quick and args.scale not in (None, "quick"):
+        raise ValueError(f"--quick and --scale {args.scale} disagree: give one")
+    return "quick" if args.quick else args.scale or "standard"
+
+
+def _add_scale(parser: argparse.ArgumentParser, what: str) -> None:
+    from repro.infra.context import SCALES
+
+    parser.add_argument("--scale", choices=SCALES, help=f"{what}: quick (a test of the code, "
+                        "never a result), standard (the default: make reproduce, results/) "
+                        "or paper (the papers' settings, for a GPU or a cluster)")
+    parser.add_argument("--quick", action="store_true", help="the same as --scale quick")
+
+
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from repro.run.runner import reproduce
 
     extra = dict(args.parameter or [])
     try:
-        return reproduce(quick=args.quick, only=args.only, jobs=args.jobs, seed=args.seed,
+        return reproduce(scale=_scale(args), only=args.only, jobs=args.jobs, seed=args.seed,
                          device=args.device, snapshot=args.snapshot, extra_parameters=extra,
                          threads=args.threads, allow_mixed=args.allow_mixed)
     except ValueError as error:
@@ -54,17 +71,23 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from repro.infra.storage import write_problem
     from repro.run.runner import report_state
 
-    build = paths.run_build_dir(args.quick)
+    try:
+        scale = _scale(args)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    build = paths.run_build_dir(scale)
     if not (build / "claims").is_dir():
         print(f"error: no claim sidecars in {build / 'claims'}; run notebooks first",
               file=sys.stderr)
         return 2
     try:
-        report = write_report(build, quick=args.quick, provenance=args.note or "",
+        report = write_report(build, scale=scale, provenance=args.note or "",
                               allow_mixed=args.allow_mixed)
         print(f"report: {report}")
-        if args.snapshot and args.quick:
-            print("error: a quick run is a test, not a result: no snapshot", file=sys.stderr)
+        if args.snapshot and scale != "standard":
+            print(f"error: results/ holds the standard scale's run; this is the {scale} "
+                  "scale's: no snapshot", file=sys.stderr)
             return 2
         if args.snapshot:
             print(f"results snapshot: {write_snapshot(build)}")
@@ -78,7 +101,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_base_seed(seed: int, *, quick: bool, jobs: int, threads: int | None,
+def run_base_seed(seed: int, *, scale: str, jobs: int, threads: int | None,
                   only: list[str] | None = None) -> int:
     """``python -m repro reproduce --seed N`` into :func:`seed_build_dir`'s folder (as its
     ``REPRO_BUILD_ROOT``), on this checkout's model cache (keys hash the seed: sharing is
@@ -92,7 +115,7 @@ def run_base_seed(seed: int, *, quick: bool, jobs: int, threads: int | None,
     root = seed_build_dir(seed)
     command = [sys.executable, "-m", "repro", "reproduce", "--seed", str(seed), "--jobs",
                str(jobs), *(["--threads", str(threads)] if threads else []),
-               *(["--quick"] if quick else []), *(["--only", *only] if only else [])]
+               "--scale", scale, *(["--only", *only] if only else [])]
     print(f"base seed {seed}: REPRO_BUILD_ROOT={root} {' '.join(command[1:])}", flush=True)
     env = {**os.environ, "REPRO_BUILD_ROOT": str(root), "REPRO_CACHE_DIR": str(paths.cache_dir())}
     return subprocess.run(command, env=env, check=False).returncode
@@ -108,7 +131,7 @@ def _stability_folders(args: argparse.Namespace) -> tuple[dict[str, Path], dict[
         if len(set(args.base_seeds)) != len(args.base_seeds):
             raise ValueError(f"--base-seeds must differ, got {args.base_seeds}")
         labels = [f"seed {s}" for s in args.base_seeds]
-        folders = {label: seed_build_dir(s, quick=args.quick)
+        folders = {label: seed_build_dir(s, scale=_scale(args))
                    for label, s in zip(labels, args.base_seeds, strict=True)}
         return folders, dict(zip(labels, args.base_seeds, strict=True))
     if args.run or args.only:
@@ -126,12 +149,13 @@ def _cmd_stability(args: argparse.Namespace) -> int:
     from repro.infra import paths
 
     try:
+        scale = _scale(args)
         folders, seeds = _stability_folders(args)
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
-    if args.snapshot and args.quick:
-        print("error: quick runs are a test, not a result: no results/STABILITY.md",
+    if args.snapshot and scale != "standard":
+        print(f"error: results/STABILITY.md compares standard-scale runs, not {scale} ones",
               file=sys.stderr)
         return 2
     if args.run:
@@ -144,7 +168,7 @@ def _cmd_stability(args: argparse.Namespace) -> int:
             if recorded:
                 print(f"{label}: {folder} holds a run already (delete its claims/ to rerun)")
                 continue
-            code = run_base_seed(seeds[label], quick=args.quick, jobs=args.jobs,
+            code = run_base_seed(seeds[label], scale=scale, jobs=args.jobs,
                                  threads=args.threads, only=args.only)
             if code:
                 print(f"error: the run from {label} failed (exit {code}); nothing compared",
@@ -153,7 +177,7 @@ def _cmd_stability(args: argparse.Namespace) -> int:
     output = (paths.results_dir() / "STABILITY.md" if args.snapshot
               else next(iter(folders.values())) / "report" / "STABILITY.md")
     try:
-        written = write_stability(folders, output, base_seeds=seeds, quick=args.quick)
+        written = write_stability(folders, output, base_seeds=seeds, scale=scale)
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -208,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
     sub.add_parser("list", help="print the notebooks and the claims").set_defaults(func=_cmd_list)
 
     rep = sub.add_parser("reproduce", help="execute notebooks with papermill and write the report")
-    rep.add_argument("--quick", action="store_true", help="tiny data, few steps (tests only)")
+    _add_scale(rep, "the settings every notebook runs with")
     rep.add_argument("--only", nargs="+", metavar="NOTEBOOK_OR_CLAIM",
                      help="notebook names, number prefixes (01) or claim IDs (GMD-A1)")
     rep.add_argument("--jobs", type=int, default=1, help="notebooks run in parallel")
@@ -219,9 +243,10 @@ def main(argv: list[str] | None = None) -> int:
     rep.add_argument("-p", "--parameter", action="append", type=_parse_parameter,
                      metavar="NAME=VALUE", help="extra notebook parameter (JSON value), "
                      "checked against the notebook's parameters cell before any kernel "
-                     "starts; quick, seed, device and build_dir are set by the runner")
+                     "starts; scale, seed, device and build_dir are set by the runner")
     rep.add_argument("--snapshot", action="store_true",
-                     help="after a successful full run of every notebook, refresh results/")
+                     help="after a successful standard-scale run of every notebook, refresh "
+                     "results/")
     rep.add_argument("--allow-mixed", action="store_true",
                      help="write the report even if its claims come from several runs (the "
                      "provenance then names every run)")
@@ -229,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
 
     rpt = sub.add_parser("report", help="rewrite the report from the recorded claim sidecars "
                          "(e.g. after running notebooks one at a time with --only)")
-    rpt.add_argument("--quick", action="store_true", help="the quick build's sidecars")
+    _add_scale(rpt, "the scale whose build folder to report")
     rpt.add_argument("--snapshot", action="store_true", help="also refresh results/")
     rpt.add_argument("--note", help="a provenance note printed at the top of the report")
     rpt.add_argument("--allow-mixed", action="store_true",
@@ -252,8 +277,7 @@ def main(argv: list[str] | None = None) -> int:
     stab.add_argument("--only", nargs="+", metavar="NOTEBOOK_OR_CLAIM",
                       help="with --run: only these notebooks (the coverage table then shows "
                       "the others as not executed)")
-    stab.add_argument("--quick", action="store_true",
-                      help="compare quick runs (a test of the machinery, never a result)")
+    _add_scale(stab, "the scale of the runs compared")
     stab.add_argument("--snapshot", action="store_true",
                       help="write results/STABILITY.md instead of <first build>/report/")
     stab.set_defaults(func=_cmd_stability)

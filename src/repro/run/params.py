@@ -4,9 +4,9 @@ Names, defaults and annotated types come from each notebook's ``parameters`` cel
 ``inspect_notebook``); a value must have the type of the annotation or, without one, of the
 default (``n_seeds = 3`` takes an int). :data:`RULES` adds the ranges and the checks a type
 cannot say (a seed is ≥ 0, a data folder exists and passes ``validate-dataset``, a device
-exists here). The runner alone sets ``quick``, ``build_dir``, ``seed`` and ``device`` (from
-``--quick``, its staging folder, ``--seed`` and ``--device``), so ``-p`` cannot send quick
-output into a full run's folder.
+exists here). The runner alone sets ``scale``, ``build_dir``, ``seed`` and ``device`` (from
+``--scale``/``--quick``, its staging folder, ``--seed`` and ``--device``), so ``-p`` cannot
+send one scale's output into another scale's folder.
 """
 
 from __future__ import annotations
@@ -19,11 +19,12 @@ from pathlib import Path
 from typing import Any
 
 from repro.infra import paths
-from repro.infra.context import seed_problem
+from repro.infra.context import scale_problem, seed_problem
 
-STANDARD_PARAMETERS = ("quick", "seed", "device", "build_dir")
+STANDARD_PARAMETERS = ("scale", "seed", "device", "build_dir")
 SET_BY_RUNNER = {
-    "quick": "quick mode is set by --quick alone (quick output never enters a full run's folder)",
+    "scale": "the scale is set by --scale (or --quick) alone: one scale's output never enters "
+             "another's folder",
     "build_dir": "the runner writes each notebook into its run's staging folder",
     "seed": "use --seed (the base seed is part of the run ID)",
     "device": "use --device",
@@ -88,7 +89,7 @@ def _dataset_problem(resolved: str) -> str | None:
 
 
 RULES: dict[str, Rule] = {
-    "quick": Rule((bool,)),
+    "scale": Rule((str,), scale_problem),
     "seed": Rule((int,), seed_problem),
     "device": Rule((str,), _device_problem),
     "build_dir": Rule((str, type(None))),

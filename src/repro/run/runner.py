@@ -9,7 +9,8 @@
   more.
 - Each notebook runs with torch/BLAS threads limited so that ``--jobs`` processes share the
   cores; a per-cell timeout stops a hung cell. Progress: ``run.progress_view``.
-- Quick runs write under ``build/quick`` and never touch a full run's outputs.
+- Each scale writes into its own folder (``paths.run_build_dir``): a quick (test) run never
+  touches the standard run's outputs.
 - A failing notebook is reported with its cell; the others still run and publish; the command
   exits non-zero and the last good report is kept.
 """
@@ -32,12 +33,12 @@ from repro.claims.registry import CLAIMS
 from repro.claims.report import slowest_of, slowest_seconds
 from repro.infra import cache, lifetime, paths, progress
 from repro.infra.storage import free_bytes, read_json, write_problem
-from repro.run import params, transaction, worker
+from repro.run import params, plan, transaction, worker
 from repro.run.params import STANDARD_PARAMETERS, validate_parameters
 from repro.run.progress_view import ProgressView
 
 __all__ = ["STANDARD_PARAMETERS", "NotebookResult", "RunInterrupted", "available_notebooks",
-           "longest_first", "previous_seconds", "reproduce", "resolve_targets", "run_notebooks",
+           "known_seconds", "longest_first", "reproduce", "resolve_targets", "run_notebooks",
            "validate_parameters"]
 
 
@@ -90,14 +91,17 @@ def resolve_targets(only: Sequence[str] | None) -> list[str]:
     return [n for n in notebooks if n in chosen]
 
 
-def previous_seconds(quick: bool) -> dict[str, float]:
-    """Each notebook's slowest known wall time (``report.slowest_seconds``) in the reports of
-    this kind of run: the build's own and the committed ``results/`` snapshot's (full runs
-    only); {} if none."""
-    candidates = [paths.run_build_dir(quick) / "report" / "claims.json"]
-    if not quick:
+def known_seconds(scale: str) -> dict[str, float]:
+    """Each notebook's expected wall time at ``scale``: the slowest measured
+    (``report.slowest_seconds``) in the reports of runs of this scale — the build's own and,
+    for the standard scale, the committed ``results/`` snapshot's —, else the compute plan's
+    (``plan.planned_seconds``); never a time of another scale's run."""
+    candidates = [paths.run_build_dir(scale) / "report" / "claims.json"]
+    if scale == "standard":
         candidates.insert(0, paths.results_dir() / "claims.json")
-    return slowest_of(*(slowest_seconds(candidate) for candidate in candidates))
+    measured = slowest_of(*(slowest_seconds(c) for c in candidates
+                            if c.is_file() and read_json(c).get("scale") == scale))
+    return {**plan.planned_seconds(scale), **measured}
 
 
 def longest_first(targets: Sequence[str], seconds: dict[str, float]) -> list[str]:
@@ -229,7 +233,7 @@ def _no_result(job: _Running, folder: Path) -> str:
     return f"{start} and an empty log{killed}"
 
 
-def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device: str = "cpu",
+def run_notebooks(targets: Iterable[str], *, scale: str, seed: int = 0, device: str = "cpu",
                   jobs: int = 1, extra_parameters: dict[str, Any] | None = None,
                   timeout: int | None = None, threads: int | None = None,
                   log=print, stream: IO[str] | None = None,
@@ -249,26 +253,26 @@ def run_notebooks(targets: Iterable[str], *, quick: bool, seed: int = 0, device:
     extra = dict(extra_parameters or {})
     params.check_extra_parameters(extra)
     extra = params.absolute_folders(extra)
-    parameters = {"quick": quick, "seed": seed, "device": device, "build_dir": None, **extra}
+    parameters = {"scale": scale, "seed": seed, "device": device, "build_dir": None, **extra}
     params.forget_checks()
     for name in targets:  # validate everything before running anything
         validate_parameters(name, parameters)
     workers = min(jobs, len(targets)) or 1
     threads = threads or max(1, (os.cpu_count() or 1) // workers)
-    timeout = timeout or (600 if quick else 3600)
+    timeout = timeout or (600 if scale == "quick" else 3600 if scale == "standard" else 86400)
     try:
         removed = cache.clean_cache()
-        run = transaction.new_run(quick=quick, seed=seed, device=device, targets=targets,
+        run = transaction.new_run(scale=scale, seed=seed, device=device, targets=targets,
                                   parameters=parameters)
     except OSError as error:  # a read-only or full build/ or cache: refused before any kernel
         raise ValueError(f"{write_problem(error)}; nothing ran") from None
     if removed:
         log(f"cache: removed {len(removed)} leftover(s) of failed runs (lock-only folders, "
             "interrupted writes)")
-    log(f"run {run.run_id}: {len(targets)} notebook(s) ({run.mode} parameters, {workers} at a "
+    log(f"run {run.run_id}: {len(targets)} notebook(s) ({run.scale} scale, {workers} at a "
         f"time, {threads} thread(s) each); staging {run.staging}, publishing into "
         f"{run.build_dir}")
-    known = previous_seconds(quick)
+    known = known_seconds(scale)
     pending = longest_first(targets, known)
     view = ProgressView(progress_dir=run.progress_dir, total=len(targets), workers=workers,
                         known_s=known, stream=stream, interval_s=status_interval_s)
@@ -325,7 +329,7 @@ def report_state(build_dir: Path) -> str:
     return f"there is no report in {report.parent} yet"
 
 
-def _mixed_runs(build_dir: Path, quick: bool) -> str:
+def _mixed_runs(build_dir: Path, scale: str) -> str:
     """Why the report is not rewritten after this run: its claims now come from several
     runs (e.g. ``--only`` after a complete run); "" when they come from one."""
     from repro.claims.ledger import load_sidecars
@@ -336,7 +340,7 @@ def _mixed_runs(build_dir: Path, quick: bool) -> str:
         return ""
     named = "; ".join(f"run {run} ({', '.join(claims)})" for run, claims in runs.items())
     return (f"the report is not rewritten: the claims in {build_dir / 'claims'} now come from "
-            f"{len(runs)} runs: {named}. python -m repro report{' --quick' if quick else ''} "
+            f"{len(runs)} runs: {named}. python -m repro report --scale {scale} "
             "--allow-mixed writes a report over them naming every run; a run of every "
             "notebook together (python -m repro reproduce) makes them one run again")
 
@@ -347,7 +351,7 @@ def _cache_notices(results: Sequence[NotebookResult]) -> str:
     return f"Warnings of this run: {' | '.join(notices)}." if notices else ""
 
 
-def reproduce(*, quick: bool, only: Sequence[str] | None = None, jobs: int = 1, seed: int = 0,
+def reproduce(*, scale: str, only: Sequence[str] | None = None, jobs: int = 1, seed: int = 0,
               device: str = "cpu", snapshot: bool = False,
               extra_parameters: dict[str, Any] | None = None, threads: int | None = None,
               allow_mixed: bool = False) -> int:
@@ -360,9 +364,9 @@ def reproduce(*, quick: bool, only: Sequence[str] | None = None, jobs: int = 1, 
     from repro.claims.report import write_report, write_snapshot
 
     targets = resolve_targets(only)
-    build_dir = paths.run_build_dir(quick)
+    build_dir = paths.run_build_dir(scale)
     try:
-        results = run_notebooks(targets, quick=quick, seed=seed, device=device, jobs=jobs,
+        results = run_notebooks(targets, scale=scale, seed=seed, device=device, jobs=jobs,
                                 extra_parameters=extra_parameters, threads=threads)
     except RunInterrupted as stop:
         print(f"interrupted ({stop}); {report_state(build_dir)}.", file=sys.stderr)
@@ -381,15 +385,16 @@ def reproduce(*, quick: bool, only: Sequence[str] | None = None, jobs: int = 1, 
               f"{build_dir / 'report'} is not rewritten")
         return 0
     try:
-        mixed = "" if allow_mixed else _mixed_runs(build_dir, quick)
+        mixed = "" if allow_mixed else _mixed_runs(build_dir, scale)
         if mixed:
             print(f"the notebooks ran and were published into {build_dir}; {mixed}")
             return 0
-        report = write_report(build_dir, quick=quick, runs=results, allow_mixed=allow_mixed,
+        report = write_report(build_dir, scale=scale, runs=results, allow_mixed=allow_mixed,
                               provenance=_cache_notices(results))
         print(f"report: {report}")
-        if snapshot and quick:
-            print("not refreshing results/: a quick run is a test, not a result")
+        if snapshot and scale != "standard":
+            print(f"not refreshing results/: it holds the standard scale's run, this is a "
+                  f"{scale}-scale run" + (" (a test, not a result)" if scale == "quick" else ""))
         elif snapshot and only:
             print("not refreshing results/: only a subset of notebooks ran")
         elif snapshot:
@@ -399,7 +404,7 @@ def reproduce(*, quick: bool, only: Sequence[str] | None = None, jobs: int = 1, 
         return 1
     except OSError as error:  # the notebooks were published; the report may be half written
         print(f"error: {write_problem(error)}; the notebooks were published: once it can be "
-              f"written, python -m repro report{' --quick' if quick else ''}"
+              f"written, python -m repro report --scale {scale}"
               f"{' --snapshot' if snapshot else ''} writes the report", file=sys.stderr)
         return 1
     return 0

@@ -1,6 +1,6 @@
 """A run as a transaction: stage everything, publish a notebook only when it succeeded.
 
-Each ``reproduce`` gets a run ID (UTC start time, commit, base seed, mode) and a staging folder
+Each ``reproduce`` gets a run ID (UTC start time, commit, base seed, scale) and a staging folder
 ``<build>/runs/<run ID>/`` holding ``run.json`` and one folder per notebook (the notebook's
 ``build_dir``: its claims/, figures/, executed notebook, result and worker log). When a
 notebook succeeds, :func:`publish` moves its figures, executed notebook and sidecars (last)
@@ -29,7 +29,7 @@ class Run:
     run_id: str
     commit: str
     seed: int
-    mode: str
+    scale: str
     started: str
     build_dir: Path
     staging: Path
@@ -60,17 +60,16 @@ def git_commit() -> str:
     return commit + ("+dirty" if dirty.stdout.strip() else "")
 
 
-def new_run(*, quick: bool, seed: int, device: str, targets: list[str],
+def new_run(*, scale: str, seed: int, device: str, targets: list[str],
             parameters: dict[str, Any]) -> Run:
     """Create the staging folder and ``run.json`` of a new run."""
     now = _dt.datetime.now(_dt.UTC)
-    mode = "quick" if quick else "full"
     commit = git_commit()
-    run_id = f"{now:%Y%m%dT%H%M%S}.{now.microsecond // 1000:03d}Z-{commit}-seed{seed}-{mode}"
-    build_dir = paths.run_build_dir(quick)
+    run_id = f"{now:%Y%m%dT%H%M%S}.{now.microsecond // 1000:03d}Z-{commit}-seed{seed}-{scale}"
+    build_dir = paths.run_build_dir(scale)
     staging = build_dir / "runs" / run_id
     staging.mkdir(parents=True)
-    run = Run(run_id=run_id, commit=commit, seed=seed, mode=mode,
+    run = Run(run_id=run_id, commit=commit, seed=seed, scale=scale,
               started=now.isoformat(timespec="seconds"), build_dir=build_dir, staging=staging)
     record = {k: str(v) if isinstance(v, Path) else v for k, v in asdict(run).items()}
     write_json(staging / "run.json", {**record, "device": device, "notebooks": targets,
@@ -93,10 +92,10 @@ def publish(run: Run, name: str) -> list[str]:
     source = run.notebook_dir(name)
     sidecars = {p: read_json(p) for p in sorted((source / "claims").glob("*.json"))}
     for path, sidecar in sidecars.items():
-        if sidecar.get("run_id") != run.run_id or sidecar.get("mode") != run.mode:
-            raise ValueError(f"{path} says run {sidecar.get('run_id')!r}, mode "
-                             f"{sidecar.get('mode')!r}; this is run {run.run_id} "
-                             f"({run.mode}): not published")
+        if sidecar.get("run_id") != run.run_id or sidecar.get("scale") != run.scale:
+            raise ValueError(f"{path} says run {sidecar.get('run_id')!r}, scale "
+                             f"{sidecar.get('scale')!r}; this is run {run.run_id} "
+                             f"({run.scale} scale): not published")
     figures = source / "figures"
     for figure in sorted(figures.glob("*")) if figures.is_dir() else []:
         (run.build_dir / "figures").mkdir(parents=True, exist_ok=True)

@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from repro.core.tables import markdown_table, render
+from repro.infra.context import check_scale
 from repro.motion import plotting
 from repro.motion.features import FEATURE_BLOCKS, Conformance
 from repro.standin.cooccurrence import CoOccurrence
@@ -29,22 +30,22 @@ __all__ = ["Settings", "agreement_tables", "block_std_rows", "co_occurrence_heat
 class Settings:
     """How big the generated set is and how many concepts the filmstrips show.
 
-    Full mode: 1000 clips (default compositions, ``DatasetConfig``), 12 concepts shown, the
-    composed clip animated at every second frame. Quick mode: 120 clips, 6 concepts, every
-    eighth frame (a test of the code, never a result).
+    Standard and paper scales: 1000 clips (default compositions, ``DatasetConfig``), 12
+    concepts shown, the composed clip animated at every second frame. Quick: 120 clips, 6
+    concepts, every eighth frame (a test of the code, never a result).
     """
 
-    quick: bool
+    scale: str
     n_clips: int
     shown_concepts: int
     filmstrip_frames: int = 8
     animation_stride: int = 2
 
     @classmethod
-    def for_mode(cls, quick: bool) -> Settings:
-        if quick:
-            return cls(quick=True, n_clips=120, shown_concepts=6, animation_stride=8)
-        return cls(quick=False, n_clips=1000, shown_concepts=12)
+    def for_scale(cls, scale: str) -> Settings:
+        if check_scale(scale) == "quick":
+            return cls(scale=scale, n_clips=120, shown_concepts=6, animation_stride=8)
+        return cls(scale=scale, n_clips=1000, shown_concepts=12)
 
     def dataset(self, seed: int) -> DatasetConfig:
         """The generated set's config (its cache key) for base seed ``seed``."""
