@@ -32,19 +32,19 @@ def _snapshot(version: int, **extra: object) -> dict:
 def test_a_version_1_snapshot_says_no_v2_run_exists() -> None:
     text = budgets_markdown(_snapshot(1))
     assert "**No full run under registry v2 or later exists yet**" in text
-    assert "cold full `make reproduce` ≤ 60 min, warm full `make reproduce` ≤ 4 min" in text
+    assert "cold standard `make reproduce` ≤ 60 min, warm standard `make reproduce` ≤ 4 min" in text
     assert "|" not in text  # no table of times that were not measured on such a run
     assert "No full run" in budgets_markdown({**_snapshot(3), "mode": "quick"})
 
 
 def test_a_v3_snapshot_shows_totals_against_budgets_and_per_notebook_times() -> None:
-    timings = {"reproduce_full_cold": {"seconds": 4000.0, "commit": "abc1234"},
-               "reproduce_full_warm": {"seconds": 200.0, "commit": "0ld0ld0"}}
+    timings = {"reproduce_standard_cold": {"seconds": 4000.0, "commit": "abc1234"},
+               "reproduce_standard_warm": {"seconds": 200.0, "commit": "0ld0ld0"}}
     text = budgets_markdown(_snapshot(3, timings=timings, run_span_seconds=3990.0))
     assert "Budgets of #15 against the run in `results/` (commit abc1234):" in text
-    assert ("| cold full `make reproduce` (whole process) | 4000 s (66.7 min) | 3600 | "
+    assert ("| cold standard `make reproduce` (whole process) | 4000 s (66.7 min) | 3600 | "
             "**over** |") in text
-    assert ("| warm full `make reproduce` (whole process) (commit 0ld0ld0) | 200 s (3.3 min) | "
+    assert ("| warm standard `make reproduce` (whole process) (commit 0ld0ld0) | 200 s (3.3 min) | "
             "240 | within |") in text
     assert "| `make test`, cold cache | not measured | 300 | — |" in text
     assert "| this run, from its start to its last recorded claim | 3990 s (66.5 min) |" in text
@@ -55,11 +55,11 @@ def test_a_v3_snapshot_shows_totals_against_budgets_and_per_notebook_times() -> 
 def test_bench_rows_that_failed_or_are_not_budgeted_are_left_out(tmp_path: Path) -> None:
     bench = tmp_path / "bench.json"
     bench.write_text(json.dumps({"rows": {
-        "reproduce_full_cold": {"seconds": 3000.04, "exit_code": 0, "commit": "c1",
+        "reproduce_standard_cold": {"seconds": 3000.04, "exit_code": 0, "commit": "c1",
                                 "measured": "2026-12-01 10:00 UTC"},
-        "reproduce_full_warm": {"seconds": 100.0, "exit_code": 1, "commit": "c1"},
+        "reproduce_standard_warm": {"seconds": 100.0, "exit_code": 1, "commit": "c1"},
         "unit_tests": {"seconds": 50.0, "exit_code": 0}}}), encoding="utf-8")
-    assert bench_timings(bench) == {"reproduce_full_cold": {
+    assert bench_timings(bench) == {"reproduce_standard_cold": {
         "seconds": 3000.04, "commit": "c1", "measured": "2026-12-01 10:00 UTC"}}
     assert bench_timings(tmp_path / "missing.json") == {}
 

@@ -179,7 +179,7 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
     build = tmp_path / "build"
     monkeypatch.setenv("REPRO_BUILD_ROOT", str(build))
     (build / "bench").mkdir(parents=True)
-    (build / "bench" / "bench.json").write_text(json.dumps({"rows": {"reproduce_full_cold": {
+    (build / "bench" / "bench.json").write_text(json.dumps({"rows": {"reproduce_standard_cold": {
         "seconds": 3000.0, "exit_code": 0, "commit": "c1"}}}))
     _record_a3_with_controls(build, models=[])
     (build / "notebooks").mkdir()
@@ -199,7 +199,7 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
     assert "<a href='notebooks/01_x0_vs_eps.html'>01_x0_vs_eps</a>" in page
     assert (results / "figures" / "claims_by_outcome.png").is_file()
     readme = (repo / "README.md").read_text(encoding="utf-8")
-    assert "| cold full `make reproduce` (whole process) (commit c1) | 3000 s (50.0 min) |" \
+    assert "| cold standard `make reproduce` (whole process) (commit c1) | 3000 s (50.0 min) |" \
         in readme
 
 

@@ -98,6 +98,6 @@ def test_bench_warm_cache_is_checked_and_rows_of_earlier_benches_stay(
     assert bench.run_bench(quick=False, warm_cache=tmp_path / "cache") == 0
     rows = read_json(out)["rows"]
     assert rows["make_test_cold_cache"]["seconds"] == 176.0         # kept from the earlier bench
-    assert rows["reproduce_full_warm"]["seconds"] == 3.0
-    assert rows["reproduce_full_warm"]["cache"] == str((tmp_path / "cache").resolve())
+    assert rows["reproduce_standard_warm"]["seconds"] == 3.0
+    assert rows["reproduce_standard_warm"]["cache"] == str((tmp_path / "cache").resolve())
     assert timed == [{"REPRO_CACHE_DIR": str((tmp_path / "cache").resolve())}]

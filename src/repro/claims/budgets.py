@@ -23,10 +23,10 @@ from repro.infra.storage import read_json
 
 #: issue #15's budgets (2 cores): cold ``make reproduce`` ≤ 60 min, warm ≤ 4 min,
 #: ``make test`` on a fresh clone ≤ 5 min
-BUDGETS_SECONDS = {"reproduce_full_cold": 3600.0, "reproduce_full_warm": 240.0,
+BUDGETS_SECONDS = {"reproduce_standard_cold": 3600.0, "reproduce_standard_warm": 240.0,
                    "make_test_cold_cache": 300.0}
-TIMING_NAMES = {"reproduce_full_cold": "cold full `make reproduce` (whole process)",
-                "reproduce_full_warm": "warm full `make reproduce` (whole process)",
+TIMING_NAMES = {"reproduce_standard_cold": "cold standard `make reproduce` (whole process)",
+                "reproduce_standard_warm": "warm standard `make reproduce` (whole process)",
                 "make_test_cold_cache": "`make test`, cold cache"}
 README_BUDGETS_START = "<!-- budgets:start"
 README_BUDGETS_END = "<!-- budgets:end -->"

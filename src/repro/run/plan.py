@@ -32,3 +32,21 @@ def planned_seconds(scale: str) -> dict[str, float]:
     if scale != "standard":
         return {}
     return {name: minutes * 60.0 for name, minutes in STANDARD_PLAN_MINUTES.items()}
+
+
+def plan_against_measured(measured: dict[str, float]) -> str:
+    """A table of each notebook's planned and measured wall minutes at the standard scale
+    (``measured``: seconds per notebook, a standard run's ``run_seconds``), and the totals."""
+    lines = [f"{'notebook':28s} {'plan min':>9s} {'measured':>9s} {'ratio':>6s}"]
+    for name, minutes in STANDARD_PLAN_MINUTES.items():
+        seconds = measured.get(name)
+        shown = "—" if seconds is None else f"{seconds / 60:.1f}"
+        ratio = "" if seconds is None else f"{seconds / 60 / minutes:.2f}"
+        lines.append(f"{name:28s} {minutes:9.1f} {shown:>9s} {ratio:>6s}")
+    known = [n for n in STANDARD_PLAN_MINUTES if n in measured]
+    lines.append(f"{'total (CPU-min, one thread each)':28s} "
+                 f"{sum(STANDARD_PLAN_MINUTES.values()):9.1f} "
+                 f"{sum(measured[n] for n in known) / 60:9.1f}"
+                 + ("" if len(known) == len(STANDARD_PLAN_MINUTES)
+                    else f"  ({len(known)} of {len(STANDARD_PLAN_MINUTES)} measured)"))
+    return "\n".join(lines)
