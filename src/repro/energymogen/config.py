@@ -19,6 +19,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
+from repro.energymogen.convergence import STANDARD_DENOISER_STEPS, STANDARD_VAE_STEPS
+from repro.infra.context import check_scale
 from repro.models.frozen_text import MINILM_WIDTH
 from repro.standin.generator import GENERATOR_VERSION
 
@@ -164,17 +166,27 @@ class PipelineConfig:
                 "format": 3}
 
 
-def pipeline_config(quick: bool) -> PipelineConfig:
-    """The one configuration every EnergyMoGen notebook uses (identical → shared cache).
+def pipeline_config(scale: str) -> PipelineConfig:
+    """The one configuration every EnergyMoGen notebook uses at ``scale``
+    (``infra.context.SCALES``; identical → shared cache).
 
-    Quick: tiny data and few steps, a test of the code only. Both use the default frozen
-    MiniLM text encoder. Quick mode keeps it, measured on the quick set (480 captions, 323
-    distinct, one thread): loading about 4 s once per process + encoding the captions 1.8 s
-    per pipeline load, against 4.0 s for the learned encoder's 40 training steps (measured
-    under load) — not too slow for a test run.
+    paper: the defaults (the former full mode, the same cache keys). standard
+    (docs/COMPUTE.md §3b, §5; fixed before any standard result): the paper's data, VAE and
+    sampling, with the latent denoiser narrowed to width 32 × 2 layers (64 × 3 at paper) and
+    the step counts of ``convergence.STANDARD_VAE_STEPS`` / ``STANDARD_DENOISER_STEPS``
+    (900 / 1000, fixed: the standard ``TrainingPlan`` does not stop on a plateau). quick: tiny
+    data and few steps, a test of the code only. Every scale uses the default frozen MiniLM
+    text encoder; quick mode keeps it, measured on the quick set (480 captions, 323 distinct,
+    one thread): loading about 4 s once per process + encoding the captions 1.8 s per
+    pipeline load, against 4.0 s for the learned encoder's 40 training steps (measured under
+    load) — not too slow for a test run.
     """
-    if not quick:
+    scale = check_scale(scale)
+    if scale == "paper":
         return PipelineConfig()
+    if scale == "standard":
+        return PipelineConfig(vae_steps=STANDARD_VAE_STEPS, denoiser_width=32,
+                              denoiser_layers=2, denoiser_steps=STANDARD_DENOISER_STEPS)
     return PipelineConfig(n_train_clips=160, test_clips_per_pair=3, vae_steps=40,
                           text_steps=40, denoiser_steps=80, evaluator_steps=40, ddim_steps=5,
                           items_per_pair=4, items_per_extra_set=5)
