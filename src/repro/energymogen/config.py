@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
-from repro.energymogen.convergence import STANDARD_DENOISER_STEPS, STANDARD_VAE_STEPS
 from repro.infra.context import check_scale
 from repro.models.frozen_text import MINILM_WIDTH
 from repro.standin.generator import GENERATOR_VERSION
@@ -27,7 +26,8 @@ from repro.standin.generator import GENERATOR_VERSION
 __all__ = [
     "ARM_CONCEPTS", "EXTRA_TEST_SETS", "FRAMES", "HELD_OUT_PAIRS", "LEARNED_MAX_TEXT_LEN",
     "LEARNED_TEXT_DIM", "LOWER_CONCEPTS",
-    "MINILM_MAX_TEXT_LEN", "NEGATION_CASES", "RHYTHM_OVERRIDES", "TEXT_ENCODERS", "THREES_AS_PAIRS",
+    "MINILM_MAX_TEXT_LEN", "NEGATION_CASES", "RHYTHM_OVERRIDES", "STANDARD_DENOISER_STEPS",
+    "STANDARD_VAE_STEPS", "TEXT_ENCODERS", "THREES_AS_PAIRS",
     "THREE_CONCEPT_SETS", "PipelineConfig", "config_summary", "pipeline_config",
     "with_learned_text", "with_minilm",
 ]
@@ -88,6 +88,11 @@ NEGATION_CASES: tuple[tuple[tuple[str, str], str], ...] = (
 #: the limit of the paper's text encoder. The learned encoder's 24 words would cut 18 of the 63
 #: quick-mode three-concept captions (up to 29 tokens; measured), none of which it cuts as words.
 MINILM_MAX_TEXT_LEN = 77
+#: the standard scale's fixed step counts (docs/COMPUTE.md §3b and §4 item 3, fixed before
+#: any standard result): the width-64 VAE passed its concept-preservation gate from 750 steps
+#: in both piloted seeds; the 32 × 2 denoiser's 1000 steps are §3b's placeholder
+STANDARD_VAE_STEPS = 900
+STANDARD_DENOISER_STEPS = 1000
 #: the learned encoder's width and word limit (its values before issue #16)
 LEARNED_TEXT_DIM, LEARNED_MAX_TEXT_LEN = 64, 24
 
@@ -173,7 +178,7 @@ def pipeline_config(scale: str) -> PipelineConfig:
     paper: the defaults (the former full mode, the same cache keys). standard
     (docs/COMPUTE.md §3b, §5; fixed before any standard result): the paper's data, VAE and
     sampling, with the latent denoiser narrowed to width 32 × 2 layers (64 × 3 at paper) and
-    the step counts of ``convergence.STANDARD_VAE_STEPS`` / ``STANDARD_DENOISER_STEPS``
+    the step counts :data:`STANDARD_VAE_STEPS` / :data:`STANDARD_DENOISER_STEPS`
     (900 / 1000, fixed: the standard ``TrainingPlan`` does not stop on a plateau). quick: tiny
     data and few steps, a test of the code only. Every scale uses the default frozen MiniLM
     text encoder; quick mode keeps it, measured on the quick set (480 captions, 323 distinct,

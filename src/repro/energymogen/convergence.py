@@ -14,22 +14,17 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from repro.energymogen.config import STANDARD_DENOISER_STEPS, STANDARD_VAE_STEPS
 from repro.infra import cache, paths, storage
 from repro.infra.context import check_scale
 
-__all__ = ["FULL_VAE_STEP_CAP", "STANDARD_DENOISER_STEPS", "STANDARD_VAE_STEPS", "TrainingPlan",
-           "TrainingRecord", "cached_training_record"]
+__all__ = ["FULL_VAE_STEP_CAP", "TrainingPlan", "TrainingRecord", "cached_training_record"]
 
 
 #: the full-mode VAE step cap: what 20 CPU-minutes buy on one thread (0.1015 CPU-s per step,
 #: rounded down to 250), as the rule of ``docs/pilot_emg_vae.md`` says when the pilot VAE
 #: (N = 5) did not reach its gate within them
 FULL_VAE_STEP_CAP = 11750
-#: the standard scale's fixed step counts (docs/COMPUTE.md §3b and §4 item 3, fixed before
-#: any standard result): the width-64 VAE passed its concept-preservation gate from 750 steps
-#: in both piloted seeds; the 32 × 2 denoiser's 1000 steps are §3b's placeholder
-STANDARD_VAE_STEPS = 900
-STANDARD_DENOISER_STEPS = 1000
 
 
 @dataclass(frozen=True)
