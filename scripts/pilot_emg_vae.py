@@ -1,7 +1,7 @@
 """Pilot (issue #16, EMG-7): what it costs on one thread to train the pipeline's motion VAE
 to its gate (reconstruction MPJPE <= 5 cm, concept preservation >= 0.9x the real clips').
 
-Full-mode data (``pipeline_config(False)``), the VAE of ``pipeline.vae_kwargs`` with the
+Full-mode data (``pipeline_config("paper")``), the VAE of ``pipeline.vae_kwargs`` with the
 full-mode batch and lr, trained in chunks of ``--chunk`` steps; after each chunk the gate
 values on ``--clips`` validation clips (drawn as training clips, keys disjoint from
 training and test) and the validation loss. Stops at the gate, at ``--minutes`` of training
@@ -38,7 +38,7 @@ def main() -> None:
     parser.add_argument("--wall-minutes", type=float, default=35.0)
     args = parser.parse_args()
     torch.set_num_threads(1)
-    config = replace(pipeline_config(False), latent_count=args.latent_count)
+    config = replace(pipeline_config("paper"), latent_count=args.latent_count)
     data = load_or_build_data(config)
     val = load_or_build_validation_clips(config, args.clips)
     train_x = data.normalise(data.train_features)

@@ -3,7 +3,7 @@ motion VAE pass its fitness gate (gates version 3, family ``vae``: the oracles' 
 on reconstructions of held-out clips ≥ 0.9× their recall on the clips themselves) within
 ~1000 steps, and what does a step cost here?
 
-The full-mode pipeline's VAE (``pipeline_config(False)``, ``pipeline.vae_kwargs``,
+The full-mode pipeline's VAE (``pipeline_config("paper")``, ``pipeline.vae_kwargs``,
 ``pipeline.vae_train_config`` for evaluation seed ``--seed``: batch 32, AdamW lr 1e-3, KL 1e-4,
 clip 1.0), trained by ``models.vae.train_vae``'s loop (the same generator draws the batches and
 the reparameterisation noise) for a fixed ``--steps`` (no plateau stop), one torch thread,
@@ -76,9 +76,9 @@ def check(vae: MotionVAE, data: StandInData, test: TextToMotionTest, val_x: torc
 
 def run(width: int, args: argparse.Namespace) -> None:
     """Train the full-mode VAE at ``width`` to ``args.steps``, appending a row per check."""
-    config = replace(pipeline_config(False), vae_width=width)
+    config = replace(pipeline_config("paper"), vae_width=width)
     train_config = vae_train_config(config, train_seed_for(config, args.seed), threads=1)
-    plan = TrainingPlan.for_mode(False)
+    plan = TrainingPlan.for_scale("paper")
     data = load_or_build_data(config)
     test = load_or_build_text_to_motion_test(config, args.test_clips)
     val = load_or_build_validation_clips(config, plan.validation_clips)

@@ -40,7 +40,7 @@ def test_sets_of_three_and_their_control_name_the_same_motions() -> None:
 
 
 def test_full_mode_is_the_default_config_and_quick_only_shrinks() -> None:
-    full, quick = pipeline_config(False), pipeline_config(True)
+    full, quick = pipeline_config("paper"), pipeline_config("quick")
     assert full == PipelineConfig()
     changed = {f.name for f in fields(PipelineConfig) if getattr(full, f.name) != getattr(
         quick, f.name)}

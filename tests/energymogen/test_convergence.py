@@ -27,12 +27,12 @@ CONVERGENCE_FIELDS = {"validate_every", "patience", "min_delta"}
 
 
 def test_convergence_fields_enter_the_training_configs_only_with_a_plan() -> None:
-    config = pipeline_config(False)
+    config = pipeline_config("paper")
     plain_vae = em.vae_train_config(config, 0).to_config()
     plain_denoiser = em.denoiser_train_config(config, 0).to_config()
     assert not CONVERGENCE_FIELDS & set(plain_vae)
     assert not CONVERGENCE_FIELDS & set(plain_denoiser)
-    plan = TrainingPlan.for_mode(False)
+    plan = TrainingPlan.for_scale("paper")
     vae = em.vae_train_config(config, 0, plan=plan).to_config()
     denoiser = em.denoiser_train_config(config, 0, plan=plan).to_config()
     assert CONVERGENCE_FIELDS <= set(vae) and CONVERGENCE_FIELDS <= set(denoiser)
@@ -48,7 +48,7 @@ def test_plans_are_checked() -> None:
     with pytest.raises(ValueError, match="vae_step_cap"):
         TrainingPlan(validation_clips=4, vae_step_cap=0, vae_validate_every=1,
                      denoiser_step_cap=1, denoiser_validate_every=1)
-    quick, full = TrainingPlan.for_mode(True), TrainingPlan.for_mode(False)
+    quick, full = TrainingPlan.for_scale("quick"), TrainingPlan.for_scale("paper")
     assert quick.vae_step_cap < full.vae_step_cap and quick.validation_clips < 32
 
 

@@ -18,7 +18,7 @@ CAPTIONS = [["a person walks forward and then turns left", "someone waves with t
 def test_frozen_tokens_are_computed_once_and_equal_the_encoder_s(
         monkeypatch: pytest.MonkeyPatch) -> None:
     encoder = shared_minilm("cpu")
-    config = pipeline_config(True)
+    config = pipeline_config("quick")
     latents = torch.zeros(2, 1, 1)
     flat = [c for caps in CAPTIONS for c in caps]
     ids, lengths = encoder.tokenizer.encode_batch(flat, config.max_text_len)

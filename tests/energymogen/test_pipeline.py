@@ -244,7 +244,7 @@ def test_the_quick_pipeline_built_from_nothing_has_the_pinned_keys(
     """The quick notebooks' models, trained from an empty cache (seconds), are the entries
     pinned in BUILD_CACHE: same keys, same data, same training, bit for bit."""
     monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path))
-    _, spy = _spied_load(monkeypatch, pipeline_config(True), 0)
+    _, spy = _spied_load(monkeypatch, pipeline_config("quick"), 0)
     hashes = spy.hashes()
     assert set(hashes) == set(BUILD_CACHE[("quick", 0)])
     for kind, expected in BUILD_CACHE[("quick", 0)].items():
@@ -278,7 +278,7 @@ def test_the_full_pipeline_keys_are_the_pinned_ones(train_seed: int, emg_cache: 
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     """The full notebooks' keys: the VAE's and the evaluator's exactly FULL_DATA_KEYS' (they
     depend on the data alone), the denoiser's structure as recorded, no text encoder's."""
-    keys = _untrained_load(monkeypatch, pipeline_config(False), train_seed)
+    keys = _untrained_load(monkeypatch, pipeline_config("paper"), train_seed)
     assert "emg_text_encoder" not in keys
     for kind, expected in FULL_DATA_KEYS[train_seed].items():
         if cache.config_hash(keys[kind]) != expected:   # see CPU_DEPENDENT
@@ -299,7 +299,7 @@ def test_trained_full_entries_under_build_cache_are_still_hit(
     if not all((paths.cache_dir() / kind / h / "model.pt").exists()
                for kind, h in expected.items()):
         pytest.skip(f"build/cache holds no full models of training seed {train_seed}")
-    _, spy = _spied_load(monkeypatch, pipeline_config(False), train_seed, forbid_misses=True)
+    _, spy = _spied_load(monkeypatch, pipeline_config("paper"), train_seed, forbid_misses=True)
     assert {kind: spy.hashes()[kind] for kind in expected} == expected
 
 

@@ -1,62 +1,148 @@
-"""Per-notebook run settings (repro.energymogen.settings): full mode is the registered design,
-quick mode a smaller run of the same code, and every notebook shares the one pipeline."""
+"""Per-notebook run settings (repro.energymogen.settings) at the three scales: paper is the
+registered design (the former full mode, unchanged), standard the ``make reproduce`` design of
+docs/COMPUTE.md, quick a smaller run of the same code; at each scale every notebook shares the
+one pipeline (one model bank)."""
 
 from __future__ import annotations
 
 import inspect
+from dataclasses import fields
 
 import pytest
 
-from repro.energymogen.config import pipeline_config
-from repro.energymogen.convergence import TrainingPlan
+from repro.core.training import PlateauCriterion
+from repro.energymogen import pipeline as em
+from repro.energymogen.config import PipelineConfig, pipeline_config
+from repro.energymogen.convergence import FULL_VAE_STEP_CAP, TrainingPlan
 from repro.energymogen.energy import energy_map_case
 from repro.energymogen.latent_count import LATENT_COUNTS
 from repro.energymogen.settings import (
+    FULL_SEEDS,
+    SEEDS,
     AugmentationSettings,
     EnergyViewSettings,
     LatentCountSettings,
     SEFAblationSettings,
+    seeds_of,
 )
+from repro.infra.context import SCALES
 
 SETTINGS = (EnergyViewSettings, SEFAblationSettings, LatentCountSettings, AugmentationSettings)
 
 
 @pytest.mark.parametrize("settings", SETTINGS)
-@pytest.mark.parametrize("quick", [False, True])
-def test_every_notebook_uses_the_shared_pipeline(settings: type, quick: bool) -> None:
-    chosen = settings.for_mode(quick)
-    assert chosen.quick is quick and chosen.pipeline == pipeline_config(quick)
-    assert chosen.plan == TrainingPlan.for_mode(quick)  # one trained pipeline for 04/05/07/08
-    assert (chosen.seeds == 1) if quick else (chosen.seeds >= 3)
+@pytest.mark.parametrize("scale", SCALES)
+def test_every_notebook_uses_the_shared_pipeline(settings: type, scale: str) -> None:
+    chosen = settings.for_scale(scale)
+    assert chosen.scale == scale and chosen.quick is (scale == "quick")
+    assert chosen.pipeline == pipeline_config(scale)
+    assert chosen.plan == TrainingPlan.for_scale(scale)  # one trained pipeline for 04/05/07/08
+    assert chosen.seeds == {"quick": 1, "standard": 3}.get(scale, chosen.seeds)
+    assert scale != "paper" or chosen.seeds >= 3
 
 
-def test_full_energy_maps_are_the_defaults_of_energy_map_case() -> None:
+@pytest.mark.parametrize("scale", ["standard", "paper"])
+def test_one_model_bank_for_notebooks_04_05_07_08(scale: str) -> None:
+    """Notebook 04's pipeline, 05's, 07's N = 5 and 08's pretrained one are one configuration
+    and one plan, so train seeds 0–2 have the same VAE and denoiser cache keys in all four."""
+    view, sef = EnergyViewSettings.for_scale(scale), SEFAblationSettings.for_scale(scale)
+    count = LatentCountSettings.for_scale(scale)
+    augmentation = AugmentationSettings.for_scale(scale)
+    assert 5 in count.counts and count.pipeline.latent_count == 5
+    configs = [s.pipeline for s in (view, sef, count, augmentation)]
+    plans = [s.plan for s in (view, sef, count, augmentation)]
+    assert all(c == configs[0] for c in configs) and all(p == plans[0] for p in plans)
+    for train_seed in range(3):
+        vae_keys = {repr(em.vae_train_config(c, train_seed, threads=t, plan=p).to_config())
+                    for c, p, t in zip(configs, plans, (None, None, 1, 1), strict=True)}
+        denoiser_keys = {repr(em.denoiser_train_config(c, train_seed, threads=t, plan=p)
+                              .to_config())
+                         for c, p, t in zip(configs, plans, (None, None, 1, 1), strict=True)}
+        assert len(vae_keys) == 1 and len(denoiser_keys) == 1
+
+
+def test_standard_scale_is_the_compute_plan() -> None:
+    config, plan = pipeline_config("standard"), TrainingPlan.for_scale("standard")
+    assert (config.vae_width, config.vae_layers) == (64, 2)            # today's VAE
+    assert (config.denoiser_width, config.denoiser_layers) == (32, 2)  # 32 × 2
+    assert (plan.vae_step_cap, plan.denoiser_step_cap) == (900, 1000)
+    assert not plan.plateau_stop
+    paper = pipeline_config("paper")
+    changed = {f.name for f in fields(PipelineConfig)
+               if getattr(config, f.name) != getattr(paper, f.name)}
+    assert changed == {"vae_steps", "denoiser_width", "denoiser_layers", "denoiser_steps"}
+    vae = em.vae_train_config(config, 0, plan=plan)
+    denoiser = em.denoiser_train_config(config, 0, plan=plan)
+    assert (vae.steps, denoiser.steps) == (900, 1000)
+    assert vae.validate_every is not None and denoiser.validate_every is not None  # curve kept
+    for train, cap in ((vae, 900), (denoiser, 1000)):    # fixed steps: the plateau never stops
+        criterion = PlateauCriterion(train.patience, train.min_delta)
+        stops = [criterion.update(step, 1.0) for step in range(train.validate_every, cap + 1,
+                                                               train.validate_every)]
+        assert len(stops) >= 4 and not any(stops)
+    view = EnergyViewSettings.for_scale("standard")
+    assert (view.seeds, view.map_noise_draws, view.map_grid, view.map_samples) == (3, 2, 16, 16)
+    assert not view.scale_check and view.map_cases is None
+    count = LatentCountSettings.for_scale("standard")
+    assert count.counts == (5, 7) and count.counts_not_run == (1, 3)
+    assert count.test_clips == 256
+    augmentation = AugmentationSettings.for_scale("standard")
+    assert (augmentation.test_clips, augmentation.gate_test_clips) == (384, 256)
+    assert augmentation.finetune(0, pretraining_steps=1000).steps == 333   # a third
+    assert augmentation.finetune(0).steps == 333
+    assert SEFAblationSettings.for_scale("standard").timeline_items == 64
+    assert set(SEEDS["standard"].values()) == {3} and set(SEEDS["quick"].values()) == {1}
+
+
+def test_paper_scale_is_the_former_full_mode() -> None:
+    """The paper scale's values are those of the former ``for_mode(False)`` (same keys)."""
+    assert pipeline_config("paper") == PipelineConfig()
+    assert TrainingPlan.for_scale("paper") == TrainingPlan(
+        validation_clips=128, vae_step_cap=FULL_VAE_STEP_CAP, vae_validate_every=250,
+        denoiser_step_cap=10000, denoiser_validate_every=250, patience=5, min_delta=0.01)
+    plan = TrainingPlan.for_scale("paper")
+    assert plan.plateau_stop and plan.vae_patience == plan.denoiser_patience == 5
+    assert FULL_SEEDS == SEEDS["paper"] == {"EMG-2": 5, "EMG-3": 5, "EMG-6": 5, "EMG-4": 3,
+                                            "EMG-5": 3, "EMG-7": 3, "EMG-8": 3}
+    view = EnergyViewSettings.for_scale("paper")
+    assert (view.seeds, view.emg1_samples, view.negation_items_per_case, view.scale_check,
+            view.map_grid, view.map_noise_draws, view.map_samples, view.map_cases) == (
+        5, 8, 16, True, 16, 4, 16, None)
     defaults = inspect.signature(energy_map_case).parameters
-    full = EnergyViewSettings.for_mode(False)
-    assert (full.map_grid, full.map_noise_draws, full.map_samples) == (
+    assert (view.map_grid, view.map_noise_draws, view.map_samples) == (
         defaults["grid"].default, defaults["n_noise"].default, defaults["samples"].default)
-    assert full.seeds == 5 and full.scale_check
-    assert not EnergyViewSettings.for_mode(True).scale_check
-
-
-def test_latent_count_and_augmentation_settings() -> None:
-    full = LatentCountSettings.for_mode(False)
-    assert full.counts == LATENT_COUNTS and full.test_clips == 256 and full.threads == 1
-    quick = LatentCountSettings.for_mode(True)
-    assert quick.test_clips == 64 and quick.counts == (5, 7)   # the two N the rule names
-    augmentation = AugmentationSettings.for_mode(False)
+    count = LatentCountSettings.for_scale("paper")
+    assert count.counts == LATENT_COUNTS and count.test_clips == 256 and count.threads == 1
+    assert count.counts_not_run == () and count.seeds == 3
+    augmentation = AugmentationSettings.for_scale("paper")
     assert augmentation.test_clips == 384 == 12 * 32 and augmentation.gate_test_clips == 256
-    for quick in (False, True):    # 07 and 08 train the same models
-        assert (LatentCountSettings.for_mode(quick).plan
-                == AugmentationSettings.for_mode(quick).plan == TrainingPlan.for_mode(quick))
-    assert augmentation.composed_set_size == 342
+    assert augmentation.composed_set_size == 342 and augmentation.seeds == 3
     finetune = augmentation.finetune(3)
     assert (finetune.steps, finetune.lr, finetune.seed, finetune.num_threads) == (
         833, 2.5e-4, 3, 1)
+    sef = SEFAblationSettings.for_scale("paper")
+    assert (sef.seeds, sef.timeline_items) == (3, 64)
 
 
-def test_emg5_timelines_and_emg6_cases() -> None:
-    assert SEFAblationSettings.for_mode(False).timeline_items == 64
-    assert SEFAblationSettings.for_mode(True).timeline_items == 8
-    assert EnergyViewSettings.for_mode(False).map_cases is None       # every pair and case
-    assert EnergyViewSettings.for_mode(True).map_cases == 2
+def test_quick_scale() -> None:
+    view = EnergyViewSettings.for_scale("quick")
+    assert not view.scale_check and view.map_cases == 2 and view.map_noise_draws == 1
+    count = LatentCountSettings.for_scale("quick")
+    assert count.test_clips == 64 and count.counts == (5, 7)   # the two N the rule names
+    assert SEFAblationSettings.for_scale("quick").timeline_items == 8
+    assert TrainingPlan.for_scale("quick").plateau_stop
+
+
+@pytest.mark.parametrize("make", [pipeline_config, TrainingPlan.for_scale,
+                                  *(s.for_scale for s in SETTINGS),
+                                  lambda scale: seeds_of("EMG-2", scale)])
+@pytest.mark.parametrize("scale", ["full", "Standard", True, None])
+def test_an_unknown_scale_is_a_clear_error(make, scale) -> None:
+    with pytest.raises(ValueError, match="quick, standard, paper"):
+        make(scale)
+
+
+def test_seeds_of() -> None:
+    assert [seeds_of("EMG-7", s) for s in SCALES] == [1, 3, 3]
+    with pytest.raises(ValueError, match="no seed count"):
+        seeds_of("EMG-1", "paper")

@@ -38,7 +38,7 @@ HUMANML3D_STYLE = (
 
 
 def test_default_is_minilm_and_learned_is_an_option() -> None:
-    for config in (PipelineConfig(), pipeline_config(True), pipeline_config(False)):
+    for config in (PipelineConfig(), pipeline_config("quick"), pipeline_config("paper")):
         assert (config.text_encoder, config.text_dim, config.max_text_len) == (
             "minilm", MINILM_WIDTH, MINILM_MAX_TEXT_LEN)
         assert with_minilm(config) == config

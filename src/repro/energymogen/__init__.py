@@ -13,8 +13,8 @@ per-t residual Jacobian asymmetry and loop integrals) · ``fid_checks`` (EMG-9's
 3, 4, 5) · ``planted`` (the planted transition effects of EMG-5's controls) ·
 ``latent_count`` (EMG-7) · ``model_gates`` (the fitness gates of the VAE, latent denoiser
 and evaluator) · ``augmentation`` (EMG-8, which measures its fine-tuned denoisers' gate) ·
-``controls`` (the positive and null controls of EMG-2 to 8) · ``settings`` (quick/full
-settings per notebook) · ``figures`` (the notebooks' figures) · ``training_report`` (the
+``controls`` (the positive and null controls of EMG-2 to 8) · ``settings`` (the
+settings per notebook and scale) · ``figures`` (the notebooks' figures) · ``training_report`` (the
 notebooks' training tables and validation curves).
 
 Layers: docs/DESIGN.md."""

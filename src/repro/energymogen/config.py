@@ -19,13 +19,15 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
+from repro.infra.context import check_scale
 from repro.models.frozen_text import MINILM_WIDTH
 from repro.standin.generator import GENERATOR_VERSION
 
 __all__ = [
     "ARM_CONCEPTS", "EXTRA_TEST_SETS", "FRAMES", "HELD_OUT_PAIRS", "LEARNED_MAX_TEXT_LEN",
     "LEARNED_TEXT_DIM", "LOWER_CONCEPTS",
-    "MINILM_MAX_TEXT_LEN", "NEGATION_CASES", "RHYTHM_OVERRIDES", "TEXT_ENCODERS", "THREES_AS_PAIRS",
+    "MINILM_MAX_TEXT_LEN", "NEGATION_CASES", "RHYTHM_OVERRIDES", "STANDARD_DENOISER_STEPS",
+    "STANDARD_VAE_STEPS", "TEXT_ENCODERS", "THREES_AS_PAIRS",
     "THREE_CONCEPT_SETS", "PipelineConfig", "config_summary", "pipeline_config",
     "with_learned_text", "with_minilm",
 ]
@@ -86,6 +88,11 @@ NEGATION_CASES: tuple[tuple[tuple[str, str], str], ...] = (
 #: the limit of the paper's text encoder. The learned encoder's 24 words would cut 18 of the 63
 #: quick-mode three-concept captions (up to 29 tokens; measured), none of which it cuts as words.
 MINILM_MAX_TEXT_LEN = 77
+#: the standard scale's fixed step counts (docs/COMPUTE.md §3b and §4 item 3, fixed before
+#: any standard result): the width-64 VAE passed its concept-preservation gate from 750 steps
+#: in both piloted seeds; the 32 × 2 denoiser's 1000 steps are §3b's placeholder
+STANDARD_VAE_STEPS = 900
+STANDARD_DENOISER_STEPS = 1000
 #: the learned encoder's width and word limit (its values before issue #16)
 LEARNED_TEXT_DIM, LEARNED_MAX_TEXT_LEN = 64, 24
 
@@ -164,17 +171,27 @@ class PipelineConfig:
                 "format": 3}
 
 
-def pipeline_config(quick: bool) -> PipelineConfig:
-    """The one configuration every EnergyMoGen notebook uses (identical → shared cache).
+def pipeline_config(scale: str) -> PipelineConfig:
+    """The one configuration every EnergyMoGen notebook uses at ``scale``
+    (``infra.context.SCALES``; identical → shared cache).
 
-    Quick: tiny data and few steps, a test of the code only. Both use the default frozen
-    MiniLM text encoder. Quick mode keeps it, measured on the quick set (480 captions, 323
-    distinct, one thread): loading about 4 s once per process + encoding the captions 1.8 s
-    per pipeline load, against 4.0 s for the learned encoder's 40 training steps (measured
-    under load) — not too slow for a test run.
+    paper: the defaults (the former full mode, the same cache keys). standard
+    (docs/COMPUTE.md §3b, §5; fixed before any standard result): the paper's data, VAE and
+    sampling, with the latent denoiser narrowed to width 32 × 2 layers (64 × 3 at paper) and
+    the step counts :data:`STANDARD_VAE_STEPS` / :data:`STANDARD_DENOISER_STEPS`
+    (900 / 1000, fixed: the standard ``TrainingPlan`` does not stop on a plateau). quick: tiny
+    data and few steps, a test of the code only. Every scale uses the default frozen MiniLM
+    text encoder; quick mode keeps it, measured on the quick set (480 captions, 323 distinct,
+    one thread): loading about 4 s once per process + encoding the captions 1.8 s per
+    pipeline load, against 4.0 s for the learned encoder's 40 training steps (measured under
+    load) — not too slow for a test run.
     """
-    if not quick:
+    scale = check_scale(scale)
+    if scale == "paper":
         return PipelineConfig()
+    if scale == "standard":
+        return PipelineConfig(vae_steps=STANDARD_VAE_STEPS, denoiser_width=32,
+                              denoiser_layers=2, denoiser_steps=STANDARD_DENOISER_STEPS)
     return PipelineConfig(n_train_clips=160, test_clips_per_pair=3, vae_steps=40,
                           text_steps=40, denoiser_steps=80, evaluator_steps=40, ddim_steps=5,
                           items_per_pair=4, items_per_extra_set=5)

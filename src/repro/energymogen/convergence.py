@@ -14,11 +14,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from repro.energymogen.config import STANDARD_DENOISER_STEPS, STANDARD_VAE_STEPS
 from repro.infra import cache, paths, storage
+from repro.infra.context import check_scale
 
 __all__ = ["FULL_VAE_STEP_CAP", "TrainingPlan", "TrainingRecord", "cached_training_record"]
-
-
 
 
 #: the full-mode VAE step cap: what 20 CPU-minutes buy on one thread (0.1015 CPU-s per step,
@@ -37,7 +37,7 @@ class TrainingPlan:
 
     With a plan the caps replace ``PipelineConfig.vae_steps``/``denoiser_steps`` and the
     convergence fields and the validation data enter the cache keys; without one (None)
-    training is as before, with the same keys. :meth:`for_mode` gives the notebooks' plans.
+    training is as before, with the same keys. :meth:`for_scale` gives the notebooks' plans.
     """
 
     validation_clips: int
@@ -47,6 +47,9 @@ class TrainingPlan:
     denoiser_validate_every: int
     patience: int = 5
     min_delta: float = 0.01
+    #: False: train exactly the step caps (a fixed step count); the validation curve is still
+    #: recorded (the standard scale, docs/COMPUTE.md §3a item 3)
+    plateau_stop: bool = True
 
     def __post_init__(self) -> None:
         for name in ("validation_clips", "vae_step_cap", "vae_validate_every",
@@ -56,17 +59,53 @@ class TrainingPlan:
         if not 0.0 <= self.min_delta < 1.0:
             raise ValueError(f"min_delta must be in [0, 1), got {self.min_delta}")
 
+    def patience_of(self, step_cap: int, validate_every: int) -> int:
+        """The plateau criterion's patience for a model validated every ``validate_every``
+        steps up to ``step_cap``: :attr:`patience`, or without :attr:`plateau_stop` one more
+        than the run's evaluations, so the criterion records the curve but never stops it."""
+        if self.plateau_stop:
+            return self.patience
+        return step_cap // validate_every + 1
+
+    @property
+    def vae_patience(self) -> int:
+        return self.patience_of(self.vae_step_cap, self.vae_validate_every)
+
+    @property
+    def denoiser_patience(self) -> int:
+        return self.patience_of(self.denoiser_step_cap, self.denoiser_validate_every)
+
+    def summary(self) -> str:
+        """How the plan trains, in words (for notes)."""
+        if not self.plateau_stop:
+            return (f"fixed {self.vae_step_cap} VAE and {self.denoiser_step_cap} denoiser "
+                    f"steps (no plateau stop; held-out loss on {self.validation_clips} "
+                    "validation clips recorded)")
+        return (f"trained to convergence: VAE cap {self.vae_step_cap}, denoiser cap "
+                f"{self.denoiser_step_cap} steps; validation on {self.validation_clips} "
+                f"held-out clips, patience {self.patience}, min delta {self.min_delta}")
+
     @classmethod
-    def for_mode(cls, quick: bool) -> TrainingPlan:
-        """Full: the caps of ``docs/pilot_emg_vae.md`` (VAE) and 4× the fixed 2500 denoiser
-        steps (no denoiser pilot yet), 128 validation clips, validation every 250 steps
-        (≈ 2–3 % of the training time), the TRAINING.md defaults patience 5 and δ 1 %. Quick:
-        caps at the quick configuration's fixed step counts (40 VAE, 80 denoiser steps, so quick
-        runs cost what they did), two evaluations each, patience 2: a test of the code path
-        only."""
-        if quick:
+    def for_scale(cls, scale: str) -> TrainingPlan:
+        """The notebooks' plan at ``scale`` (``infra.context.SCALES``).
+
+        paper: the caps of ``docs/pilot_emg_vae.md`` (VAE) and 4× the fixed 2500 denoiser
+        steps (no denoiser pilot), 128 validation clips, validation every 250 steps
+        (≈ 2–3 % of the training time), the TRAINING.md defaults patience 5 and δ 1 %.
+        standard (docs/COMPUTE.md §3b, §4 item 3): a FIXED 900 VAE steps (the pilot's VAE
+        passed its gate from 750 in both seeds) and 1000 denoiser steps, no plateau stop; the
+        held-out curve is still recorded (VAE every 150 steps, as the pilot's checks;
+        denoiser every 250), on 128 validation clips. quick: caps at the quick
+        configuration's fixed step counts (40 VAE, 80 denoiser steps), two evaluations each,
+        patience 2: a test of the code path only."""
+        scale = check_scale(scale)
+        if scale == "quick":
             return cls(validation_clips=16, vae_step_cap=40, vae_validate_every=20,
                        denoiser_step_cap=80, denoiser_validate_every=40, patience=2)
+        if scale == "standard":
+            return cls(validation_clips=128, vae_step_cap=STANDARD_VAE_STEPS,
+                       vae_validate_every=150, denoiser_step_cap=STANDARD_DENOISER_STEPS,
+                       denoiser_validate_every=250, plateau_stop=False)
         return cls(validation_clips=128, vae_step_cap=FULL_VAE_STEP_CAP, vae_validate_every=250,
                    denoiser_step_cap=10000, denoiser_validate_every=250)
 

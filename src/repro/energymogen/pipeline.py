@@ -295,8 +295,8 @@ def vae_train_config(config: PipelineConfig, train_seed: int, threads: int | Non
                               lr=config.vae_lr, seed=int(train_seed), num_threads=threads)
     return VAETrainConfig(steps=plan.vae_step_cap, batch_size=config.vae_batch,
                           lr=config.vae_lr, seed=int(train_seed), num_threads=threads,
-                          validate_every=plan.vae_validate_every, patience=plan.patience,
-                          min_delta=plan.min_delta)
+                          validate_every=plan.vae_validate_every,
+                          patience=plan.vae_patience, min_delta=plan.min_delta)
 
 
 def validation_clips(config: PipelineConfig, plan: TrainingPlan | None) -> HeldOutClips | None:
@@ -382,8 +382,8 @@ def denoiser_train_config(config: PipelineConfig, train_seed: int, threads: int 
     return TrainConfig(steps=plan.denoiser_step_cap, batch_size=config.denoiser_batch,
                        lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
                        seed=int(train_seed), num_threads=threads,
-                       validate_every=plan.denoiser_validate_every, patience=plan.patience,
-                       min_delta=plan.min_delta)
+                       validate_every=plan.denoiser_validate_every,
+                       patience=plan.denoiser_patience, min_delta=plan.min_delta)
 
 
 def denoiser_cache_key(config: PipelineConfig, train_config: TrainConfig,

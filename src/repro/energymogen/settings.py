@@ -1,10 +1,17 @@
 """Run settings of the EnergyMoGen notebooks 04, 05, 07 and 08: one frozen dataclass per
-notebook, ``for_mode(quick)`` gives its full or quick settings (fixed before any verdict).
+notebook, ``for_scale(scale)`` gives its settings at a scale of ``infra.context.SCALES``
+(fixed before any verdict; docs/COMPUTE.md §3–§5).
 
-Full mode is the run whose verdicts count; quick mode shrinks everything to a test of the
-code, never a result. Every notebook uses the one pipeline configuration of
-``config.pipeline_config`` (identical configurations share the cache), so the models of
-notebook 04 are those of 05, 07 and 08.
+- **quick**: everything shrunk to a test of the code, never a result;
+- **standard** (``make reproduce``, ≈ 30 CPU-minutes for EnergyMoGen): the paper's data, test
+  sets and VAE at fixed step counts (900 VAE, 1000 denoiser steps), a 32 × 2 latent denoiser,
+  3 seeds per claim, EMG-6's maps with 2 noise draws, EMG-7's N ∈ {5, 7} only, no
+  guidance-scale check;
+- **paper**: the former full mode, unchanged (the same cache keys).
+
+Every notebook uses the one pipeline configuration and training plan of its scale
+(``config.pipeline_config``, ``convergence.TrainingPlan.for_scale``: identical
+configurations share the cache), so the models of notebook 04 are those of 05, 07 and 08.
 """
 
 from __future__ import annotations
@@ -16,24 +23,39 @@ from repro.energymogen.augmentation import composed_set_size, finetune_config
 from repro.energymogen.config import PipelineConfig, pipeline_config
 from repro.energymogen.convergence import TrainingPlan
 from repro.energymogen.latent_count import LATENT_COUNTS
+from repro.infra.context import check_scale
 
-__all__ = ["FULL_SEEDS", "QUICK_SEEDS", "AugmentationSettings", "EnergyViewSettings",
-           "LatentCountSettings",
-           "SEFAblationSettings"]
+__all__ = ["FULL_SEEDS", "SEEDS", "STANDARD_LATENT_COUNTS", "AugmentationSettings",
+           "EnergyViewSettings", "LatentCountSettings", "SEFAblationSettings", "seeds_of"]
 
 #: our choice for notebooks 07/08: one torch thread (speed only, never in a cache key; see
 #: ``core.training.torch_threads``)
 ONE_THREAD = 1
 
-#: the N of a quick notebook 07: the pipeline's own 5 and the rule's other named N
-QUICK_LATENT_COUNTS = (5, 7)
+#: the N of a quick or standard notebook 07: the pipeline's own 5 and the rule's other named N
+#: (N = 1 and 3 are the paper scale's, docs/COMPUTE.md §3d)
+STANDARD_LATENT_COUNTS = (5, 7)
 
-#: How many seeds each EnergyMoGen claim's experiment runs in full mode, the one table
+_EMG_CLAIMS = ("EMG-2", "EMG-3", "EMG-6", "EMG-4", "EMG-5", "EMG-7", "EMG-8")
+#: How many seeds each EnergyMoGen claim's experiment runs at each scale, the one table
 #: (registry v4 plans no seed count from an earlier run's spread: each part states what its
-#: run could see). Notebook 04's claims share one seed list, as do notebook 05's. Quick: 1.
-FULL_SEEDS: dict[str, int] = {"EMG-2": 5, "EMG-3": 5, "EMG-6": 5, "EMG-4": 3, "EMG-5": 3,
-                              "EMG-7": 3, "EMG-8": 3}
-QUICK_SEEDS = 1
+#: run could see). Notebook 04's claims share one seed list, as do notebook 05's. quick: 1;
+#: standard: 3 for every claim (docs/COMPUTE.md §3a item 5); paper: the former full mode's.
+SEEDS: dict[str, dict[str, int]] = {
+    "quick": dict.fromkeys(_EMG_CLAIMS, 1),
+    "standard": dict.fromkeys(_EMG_CLAIMS, 3),
+    "paper": {"EMG-2": 5, "EMG-3": 5, "EMG-6": 5, "EMG-4": 3, "EMG-5": 3, "EMG-7": 3,
+              "EMG-8": 3}}
+#: the paper scale's row (the registry's examples read it)
+FULL_SEEDS: dict[str, int] = SEEDS["paper"]
+
+
+def seeds_of(claim_id: str, scale: str) -> int:
+    """How many seeds ``claim_id``'s experiment runs at ``scale``."""
+    row = SEEDS[check_scale(scale)]
+    if claim_id not in row:
+        raise ValueError(f"no seed count for {claim_id!r}; have {sorted(row)}")
+    return row[claim_id]
 
 
 @dataclass(frozen=True)
@@ -41,17 +63,18 @@ class EnergyViewSettings:
     """Notebook 04 (EMG-1, 2, 3, 6, 9).
 
     ``emg1_samples`` noised test latents for EMG-1's identities; ``negation_items_per_case``
-    items per ``config.NEGATION_CASES`` case (EMG-2/3); the guidance-scale check (full mode
-    only, not recorded) reruns EMG-2/3 at ``scale_check_scales`` on the first
-    ``scale_check_seeds`` seeds with fewer items; EMG-6's maps: a ``map_grid``² grid,
-    ``map_noise_draws`` noise draws, ``map_samples`` generated latents per row (the full
-    values are ``energy.energy_map_case``'s defaults), ``map_cases`` cases per kind and seed
+    items per ``config.NEGATION_CASES`` case (EMG-2/3); the guidance-scale check (paper scale
+    only: its cost at standard was not measured below a CPU-minute; not recorded) reruns
+    EMG-2/3 at ``scale_check_scales`` on the first ``scale_check_seeds`` seeds with fewer
+    items; EMG-6's maps: a ``map_grid``² grid, ``map_noise_draws`` noise draws (standard 2,
+    paper 4), ``map_samples`` generated latents per row (the paper values are
+    ``energy.energy_map_case``'s defaults), ``map_cases`` cases per kind and seed
     (None: every held-out pair and every negation case, registry v3; quick runs take the
     first two). ``plan``: the training plan of every EnergyMoGen notebook (the same trained
     pipeline as 05, 07 and 08).
     """
 
-    quick: bool
+    scale: str
     pipeline: PipelineConfig
     plan: TrainingPlan
     seeds: int
@@ -69,51 +92,58 @@ class EnergyViewSettings:
     scale_check_items_per_pair: int = 4
     scale_check_items_per_case: int = 8
 
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
     @classmethod
-    def for_mode(cls, quick: bool) -> EnergyViewSettings:
-        if quick:
-            return cls(quick=True, pipeline=pipeline_config(True),
-                       plan=TrainingPlan.for_mode(True), seeds=QUICK_SEEDS, emg1_samples=3,
-                       negation_items_per_case=6, scale_check=False, map_grid=6,
-                       map_noise_draws=1, map_samples=6, map_cases=2)
-        return cls(quick=False, pipeline=pipeline_config(False),
-                   plan=TrainingPlan.for_mode(False), seeds=FULL_SEEDS["EMG-2"],
-                   emg1_samples=8,
-                   negation_items_per_case=16, scale_check=True, map_grid=16,
-                   map_noise_draws=4, map_samples=16)
+    def for_scale(cls, scale: str) -> EnergyViewSettings:
+        scale = check_scale(scale)
+        common = {"scale": scale, "pipeline": pipeline_config(scale),
+                  "plan": TrainingPlan.for_scale(scale), "seeds": seeds_of("EMG-2", scale)}
+        if scale == "quick":
+            return cls(**common, emg1_samples=3, negation_items_per_case=6, scale_check=False,
+                       map_grid=6, map_noise_draws=1, map_samples=6, map_cases=2)
+        return cls(**common, emg1_samples=8, negation_items_per_case=16,
+                   scale_check=scale == "paper", map_grid=16,
+                   map_noise_draws=2 if scale == "standard" else 4, map_samples=16)
 
 
 @dataclass(frozen=True)
 class SEFAblationSettings:
     """Notebook 05 (EMG-4, EMG-5): the pipeline, the number of seeds and the MTT-style
-    timeline items per seed on which EMG-5's transitions are measured (``timelines``; 64 in
-    full runs, our choice: 1–3 boundaries each, about 150 transitions per row and seed, one
+    timeline items per seed on which EMG-5's transitions are measured (``timelines``; 64 at
+    standard and paper, our choice: 1–3 boundaries each, about 150 transitions per row and seed, one
     item in eight of MTT's 500; 8 in quick runs) and the training plan (every EnergyMoGen
     notebook's: one trained pipeline)."""
 
-    quick: bool
+    scale: str
     pipeline: PipelineConfig
     plan: TrainingPlan
     seeds: int
     timeline_items: int
 
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
     @classmethod
-    def for_mode(cls, quick: bool) -> SEFAblationSettings:
-        return cls(quick=quick, pipeline=pipeline_config(quick),
-                   plan=TrainingPlan.for_mode(quick),
-                   seeds=QUICK_SEEDS if quick else FULL_SEEDS["EMG-4"],
-                   timeline_items=8 if quick else 64)
+    def for_scale(cls, scale: str) -> SEFAblationSettings:
+        scale = check_scale(scale)
+        return cls(scale=scale, pipeline=pipeline_config(scale),
+                   plan=TrainingPlan.for_scale(scale), seeds=seeds_of("EMG-4", scale),
+                   timeline_items=8 if scale == "quick" else 64)
 
 
 @dataclass(frozen=True)
 class LatentCountSettings:
     """Notebook 07 (EMG-7): the N swept, the training seeds, the size of the held-out
     text-to-motion test set (256 clips: 8 R-precision batches of 32, FID of 32-d embeddings
-    from 256 samples; 64 in quick runs), the torch threads and the training plan: every N's
-    VAE and denoiser trained to convergence (``convergence.TrainingPlan.for_mode``; the VAE's
-    cap from the pilot of docs/pilot_emg_vae.md), so each N's VAE can reach its gate."""
+    from 256 samples; 64 in quick runs), the torch threads and the training plan
+    (``convergence.TrainingPlan.for_scale``: every N's VAE and denoiser trained to convergence
+    at paper, the VAE's cap from the pilot of docs/pilot_emg_vae.md; fixed steps at standard)."""
 
-    quick: bool
+    scale: str
     pipeline: PipelineConfig
     seeds: int
     test_clips: int
@@ -121,14 +151,25 @@ class LatentCountSettings:
     counts: tuple[int, ...] = LATENT_COUNTS
     threads: int = ONE_THREAD
 
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
+    @property
+    def counts_not_run(self) -> tuple[int, ...]:
+        """The N of ``latent_count.LATENT_COUNTS`` this scale does not sweep (paper only)."""
+        return tuple(n for n in LATENT_COUNTS if n not in self.counts)
+
     @classmethod
-    def for_mode(cls, quick: bool) -> LatentCountSettings:
-        """Quick runs sweep N = 5 and 7 only, the two the rule names (one extra VAE and
-        denoiser: every other N runs the same code)."""
-        return cls(quick=quick, pipeline=pipeline_config(quick),
-                   seeds=QUICK_SEEDS if quick else FULL_SEEDS["EMG-7"],
-                   test_clips=64 if quick else 256, plan=TrainingPlan.for_mode(quick),
-                   counts=QUICK_LATENT_COUNTS if quick else LATENT_COUNTS)
+    def for_scale(cls, scale: str) -> LatentCountSettings:
+        """Quick and standard runs sweep N = 5 and 7 only, the two the rule names (one extra
+        VAE and denoiser per seed: every other N runs the same code); N = 1, 3 are the paper
+        scale's."""
+        scale = check_scale(scale)
+        return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-7", scale),
+                   test_clips=64 if scale == "quick" else 256,
+                   plan=TrainingPlan.for_scale(scale),
+                   counts=LATENT_COUNTS if scale == "paper" else STANDARD_LATENT_COUNTS)
 
 
 @dataclass(frozen=True)
@@ -141,7 +182,7 @@ class AugmentationSettings:
     the training plan (notebook 07's); the composed set's size and the fine-tuning follow from
     the pipeline (``augmentation.composed_set_size``, ``augmentation.finetune_config``)."""
 
-    quick: bool
+    scale: str
     pipeline: PipelineConfig
     seeds: int
     test_clips: int
@@ -149,12 +190,17 @@ class AugmentationSettings:
     plan: TrainingPlan
     threads: int = ONE_THREAD
 
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
     @classmethod
-    def for_mode(cls, quick: bool) -> AugmentationSettings:
-        return cls(quick=quick, pipeline=pipeline_config(quick),
-                   seeds=QUICK_SEEDS if quick else FULL_SEEDS["EMG-8"],
+    def for_scale(cls, scale: str) -> AugmentationSettings:
+        scale = check_scale(scale)
+        quick = scale == "quick"
+        return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-8", scale),
                    test_clips=64 if quick else 384, gate_test_clips=64 if quick else 256,
-                   plan=TrainingPlan.for_mode(quick))
+                   plan=TrainingPlan.for_scale(scale))
 
     @property
     def composed_set_size(self) -> int:
