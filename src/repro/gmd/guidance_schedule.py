@@ -34,9 +34,10 @@ from repro.gmd.guidance import Clamp, goal_error, goal_reaching_loss, sample
 from repro.gmd.measurements import foot_skating_of, jitter_of
 from repro.gmd.models import GMDModelSpec, TrainedGMD
 from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_STOP_T
-from repro.gmd.run_seeds import FULL_SEEDS
+from repro.gmd.run_seeds import seeds_of
 from repro.gmd.windows import FeatureSpace
 from repro.gmd.x0_vs_eps import Settings as ModelSettings
+from repro.infra.context import check_scale
 
 __all__ = [
     "GMD_NUM_TIMESTEPS",
@@ -454,7 +455,7 @@ class Settings:
     the code, never a result).
     """
 
-    quick: bool
+    scale: str
     seeds: int
     goals: int
     obstacle_goals: int
@@ -472,15 +473,24 @@ class Settings:
     goals_shown: int = 6
 
     @classmethod
-    def for_mode(cls, quick: bool, *, seeds: int = FULL_SEEDS["GMD-F1"]) -> Settings:
-        model = ModelSettings.for_mode(quick, seeds=seeds)
-        if quick:
-            return cls(quick=True, seeds=seeds, goals=4, obstacle_goals=4, model=model)
-        return cls(quick=False, seeds=seeds, goals=32, obstacle_goals=16, model=model)
+    def for_scale(cls, scale: str, *, seeds: int | None = None) -> Settings:
+        """The settings of ``scale`` (``seeds`` None: ``run_seeds.seeds_of("GMD-F1", scale)``).
+        At the standard scale the models are notebook 01's at T = 100, and ``stops`` maps
+        GMD's {0, 20, 50, 200} of 1000 to {0, 2, 5, 20}."""
+        check_scale(scale)
+        seeds = seeds_of("GMD-F1", scale) if seeds is None else int(seeds)
+        model = ModelSettings.for_scale(scale, seeds=seeds)
+        if scale == "quick":
+            return cls(scale=scale, seeds=seeds, goals=4, obstacle_goals=4, model=model)
+        return cls(scale=scale, seeds=seeds, goals=32, obstacle_goals=16, model=model)
+
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
 
     @property
     def num_timesteps(self) -> int:
-        """T of the trajectory model (GMD's 1000; quick mode 50)."""
+        """T of the trajectory model (GMD's 1000; standard 100; quick 50)."""
         return self.model.guidance_diffusion_steps
 
     def spec(self, data_dir: str | None = None) -> GMDModelSpec:
