@@ -154,7 +154,8 @@ def test_settings_share_notebook_01s_guidance_trajectory_model() -> None:
         settings = gs.Settings.for_scale(scale)
         model = ModelSettings.for_scale(scale)
         assert settings.spec() == model.guidance_trajectory_spec("epsilon", model.data(None))
-        assert settings.motion_spec() == model.spec("motion", "x0", model.data(None))
+        assert settings.motion_spec() == model.spec("motion", "x0", model.data(None)).replace(
+            text_conditioned=scale != "paper")
     full = gs.Settings.for_scale("paper")
     assert full.num_timesteps == 1000 and full.gmd_stop == 20
     assert full.stops() == {0: 0, 20: 20, 50: 50, 200: 200}  # GMD's own steps, no mapping

@@ -33,6 +33,7 @@ def test_standard_motion_and_trajectory_models_are_the_plans() -> None:
     fields = training_fields("motion", scale="standard", step_cap=1500)
     assert fields["train_steps"] == 1500 and fields["patience"] > 1500 // 150
     assert not settings.longer_eps_run and x0eps.Settings.for_scale("paper").longer_eps_run
+    assert x0eps.Settings.for_scale("quick").longer_eps_run  # a test of the paper path
     assert settings.generated == 128
 
 
@@ -74,6 +75,9 @@ def test_the_standard_model_bank_shares_keys() -> None:
         assert a4 == guidance_schedule.Settings.for_scale("standard").spec().replace(seed=seed)
         assert (nb01.spec("trajectory", "x0", data, seed)
                 == nb01.guidance_trajectory_spec("x0", data, seed))
+        # F1's second stage is B3's absolute-root x0 text model (sampled with the null text)
+        assert (guidance_schedule.Settings.for_scale("standard").motion_spec().replace(seed=seed)
+                == rr.Settings.for_scale("standard").motion_spec("absolute", seed))
     # one evaluator for notebooks 01, 02 and 03 (``emphasis_study.window_evaluator``)
     steps = emphasis_study.Settings.for_scale("standard").evaluator_steps
     assert rr.Settings.for_scale("standard").evaluator_config() == EvaluatorConfig(steps=steps)

@@ -447,7 +447,8 @@ class Settings:
     guidance_trajectory_spec``: GMD's T = 1000 cosine, one cache key with GMD-A3's), the
     second stage's motion model an x0 motion model with notebook 01's settings on GMD's
     absolute-root windows (``motion_spec``; GMD-A4's own motion models are relative-root, so
-    it is not one of theirs). ``strengths``
+    it is not one of theirs; below the paper scale it is notebook 02's text-conditioned B3
+    model, sampled with the null condition). ``strengths``
     draw the curve, ``rule_strengths`` are the claimed range the rule reads; ``gmd_stops``
     are GMD's stop steps of T = 1000, which are the model's own at T = 1000 (quick mode's
     T = 50 takes the same fraction, :func:`model_stop_step`); the stop sweep runs at
@@ -499,8 +500,13 @@ class Settings:
 
     def motion_spec(self, data_dir: str | None = None) -> GMDModelSpec:
         """GMD's second stage (seed 0): notebook 01's x0 motion spec on its absolute-root
-        windows, where the trajectory's root x/z is imputed."""
-        return self.model.spec("motion", "x0", self.model.data(data_dir))
+        windows, where the trajectory's root x/z is imputed. Below the paper scale it is
+        text-conditioned — at the standard scale exactly notebook 02's GMD-B3 absolute-root
+        model (``root_representation.Settings.motion_spec``, one cache key; docs/COMPUTE.md
+        §3d) — and ``whole_body`` samples it with the null condition (``guidance.sample``
+        without text); the paper scale keeps today's unconditional model."""
+        spec = self.model.spec("motion", "x0", self.model.data(data_dir))
+        return spec if self.scale == "paper" else spec.replace(text_conditioned=True)
 
     def stops(self) -> dict[int, int]:
         """{GMD stop step: the trajectory model's stop step} for ``gmd_stops``."""
