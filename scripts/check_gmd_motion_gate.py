@@ -108,7 +108,7 @@ def main() -> None:
     if args.check_every is not None and args.cap is None:
         parser.error("--check-every needs --cap")
     torch.set_num_threads(1)
-    settings = x0eps.Settings.for_mode(False)
+    settings = x0eps.Settings.for_scale("paper")
     train, evaluation, reference = notebook_reference(settings)
     started = time.process_time()
     spec = settings.spec("motion", args.prediction, train.config, seed=args.seed)

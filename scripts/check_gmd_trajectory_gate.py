@@ -25,7 +25,7 @@ from repro.gmd.windows import load_windows
 
 def main() -> None:
     torch.set_num_threads(1)
-    settings = x0eps.Settings.for_mode(False)
+    settings = x0eps.Settings.for_scale("paper")
     train = load_windows(settings.data())
     test = load_windows(train.config, "test", statistics=(train.mean, train.std))
     reference = model_gates.trajectory_gate_values(test.space("trajectory"), test.trajectory())

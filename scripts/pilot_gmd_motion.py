@@ -226,7 +226,7 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     started, started_wall = time.process_time(), time.perf_counter()
-    settings = x0eps.Settings.for_mode(False)
+    settings = x0eps.Settings.for_scale("paper")
     train = load_windows(settings.data())
     test = load_windows(train.config, "test", statistics=(train.mean, train.std))
     evaluation = motion_evaluation(train, test, settings.evaluator_config(train.fingerprint),

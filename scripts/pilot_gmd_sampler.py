@@ -82,7 +82,7 @@ def fid_measure(train: Any, test: Any, samples: int) -> Any:
     """A function (trained, samples) → {"fid", "fid_reference"}: the gate's FID of samples
     against the test windows (notebook 01's evaluator), and the reference, ``samples``
     training windows' own FID against them (as ``scripts/pilot_gmd_motion.py``)."""
-    settings = x0eps.Settings.for_mode(False)
+    settings = x0eps.Settings.for_scale("paper")
     evaluation = motion_evaluation(
         train, test, settings.evaluator_config(train.fingerprint), reference_samples=samples,
         seed=0)
@@ -270,7 +270,7 @@ def main() -> None:
         Path(args.out).write_text(report(*rows), "utf-8")
         return
     torch.set_num_threads(1)
-    settings = x0eps.Settings.for_mode(False)
+    settings = x0eps.Settings.for_scale("paper")
     train = load_windows(settings.data(representation=args.representation))
     test = load_windows(train.config, "test", statistics=(train.mean, train.std))
     lines: list[dict[str, Any]] = []

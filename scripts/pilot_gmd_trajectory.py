@@ -41,7 +41,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
-    settings = x0eps.Settings.for_mode(False)
+    settings = x0eps.Settings.for_scale("paper")
     train = load_windows(settings.data())
     test = load_windows(train.config, "test", statistics=(train.mean, train.std))
     reference = model_gates.trajectory_gate_values(test.space("trajectory"), test.trajectory())

@@ -118,7 +118,7 @@ def test_variants_follow_gmds_configs() -> None:
 def test_projection_settings_shrink_in_quick_mode() -> None:
     from repro.gmd.emphasis_study import ProjectionSettings
 
-    quick, full = ProjectionSettings.for_mode(True), ProjectionSettings.for_mode(False)
+    quick, full = ProjectionSettings.for_scale("quick"), ProjectionSettings.for_scale("paper")
     assert full.simulation_samples == 10000 and full.kappa_scan_seeds == 20
     assert all(getattr(quick, f) < getattr(full, f) for f in vars(full))
 
@@ -129,7 +129,7 @@ def test_c4_settings_follow_the_registry_and_the_run_seeds() -> None:
     from repro.gmd.run_seeds import FULL_SEEDS
 
     claim = get_claim("GMD-C4")
-    full, quick = Settings.for_mode(False), Settings.for_mode(True)
+    full, quick = Settings.for_scale("paper"), Settings.for_scale("quick")
     assert [f"{v:g}" for v in full.values] == [p.name.rsplit("_", 1)[1] for p in claim.parts]
     assert full.seeds == FULL_SEEDS["GMD-C4"] and quick.seeds == 1
     assert all(v.in_rule for v in full.variants()) and len(full.variants()) == 4
@@ -187,7 +187,7 @@ def _fake_results(seeds: int = 4):
     """A ``Results`` with known per-seed skating and κ (no models)."""
     from repro.gmd.emphasis_study import Results, Settings
 
-    settings = Settings.for_mode(False)
+    settings = Settings.for_scale("paper")
     variants, outside = settings.variants(), settings.outside_rule_variants()
     kappa = [100.0 * (i + 1) for i in range(seeds)]
     imputed, kappas = {}, {}

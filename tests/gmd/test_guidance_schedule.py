@@ -150,16 +150,17 @@ def test_recorded_steps_show_where_guidance_acts(trained: TrainedGMD) -> None:
 def test_settings_share_notebook_01s_guidance_trajectory_model() -> None:
     from repro.gmd.x0_vs_eps import Settings as ModelSettings
 
-    for quick in (True, False):
-        settings = gs.Settings.for_mode(quick)
-        model = ModelSettings.for_mode(quick)
+    for scale in ("quick", "standard", "paper"):
+        settings = gs.Settings.for_scale(scale)
+        model = ModelSettings.for_scale(scale)
         assert settings.spec() == model.guidance_trajectory_spec("epsilon", model.data(None))
-        assert settings.motion_spec() == model.spec("motion", "x0", model.data(None))
-    full = gs.Settings.for_mode(False)
+        assert settings.motion_spec() == model.spec("motion", "x0", model.data(None)).replace(
+            text_conditioned=scale != "paper")
+    full = gs.Settings.for_scale("paper")
     assert full.num_timesteps == 1000 and full.gmd_stop == 20
     assert full.stops() == {0: 0, 20: 20, 50: 50, 200: 200}  # GMD's own steps, no mapping
     assert set(full.rule_strengths) <= set(full.strengths) and 0 in full.strengths
-    assert gs.Settings.for_mode(True).stops() == {0: 0, 20: 1, 50: 2, 200: 10}  # T = 50
+    assert gs.Settings.for_scale("quick").stops() == {0: 0, 20: 1, 50: 2, 200: 10}  # T = 50
 
 
 @pytest.fixture(scope="module")

@@ -28,7 +28,7 @@ def _space(representation: str) -> FeatureSpace:
 
 def _untrained(representation: str, frames: int = 16, steps: int = 10) -> TrainedGMD:
     """An untrained UNet (its zero-initialised output layer predicts ε = 0)."""
-    spec = Settings.for_mode(quick=True).trajectory_spec(representation, 0).replace(
+    spec = Settings.for_scale("quick").trajectory_spec(representation, 0).replace(
         diffusion_steps=steps, data=DataConfig(frames=frames, representation=representation))
     return TrainedGMD(spec.build_model().eval(), spec.diffusion(), _space(representation), spec)
 

@@ -103,12 +103,12 @@ def _pinned_specs() -> dict[str, GMDModelSpec]:
     return {
         "default": GMDModelSpec(),
         "nb01_quick_motion_x0": quick_motion,
-        "nb02_traj_rel_full": RootSettings.for_mode(False).trajectory_spec("relative", 2),
-        "nb02_motion_abs_quick": RootSettings.for_mode(True).motion_spec("absolute", 0),
+        "nb02_traj_rel_full": RootSettings.for_scale("paper").trajectory_spec("relative", 2),
+        "nb02_motion_abs_quick": RootSettings.for_scale("quick").motion_spec("absolute", 0),
         "nb03_k5_full": Variant("loss_scaling", 5).spec(
-            EmphasisSettings.for_mode(False).base_spec(), 1),
+            EmphasisSettings.for_scale("paper").base_spec(), 1),
         "nb03_c10_quick": Variant("emphasis", 10).spec(
-            EmphasisSettings.for_mode(True).base_spec(), 0),
+            EmphasisSettings.for_scale("quick").base_spec(), 0),
         "max_windows": GMDModelSpec(data=DataConfig(max_windows=7, representation="relative")),
     }
 
@@ -176,6 +176,6 @@ def test_input_skip_is_opt_in_in_the_key_only_when_set_and_reaches_the_unet() ->
 
 
 def test_full_mode_motion_trains_under_bf16_and_the_rest_in_fp32() -> None:
-    assert models.training_fields("motion", quick=False)["autocast"] == "bfloat16"
-    assert models.training_fields("trajectory", quick=False)["autocast"] is None
-    assert "autocast" not in models.training_fields("motion", quick=True, step_cap=10)
+    assert models.training_fields("motion", scale="paper")["autocast"] == "bfloat16"
+    assert models.training_fields("trajectory", scale="paper")["autocast"] is None
+    assert "autocast" not in models.training_fields("motion", scale="quick", step_cap=10)

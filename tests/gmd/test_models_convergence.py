@@ -28,8 +28,8 @@ from repro.models.unet import narrowest_full_resolution_width
 
 
 def _full_mode_specs() -> dict[str, GMDModelSpec]:
-    nb01 = x0eps.Settings.for_mode(False)
-    nb02 = RootSettings.for_mode(False)
+    nb01 = x0eps.Settings.for_scale("paper")
+    nb02 = RootSettings.for_scale("paper")
     data = nb01.data()
     return {
         "01 motion x0": nb01.spec("motion", "x0", nb01.motion_data()),
@@ -38,8 +38,8 @@ def _full_mode_specs() -> dict[str, GMDModelSpec]:
         "01 trajectory ε": nb01.spec("trajectory", "epsilon", data),
         "02 motion": nb02.motion_spec("absolute", 0),
         "02 trajectory": nb02.trajectory_spec("relative", 0),
-        "03 base": EmphasisSettings.for_mode(False).base_spec(),
-        "06 trajectory": ScheduleSettings.for_mode(False).spec(),
+        "03 base": EmphasisSettings.for_scale("paper").base_spec(),
+        "06 trajectory": ScheduleSettings.for_scale("paper").spec(),
     }
 
 
@@ -94,14 +94,14 @@ def test_validation_split_holds_out_whole_training_clips(small_config) -> None:
 
 
 def test_quick_mode_exercises_the_convergence_path() -> None:
-    fields = training_fields("motion", quick=True, step_cap=20)
+    fields = training_fields("motion", scale="quick", step_cap=20)
     assert fields["train_steps"] == 20 and fields["validate_every"] < 20
     assert "base_channels" not in fields               # quick keeps its tiny model
-    quick = x0eps.Settings.for_mode(True)
+    quick = x0eps.Settings.for_scale("quick")
     spec = quick.spec("motion", "x0", quick.data())
     assert spec.validate_every is not None and spec.base_channels == 16
     with pytest.raises(ValueError, match="step_cap"):
-        training_fields("motion", quick=True)
+        training_fields("motion", scale="quick")
 
 
 def test_a_model_trained_with_validation_records_its_convergence(small_spec,

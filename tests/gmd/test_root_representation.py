@@ -86,7 +86,7 @@ def test_linearisation_error_grows_with_the_perturbation() -> None:
 def test_settings_trajectory_spec_is_the_guidance_experiments_model() -> None:
     """Full mode: T, schedule and widths from ``paper_settings`` (one cache key with the
     other guidance notebooks), GMD's stop step and clamp recorded as parameters."""
-    full = R.Settings.for_mode(quick=False)
+    full = R.Settings.for_scale("paper")
     assert full.seeds >= 3 and full.motion_seeds >= 5
     spec = full.trajectory_spec("absolute", 0)
     architecture = paper_settings.TRAJECTORY_ARCHITECTURE
@@ -97,7 +97,7 @@ def test_settings_trajectory_spec_is_the_guidance_experiments_model() -> None:
                                                         architecture.channel_mults)
     assert full.sampling_parameters() == {"num_timesteps": 1000, "guidance_stop_t": 20,
                                           "x0_clamp": paper_settings.X0_CLAMP}
-    quick = R.Settings.for_mode(quick=True)
+    quick = R.Settings.for_scale("quick")
     assert quick.trajectory_spec("relative", 0).diffusion_steps == quick.diffusion_steps
     assert quick.guidance_stop_t == default_stop_step(quick.diffusion_steps)
     motion = full.motion_spec("relative", 1)
@@ -106,7 +106,7 @@ def test_settings_trajectory_spec_is_the_guidance_experiments_model() -> None:
 
 
 def test_quick_mode_stays_a_small_test_of_the_code() -> None:
-    quick = R.Settings.for_mode(quick=True)
+    quick = R.Settings.for_scale("quick")
     assert quick.seeds == quick.motion_seeds == 1
     assert quick.trajectory_diffusion_steps <= 20 and quick.diffusion_steps <= 20
     assert max(quick.trajectory_steps, quick.motion_steps, quick.evaluator_steps) <= 30
@@ -117,5 +117,5 @@ def test_b2_abs_trajectory_model_is_the_guidance_notebooks_model() -> None:
     """Full mode: B2's absolute-root trajectory model is notebook 01's and 06's (one cache key)."""
     from repro.gmd.x0_vs_eps import guidance_trajectory_spec
 
-    assert (R.Settings.for_mode(quick=False).trajectory_spec("absolute", 0)
-            == guidance_trajectory_spec(False, "epsilon", None, 0))
+    assert (R.Settings.for_scale("paper").trajectory_spec("absolute", 0)
+            == guidance_trajectory_spec("paper", "epsilon", None, 0))

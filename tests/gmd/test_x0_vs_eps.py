@@ -97,16 +97,16 @@ def test_settings_build_the_specs_notebook_01_always_trained() -> None:
     from repro.gmd.models import training_fields
     from repro.gmd.x0_vs_eps import Settings
 
-    quick = Settings.for_mode(True)
+    quick = Settings.for_scale("quick")
     data = quick.data(None)
     assert data == DataConfig(stand_in_clips=120, frames=24)
     assert quick.spec("motion", "x0", data, seed=1) == GMDModelSpec(
         task="motion", prediction="x0", data=data, train_steps=20, batch_size=32,
         diffusion_steps=20, seed=1, validate_every=5, patience=2)
-    full = Settings.for_mode(False)
+    full = Settings.for_scale("paper")
     assert full.spec("trajectory", "epsilon", full.data(None)) == GMDModelSpec(
-        **training_fields("trajectory", quick=False))
-    assert Settings.for_mode(False, train_steps=50).train_steps == 50
+        **training_fields("trajectory", scale="paper"))
+    assert Settings.for_scale("paper", train_steps=50).train_steps == 50
     assert full.data("/some/folder") == DataConfig(data_dir="/some/folder", frames=48)
     assert quick.evaluator_config("id").steps == 30 and full.evaluator_config("id").steps == 500
     # GMD-A4's motion models: the same windows in HumanML3D's relative root (MDM's), the
@@ -153,15 +153,15 @@ def test_guidance_trajectory_spec_is_gmds_diffusion_and_stops_at_20() -> None:
     from repro.gmd.guidance import default_stop_step, guidance_parameters
     from repro.gmd.x0_vs_eps import Settings, guidance_trajectory_spec
 
-    full = Settings.for_mode(False)
+    full = Settings.for_scale("paper")
     spec = full.guidance_trajectory_spec("epsilon", full.data(None), seed=2)
     assert spec == full.spec("trajectory", "epsilon", full.data(None), seed=2).replace(
         diffusion_steps=1000, schedule="cosine")
-    assert spec == guidance_trajectory_spec(False, seed=2)
+    assert spec == guidance_trajectory_spec("paper", seed=2)
     assert spec.diffusion_steps == paper_settings.GUIDANCE_DIFFUSION_STEPS
     assert default_stop_step(1000) == paper_settings.GUIDANCE_STOP_T == 20
     assert default_stop_step(50) == 1 and default_stop_step(100) == 2
-    quick = guidance_trajectory_spec(True, "x0")
+    quick = guidance_trajectory_spec("quick", "x0")
     assert quick.diffusion_steps == 50 and quick.prediction == "x0"
     eps = TrainedGMD(torch.nn.Linear(1, 1), spec.diffusion(), None, spec)  # type: ignore[arg-type]
     assert guidance_parameters(eps) == {"num_timesteps": 1000, "guidance_stop_t": 20,

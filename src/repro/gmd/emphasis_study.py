@@ -29,15 +29,18 @@ from repro.gmd.emphasis import EmphasisProjection, Kind, Precision
 from repro.gmd.guidance import default_stop_step, sample
 from repro.gmd.models import (
     MOTION_TRAINING,
+    STANDARD_MOTION_TRAINING,
     GMDModelSpec,
     TrainedGMD,
     load_or_train_gmd,
     training_fields,
     trajectory_loss_weights,
 )
-from repro.gmd.run_seeds import FULL_SEEDS
+from repro.gmd.paper_settings import STANDARD_DIFFUSION_STEPS
+from repro.gmd.run_seeds import seeds_of
 from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows
 from repro.infra import cache
+from repro.infra.context import check_scale
 from repro.motion.features import FEATURE_DIM, FPS
 from repro.motion.quaternion import qinv, qrot, quat_about_y
 
@@ -273,7 +276,7 @@ TABLE_B1_VARIANTS = (Variant("loss_scaling", 1), Variant("emphasis", 10))
 class Settings:
     """Every size and step count of GMD-C4 in notebook 03, fixed before any verdict was seen.
 
-    Full mode (registry v3, the power plan in the GMD-C4 entry): loss scaling k and Emphasis
+    Paper scale (registry v3, the power plan in the GMD-C4 entry): loss scaling k and Emphasis
     c at the matched values v ∈ {2, 10} × 6 seeds = 24 text-conditioned x0 motion models in
     the rule (GMD's motion model predicts x0); outside it the orthogonal-matrix sensitivity arm
     at ``sensitivity_values`` (c = 10) and Table B.1's plain model (k = 1), 6 models each
@@ -284,7 +287,7 @@ class Settings:
     (UNet1D base 16 × (1, 2), a test of the code, never a result).
     """
 
-    quick: bool
+    scale: str
     seeds: int
     stand_in_clips: int
     stride: int
@@ -294,20 +297,50 @@ class Settings:
     evaluator_steps: int
     values: tuple[int, ...] = C4_VALUES
     sensitivity_values: tuple[int, ...] = SENSITIVITY_VALUES
+    #: the orthogonal-matrix sensitivity arm (its own models) and Table B.1's plain model
+    #: (k = 1): paper scale only (docs/COMPUTE.md §3d)
+    orthogonal_arm: bool = True
+    table_b1_plain: bool = True
 
     @classmethod
-    def for_mode(cls, quick: bool, *, train_steps: int | None = None) -> Settings:
-        """The mode's settings; ``train_steps`` (None: the mode's default) overrides the
-        training steps of every model (outside the notebook's budget)."""
-        if quick:
-            return cls(quick=True, seeds=1, stand_in_clips=200, stride=8, diffusion_steps=20,
+    def for_scale(cls, scale: str, *, train_steps: int | None = None) -> Settings:
+        """The settings of ``scale``; ``train_steps`` (None: the scale's) overrides the
+        training steps of every model (outside the notebook's budget). The standard scale
+        (docs/COMPUTE.md §3d) runs only v = 10 (k = 10 against Gaussian c = 10, GMD's
+        released c and Table B.1's Emphasis model) with 3 seeds at T = 100, and GMD's float32
+        construction (no training); the v = 2 part, the orthogonal arm and Table B.1's plain
+        row are the paper scale's."""
+        check_scale(scale)
+        if scale == "quick":
+            return cls(scale=scale, seeds=1, stand_in_clips=200, stride=8, diffusion_steps=20,
                        train_steps=10 if train_steps is None else int(train_steps), samples=32,
                        evaluator_steps=50)
-        return cls(quick=False, seeds=FULL_SEEDS["GMD-C4"], stand_in_clips=2000, stride=24,
-                   diffusion_steps=50,
+        if scale == "standard":
+            return cls(scale=scale, seeds=seeds_of("GMD-C4", scale), stand_in_clips=2000,
+                       stride=24, diffusion_steps=STANDARD_DIFFUSION_STEPS,
+                       train_steps=(STANDARD_MOTION_TRAINING.step_cap if train_steps is None
+                                    else int(train_steps)),
+                       samples=64, evaluator_steps=500, values=(10,), orthogonal_arm=False,
+                       table_b1_plain=False)
+        return cls(scale=scale, seeds=seeds_of("GMD-C4", scale), stand_in_clips=2000,
+                   stride=24, diffusion_steps=50,
                    train_steps=(MOTION_TRAINING.step_cap if train_steps is None
                                 else int(train_steps)),
                    samples=64, evaluator_steps=500)
+
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
+    @property
+    def paper_only(self) -> list[str]:
+        """What this scale leaves to the paper scale, in words (the notebook prints it)."""
+        left = [f"the rule's part at v = {v}" for v in C4_VALUES if v not in self.values]
+        if not self.orthogonal_arm:
+            left.append("the orthogonal-matrix arm")
+        if not self.table_b1_plain:
+            left.append("Table B.1's plain model (k = 1)")
+        return left
 
     def data(self, data_dir: str | None = None,
              representation: str = "absolute") -> DataConfig:
@@ -320,7 +353,7 @@ class Settings:
                 if self.quick else {})
         return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
                             data=self.data(data_dir), diffusion_steps=self.diffusion_steps,
-                            **tiny, **training_fields("motion", quick=self.quick,
+                            **tiny, **training_fields("motion", scale=self.scale,
                                                       step_cap=self.train_steps))
 
     def variants(self) -> list[Variant]:
@@ -331,12 +364,14 @@ class Settings:
         """Arms the rule does not read: the orthogonal matrix and GMD's float32 construction
         of the Gaussian one at each of ``sensitivity_values``, and Table B.1's models
         (``TABLE_B1_VARIANTS``: the plain model k = 1) where the values do not include them."""
+        arms = ((("orthogonal", "float64"),) if self.orthogonal_arm else ()) + (
+            ("gaussian", "float32_gmd"),)
         sensitivity = [Variant("emphasis", v, kind=kind, precision=precision)
-                       for v in self.sensitivity_values
-                       for kind, precision in (("orthogonal", "float64"),
-                                               ("gaussian", "float32_gmd"))]
+                       for v in self.sensitivity_values for kind, precision in arms]
         rule = self.variants()
-        return sensitivity + [v for v in TABLE_B1_VARIANTS if v not in rule]
+        table = [v for v in TABLE_B1_VARIANTS if v not in rule
+                 and (self.table_b1_plain or v != Variant("loss_scaling", 1))]
+        return sensitivity + table
 
     @property
     def trained_models(self) -> int:
@@ -529,7 +564,8 @@ class ProjectionSettings:
     """The sample sizes of notebook 03's projection checks (GMD-C1…C3), fixed before the run:
     N(0, 1) vectors per simulated point, frame pairs for the distance ratios and frames for
     the inverse's round trip (per matrix), and the κ scan (matrix seeds, frames per seed).
-    Quick mode shrinks them (a test of the code, never a result)."""
+    Quick mode shrinks them (a test of the code, never a result); standard and paper scales
+    share the full sizes (analytic checks, seconds)."""
 
     simulation_samples: int
     distance_pairs: int
@@ -538,8 +574,8 @@ class ProjectionSettings:
     kappa_scan_frames: int
 
     @classmethod
-    def for_mode(cls, quick: bool) -> ProjectionSettings:
-        if quick:
+    def for_scale(cls, scale: str) -> ProjectionSettings:
+        if check_scale(scale) == "quick":
             return cls(simulation_samples=2000, distance_pairs=2000, inverse_frames=1000,
                        kappa_scan_seeds=5, kappa_scan_frames=500)
         return cls(simulation_samples=10000, distance_pairs=10000, inverse_frames=5000,

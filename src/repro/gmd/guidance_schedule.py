@@ -34,9 +34,10 @@ from repro.gmd.guidance import Clamp, goal_error, goal_reaching_loss, sample
 from repro.gmd.measurements import foot_skating_of, jitter_of
 from repro.gmd.models import GMDModelSpec, TrainedGMD
 from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_STOP_T
-from repro.gmd.run_seeds import FULL_SEEDS
+from repro.gmd.run_seeds import seeds_of
 from repro.gmd.windows import FeatureSpace
 from repro.gmd.x0_vs_eps import Settings as ModelSettings
+from repro.infra.context import check_scale
 
 __all__ = [
     "GMD_NUM_TIMESTEPS",
@@ -446,7 +447,8 @@ class Settings:
     guidance_trajectory_spec``: GMD's T = 1000 cosine, one cache key with GMD-A3's), the
     second stage's motion model an x0 motion model with notebook 01's settings on GMD's
     absolute-root windows (``motion_spec``; GMD-A4's own motion models are relative-root, so
-    it is not one of theirs). ``strengths``
+    it is not one of theirs; below the paper scale it is notebook 02's text-conditioned B3
+    model, sampled with the null condition). ``strengths``
     draw the curve, ``rule_strengths`` are the claimed range the rule reads; ``gmd_stops``
     are GMD's stop steps of T = 1000, which are the model's own at T = 1000 (quick mode's
     T = 50 takes the same fraction, :func:`model_stop_step`); the stop sweep runs at
@@ -454,7 +456,7 @@ class Settings:
     the code, never a result).
     """
 
-    quick: bool
+    scale: str
     seeds: int
     goals: int
     obstacle_goals: int
@@ -472,15 +474,24 @@ class Settings:
     goals_shown: int = 6
 
     @classmethod
-    def for_mode(cls, quick: bool, *, seeds: int = FULL_SEEDS["GMD-F1"]) -> Settings:
-        model = ModelSettings.for_mode(quick, seeds=seeds)
-        if quick:
-            return cls(quick=True, seeds=seeds, goals=4, obstacle_goals=4, model=model)
-        return cls(quick=False, seeds=seeds, goals=32, obstacle_goals=16, model=model)
+    def for_scale(cls, scale: str, *, seeds: int | None = None) -> Settings:
+        """The settings of ``scale`` (``seeds`` None: ``run_seeds.seeds_of("GMD-F1", scale)``).
+        At the standard scale the models are notebook 01's at T = 100, and ``stops`` maps
+        GMD's {0, 20, 50, 200} of 1000 to {0, 2, 5, 20}."""
+        check_scale(scale)
+        seeds = seeds_of("GMD-F1", scale) if seeds is None else int(seeds)
+        model = ModelSettings.for_scale(scale, seeds=seeds)
+        if scale == "quick":
+            return cls(scale=scale, seeds=seeds, goals=4, obstacle_goals=4, model=model)
+        return cls(scale=scale, seeds=seeds, goals=32, obstacle_goals=16, model=model)
+
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
 
     @property
     def num_timesteps(self) -> int:
-        """T of the trajectory model (GMD's 1000; quick mode 50)."""
+        """T of the trajectory model (GMD's 1000; standard 100; quick 50)."""
         return self.model.guidance_diffusion_steps
 
     def spec(self, data_dir: str | None = None) -> GMDModelSpec:
@@ -489,8 +500,13 @@ class Settings:
 
     def motion_spec(self, data_dir: str | None = None) -> GMDModelSpec:
         """GMD's second stage (seed 0): notebook 01's x0 motion spec on its absolute-root
-        windows, where the trajectory's root x/z is imputed."""
-        return self.model.spec("motion", "x0", self.model.data(data_dir))
+        windows, where the trajectory's root x/z is imputed. Below the paper scale it is
+        text-conditioned — at the standard scale exactly notebook 02's GMD-B3 absolute-root
+        model (``root_representation.Settings.motion_spec``, one cache key; docs/COMPUTE.md
+        §3d) — and ``whole_body`` samples it with the null condition (``guidance.sample``
+        without text); the paper scale keeps today's unconditional model."""
+        spec = self.model.spec("motion", "x0", self.model.data(data_dir))
+        return spec if self.scale == "paper" else spec.replace(text_conditioned=True)
 
     def stops(self) -> dict[int, int]:
         """{GMD stop step: the trajectory model's stop step} for ``gmd_stops``."""

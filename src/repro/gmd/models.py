@@ -22,7 +22,12 @@ from torch import Tensor
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import TrainConfig, ValidationSet, check_autocast, train_diffusion
 from repro.gmd.coefficients import schedule_diffusion
-from repro.gmd.paper_settings import MOTION_ARCHITECTURE, TRAJECTORY_ARCHITECTURE
+from repro.gmd.paper_settings import (
+    MOTION_ARCHITECTURE,
+    STANDARD_MOTION_ARCHITECTURE,
+    STANDARD_TRAJECTORY_ARCHITECTURE,
+    TRAJECTORY_ARCHITECTURE,
+)
 from repro.gmd.windows import (
     CHANNELS,
     DataConfig,
@@ -33,6 +38,7 @@ from repro.gmd.windows import (
     load_windows,
 )
 from repro.infra import cache, paths
+from repro.infra.context import check_scale
 from repro.infra.storage import read_json
 from repro.models.unet import UNet1D
 from repro.motion.features import FEATURE_DIM, TRAJECTORY_FEATURES
@@ -41,6 +47,8 @@ from repro.standin.text import Vocabulary, tokenize
 __all__ = [
     "MOTION_TRAINING",
     "QUICK_TRAINING",
+    "STANDARD_MOTION_TRAINING",
+    "STANDARD_TRAJECTORY_TRAINING",
     "TRAJECTORY_TRAINING",
     "ConvergenceTraining",
     "GMDModelSpec",
@@ -99,6 +107,25 @@ MOTION_TRAINING = ConvergenceTraining(batch_size=64, lr=3e-4, validate_every=200
 #: cap and stopped on its plateau at 6700 of 12000 (docs/TRAINING.md, trajectory pilots).
 TRAJECTORY_TRAINING = ConvergenceTraining(batch_size=64, lr=1e-3, validate_every=100,
                                           patience=5, step_cap=12000)
+
+
+def _fixed_steps(steps: int, validate_every: int) -> int:
+    """The patience that outlasts a run of ``steps`` validated every ``validate_every`` steps:
+    the plateau stop never acts, the held-out curve is still recorded (as ``longer_run``)."""
+    return steps // validate_every + 1
+
+
+#: the standard scale's motion models (docs/COMPUTE.md §4 item 1, the pilot with the input
+#: skip: both arms pass the x̂0 gate from 900 steps): a fixed 900 steps × batch 32, lr 1e-3,
+#: fp32 (bf16 does not pay on a CPU without AMX, COMPUTE.md §1), validated every 150 steps
+#: without the plateau stop, so both arms of every comparison share the same budget.
+STANDARD_MOTION_TRAINING = ConvergenceTraining(
+    batch_size=32, lr=1e-3, validate_every=150, patience=_fixed_steps(900, 150), step_cap=900)
+#: the standard scale's trajectory models (COMPUTE.md §4 item 2: both arms pass from 300
+#: steps): a fixed 1000 steps × batch 32, lr 1e-3, fp32, validated every 100 steps.
+STANDARD_TRAJECTORY_TRAINING = ConvergenceTraining(
+    batch_size=32, lr=1e-3, validate_every=100, patience=_fixed_steps(1000, 100),
+    step_cap=1000)
 #: quick mode (a test of the code): validate every 5 steps, stop after 2 without a gain.
 QUICK_TRAINING = ConvergenceTraining(batch_size=32, lr=1e-3, validate_every=5, patience=2,
                                      step_cap=20)
@@ -275,26 +302,42 @@ class TrainedGMD:
         return bag_of_words(self.vocabulary, captions).to(self.device)
 
 
-def training_fields(task: Task, *, quick: bool, step_cap: int | None = None) -> dict[str, Any]:
-    """The architecture and convergence-training fields of a notebook's ``GMDModelSpec`` of
-    ``task`` (issue #14): in full mode ``paper_settings``' architecture of the family and its
-    ``ConvergenceTraining`` (batch, lr, validation interval, patience, autocast, step cap;
-    ``step_cap`` overrides the cap); in quick mode only the convergence path
-    (``QUICK_TRAINING``: validate every few steps, short patience) on the notebook's own tiny
-    model, whose step count (``step_cap``, required) is the cap."""
+def training_fields(task: Task, *, scale: str, step_cap: int | None = None) -> dict[str, Any]:
+    """The architecture and training fields of a notebook's ``GMDModelSpec`` of ``task`` at
+    ``scale`` (issues #14, #32).
+
+    - ``paper``: ``paper_settings``' architecture of the family and its ``ConvergenceTraining``
+      (batch, lr, validation interval, patience, autocast, step cap; ``step_cap`` overrides the
+      cap): today's registered full settings, the same keys.
+    - ``standard``: the family's standard architecture (the motion UNet with the input skip)
+      and ``STANDARD_*_TRAINING``: a fixed step count (``step_cap`` overrides it), validated
+      but never stopped on a plateau, fp32.
+    - ``quick``: only the convergence path (``QUICK_TRAINING``: validate every few steps,
+      short patience) on the notebook's own tiny model, whose step count (``step_cap``,
+      required) is the cap."""
     check_task(task)
-    if quick:
+    check_scale(scale)
+    if scale == "quick":
         if step_cap is None:
             raise ValueError("quick mode needs the notebook's step count as step_cap")
         return {"train_steps": int(step_cap), "validate_every": QUICK_TRAINING.validate_every,
                 "patience": QUICK_TRAINING.patience}
-    architecture = MOTION_ARCHITECTURE if task == "motion" else TRAJECTORY_ARCHITECTURE
-    plan = MOTION_TRAINING if task == "motion" else TRAJECTORY_TRAINING
+    if scale == "standard":
+        architecture = (STANDARD_MOTION_ARCHITECTURE if task == "motion"
+                        else STANDARD_TRAJECTORY_ARCHITECTURE)
+        plan = STANDARD_MOTION_TRAINING if task == "motion" else STANDARD_TRAJECTORY_TRAINING
+        steps = plan.step_cap if step_cap is None else int(step_cap)
+        patience = _fixed_steps(steps, plan.validate_every)
+        skip = {"input_skip": True} if task == "motion" else {}
+    else:
+        architecture = MOTION_ARCHITECTURE if task == "motion" else TRAJECTORY_ARCHITECTURE
+        plan = MOTION_TRAINING if task == "motion" else TRAJECTORY_TRAINING
+        steps = plan.step_cap if step_cap is None else int(step_cap)
+        patience, skip = plan.patience, {}
     return {"base_channels": architecture.base_channels,
             "channel_mults": architecture.channel_mults, "batch_size": plan.batch_size,
-            "lr": plan.lr, "validate_every": plan.validate_every, "patience": plan.patience,
-            "autocast": plan.autocast,
-            "train_steps": plan.step_cap if step_cap is None else int(step_cap)}
+            "lr": plan.lr, "validate_every": plan.validate_every, "patience": patience,
+            "autocast": plan.autocast, "train_steps": steps, **skip}
 
 
 def longer_run(spec: GMDModelSpec, factor: int = 2) -> GMDModelSpec:

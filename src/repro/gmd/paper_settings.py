@@ -11,7 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 __all__ = ["GUIDANCE_DIFFUSION_STEPS", "GUIDANCE_SCHEDULE", "GUIDANCE_STOP_T",
-           "MOTION_ARCHITECTURE", "TRAJECTORY_ARCHITECTURE", "X0_CLAMP", "Architecture"]
+           "MOTION_ARCHITECTURE", "STANDARD_DIFFUSION_STEPS", "STANDARD_MOTION_ARCHITECTURE",
+           "STANDARD_TRAJECTORY_ARCHITECTURE", "TRAJECTORY_ARCHITECTURE", "X0_CLAMP",
+           "Architecture"]
 
 
 @dataclass(frozen=True)
@@ -43,3 +45,13 @@ X0_CLAMP = 6.0
 #: (62.5; docs/TRAINING.md).
 MOTION_ARCHITECTURE = Architecture(base_channels=288, channel_mults=(1, 0.5, 0.25))
 TRAJECTORY_ARCHITECTURE = Architecture(base_channels=64, channel_mults=(1, 2, 4))
+
+#: the standard scale (issue #32, docs/COMPUTE.md §3–§4; ``make reproduce`` on 2 CPU cores):
+#: every GMD model at T = 100 cosine (the guidance stop steps at the same fraction of T,
+#: ``guidance_schedule.model_stop_step``: GMD's 20 of 1000 → 2); the motion UNet 64 × (1, 1)
+#: with the full-rank input skip (``UNet1D(input_skip=True)``: without it the ε arm cannot
+#: carry 263-d noise through 64 channels, COMPUTE.md §4 item 1), the trajectory UNet
+#: 16 × (1, 2). Fixed before any standard-scale result, from the pilots of COMPUTE.md §4.
+STANDARD_DIFFUSION_STEPS = 100
+STANDARD_MOTION_ARCHITECTURE = Architecture(base_channels=64, channel_mults=(1, 1))
+STANDARD_TRAJECTORY_ARCHITECTURE = Architecture(base_channels=16, channel_mults=(1, 2))

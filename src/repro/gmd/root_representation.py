@@ -36,9 +36,17 @@ from torch import Tensor
 
 from repro.gmd import paper_settings
 from repro.gmd.guidance import default_stop_step
-from repro.gmd.models import MOTION_TRAINING, TRAJECTORY_TRAINING, GMDModelSpec, training_fields
-from repro.gmd.run_seeds import FULL_SEEDS
+from repro.gmd.models import (
+    MOTION_TRAINING,
+    STANDARD_MOTION_TRAINING,
+    STANDARD_TRAJECTORY_TRAINING,
+    TRAJECTORY_TRAINING,
+    GMDModelSpec,
+    training_fields,
+)
+from repro.gmd.run_seeds import seeds_of
 from repro.gmd.windows import REPRESENTATIONS, DataConfig, short_label
+from repro.infra.context import check_scale
 from repro.models.evaluator import EvaluatorConfig
 from repro.motion.features import (
     absolute_features_to_joints,
@@ -294,20 +302,22 @@ def linearisation_error(features: np.ndarray, frame: int, deltas: Sequence[float
 
 @dataclass(frozen=True)
 class Settings:
-    """Every size and step count of notebook 02, fixed before any verdict was seen.
+    """Every size and step count of notebook 02 at one scale, fixed before any verdict was seen.
 
-    GMD-B2 (full mode) uses the guidance experiments' trajectory model (:meth:`trajectory_spec`:
+    GMD-B2 (paper scale) uses the guidance experiments' trajectory model (:meth:`trajectory_spec`:
     ε prediction, ``paper_settings.TRAJECTORY_ARCHITECTURE``, T = 1000 cosine), sampled with
     GMD's stop step t = 20 and ±6 clamp of x̂0 (``paper_settings``); GMD-B3 a text-conditioned
     x0 motion model (GMD's motion model predicts x0; ``paper_settings.MOTION_ARCHITECTURE``),
     both trained to convergence (``models.training_fields``; ``trajectory_steps`` /
     ``motion_steps`` are the step caps), the motion model sampled with
     classifier-free guidance at GMD's scale (``repro.gmd.cfg``). ``seeds`` (B2) and
-    ``motion_seeds`` (B3) come from ``run_seeds.FULL_SEEDS``. Quick mode shrinks everything,
-    T included (a test of the code, never a result).
+    ``motion_seeds`` (B3) come from ``run_seeds.seeds_of``. The standard scale (docs/COMPUTE.md
+    §3) trains the standard architectures for a fixed step count, T = 100 for every model (the
+    stop step at the same fraction, 2), 3 seeds each and 128 B3 samples. Quick mode shrinks
+    everything, T included (a test of the code, never a result).
     """
 
-    quick: bool
+    scale: str
     seeds: int
     motion_seeds: int
     stand_in_clips: int
@@ -321,23 +331,38 @@ class Settings:
     evaluator_steps: int
 
     @classmethod
-    def for_mode(cls, quick: bool) -> Settings:
-        if quick:
-            return cls(quick=True, seeds=1, motion_seeds=1, stand_in_clips=120, stride=8,
+    def for_scale(cls, scale: str) -> Settings:
+        check_scale(scale)
+        if scale == "quick":
+            return cls(scale=scale, seeds=1, motion_seeds=1, stand_in_clips=120, stride=8,
                        diffusion_steps=20, trajectory_steps=20, motion_steps=20,
                        sensitivity_clips=8, targets=8, evaluation_windows=96,
                        evaluator_steps=30)
-        return cls(quick=False, seeds=FULL_SEEDS["GMD-B2"], motion_seeds=FULL_SEEDS["GMD-B3"],
-                   stand_in_clips=2000,
+        if scale == "standard":
+            return cls(scale=scale, seeds=seeds_of("GMD-B2", scale),
+                       motion_seeds=seeds_of("GMD-B3", scale), stand_in_clips=2000, stride=24,
+                       diffusion_steps=paper_settings.STANDARD_DIFFUSION_STEPS,
+                       trajectory_steps=STANDARD_TRAJECTORY_TRAINING.step_cap,
+                       motion_steps=STANDARD_MOTION_TRAINING.step_cap, sensitivity_clips=64,
+                       targets=64, evaluation_windows=128, evaluator_steps=500)
+        return cls(scale=scale, seeds=seeds_of("GMD-B2", scale),
+                   motion_seeds=seeds_of("GMD-B3", scale), stand_in_clips=2000,
                    stride=24, diffusion_steps=100,
                    trajectory_steps=TRAJECTORY_TRAINING.step_cap,
                    motion_steps=MOTION_TRAINING.step_cap, sensitivity_clips=64, targets=64,
                    evaluation_windows=256, evaluator_steps=500)
 
     @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
+    @property
     def trajectory_diffusion_steps(self) -> int:
-        """T of the B2 trajectory models: GMD's 1000 (quick: ``diffusion_steps``)."""
-        return self.diffusion_steps if self.quick else paper_settings.GUIDANCE_DIFFUSION_STEPS
+        """T of the B2 trajectory models: GMD's 1000 at the paper scale, ``diffusion_steps``
+        otherwise (standard 100, quick 20)."""
+        if self.scale == "paper":
+            return paper_settings.GUIDANCE_DIFFUSION_STEPS
+        return self.diffusion_steps
 
     @property
     def guidance_stop_t(self) -> int:
@@ -371,14 +396,15 @@ class Settings:
                         data_dir: str | None = None) -> GMDModelSpec:
         """The guidance experiments' trajectory model: ε prediction, the family's architecture
         and convergence training (``models.training_fields``, ``trajectory_steps`` the cap),
-        ``trajectory_diffusion_steps`` of the ``GUIDANCE_SCHEDULE``. In full mode its absolute-
+        ``trajectory_diffusion_steps`` of the ``GUIDANCE_SCHEDULE``. At the paper and standard
+        scales its absolute-
         root model is notebook 01's and 06's (``x0_vs_eps.guidance_trajectory_spec``: one cache
         key, tested)."""
         return GMDModelSpec(task="trajectory", prediction="epsilon",
                             data=self.data(representation, data_dir), seed=seed,
                             diffusion_steps=self.trajectory_diffusion_steps,
                             schedule=paper_settings.GUIDANCE_SCHEDULE,
-                            **training_fields("trajectory", quick=self.quick,
+                            **training_fields("trajectory", scale=self.scale,
                                               step_cap=self.trajectory_steps))
 
     def motion_spec(self, representation: str, seed: int,
@@ -386,7 +412,7 @@ class Settings:
         return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
                                 data=self.data(representation, data_dir), seed=seed,
                                 diffusion_steps=self.diffusion_steps,
-                                **training_fields("motion", quick=self.quick,
+                                **training_fields("motion", scale=self.scale,
                                                   step_cap=self.motion_steps))
 
 

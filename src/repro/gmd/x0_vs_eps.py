@@ -29,8 +29,12 @@ from repro.gmd.guidance import (
 )
 from repro.gmd.measurements import foot_skating_of, jitter_of, motion_fid
 from repro.gmd.models import GMDModelSpec, TrainedGMD, training_fields
-from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_SCHEDULE
-from repro.gmd.run_seeds import FULL_SEEDS
+from repro.gmd.paper_settings import (
+    GUIDANCE_DIFFUSION_STEPS,
+    GUIDANCE_SCHEDULE,
+    STANDARD_DIFFUSION_STEPS,
+)
+from repro.gmd.run_seeds import seeds_of
 from repro.gmd.windows import (
     DataConfig,
     FeatureSpace,
@@ -39,6 +43,7 @@ from repro.gmd.windows import (
     Task,
     goal_targets,
 )
+from repro.infra.context import check_scale
 from repro.models.evaluator import Evaluator, EvaluatorConfig
 
 __all__ = ["CLAMPS", "PREDICTIONS", "QUICK_GUIDANCE_DIFFUSION_STEPS", "GoalReachingResult",
@@ -221,18 +226,21 @@ def goal_reaching_experiment(trained: TrainedGMD, targets_xz: np.ndarray, *, see
 
 @dataclass(frozen=True)
 class Settings:
-    """Every size and step count of notebook 01, fixed before any verdict was seen.
+    """Every size and step count of notebook 01 at one scale, fixed before any verdict was seen.
 
-    Full mode: 48-frame windows (stride 24) of the 2000-clip stand-in set, one UNet1D per task
-    for x0 and ε (``paper_settings``' architectures), T = 100 cosine, trained to convergence
-    up to each family's step cap (``models.training_fields``); 32 goals and
-    256 generated windows per seed; the package's evaluator with its default size. Quick mode
-    shrinks everything (a test of the code, never a result). ``train_steps`` may be overridden
-    (the notebook's papermill parameter; None = the mode's default).
-
-    The guidance experiments' trajectory models (GMD-A3, B2, F1) are the same trajectory
-    specs with ``guidance_diffusion_steps`` = GMD's T = 1000 (``paper_settings``); quick mode
-    uses T = ``QUICK_GUIDANCE_DIFFUSION_STEPS`` (50, stop at 1 = 2 % of T).
+    Paper scale (today's registered full settings): 48-frame windows (stride 24) of the
+    2000-clip stand-in set, one UNet1D per task for x0 and ε (``paper_settings``'
+    architectures), T = 100 cosine, trained to convergence up to each family's step cap
+    (``models.training_fields``); 32 goals and 256 generated windows per seed; the package's
+    evaluator with its default size; the guidance experiments' trajectory models (GMD-A3, B2,
+    F1) the same trajectory specs with ``guidance_diffusion_steps`` = GMD's T = 1000; and
+    GMD-A4's longer ε run (``longer_eps_run``). Standard scale (``make reproduce``,
+    docs/COMPUTE.md §3): the same windows, the standard architectures at a fixed step count
+    (``models.training_fields``), T = 100 for every model — so A4's trajectory models *are*
+    A3's guidance models (one cache key) — 128 generated windows per seed, the evaluator of
+    notebooks 02 and 03 (one key), no longer ε run. Quick scale shrinks everything (a test of
+    the code, never a result; guidance T = ``QUICK_GUIDANCE_DIFFUSION_STEPS``, 50).
+    ``train_steps`` may be overridden (the notebook's papermill parameter; None = the scale's).
 
     The trajectory models train on absolute-root windows (GMD's trajectory model: root x/z in
     the world); GMD-A4's motion models on ``motion_representation``, HumanML3D's relative root
@@ -240,11 +248,11 @@ class Settings:
     HumanML3D's features as they are (registry v3 changelog, GMD-A4).
     """
 
-    quick: bool
+    scale: str
     seeds: int
     stand_in_clips: int
     frames: int
-    #: the step cap; None in full mode: each family's (``models.training_fields``)
+    #: the step cap (quick) or count (standard); None: each family's (``training_fields``)
     train_steps: int | None
     batch_size: int
     diffusion_steps: int
@@ -254,22 +262,47 @@ class Settings:
     min_goal_distance: float = 0.5
     #: random draws of x_t and ε per t for the Eq. 1 vs Eq. 2 check (GMD-A1).
     posterior_samples: int = 256
-    #: T of the guidance experiments' trajectory models (GMD's 1000; quick mode 50).
+    #: T of the guidance experiments' trajectory models (GMD's 1000; standard 100; quick 50).
     guidance_diffusion_steps: int = GUIDANCE_DIFFUSION_STEPS
     #: the root representation of GMD-A4's motion windows (MDM's: HumanML3D's relative root)
     motion_representation: Representation = "relative"
+    #: the evaluator's training steps at the standard scale (``emphasis_study``'s and
+    #: notebook 02's: one cache key); None: the scale's own evaluator
+    shared_evaluator_steps: int | None = None
 
     @classmethod
-    def for_mode(cls, quick: bool, *, seeds: int = FULL_SEEDS["GMD-A4"],
-                 train_steps: int | None = None) -> Settings:
-        if quick:
-            return cls(quick=True, seeds=seeds, stand_in_clips=120, frames=24,
-                       train_steps=20 if train_steps is None else int(train_steps),
+    def for_scale(cls, scale: str, *, seeds: int | None = None,
+                  train_steps: int | None = None) -> Settings:
+        """The settings of ``scale``; ``seeds`` (None: ``run_seeds.seeds_of("GMD-A4", scale)``)
+        and ``train_steps`` (None: the scale's) override."""
+        check_scale(scale)
+        seeds = seeds_of("GMD-A4", scale) if seeds is None else int(seeds)
+        steps = None if train_steps is None else int(train_steps)
+        if scale == "quick":
+            return cls(scale=scale, seeds=seeds, stand_in_clips=120, frames=24,
+                       train_steps=20 if steps is None else steps,
                        batch_size=32, diffusion_steps=20, goals=4, generated=32,
                        guidance_diffusion_steps=QUICK_GUIDANCE_DIFFUSION_STEPS)
-        return cls(quick=False, seeds=seeds, stand_in_clips=2000, frames=48,
-                   train_steps=None if train_steps is None else int(train_steps),
-                   batch_size=64, diffusion_steps=100, goals=32, generated=256)
+        if scale == "standard":
+            return cls(scale=scale, seeds=seeds, stand_in_clips=2000, frames=48,
+                       train_steps=steps, batch_size=32,
+                       diffusion_steps=STANDARD_DIFFUSION_STEPS, goals=32, generated=128,
+                       guidance_diffusion_steps=STANDARD_DIFFUSION_STEPS,
+                       shared_evaluator_steps=500)
+        return cls(scale=scale, seeds=seeds, stand_in_clips=2000, frames=48,
+                   train_steps=steps, batch_size=64, diffusion_steps=100, goals=32,
+                   generated=256)
+
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
+    @property
+    def longer_eps_run(self) -> bool:
+        """Whether GMD-A4's longer ε run (``models.longer_run``, 2× the motion budget; outside
+        the rule) is trained: at the paper scale (docs/COMPUTE.md §3d), and in quick runs as a
+        test of that code; not at the standard scale."""
+        return self.scale != "standard"
 
     def data(self, data_dir: str | None = None,
              representation: Representation = "absolute") -> DataConfig:
@@ -291,7 +324,7 @@ class Settings:
         architecture and the training budget (``models.training_fields``: trained to
         convergence, ``train_steps`` the cap)."""
         fields = {"batch_size": self.batch_size,
-                  **training_fields(task, quick=self.quick, step_cap=self.train_steps)}
+                  **training_fields(task, scale=self.scale, step_cap=self.train_steps)}
         return GMDModelSpec(task=task, prediction=prediction, data=data,
                             diffusion_steps=self.diffusion_steps, seed=seed, **fields)
 
@@ -304,9 +337,13 @@ class Settings:
             diffusion_steps=self.guidance_diffusion_steps, schedule=GUIDANCE_SCHEDULE)
 
     def evaluator_config(self, data_id: str) -> EvaluatorConfig:
-        """The package's evaluator (tiny in quick mode), named after the training windows."""
+        """The package's evaluator (tiny in quick mode), named after the training windows; at
+        the standard scale notebooks 02's and 03's (``emphasis_study.window_evaluator``: the
+        same relative-root windows, no name, so one cache key)."""
         if self.quick:
             return EvaluatorConfig(dim=16, hidden=32, steps=30, data_id=data_id)
+        if self.shared_evaluator_steps is not None:
+            return EvaluatorConfig(steps=self.shared_evaluator_steps)
         return EvaluatorConfig(data_id=data_id)
 
 
@@ -314,11 +351,12 @@ class Settings:
 QUICK_GUIDANCE_DIFFUSION_STEPS = 50
 
 
-def guidance_trajectory_spec(quick: bool, prediction: Literal["x0", "epsilon"] = "epsilon",
+def guidance_trajectory_spec(scale: str, prediction: Literal["x0", "epsilon"] = "epsilon",
                              data_dir: str | None = None, seed: int = 0) -> GMDModelSpec:
-    """``Settings.for_mode(quick).guidance_trajectory_spec`` on the mode's windows: the T = 1000
-    trajectory model every guidance experiment shares (GMD's trajectory model predicts ε)."""
-    settings = Settings.for_mode(quick)
+    """``Settings.for_scale(scale).guidance_trajectory_spec`` on the scale's windows: the
+    trajectory model every guidance experiment shares (GMD's trajectory model predicts ε;
+    T = 1000 at the paper scale, 100 at standard)."""
+    settings = Settings.for_scale(scale)
     return settings.guidance_trajectory_spec(prediction, settings.data(data_dir), seed)
 
 

@@ -1,0 +1,124 @@
+"""The three scales of GMD's settings (issue #32, docs/COMPUTE.md §5): each scale's models are
+what the plan says, the paper scale is today's registered full settings (same cache keys),
+and at the standard scale the models the plan aligns are one cache key (the model bank)."""
+
+from __future__ import annotations
+
+import pytest
+
+from repro.gmd import emphasis_study, guidance_schedule, models, paper_settings
+from repro.gmd import root_representation as rr
+from repro.gmd import x0_vs_eps as x0eps
+from repro.gmd.emphasis_study import Variant
+from repro.gmd.models import GMDModelSpec, training_fields
+from repro.models.evaluator import EvaluatorConfig
+
+
+def test_standard_motion_and_trajectory_models_are_the_plans() -> None:
+    settings = x0eps.Settings.for_scale("standard")
+    for prediction in ("x0", "epsilon"):
+        motion = settings.spec("motion", prediction, settings.motion_data())
+        assert (motion.base_channels, motion.channel_mults) == (64, (1.0, 1.0))
+        assert motion.input_skip and motion.autocast is None
+        assert (motion.batch_size, motion.lr, motion.train_steps) == (32, 1e-3, 900)
+        assert motion.validate_every == 150 and motion.patience > 900 // 150  # no plateau stop
+        assert motion.diffusion_steps == 100 and motion.schedule == "cosine"
+        trajectory = settings.spec("trajectory", prediction, settings.data())
+        assert (trajectory.base_channels, trajectory.channel_mults) == (16, (1.0, 2.0))
+        assert not trajectory.input_skip and trajectory.autocast is None
+        assert (trajectory.batch_size, trajectory.lr, trajectory.train_steps) == (32, 1e-3, 1000)
+        assert trajectory.validate_every == 100 and trajectory.patience > 1000 // 100
+        assert trajectory.diffusion_steps == 100
+    # a step override keeps the run fixed (the patience outlasts it)
+    fields = training_fields("motion", scale="standard", step_cap=1500)
+    assert fields["train_steps"] == 1500 and fields["patience"] > 1500 // 150
+    assert not settings.longer_eps_run and x0eps.Settings.for_scale("paper").longer_eps_run
+    assert x0eps.Settings.for_scale("quick").longer_eps_run  # a test of the paper path
+    assert settings.generated == 128
+
+
+def test_every_standard_model_runs_t_100_and_the_stops_scale() -> None:
+    nb02 = rr.Settings.for_scale("standard")
+    assert nb02.trajectory_spec("relative", 0).diffusion_steps == 100
+    assert nb02.motion_spec("absolute", 0).diffusion_steps == 100
+    assert nb02.guidance_stop_t == 2 and nb02.evaluation_windows == 128
+    nb03 = emphasis_study.Settings.for_scale("standard")
+    assert nb03.base_spec().diffusion_steps == 100
+    assert nb03.base_spec().input_skip and nb03.base_spec().train_steps == 900
+    nb06 = guidance_schedule.Settings.for_scale("standard")
+    assert nb06.num_timesteps == 100 and nb06.spec().diffusion_steps == 100
+    assert nb06.stops() == {0: 0, 20: 2, 50: 5, 200: 20}
+    assert nb06.motion_spec().diffusion_steps == 100
+
+
+def test_standard_c4_runs_v_10_only() -> None:
+    settings = emphasis_study.Settings.for_scale("standard")
+    assert settings.values == (10,)
+    assert settings.variants() == [Variant("loss_scaling", 10), Variant("emphasis", 10)]
+    outside = settings.outside_rule_variants()
+    assert outside == [Variant("emphasis", 10, kind="gaussian", precision="float32_gmd")]
+    assert settings.trained_models == 3 * 2
+    assert settings.paper_only == ["the rule's part at v = 2", "the orthogonal-matrix arm",
+                                   "Table B.1's plain model (k = 1)"]
+    paper = emphasis_study.Settings.for_scale("paper")
+    assert paper.paper_only == [] and paper.values == (2, 10) and paper.trained_models == 36
+
+
+def test_the_standard_model_bank_shares_keys() -> None:
+    nb01 = x0eps.Settings.for_scale("standard")
+    data = nb01.data(None)
+    for seed in (0, 2):
+        a4 = nb01.spec("trajectory", "epsilon", data, seed)
+        assert a4 == nb01.guidance_trajectory_spec("epsilon", data, seed)
+        assert a4 == x0eps.guidance_trajectory_spec("standard", "epsilon", seed=seed)
+        assert a4 == rr.Settings.for_scale("standard").trajectory_spec("absolute", seed)
+        assert a4 == guidance_schedule.Settings.for_scale("standard").spec().replace(seed=seed)
+        assert (nb01.spec("trajectory", "x0", data, seed)
+                == nb01.guidance_trajectory_spec("x0", data, seed))
+        # F1's second stage is B3's absolute-root x0 text model (sampled with the null text)
+        assert (guidance_schedule.Settings.for_scale("standard").motion_spec().replace(seed=seed)
+                == rr.Settings.for_scale("standard").motion_spec("absolute", seed))
+    # one evaluator for notebooks 01, 02 and 03 (``emphasis_study.window_evaluator``)
+    steps = emphasis_study.Settings.for_scale("standard").evaluator_steps
+    assert rr.Settings.for_scale("standard").evaluator_config() == EvaluatorConfig(steps=steps)
+    assert nb01.evaluator_config("fingerprint") == EvaluatorConfig(steps=steps)
+    # the paper scale keeps A4's T = 100 and A3's T = 1000 trajectory models apart
+    paper = x0eps.Settings.for_scale("paper")
+    assert (paper.spec("trajectory", "epsilon", paper.data(None))
+            != paper.guidance_trajectory_spec("epsilon", paper.data(None)))
+
+
+def test_paper_scale_is_todays_full_settings() -> None:
+    for task, architecture, plan in (
+            ("motion", paper_settings.MOTION_ARCHITECTURE, models.MOTION_TRAINING),
+            ("trajectory", paper_settings.TRAJECTORY_ARCHITECTURE, models.TRAJECTORY_TRAINING)):
+        assert training_fields(task, scale="paper") == {
+            "base_channels": architecture.base_channels,
+            "channel_mults": architecture.channel_mults, "batch_size": plan.batch_size,
+            "lr": plan.lr, "validate_every": plan.validate_every, "patience": plan.patience,
+            "autocast": plan.autocast, "train_steps": plan.step_cap}
+    nb01 = x0eps.Settings.for_scale("paper")
+    motion = nb01.spec("motion", "x0", nb01.motion_data())
+    assert motion == GMDModelSpec(task="motion", prediction="x0", data=nb01.motion_data(),
+                                  diffusion_steps=100, **training_fields("motion", scale="paper"))
+    assert not motion.input_skip and motion.autocast == "bfloat16"
+    assert (nb01.generated, nb01.guidance_diffusion_steps) == (256, 1000)
+    assert nb01.evaluator_config("id") == EvaluatorConfig(data_id="id")
+    nb02 = rr.Settings.for_scale("paper")
+    assert (nb02.trajectory_diffusion_steps, nb02.guidance_stop_t) == (1000, 20)
+    assert nb02.evaluation_windows == 256
+    nb03 = emphasis_study.Settings.for_scale("paper")
+    assert (nb03.diffusion_steps, nb03.train_steps) == (50, models.MOTION_TRAINING.step_cap)
+    nb06 = guidance_schedule.Settings.for_scale("paper")
+    assert nb06.stops() == {0: 0, 20: 20, 50: 50, 200: 200}
+
+
+@pytest.mark.parametrize("build", [
+    lambda s: x0eps.Settings.for_scale(s), lambda s: rr.Settings.for_scale(s),
+    lambda s: emphasis_study.Settings.for_scale(s),
+    lambda s: emphasis_study.ProjectionSettings.for_scale(s),
+    lambda s: guidance_schedule.Settings.for_scale(s),
+    lambda s: training_fields("motion", scale=s)])
+def test_an_unknown_scale_is_a_clear_error(build) -> None:
+    with pytest.raises(ValueError, match="scale must be one of quick, standard, paper"):
+        build("full")
