@@ -20,7 +20,7 @@ STANDARD_PLAN_MINUTES: dict[str, float] = {
     "03_emphasis_projection": 16.0,
     "04_energy_contour_maps": 13.9,
     "05_sef_ablation": 2.0,
-    "06_guidance_schedule": 4.8 + 6.4,   # + F1's own second-stage motion models
+    "06_guidance_schedule": 4.8,   # its second stage is B3's absolute x0 model (the bank)
     "07_latent_count": 10.8,
     "08_composed_augmentation": 3.2,
 }
