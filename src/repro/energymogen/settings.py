@@ -23,7 +23,7 @@ from repro.energymogen.augmentation import composed_set_size, finetune_config
 from repro.energymogen.config import PipelineConfig, pipeline_config
 from repro.energymogen.convergence import TrainingPlan
 from repro.energymogen.latent_count import LATENT_COUNTS
-from repro.infra.context import check_scale
+from repro.infra.context import QUICK_NOTE, check_scale
 
 __all__ = ["FULL_SEEDS", "SEEDS", "STANDARD_LATENT_COUNTS", "AugmentationSettings",
            "EnergyViewSettings", "LatentCountSettings", "SEFAblationSettings", "seeds_of"]
@@ -48,6 +48,26 @@ SEEDS: dict[str, dict[str, int]] = {
               "EMG-8": 3}}
 #: the paper scale's row (the registry's examples read it)
 FULL_SEEDS: dict[str, int] = SEEDS["paper"]
+
+
+def scale_note(scale: str) -> str:
+    """A markdown line for the top of an EnergyMoGen notebook: the run's scale and, at
+    standard, how its pipeline differs from the paper settings the design text names."""
+    if check_scale(scale) == "quick":
+        return QUICK_NOTE
+    paper, standard = pipeline_config("paper"), pipeline_config("standard")
+    if scale == "paper":
+        return (f"**Paper scale**: the pipeline as the design text states it (VAE width "
+                f"{paper.vae_width}, denoiser {paper.denoiser_width} × {paper.denoiser_layers} "
+                f"layers, trained to a plateau; N ∈ {set(LATENT_COUNTS)}; the registered seeds).")
+    return (f"**Standard scale** (`make reproduce`, docs/COMPUTE.md): VAE width "
+            f"{standard.vae_width}, a fixed {standard.vae_steps} steps; latent denoiser "
+            f"{standard.denoiser_width} × {standard.denoiser_layers} layers (paper: "
+            f"{paper.denoiser_width} × {paper.denoiser_layers}), a fixed "
+            f"{standard.denoiser_steps} steps; {SEEDS['standard']['EMG-2']} seeds per claim; "
+            f"EMG-7 sweeps N ∈ {set(STANDARD_LATENT_COUNTS)}. Where the text below names longer "
+            "training, more seeds or other N, those are the paper scale's; the values this run "
+            "used are printed by its cells and recorded in every claim's sidecar.")
 
 
 def seeds_of(claim_id: str, scale: str) -> int:

@@ -26,6 +26,11 @@ MAX_SEED = 2**48 - 1
 SCALES = ("quick", "standard", "paper")
 
 
+#: what a notebook of a quick run says at its top (its paper package's ``scale_note``)
+QUICK_NOTE = ("**Quick scale: a test of the code.** Tiny data, a few training steps, one seed; "
+              "no verdict of this run is a result.")
+
+
 def scale_problem(scale: object) -> str | None:
     """Why ``scale`` is not one of :data:`SCALES`; None when it is."""
     if scale not in SCALES:
