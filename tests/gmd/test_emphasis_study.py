@@ -207,7 +207,7 @@ def _fake_results(seeds: int = 4):
 
 
 def test_kappa_relation_and_outside_rule_summary() -> None:
-    from repro.gmd.emphasis_study import kappa_skating_relation, outside_rule_summary
+    from repro.gmd.emphasis_arms import kappa_skating_relation, outside_rule_summary
 
     results = _fake_results()
     relation = kappa_skating_relation(results)

@@ -63,7 +63,7 @@ __all__ = [
     "Settings", "Targets", "Variant", "coherence", "draw_targets", "from_normalised",
     "ProjectionSettings", "load_or_train_variant", "measure_imputed", "measure_text_to_motion",
     "project_windows",
-    "Results", "TABLE_B1_VARIANTS", "kappa_skating_relation", "outside_rule_summary",
+    "Results", "TABLE_B1_VARIANTS",
     "root_velocity_disagreement", "run_experiment",
     "sample_with_trajectory", "text_metrics", "to_normalised",
     "trajectory_error", "window_evaluator",
@@ -580,44 +580,3 @@ class ProjectionSettings:
                        kappa_scan_seeds=5, kappa_scan_frames=500)
         return cls(simulation_samples=10000, distance_pairs=10000, inverse_frames=5000,
                    kappa_scan_seeds=20, kappa_scan_frames=1000)
-
-
-# ------------------------------------------------------------------------------ κ and the arms
-
-def kappa_skating_relation(results: Results) -> dict[str, dict[str, float | int | None]]:
-    """Spearman's rank correlation between κ(P) and foot skating over the seeds of each
-    Gaussian Emphasis value of the rule ({str(c): {"rho", "p", "n"}}; ρ and p None below
-    three seeds or where either is constant). Descriptive: not part of the rule."""
-    from scipy import stats
-
-    out: dict[str, dict[str, float | int | None]] = {}
-    for value, kappas in results.kappa_per_value().items():
-        skating = results.per_value("emphasis", "foot_skating")[value]
-        rho = p = None
-        if len(kappas) >= 3 and np.ptp(kappas) > 0 and np.ptp(skating) > 0:
-            test = stats.spearmanr(kappas, skating)
-            rho, p = float(test.statistic), float(test.pvalue)
-        out[value] = {"rho": rho, "p": p, "n": len(kappas)}
-    return out
-
-
-def outside_rule_summary(results: Results) -> dict[str, dict[str, Any]]:
-    """Every Emphasis arm outside the rule ({label: ...}): per-seed foot skating and κ(P),
-    and paired over seeds (95 % t-intervals, ``Interval.as_dict``) loss scaling k = c − the
-    arm (the rule's direction) and the arm − the rule's Gaussian arm at the same c."""
-    from repro.core.stats import paired_difference, t_interval
-
-    summary = {}
-    for variant in results.outside_rule:
-        if variant.method != "emphasis":
-            continue
-        arm = results.imputed[variant.label]["foot_skating"]
-        loss = results.imputed[Variant("loss_scaling", variant.value).label]["foot_skating"]
-        gaussian = results.imputed[Variant("emphasis", variant.value).label]["foot_skating"]
-        summary[variant.label] = {
-            "value": variant.value, "kind": variant.kind, "precision": variant.precision,
-            "foot_skating": list(arm), "condition_number": results.condition_numbers[
-                variant.label],
-            "loss_scaling_minus_arm": t_interval(paired_difference(loss, arm)).as_dict(),
-            "arm_minus_gaussian": t_interval(paired_difference(arm, gaussian)).as_dict()}
-    return summary
