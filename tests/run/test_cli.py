@@ -101,3 +101,13 @@ def test_bench_warm_cache_is_checked_and_rows_of_earlier_benches_stay(
     assert rows["reproduce_standard_warm"]["seconds"] == 3.0
     assert rows["reproduce_standard_warm"]["cache"] == str((tmp_path / "cache").resolve())
     assert timed == [{"REPRO_CACHE_DIR": str((tmp_path / "cache").resolve())}]
+
+
+def test_the_scale_is_one_of_three_and_quick_is_its_shorthand(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["reproduce", "--quick", "--scale", "paper", "--only", "00"]) == 2
+    assert "--quick and --scale paper disagree" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # argparse names the three scales
+        main(["reproduce", "--scale", "full"])
+    assert "invalid choice: 'full'" in capsys.readouterr().err
+    assert main(["report", "--scale", "paper", "--quick"]) == 2
