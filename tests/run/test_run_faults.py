@@ -94,7 +94,9 @@ def test_a_run_publishes_sidecars_notebook_and_figures_under_its_run_id(sandbox:
     assert sidecar["figures"] == [str(quick / "figures" / "one.png")]
     assert (quick / "figures" / "one.png").is_file()
     assert (quick / "notebooks" / "01_two_claims.ipynb").is_file()
-    assert not (quick / "runs").exists() or not any((quick / "runs").iterdir())
+    # a finished run keeps only its run.json (the report's run span starts there)
+    assert [p.name for p in (quick / "runs" / sidecar["run_id"]).iterdir()] == ["run.json"]
+    assert read_json(quick / "report" / "claims.json")["run_span_seconds"] is not None
     assert f"Run {sidecar['run_id']}." in (quick / "report" / "REPORT.md").read_text()
     assert read_json(quick / "claims" / "GMD-A2.json")["run_id"] == sidecar["run_id"]
 

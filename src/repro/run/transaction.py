@@ -113,6 +113,14 @@ def publish(run: Run, name: str) -> list[str]:
 
 
 def finish(run: Run, failed: list[str]) -> None:
-    """Remove the staging folder when nothing in it needs inspecting."""
+    """Remove the staging folder's contents when nothing in it needs inspecting, but for its
+    ``run.json``: the run's start, from which the report measures the run's span
+    (``claims.budgets.run_span_seconds``)."""
     if not failed:
-        shutil.rmtree(run.staging, ignore_errors=True)
+        for entry in run.staging.iterdir():
+            if entry.name == "run.json":
+                continue
+            if entry.is_dir():
+                shutil.rmtree(entry, ignore_errors=True)
+            else:
+                entry.unlink(missing_ok=True)
