@@ -198,16 +198,3 @@ def test_bad_input_is_rejected():
     nan[0, 0, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
         train_evaluator(nan, lengths, captions, FAST)
-
-
-def test_frame_differences_enter_the_key_only_when_set_and_see_only_valid_frames() -> None:
-    assert "frame_differences" not in FAST.key_dict()
-    with_steps = EvaluatorConfig(steps=80, hidden=64, dim=32, seed=0, frame_differences=True)
-    assert with_steps.key_dict()["frame_differences"] is True
-    encoder = ev.MotionEncoder(4, 8, 3, frame_differences=True)
-    x = torch.randn(2, 6, 4)
-    mask = torch.tensor([[True] * 6, [True] * 4 + [False] * 2])
-    padded = x.clone()
-    padded[1, 4:] = 1e3  # beyond the second clip's length: no difference may reach it
-    torch.testing.assert_close(encoder(x, mask), encoder(padded, mask))
-    assert encoder.conv1.in_channels == 8  # the frames and their differences

@@ -57,6 +57,7 @@ __all__ = ["AUTOCAST_DTYPES", "VALIDATION_SEED_OFFSET", "ConvergenceRecord", "Pl
            "TrainConfig", "TrainResult", "ValidationPairs", "ValidationSet", "autocast_context",
            "check_autocast",
            "check_convergence_fields", "drop_unset_convergence_fields", "ema_decay_at",
+           "fixed_steps_patience",
            "load_or_train", "make_adamw", "torch_threads", "train_diffusion",
            "validation_loss"]
 
@@ -69,6 +70,13 @@ _CONVERGENCE_DEFAULTS: dict[str, Any] = {"validate_every": None, "patience": 5,
 #: the validation noise's generator seed is ``seed + VALIDATION_SEED_OFFSET`` (not the
 #: training generator, so validating leaves the training trajectory unchanged)
 VALIDATION_SEED_OFFSET = 7919
+
+
+def fixed_steps_patience(steps: int, validate_every: int) -> int:
+    """The plateau criterion's patience that outlasts a run of ``steps`` validated every
+    ``validate_every`` steps (one more than its evaluations): the held-out curve is recorded,
+    the plateau stop never acts, so the run trains exactly ``steps`` steps."""
+    return steps // validate_every + 1
 
 
 def check_autocast(autocast: str | None) -> None:

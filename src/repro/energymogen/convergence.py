@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from repro.core.training import fixed_steps_patience
 from repro.energymogen.config import STANDARD_DENOISER_STEPS, STANDARD_VAE_STEPS
 from repro.infra import cache, paths, storage
 from repro.infra.context import check_scale
@@ -65,7 +66,7 @@ class TrainingPlan:
         than the run's evaluations, so the criterion records the curve but never stops it."""
         if self.plateau_stop:
             return self.patience
-        return step_cap // validate_every + 1
+        return fixed_steps_patience(step_cap, validate_every)
 
     @property
     def vae_patience(self) -> int:

@@ -20,7 +20,13 @@ import torch
 from torch import Tensor
 
 from repro.core.diffusion import GaussianDiffusion
-from repro.core.training import TrainConfig, ValidationSet, check_autocast, train_diffusion
+from repro.core.training import (
+    TrainConfig,
+    ValidationSet,
+    check_autocast,
+    fixed_steps_patience,
+    train_diffusion,
+)
 from repro.gmd.coefficients import schedule_diffusion
 from repro.gmd.paper_settings import (
     MOTION_ARCHITECTURE,
@@ -109,22 +115,17 @@ TRAJECTORY_TRAINING = ConvergenceTraining(batch_size=64, lr=1e-3, validate_every
                                           patience=5, step_cap=12000)
 
 
-def _fixed_steps(steps: int, validate_every: int) -> int:
-    """The patience that outlasts a run of ``steps`` validated every ``validate_every`` steps:
-    the plateau stop never acts, the held-out curve is still recorded (as ``longer_run``)."""
-    return steps // validate_every + 1
-
-
 #: the standard scale's motion models (docs/COMPUTE.md §4 item 1, the pilot with the input
 #: skip: both arms pass the x̂0 gate from 900 steps): a fixed 900 steps × batch 32, lr 1e-3,
 #: fp32 (bf16 does not pay on a CPU without AMX, COMPUTE.md §1), validated every 150 steps
 #: without the plateau stop, so both arms of every comparison share the same budget.
 STANDARD_MOTION_TRAINING = ConvergenceTraining(
-    batch_size=32, lr=1e-3, validate_every=150, patience=_fixed_steps(900, 150), step_cap=900)
+    batch_size=32, lr=1e-3, validate_every=150, patience=fixed_steps_patience(900, 150),
+    step_cap=900)
 #: the standard scale's trajectory models (COMPUTE.md §4 item 2: both arms pass from 300
 #: steps): a fixed 1000 steps × batch 32, lr 1e-3, fp32, validated every 100 steps.
 STANDARD_TRAJECTORY_TRAINING = ConvergenceTraining(
-    batch_size=32, lr=1e-3, validate_every=100, patience=_fixed_steps(1000, 100),
+    batch_size=32, lr=1e-3, validate_every=100, patience=fixed_steps_patience(1000, 100),
     step_cap=1000)
 #: quick mode (a test of the code): validate every 5 steps, stop after 2 without a gain.
 QUICK_TRAINING = ConvergenceTraining(batch_size=32, lr=1e-3, validate_every=5, patience=2,
@@ -327,7 +328,7 @@ def training_fields(task: Task, *, scale: str, step_cap: int | None = None) -> d
                         else STANDARD_TRAJECTORY_ARCHITECTURE)
         plan = STANDARD_MOTION_TRAINING if task == "motion" else STANDARD_TRAJECTORY_TRAINING
         steps = plan.step_cap if step_cap is None else int(step_cap)
-        patience = _fixed_steps(steps, plan.validate_every)
+        patience = fixed_steps_patience(steps, plan.validate_every)
         skip = {"input_skip": True} if task == "motion" else {}
     else:
         architecture = MOTION_ARCHITECTURE if task == "motion" else TRAJECTORY_ARCHITECTURE
@@ -347,7 +348,8 @@ def longer_run(spec: GMDModelSpec, factor: int = 2) -> GMDModelSpec:
     if spec.validate_every is None:
         raise ValueError("longer_run needs a spec trained with validation (validate_every)")
     steps = int(factor) * spec.train_steps
-    return spec.replace(train_steps=steps, patience=steps // spec.validate_every + 1)
+    return spec.replace(train_steps=steps,
+                        patience=fixed_steps_patience(steps, spec.validate_every))
 
 
 def validation_split(data: MotionWindows, fraction: float) -> tuple[Tensor, Tensor]:

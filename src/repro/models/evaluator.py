@@ -56,19 +56,6 @@ class EvaluatorConfig:
     #: a name for the training data (e.g. the stand-in dataset hash); informational only,
     #: the cache key also fingerprints the arrays themselves.
     data_id: str = ""
-    #: the motion encoder also sees each frame's difference from the one before (in the
-    #: normalised units; zero at the first frame): an encoder of frames alone can map windows
-    #: whose frames are shuffled, or drawn i.i.d., close to real ones (the evaluator gate's
-    #: trivial fakes, docs/COMPUTE.md §4). In the cache key only when set.
-    frame_differences: bool = False
-
-    def key_dict(self) -> dict:
-        """The fields that decide the trained evaluator (``frame_differences`` only when set,
-        so the keys of evaluators made before the field hold)."""
-        fields = asdict(self)
-        if not self.frame_differences:
-            fields.pop("frame_differences")
-        return fields
 
 
 class MotionEncoder(nn.Module):
@@ -78,22 +65,15 @@ class MotionEncoder(nn.Module):
     how much padding follows the clip (i.e. on the other clips in its batch).
     """
 
-    def __init__(self, in_dim: int, hidden: int, dim: int, frame_differences: bool = False,
-                 ) -> None:
+    def __init__(self, in_dim: int, hidden: int, dim: int) -> None:
         super().__init__()
-        self.frame_differences = frame_differences
-        self.conv1 = nn.Conv1d(2 * in_dim if frame_differences else in_dim, hidden, 5,
-                               padding=2)
+        self.conv1 = nn.Conv1d(in_dim, hidden, 5, padding=2)
         self.conv2 = nn.Conv1d(hidden, hidden, 5, padding=4, dilation=2)
         self.out = nn.Linear(2 * hidden, dim)
 
     def forward(self, x: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         valid = mask[:, None, :]  # (B, 1, T)
         h = x.transpose(1, 2) * valid
-        if self.frame_differences:  # Δx_t = x_t − x_{t−1} where both frames are valid, else 0
-            both = valid[..., 1:] & valid[..., :-1]
-            step = (h[..., 1:] - h[..., :-1]) * both
-            h = torch.cat([h, F.pad(step, (1, 0))], dim=1)
         h = F.gelu(self.conv1(h)) * valid
         h = F.gelu(self.conv2(h))
         mean = (h * valid).sum(-1) / valid.sum(-1)
@@ -146,8 +126,7 @@ class Evaluator(nn.Module):
         self.register_buffer("feature_std", torch.as_tensor(std, dtype=torch.float32))
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(config.seed)
-            self.motion_encoder = MotionEncoder(len(mean), config.hidden, config.dim,
-                                                config.frame_differences)
+            self.motion_encoder = MotionEncoder(len(mean), config.hidden, config.dim)
             self.text_encoder = TextEncoder(len(vocab), config.dim, config.word_dim)
         self.losses: list[float] = []
 
@@ -198,7 +177,7 @@ class Evaluator(nn.Module):
         statistics), each written atomically."""
         directory = Path(directory)
         write_json(directory / "config.json",
-                   {"format": _FORMAT_VERSION, "config": self.config.key_dict()})
+                   {"format": _FORMAT_VERSION, "config": asdict(self.config)})
         self.vocab.save(directory / "vocab.json")
         write_json(directory / "losses.json", self.losses)
         with atomic_open(directory / "weights.pt", "wb") as handle:
@@ -321,7 +300,7 @@ def _fingerprint(motions: np.ndarray, lengths: np.ndarray,
 
 def evaluator_cache_config(config: EvaluatorConfig, fingerprint: str) -> dict:
     """What the cache key covers: the full config, the data fingerprint, the format."""
-    return {"evaluator": config.key_dict(), "data": fingerprint, "format": _FORMAT_VERSION}
+    return {"evaluator": asdict(config), "data": fingerprint, "format": _FORMAT_VERSION}
 
 
 def load_or_train_evaluator(train_motions: np.ndarray, lengths: Sequence[int],

@@ -118,9 +118,10 @@ def print_plan_against_measured() -> None:
     build's report, else the committed ``results/``)."""
     for source in (paths.build_root() / "report" / "claims.json",
                    paths.results_dir() / "claims.json"):
-        if source.is_file() and read_json(source).get("scale") == "standard":
+        report = read_json(source) if source.is_file() else {}
+        if report.get("scale") == "standard":
             print(f"\nstandard scale, plan (docs/COMPUTE.md) against the run in {source}:")
-            print(plan_against_measured(read_json(source).get("run_seconds", {})))
+            print(plan_against_measured(report.get("run_seconds", {})))
             return
     print("\nstandard scale: no standard run measured yet (plan, docs/COMPUTE.md):")
     print(plan_against_measured({}))
