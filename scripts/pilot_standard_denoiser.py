@@ -86,7 +86,7 @@ def packed(tokens: Tensor, mask: Tensor) -> Tensor:
 def standard_pipeline(args: argparse.Namespace):
     """The standard pipeline's parts for evaluation seed ``args.seed`` (no denoiser, no
     evaluator: neither is measured here), the design's config, plan and training rows."""
-    base = pipeline_config("standard")
+    base = replace(pipeline_config("standard"), latent_count=args.latents)
     config = replace(base, denoiser_width=args.width, denoiser_layers=args.layers,
                      denoiser_lr=args.lr)
     plan = TrainingPlan.for_scale("standard")
@@ -242,6 +242,8 @@ def main() -> None:
                         help="a multiple of the plan's validation interval (250)")
     parser.add_argument("--seed", type=int, default=0,
                         help="evaluation seed (training seed ``pipeline.train_seed_for``)")
+    parser.add_argument("--latents", type=int, default=pipeline_config("standard").latent_count,
+                        help="N, the VAE's latent vectors (EMG-7's other standard N is 7)")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     if args.gate_every % TrainingPlan.for_scale("standard").denoiser_validate_every:

@@ -24,7 +24,7 @@ def test_standard_motion_and_trajectory_models_are_the_plans() -> None:
         assert motion.validate_every == 150 and motion.patience > 900 // 150  # no plateau stop
         assert motion.diffusion_steps == 100 and motion.schedule == "cosine"
         trajectory = settings.spec("trajectory", prediction, settings.data())
-        assert (trajectory.base_channels, trajectory.channel_mults) == (16, (1.0, 2.0))
+        assert (trajectory.base_channels, trajectory.channel_mults) == (32, (1.0, 2.0))
         assert not trajectory.input_skip and trajectory.autocast is None
         assert (trajectory.batch_size, trajectory.lr, trajectory.train_steps) == (32, 1e-3, 1000)
         assert trajectory.validate_every == 100 and trajectory.patience > 1000 // 100
@@ -75,6 +75,12 @@ def test_the_standard_model_bank_shares_keys() -> None:
         assert a4 == guidance_schedule.Settings.for_scale("standard").spec().replace(seed=seed)
         assert (nb01.spec("trajectory", "x0", data, seed)
                 == nb01.guidance_trajectory_spec("x0", data, seed))
+        # A4's x0 motion model is B3's relative-root x0 text model (sampled with the null
+        # text), and its ε model the same spec predicting ε
+        a4_x0 = nb01.spec("motion", "x0", nb01.motion_data(), seed)
+        assert a4_x0 == rr.Settings.for_scale("standard").motion_spec("relative", seed)
+        assert (nb01.spec("motion", "epsilon", nb01.motion_data(), seed)
+                == a4_x0.replace(prediction="epsilon"))
         # F1's second stage is B3's absolute-root x0 text model (sampled with the null text)
         assert (guidance_schedule.Settings.for_scale("standard").motion_spec().replace(seed=seed)
                 == rr.Settings.for_scale("standard").motion_spec("absolute", seed))

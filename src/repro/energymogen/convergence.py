@@ -94,7 +94,7 @@ class TrainingPlan:
         steps (no denoiser pilot), 128 validation clips, validation every 250 steps
         (≈ 2–3 % of the training time), the TRAINING.md defaults patience 5 and δ 1 %.
         standard (docs/COMPUTE.md §3b, §4 item 3): a FIXED 900 VAE steps (the pilot's VAE
-        passed its gate from 750 in both seeds) and 1000 denoiser steps, no plateau stop; the
+        passed its gate from 750 in both seeds) and 1500 denoiser steps (§10), no plateau stop; the
         held-out curve is still recorded (VAE every 150 steps, as the pilot's checks;
         denoiser every 250), on 128 validation clips. quick: caps at the quick
         configuration's fixed step counts (40 VAE, 80 denoiser steps), two evaluations each,

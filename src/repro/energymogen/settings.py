@@ -4,7 +4,7 @@ notebook, ``for_scale(scale)`` gives its settings at a scale of ``infra.context.
 
 - **quick**: everything shrunk to a test of the code, never a result;
 - **standard** (``make reproduce``, ≈ 30 CPU-minutes for EnergyMoGen): the paper's data, test
-  sets and VAE at fixed step counts (900 VAE, 1000 denoiser steps), a 32 × 2 latent denoiser,
+  sets and VAE at fixed step counts (900 VAE, 1500 denoiser steps), a 64 × 2 latent denoiser,
   3 seeds per claim, EMG-6's maps with 2 noise draws, EMG-7's N ∈ {5, 7} only, no
   guidance-scale check;
 - **paper**: the former full mode, unchanged (the same cache keys).

@@ -51,7 +51,10 @@ TRAJECTORY_ARCHITECTURE = Architecture(base_channels=64, channel_mults=(1, 2, 4)
 #: ``guidance_schedule.model_stop_step``: GMD's 20 of 1000 → 2); the motion UNet 64 × (1, 1)
 #: with the full-rank input skip (``UNet1D(input_skip=True)``: without it the ε arm cannot
 #: carry 263-d noise through 64 channels, COMPUTE.md §4 item 1), the trajectory UNet
-#: 16 × (1, 2). Fixed before any standard-scale result, from the pilots of COMPUTE.md §4.
+#: 32 × (1, 2): the first run's 16 × (1, 2) at 1000 steps failed its path-length gate in 9 of
+#: 12 records (COMPUTE.md §8); the wider net passes at 1000 steps with a margin and costs less
+#: than 16 × (1, 2) at the 2000 steps that also pass (COMPUTE.md §11). Fixed from pilots, before
+#: the standard run that reports with it.
 STANDARD_DIFFUSION_STEPS = 100
 STANDARD_MOTION_ARCHITECTURE = Architecture(base_channels=64, channel_mults=(1, 1))
-STANDARD_TRAJECTORY_ARCHITECTURE = Architecture(base_channels=16, channel_mults=(1, 2))
+STANDARD_TRAJECTORY_ARCHITECTURE = Architecture(base_channels=32, channel_mults=(1, 2))

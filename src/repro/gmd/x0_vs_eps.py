@@ -322,11 +322,19 @@ class Settings:
              seed: int = 0) -> GMDModelSpec:
         """One of the four models (trajectory/motion × x0/ε): x0 and ε of a task share the
         architecture and the training budget (``models.training_fields``: trained to
-        convergence, ``train_steps`` the cap)."""
+        convergence, ``train_steps`` the cap). Below the paper scale the motion models are
+        text-conditioned, so that A4's x0 model *is* GMD-B3's relative-root model
+        (``root_representation.Settings.motion_spec``, one cache key; docs/COMPUTE.md §3d) and
+        its ε model the same spec predicting ε; A4 samples both with the null condition
+        (``guidance.sample`` without text: the unconditional model that classifier-free
+        training keeps). The paper scale keeps today's unconditional models."""
         fields = {"batch_size": self.batch_size,
                   **training_fields(task, scale=self.scale, step_cap=self.train_steps)}
-        return GMDModelSpec(task=task, prediction=prediction, data=data,
+        spec = GMDModelSpec(task=task, prediction=prediction, data=data,
                             diffusion_steps=self.diffusion_steps, seed=seed, **fields)
+        if task == "motion" and self.scale != "paper":
+            spec = spec.replace(text_conditioned=True)
+        return spec
 
     def guidance_trajectory_spec(self, prediction: Literal["x0", "epsilon"], data: DataConfig,
                                  seed: int = 0) -> GMDModelSpec:

@@ -2,27 +2,29 @@
 
 ``make reproduce`` estimates what is left from these shares until a run of the same scale has
 measured its own times (``runner.known_seconds``); the step caps and the times of other
-scales' runs never enter the estimate. A share is CPU-minutes on one torch thread, the plan's
-measured cost × 1.3; a notebook runs on one core (two notebooks at a time on two cores), so
-its share is also its planned wall time. The set-up, data and report (about 10 minutes of the
-plan) are outside the notebooks.
+scales' runs never enter the estimate. A share is the wall minutes a notebook takes with one
+torch thread, two notebooks at a time on two cores (measured, not padded). The set-up and the
+report (about 5 minutes) are outside the notebooks.
 """
 
 from __future__ import annotations
 
 __all__ = ["STANDARD_PLAN_MINUTES", "planned_seconds"]
 
-#: docs/COMPUTE.md §3c, "share" (CPU-minutes); notebook 00 is part of its fixed 10 minutes
+#: docs/COMPUTE.md §11 (the second standard design): the first run's measured wall minutes per
+#: notebook (§8) with each changed family's measured cost moved in — the trajectory UNet
+#: 32 × (1, 2) at 1000 steps, the latent denoiser 64 × 2 at 1500 (fine-tunes 500), GMD-A4's
+#: motion models shared with GMD-B3 (trained by 01, loaded by 02)
 STANDARD_PLAN_MINUTES: dict[str, float] = {
-    "00_stand_in_data": 2.0,
-    "01_x0_vs_eps": 23.9 + 6.4,   # + A4's x0 motion models (not shared with B3 at standard)
-    "02_root_representation": 14.1,
+    "00_stand_in_data": 0.5,
+    "01_x0_vs_eps": 24.3,
+    "02_root_representation": 15.8,
     "03_emphasis_projection": 16.0,
-    "04_energy_contour_maps": 13.9,
-    "05_sef_ablation": 2.0,
-    "06_guidance_schedule": 4.8,   # its second stage is B3's absolute x0 model (the bank)
-    "07_latent_count": 10.8,
-    "08_composed_augmentation": 3.2,
+    "04_energy_contour_maps": 18.8,
+    "05_sef_ablation": 7.1,
+    "06_guidance_schedule": 3.7,
+    "07_latent_count": 15.4,
+    "08_composed_augmentation": 7.9,
 }
 
 
