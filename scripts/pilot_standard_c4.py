@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import dataclasses
 import json
 import math
 import time
@@ -40,6 +41,8 @@ def main() -> None:
     parser.add_argument("--value", type=float, default=10.0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--checks", type=int, nargs="+", default=[900, 1200, 1500, 1800, 2400])
+    parser.add_argument("--frames", type=int, default=None,
+                        help="window length (default: the standard's 48; stride = frames / 2)")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -48,6 +51,9 @@ def main() -> None:
 
     settings = study.Settings.for_scale("standard")
     base = settings.base_spec()
+    if args.frames is not None:
+        base = base.replace(data=dataclasses.replace(base.data, frames=args.frames,
+                                                     stride=args.frames // 2))
     value = int(args.value) if float(args.value).is_integer() else args.value
     variant = study.Variant(args.method, value)
     spec = variant.spec(base, args.seed).replace(train_steps=checks[-1], validate_every=every,
@@ -74,7 +80,8 @@ def main() -> None:
         row = {"family": "gmd_motion", "design": (f"{spec.base_channels} x "
                                                   f"{tuple(spec.channel_mults)} + input skip"),
                "arm": variant.label, "method": args.method, "value": args.value,
-               "seed": args.seed, "step": step, "T": spec.diffusion_steps,
+               "seed": args.seed, "frames": spec.data.frames, "step": step,
+               "T": spec.diffusion_steps,
                "batch": spec.batch_size, "lr": spec.lr,
                "parameters": sum(p.numel() for p in ema.parameters()), "held_out_loss": loss,
                **model_gates.denoising_gate_values(trained, test, train, seed=args.seed)}
