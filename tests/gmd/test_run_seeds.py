@@ -25,14 +25,15 @@ def test_settings_read_the_table() -> None:
         seeds_of("GMD-A4", "full")
 
 
-def test_standard_runs_three_seeds_for_every_claim() -> None:
+def test_standard_runs_three_seeds_for_every_claim_but_c4() -> None:
     assert set(STANDARD_SEEDS) == set(FULL_SEEDS)
-    assert all(seeds_of(claim, "standard") == 3 for claim in FULL_SEEDS)
+    assert all(seeds_of(claim, "standard") == 3 for claim in FULL_SEEDS if claim != "GMD-C4")
+    assert seeds_of("GMD-C4", "standard") == 1
     standard = root_representation.Settings.for_scale("standard")
     assert (standard.seeds, standard.motion_seeds) == (3, 3)
     assert x0_vs_eps.Settings.for_scale("standard").seeds == 3
     assert guidance_schedule.Settings.for_scale("standard").seeds == 3
-    assert emphasis_study.Settings.for_scale("standard").seeds == 3
+    assert emphasis_study.Settings.for_scale("standard").seeds == 1
 
 
 @pytest.mark.parametrize("notebook", ["01_x0_vs_eps", "06_guidance_schedule"])

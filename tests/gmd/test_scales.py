@@ -44,7 +44,8 @@ def test_every_standard_model_runs_t_100_and_the_stops_scale() -> None:
     assert nb02.guidance_stop_t == 2 and nb02.evaluation_windows == 128
     nb03 = emphasis_study.Settings.for_scale("standard")
     assert nb03.base_spec().diffusion_steps == 100
-    assert nb03.base_spec().input_skip and nb03.base_spec().train_steps == 900
+    assert nb03.base_spec().input_skip and nb03.base_spec().train_steps == 1500
+    assert nb02.motion_spec("absolute", 0).train_steps == 900
     nb06 = guidance_schedule.Settings.for_scale("standard")
     assert nb06.num_timesteps == 100 and nb06.spec().diffusion_steps == 100
     assert nb06.stops() == {0: 0, 20: 2, 50: 5, 200: 20}
@@ -57,7 +58,7 @@ def test_standard_c4_runs_v_10_only() -> None:
     assert settings.variants() == [Variant("loss_scaling", 10), Variant("emphasis", 10)]
     outside = settings.outside_rule_variants()
     assert outside == [Variant("emphasis", 10, kind="gaussian", precision="float32_gmd")]
-    assert settings.trained_models == 3 * 2
+    assert settings.trained_models == 1 * 2
     assert settings.paper_only == ["the rule's part at v = 2", "the orthogonal-matrix arm",
                                    "Table B.1's plain model (k = 1)"]
     paper = emphasis_study.Settings.for_scale("paper")

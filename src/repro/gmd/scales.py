@@ -7,6 +7,7 @@ docs/COMPUTE.md; :func:`scale_note` says which, from the constants the code runs
 
 from __future__ import annotations
 
+from repro.gmd.emphasis_study import STANDARD_C4_TRAIN_STEPS
 from repro.gmd.models import STANDARD_MOTION_TRAINING, STANDARD_TRAJECTORY_TRAINING
 from repro.gmd.paper_settings import (
     GUIDANCE_DIFFUSION_STEPS,
@@ -38,14 +39,15 @@ def scale_note(scale: str) -> str:
                 f"(T = {GUIDANCE_DIFFUSION_STEPS} for guidance, motion UNet "
                 f"{_widths(MOTION_ARCHITECTURE)}, trajectory UNet "
                 f"{_widths(TRAJECTORY_ARCHITECTURE)}, the registered seed counts).")
-    seeds = sorted(set(STANDARD_SEEDS.values()))
+    seeds = ", ".join(f"{claim} {n}" for claim, n in STANDARD_SEEDS.items())
     return (f"**Standard scale** (`make reproduce`, docs/COMPUTE.md): every GMD model has "
             f"T = {STANDARD_DIFFUSION_STEPS} (guidance stop steps at the same fraction of T "
             f"as GMD's 20 of {GUIDANCE_DIFFUSION_STEPS}); motion UNet "
             f"{_widths(STANDARD_MOTION_ARCHITECTURE)} with a full-rank input skip, "
-            f"{STANDARD_MOTION_TRAINING.step_cap} steps; trajectory UNet "
+            f"{STANDARD_MOTION_TRAINING.step_cap} steps (GMD-C4's arms "
+            f"{STANDARD_C4_TRAIN_STEPS}); trajectory UNet "
             f"{_widths(STANDARD_TRAJECTORY_ARCHITECTURE)}, "
-            f"{STANDARD_TRAJECTORY_TRAINING.step_cap} steps; {', '.join(map(str, seeds))} "
-            "seeds per claim. Where the text below names GMD's T = 1000, its widths or more "
+            f"{STANDARD_TRAJECTORY_TRAINING.step_cap} steps; seeds per claim: {seeds}. "
+            "Where the text below names GMD's T = 1000, its widths or more "
             "seeds, those are the paper scale's; the values this run used are printed by its "
             "cells and recorded in every claim's sidecar.")

@@ -11,20 +11,19 @@ from __future__ import annotations
 
 __all__ = ["STANDARD_PLAN_MINUTES", "planned_seconds"]
 
-#: docs/COMPUTE.md §11 (the second standard design): the first run's measured wall minutes per
-#: notebook (§8) with each changed family's measured cost moved in — the trajectory UNet
-#: 32 × (1, 2) at 1000 steps, the latent denoiser 64 × 2 at 1500 (fine-tunes 500), GMD-A4's
-#: motion models shared with GMD-B3 (trained by 01, loaded by 02)
+#: docs/COMPUTE.md §13 (the third standard design): the second standard run's measured wall
+#: minutes per notebook (§12), with notebook 03's GMD-C4 at one seed of two arms trained 1500
+#: steps (2 × 1500 × 0.127 CPU-s, plus a third of its sampling) in place of 3 seeds at 900
 STANDARD_PLAN_MINUTES: dict[str, float] = {
-    "00_stand_in_data": 0.5,
-    "01_x0_vs_eps": 24.3,
-    "02_root_representation": 15.8,
-    "03_emphasis_projection": 16.0,
-    "04_energy_contour_maps": 18.8,
-    "05_sef_ablation": 7.1,
-    "06_guidance_schedule": 3.7,
+    "00_stand_in_data": 0.8,
+    "01_x0_vs_eps": 21.5,
+    "02_root_representation": 23.3,
+    "03_emphasis_projection": 8.0,
+    "04_energy_contour_maps": 17.1,
+    "05_sef_ablation": 10.9,
+    "06_guidance_schedule": 6.4,
     "07_latent_count": 15.4,
-    "08_composed_augmentation": 7.9,
+    "08_composed_augmentation": 8.6,
 }
 
 
