@@ -171,6 +171,8 @@ def test_vae_convergence_is_opt_in_and_leaves_the_trajectory_unchanged():
         VAETrainConfig(validate_every=10).to_config())
     with pytest.raises(ValueError, match="only act with validate_every"):
         VAETrainConfig(patience=2)
+    with pytest.raises(ValueError, match="does not use"):      # no EMA, no diffusion loss
+        VAETrainConfig(ema_decay=0.99)
     motions, lengths = _toy_data()
     held_out, held_lengths = _toy_data(count=8)
     plain = train_vae(_tiny(2, max_frames=12, dropout=0.0), motions, lengths,

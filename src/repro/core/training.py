@@ -1,4 +1,10 @@
-"""Training loop for the tiny diffusion models: AdamW, gradient clipping, EMA (GMD appendix E).
+"""The one training loop (``train_loop``: AdamW, gradient clipping, EMA, validation and the
+plateau stop, threads, progress) and the diffusion models' loss on it (GMD appendix E).
+
+Every family trains with ``train_loop``, supplying its batch source and its loss (issue #34):
+the diffusion models through ``train_diffusion`` (GMD's UNets, the latent denoiser), the VAE
+(``models.vae.train_vae``, no EMA), the evaluator and EnergyMoGen's learned text encoder
+(InfoNCE, no clip, no EMA).
 
 GMD trains with AdamW (lr 1e-4, weight decay 0.01), clips the gradient norm at 1 and samples
 from an exponential moving average of the weights (β = 0.9999). Our runs are a few thousand
@@ -10,9 +16,9 @@ decay is warmed up (improved-diffusion / TF ExponentialMovingAverage ``num_updat
 so the average covers roughly the last n/9 steps early on and the configured horizon
 1/(1 − ema_decay) once n is large. ``ema_warmup=False`` uses ``ema_decay`` from the start.
 
-Data: a tensor (N, C, T) with optional ``cond`` (N, D) and frame ``mask`` (N, T), batched with
-a seeded generator; or an iterable of batches (a DataLoader) each either a tensor x or a dict
-with ``"x"`` and optional ``"cond"`` and ``"mask"``. Models are called as
+``train_diffusion``'s data: a tensor (N, C, T), optional ``cond`` (N, D) and ``mask`` (N, T),
+batched with a seeded generator; or an iterable of batches (a DataLoader) each either a tensor
+x or a dict with ``"x"`` and optional ``"cond"`` and ``"mask"``. Models are called as
 ``model(x_t, t, cond=…, cond_mask=…)``; ``cond_mask`` (true = keep) is drawn here when
 ``cond_dropout > 0`` (classifier-free training).
 
@@ -58,8 +64,8 @@ __all__ = ["AUTOCAST_DTYPES", "VALIDATION_SEED_OFFSET", "ConvergenceRecord", "Pl
            "check_autocast",
            "check_convergence_fields", "drop_unset_convergence_fields", "ema_decay_at",
            "fixed_steps_patience",
-           "load_or_train", "make_adamw", "torch_threads", "train_diffusion",
-           "validation_loss"]
+           "load_or_train", "make_adamw", "shuffled_indices", "torch_threads",
+           "train_diffusion", "train_loop", "validation_loss"]
 
 #: the ``TrainConfig.autocast`` values and the dtype each runs the matrix products in
 AUTOCAST_DTYPES: dict[str | None, torch.dtype | None] = {None: None, "bfloat16": torch.bfloat16}
@@ -296,15 +302,21 @@ def autocast_context(device: torch.device, dtype: torch.dtype | None
     return torch.autocast(device.type, dtype=dtype)
 
 
-def _tensor_batches(x: Tensor, cond: Tensor | None, mask: Tensor | None, batch_size: int,
-                    generator: torch.Generator) -> Iterator[dict[str, Tensor]]:
-    """Endless shuffled batches: one permutation per epoch, drawn with ``generator``."""
-    n = x.shape[0]
+def shuffled_indices(n: int, batch_size: int, generator: torch.Generator) -> Iterator[Tensor]:
+    """Endless batches of ``batch_size`` indices into ``n`` examples, without replacement
+    within an epoch: one ``torch.randperm(n, generator)`` per epoch, drawn when needed."""
     order = torch.empty(0, dtype=torch.long)
     while True:
         while order.numel() < batch_size:
             order = torch.cat([order, torch.randperm(n, generator=generator)])
         index, order = order[:batch_size], order[batch_size:]
+        yield index
+
+
+def _tensor_batches(x: Tensor, cond: Tensor | None, mask: Tensor | None, batch_size: int,
+                    generator: torch.Generator) -> Iterator[dict[str, Tensor]]:
+    """Endless shuffled batches (``shuffled_indices``) of x and its cond and mask."""
+    for index in shuffled_indices(x.shape[0], batch_size, generator):
         batch = {"x": x[index]}
         if cond is not None:
             batch["cond"] = cond[index]
@@ -398,68 +410,44 @@ def validation_loss(model: nn.Module, diffusion: GaussianDiffusion, pairs: Valid
     return total / count
 
 
-def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: GaussianDiffusion,
-                    data: Tensor | Iterable[Any], config: TrainConfig, *,
-                    cond: Tensor | None = None, mask: Tensor | None = None,
-                    validation: ValidationSet | None = None,
-                    on_validation: Callable[[int, float, nn.Module], None] | None = None,
-                    progress: bool = True) -> TrainResult:
-    """Minimise ``diffusion.training_losses`` (simple MSE on x0 or ε) for ``config.steps``.
+def train_loop(model: nn.Module, loss_fn: Callable[[Any], Tensor], batches: Iterator[Any],
+               config: TrainConfig, *, ema: bool = True,
+               validate: Callable[[nn.Module], float] | None = None,
+               on_validation: Callable[[int, float, nn.Module], None] | None = None,
+               stage: str = "training", progress: bool = False) -> TrainResult:
+    """The package's one training loop (issue #34): ``config.steps`` steps of
+    ``loss_fn(next(batches))`` (a scalar) minimised by AdamW (``make_adamw``: ``lr``,
+    ``weight_decay``, ``fused_adamw``), the gradient norm clipped at ``grad_clip`` (None: no
+    clip), under ``autocast`` when set, with ``num_threads`` torch threads (restored after).
 
-    Deterministic given ``config.seed`` (on one device/thread count): the model's
-    initialisation uses ``torch.manual_seed(seed)`` when ``model`` is a factory, and batches,
-    timesteps, noise and condition dropout come from one ``torch.Generator(seed)``.
-    With ``config.validate_every`` set, ``validation`` (required then) is evaluated on the EMA
-    weights after 0, k, 2k, … steps and after the last one, and training stops early when
-    the plateau criterion fires (module docstring); the result's ``convergence`` records it.
-    ``on_validation(steps_done, loss, ema_model)`` is called after each evaluation (e.g. a
-    pilot measuring samples of the EMA weights on the way; it must not train them, and it
-    draws nothing from the training generator, so the run is the same with or without it).
-    The progress bar is shown only when ``progress`` is true and stderr is a terminal.
+    Every draw is the family's: ``batches`` (its batch source) and ``loss_fn`` (noise,
+    timesteps, dropout) take them from the family's own generators in the order they always
+    did; the loop draws nothing. With ``ema`` an exponential moving average of the weights is
+    kept (``ema_decay``, warm-up ``ema_warmup``; ``ema_decay_at``) and is what ``validate``
+    measures; without it ``TrainResult.ema_model`` is the model itself. With
+    ``config.validate_every`` set, ``validate`` (required then) gives the held-out loss after
+    0, k, 2k, … steps and after the last, ``on_validation(steps_done, loss, weights)`` is
+    called after each, and the plateau criterion may stop the run early (module docstring).
+    A non-finite loss raises ``FloatingPointError``. The step is reported to the runner as
+    ``stage`` (``infra.progress``); a bar is shown when ``progress`` and stderr is a terminal.
+    The model is left in eval mode.
     """
-    if (config.validate_every is None) != (validation is None):
+    if (config.validate_every is None) != (validate is None):
         raise ValueError("pass a validation set exactly when config.validate_every is set")
-    device = torch.device(config.device)
-    torch.manual_seed(config.seed)
-    if not isinstance(model, nn.Module):
-        model = model()
-        if not isinstance(model, nn.Module):
-            raise ValueError("model must be an nn.Module or a factory returning one")
-    model = model.to(device).train()
-    ema_model = copy.deepcopy(model).eval().requires_grad_(False)
-
-    generator = torch.Generator().manual_seed(config.seed)
-    if isinstance(data, Tensor):
-        if data.dim() < 2 or data.shape[0] < 1:
-            raise ValueError(f"data must be (N, C, T), got shape {tuple(data.shape)}")
-        for name, extra in (("cond", cond), ("mask", mask)):
-            if extra is not None and extra.shape[0] != data.shape[0]:
-                raise ValueError(f"{name} has {extra.shape[0]} rows but data has {data.shape[0]}")
-        batches = _tensor_batches(data, cond, mask, config.batch_size, generator)
-    else:
-        if cond is not None or mask is not None:
-            raise ValueError("with a data loader, put cond and mask in its batches")
-        batches = _loader_batches(data)
-
-    feature_weights = (None if config.feature_weights is None
-                       else torch.tensor(config.feature_weights, device=device))
+    device = next(model.parameters()).device
+    model.train()
+    ema_model = copy.deepcopy(model).eval().requires_grad_(False) if ema else model
     optimizer = make_adamw(model.parameters(), lr=config.lr, weight_decay=config.weight_decay,
                            fused=config.fused_adamw)
     autocast_dtype = config.autocast_dtype
-    sampler = UniformSampler(diffusion.num_timesteps)
-    validation_pairs = (None if validation is None else validation.pairs(
-        diffusion.num_timesteps, config.validation_timesteps,
-        config.seed + VALIDATION_SEED_OFFSET))
     plateau = PlateauCriterion(config.patience, config.min_delta)
     curve: list[tuple[int, float]] = []
     converged = False
 
-    def validate(steps_done: int) -> bool:
-        assert validation_pairs is not None
+    def validate_at(steps_done: int) -> bool:
+        assert validate is not None
         with autocast_context(device, autocast_dtype):
-            loss = validation_loss(ema_model, diffusion, validation_pairs,
-                                   batch_size=config.batch_size, device=device,
-                                   feature_weights=feature_weights)
+            loss = validate(ema_model)
         curve.append((steps_done, loss))
         if on_validation is not None:
             on_validation(steps_done, loss, ema_model)
@@ -476,43 +464,31 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
     losses: list[float] = []
     start = time.perf_counter()
     try:
-        if validation_pairs is not None:
-            validate(0)
+        if validate is not None:
+            validate_at(0)
         for step in range(config.steps):
             batch = next(batches)
-            x0 = batch["x"].to(device)
-            b = x0.shape[0]
-            t = sampler.sample(b, generator=generator, device=device)
-            noise = torch.randn(x0.shape, generator=generator, dtype=x0.dtype).to(device)
-            model_kwargs: dict[str, Any] = {}
-            if batch.get("cond") is not None:
-                model_kwargs["cond"] = batch["cond"].to(device)
-                if config.cond_dropout > 0:
-                    keep = torch.rand(b, generator=generator) >= config.cond_dropout
-                    model_kwargs["cond_mask"] = keep.to(device)
-            batch_mask = batch.get("mask")
             with autocast_context(device, autocast_dtype):
-                loss = diffusion.training_losses(
-                    model, x0, t, model_kwargs=model_kwargs, noise=noise,
-                    feature_weights=feature_weights,
-                    mask=None if batch_mask is None else batch_mask.to(device)).mean()
+                loss = loss_fn(batch)
             if not torch.isfinite(loss):
-                raise FloatingPointError(f"loss became {loss.item()} at step {step}")
+                raise FloatingPointError(f"{stage}: the loss became {loss.item()} at step "
+                                         f"{step}")
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             if config.grad_clip is not None:
                 nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip, foreach=True)
             optimizer.step()
-            _update_ema(ema_model, model, ema_decay_at(step, config.ema_decay, config.ema_warmup))
+            if ema:
+                _update_ema(ema_model, model,
+                            ema_decay_at(step, config.ema_decay, config.ema_warmup))
             losses.append(loss.item())
             bar.update(1)
             if step % 50 == 0:
                 bar.set_postfix(loss=f"{losses[-1]:.4f}")
-            run_progress.report("training diffusion model", step + 1, config.steps,
-                                loss=losses[-1])
-            if validation_pairs is not None and config.validate_every is not None and (
+            run_progress.report(stage, step + 1, config.steps, loss=losses[-1])
+            if validate is not None and config.validate_every is not None and (
                     (step + 1) % config.validate_every == 0 or step + 1 == config.steps):
-                if validate(step + 1):
+                if validate_at(step + 1):
                     converged = True
                     break
     finally:
@@ -521,11 +497,88 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
             torch.set_num_threads(previous_threads)
     seconds = time.perf_counter() - start
     model.eval()
-    convergence = None if validation_pairs is None else ConvergenceRecord(
+    convergence = None if validate is None else ConvergenceRecord(
         validation=curve, steps_used=len(losses), step_cap=config.steps, converged=converged,
         best_step=plateau.best_step, best_loss=plateau.best)
     return TrainResult(model=model, ema_model=ema_model, losses=losses, seconds=seconds,
                        convergence=convergence)
+
+
+def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: GaussianDiffusion,
+                    data: Tensor | Iterable[Any], config: TrainConfig, *,
+                    cond: Tensor | None = None, mask: Tensor | None = None,
+                    validation: ValidationSet | None = None,
+                    on_validation: Callable[[int, float, nn.Module], None] | None = None,
+                    progress: bool = True) -> TrainResult:
+    """Minimise ``diffusion.training_losses`` (simple MSE on x0 or ε) for ``config.steps``
+    with ``train_loop`` (EMA on).
+
+    Deterministic given ``config.seed`` (on one device/thread count): the model's
+    initialisation uses ``torch.manual_seed(seed)`` when ``model`` is a factory, and batches,
+    timesteps, noise and condition dropout come from one ``torch.Generator(seed)``.
+    With ``config.validate_every`` set, ``validation`` (required then) is evaluated on the EMA
+    weights after 0, k, 2k, … steps and after the last one (``validation_loss``), and training
+    stops early when the plateau criterion fires (module docstring); the result's
+    ``convergence`` records it. ``on_validation(steps_done, loss, ema_model)`` is called after
+    each evaluation (e.g. a pilot measuring samples of the EMA weights on the way; it must not
+    train them, and it draws nothing from the training generator, so the run is the same with
+    or without it). The progress bar is shown only when ``progress`` is true and stderr is a
+    terminal.
+    """
+    device = torch.device(config.device)
+    torch.manual_seed(config.seed)
+    if not isinstance(model, nn.Module):
+        model = model()
+        if not isinstance(model, nn.Module):
+            raise ValueError("model must be an nn.Module or a factory returning one")
+    model = model.to(device)
+
+    generator = torch.Generator().manual_seed(config.seed)
+    if isinstance(data, Tensor):
+        if data.dim() < 2 or data.shape[0] < 1:
+            raise ValueError(f"data must be (N, C, T), got shape {tuple(data.shape)}")
+        for name, extra in (("cond", cond), ("mask", mask)):
+            if extra is not None and extra.shape[0] != data.shape[0]:
+                raise ValueError(f"{name} has {extra.shape[0]} rows but data has {data.shape[0]}")
+        batches = _tensor_batches(data, cond, mask, config.batch_size, generator)
+    else:
+        if cond is not None or mask is not None:
+            raise ValueError("with a data loader, put cond and mask in its batches")
+        batches = _loader_batches(data)
+
+    feature_weights = (None if config.feature_weights is None
+                       else torch.tensor(config.feature_weights, device=device))
+    sampler = UniformSampler(diffusion.num_timesteps)
+
+    def loss_fn(batch: dict[str, Tensor]) -> Tensor:
+        x0 = batch["x"].to(device)
+        b = x0.shape[0]
+        t = sampler.sample(b, generator=generator, device=device)
+        noise = torch.randn(x0.shape, generator=generator, dtype=x0.dtype).to(device)
+        model_kwargs: dict[str, Any] = {}
+        if batch.get("cond") is not None:
+            model_kwargs["cond"] = batch["cond"].to(device)
+            if config.cond_dropout > 0:
+                keep = torch.rand(b, generator=generator) >= config.cond_dropout
+                model_kwargs["cond_mask"] = keep.to(device)
+        batch_mask = batch.get("mask")
+        return diffusion.training_losses(
+            model, x0, t, model_kwargs=model_kwargs, noise=noise,
+            feature_weights=feature_weights,
+            mask=None if batch_mask is None else batch_mask.to(device)).mean()
+
+    validate = None
+    if validation is not None:
+        pairs = validation.pairs(diffusion.num_timesteps, config.validation_timesteps,
+                                 config.seed + VALIDATION_SEED_OFFSET)
+
+        def validate(weights: nn.Module) -> float:
+            return validation_loss(weights, diffusion, pairs, batch_size=config.batch_size,
+                                   device=device, feature_weights=feature_weights)
+
+    return train_loop(model, loss_fn, batches, config, validate=validate,
+                      on_validation=on_validation, stage="training diffusion model",
+                      progress=progress)
 
 
 @contextlib.contextmanager

@@ -24,13 +24,14 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
+from repro.core.training import TrainConfig, train_loop
 from repro.energymogen.config import PipelineConfig
 from repro.energymogen.data import StandInData
 from repro.infra import cache
-from repro.models.evaluator import info_nce
+from repro.models.evaluator import caption_batches, info_nce, same_caption
 from repro.models.frozen_text import FrozenTextEncoder, WordPieceTokenizer, shared_minilm
 from repro.models.vae import array_fingerprint
-from repro.standin.text import TextEncoder, Vocabulary, tokenize
+from repro.standin.text import TextEncoder, Vocabulary
 
 __all__ = ["TextStage", "text_encoder_cache_key", "train_text_stage"]
 
@@ -48,25 +49,25 @@ def _train_text_encoder(model: _LatentTextModel, vocab: Vocabulary, captions: li
                         latents: Tensor, config: PipelineConfig,
                         seed: int) -> tuple[nn.Module, dict]:
     """Symmetric InfoNCE between sentence vectors and linear maps of the latents (CLIP-style);
-    identical captions are not negatives. AdamW, batches drawn with ``seed + 17``."""
-    rng = np.random.default_rng(seed + 17)
-    optimiser = torch.optim.AdamW(model.parameters(), lr=config.text_lr, weight_decay=0.01)
+    identical captions are not negatives. ``core.training.train_loop``: AdamW (lr
+    ``config.text_lr``, weight decay 0.01), no clip, no EMA, ``config.text_steps`` batches of
+    up to 128 drawn by ``evaluator.caption_batches`` with ``seed + 17``."""
+    train = TrainConfig(steps=config.text_steps, batch_size=128, lr=config.text_lr,
+                        weight_decay=0.01, grad_clip=None, seed=seed + 17)
     flat = latents.reshape(latents.shape[0], -1)
-    batch, losses = min(128, flat.shape[0]), []
-    model.train()
-    for _ in range(config.text_steps):
-        idx = rng.choice(flat.shape[0], batch, replace=False)
-        texts = [captions[i][rng.integers(len(captions[i]))] for i in idx]
-        keys = [" ".join(tokenize(t)) for t in texts]
-        same = torch.tensor([[a == b for b in keys] for a in keys])
+    if len(captions) != flat.shape[0]:
+        raise ValueError(f"{len(captions)} caption lists for {flat.shape[0]} latents")
+
+    def loss(drawn: tuple[np.ndarray, list[str]]) -> Tensor:
+        idx, texts = drawn
         ids, lengths = vocab.encode_batch(texts, config.max_text_len)
-        loss = info_nce(model.text(torch.from_numpy(ids), lengths), model.motion(flat[idx]),
-                        0.1, same)
-        optimiser.zero_grad()
-        loss.backward()
-        optimiser.step()
-        losses.append(loss.item())
-    return model.eval(), {"losses": losses}
+        return info_nce(model.text(torch.from_numpy(ids), lengths), model.motion(flat[idx]),
+                        0.1, same_caption(texts))
+
+    batches = caption_batches(np.random.default_rng(train.seed), captions,
+                              min(train.batch_size, flat.shape[0]))
+    result = train_loop(model, loss, batches, train, ema=False, stage="training text encoder")
+    return model, {"losses": result.losses}
 
 
 @dataclass(frozen=True)

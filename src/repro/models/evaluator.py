@@ -15,7 +15,7 @@ Takes plain arrays; it does not import ``repro.motion.humanml3d`` or ``repro.sta
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -26,6 +26,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from repro.core import metrics
+from repro.core.training import TrainConfig, train_loop
 from repro.infra import cache
 from repro.infra.storage import atomic_open, read_json, write_json
 from repro.motion.features import FEATURE_DIM
@@ -56,6 +57,12 @@ class EvaluatorConfig:
     #: a name for the training data (e.g. the stand-in dataset hash); informational only,
     #: the cache key also fingerprints the arrays themselves.
     data_id: str = ""
+
+    def train_config(self) -> TrainConfig:
+        """The settings of ``core.training.train_loop``: AdamW at ``lr`` and
+        ``weight_decay``, ``steps`` batches of ``batch_size``, no gradient clip (and no EMA)."""
+        return TrainConfig(steps=self.steps, batch_size=self.batch_size, lr=self.lr,
+                           weight_decay=self.weight_decay, grad_clip=None, seed=self.seed)
 
 
 class MotionEncoder(nn.Module):
@@ -244,43 +251,51 @@ def _prepare(train_motions: np.ndarray, lengths: Sequence[int],
     return _TrainingData(motions, lengths, caption_lists, vocab)
 
 
+def caption_batches(rng: np.random.Generator, caption_lists: Sequence[Sequence[str]],
+                    batch: int) -> Iterator[tuple[np.ndarray, list[str]]]:
+    """Endless contrastive batches: ``batch`` distinct items drawn with ``rng`` (without
+    replacement), then one of each item's captions, drawn in turn."""
+    while True:
+        idx = rng.choice(len(caption_lists), batch, replace=False)
+        yield idx, [caption_lists[i][rng.integers(len(caption_lists[i]))] for i in idx]
+
+
+def same_caption(texts: Sequence[str]) -> torch.Tensor:
+    """(B, B) true where two captions have the same words (not negatives of each other)."""
+    keys = [" ".join(tokenize(t)) for t in texts]
+    return torch.tensor([[a == b for b in keys] for a in keys])
+
+
 def _fit(evaluator: Evaluator, motions: np.ndarray, lengths: np.ndarray,
-         caption_lists: list[list[str]],
-         progress: Callable[[int, float], None] | None = None) -> Evaluator:
+         caption_lists: list[list[str]]) -> Evaluator:
+    """Symmetric InfoNCE with ``core.training.train_loop`` (``EvaluatorConfig.train_config``),
+    batches drawn by ``caption_batches`` from ``np.random.default_rng(seed)``."""
     config = evaluator.config
     x_all, mask_all = evaluator._normalised(motions, lengths)
-    rng = np.random.default_rng(config.seed)
-    evaluator.train()
-    optimiser = torch.optim.AdamW(evaluator.parameters(), lr=config.lr,
-                                  weight_decay=config.weight_decay)
-    batch = min(config.batch_size, motions.shape[0])
-    for step in range(config.steps):
-        idx = rng.choice(motions.shape[0], batch, replace=False)
-        texts = [caption_lists[i][rng.integers(len(caption_lists[i]))] for i in idx]
-        keys = [" ".join(tokenize(t)) for t in texts]
-        same = torch.tensor([[a == b for b in keys] for a in keys])
-        loss = info_nce(evaluator._encode_texts(texts),
+
+    def loss(drawn: tuple[np.ndarray, list[str]]) -> torch.Tensor:
+        idx, texts = drawn
+        return info_nce(evaluator._encode_texts(texts),
                         evaluator.motion_encoder(x_all[idx], mask_all[idx]),
-                        config.temperature, same)
-        optimiser.zero_grad()
-        loss.backward()
-        optimiser.step()
-        evaluator.losses.append(loss.item())
-        if progress is not None:
-            progress(step, evaluator.losses[-1])
-    return evaluator.eval()
+                        config.temperature, same_caption(texts))
+
+    batches = caption_batches(np.random.default_rng(config.seed), caption_lists,
+                              min(config.batch_size, motions.shape[0]))
+    result = train_loop(evaluator, loss, batches, config.train_config(), ema=False,
+                        stage="training evaluator")
+    evaluator.losses.extend(result.losses)
+    return evaluator
 
 
 def train_evaluator(train_motions: np.ndarray, lengths: Sequence[int],
                     captions: Sequence[str | Sequence[str]],
-                    config: EvaluatorConfig | None = None,
-                    progress: Callable[[int, float], None] | None = None) -> Evaluator:
+                    config: EvaluatorConfig | None = None) -> Evaluator:
     """Train the evaluator on unnormalised features (N, T, 263) float32 with their lengths
     and captions (one str, or several per motion: one is drawn per step)."""
     config = config or EvaluatorConfig()
     motions, lengths, caption_lists, vocab = _prepare(train_motions, lengths, captions, config)
     mean, std = _statistics(motions, lengths, config.std_floor)
-    return _fit(Evaluator(config, vocab, mean, std), motions, lengths, caption_lists, progress)
+    return _fit(Evaluator(config, vocab, mean, std), motions, lengths, caption_lists)
 
 
 def data_fingerprint(motions: np.ndarray, lengths: Sequence[int],

@@ -26,9 +26,8 @@ Our choices (the paper leaves them open or MLD's size does not fit 2 CPU cores):
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -39,9 +38,9 @@ from torch import Tensor, nn
 from repro.core.training import (
     VALIDATION_SEED_OFFSET,
     ConvergenceRecord,
-    PlateauCriterion,
-    check_convergence_fields,
-    drop_unset_convergence_fields,
+    TrainConfig,
+    shuffled_indices,
+    train_loop,
 )
 from repro.infra import cache
 from repro.infra.cache import load_or_train
@@ -223,9 +222,16 @@ class MotionVAE(nn.Module):
 # ----------------------------------------------------------------------------------------------
 
 
+#: ``TrainConfig`` fields the VAE's training does not use (no EMA, no diffusion loss): they
+#: must keep their defaults and are not in its key
+_UNUSED_FIELDS = ("ema_decay", "ema_warmup", "feature_weights", "cond_dropout",
+                  "validation_timesteps")
+
+
 @dataclass
-class VAETrainConfig:
-    """AdamW + gradient clipping, seeded (appendix A: AdamW, lr 1e-4, recon 1, KL 1e-4).
+class VAETrainConfig(TrainConfig):
+    """The VAE's ``TrainConfig`` (``core.training.train_loop``: AdamW + gradient clipping,
+    seeded; no EMA) and its KL weight (appendix A: AdamW, lr 1e-4, recon 1, KL 1e-4).
 
     Our choice: lr 5e-4 by default because our runs are thousands, not 300K, of steps.
     ``num_threads`` only changes speed and is left out of ``to_config``. Convergence as in
@@ -236,31 +242,25 @@ class VAETrainConfig:
     """
 
     steps: int = 2000
-    batch_size: int = 64
     lr: float = 5e-4
-    weight_decay: float = 0.01
-    grad_clip: float | None = 1.0
     kl_weight: float = 1e-4
-    seed: int = 0
-    num_threads: int | None = None
-    validate_every: int | None = None
-    patience: int = 5
-    min_delta: float = 0.01
 
     def __post_init__(self) -> None:
-        check_convergence_fields(self)
-        if self.steps < 1 or self.batch_size < 1:
-            raise ValueError(f"steps and batch_size must be >= 1, got {self.steps}, "
-                             f"{self.batch_size}")
-        if self.lr <= 0 or self.weight_decay < 0 or self.kl_weight < 0:
-            raise ValueError("need lr > 0, weight_decay >= 0 and kl_weight >= 0")
-        if self.grad_clip is not None and self.grad_clip <= 0:
-            raise ValueError(f"grad_clip must be > 0 or None, got {self.grad_clip}")
+        super().__post_init__()
+        if self.kl_weight < 0:
+            raise ValueError(f"kl_weight must be >= 0, got {self.kl_weight}")
+        changed = [name for name in _UNUSED_FIELDS
+                   if getattr(self, name) != getattr(TrainConfig, name)]
+        if changed:
+            raise ValueError(f"the VAE's training does not use {changed}")
 
     def to_config(self) -> dict[str, Any]:
-        config = asdict(self)
-        config.pop("num_threads")
-        return drop_unset_convergence_fields(config)
+        """``TrainConfig.to_config`` without the fields the VAE does not use, with
+        ``kl_weight``: the key of the VAE's configuration before it was a ``TrainConfig``."""
+        config = super().to_config()
+        for name in _UNUSED_FIELDS:
+            config.pop(name, None)
+        return config
 
 
 @dataclass
@@ -331,78 +331,46 @@ def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
               config: VAETrainConfig | None = None, *,
               validation: tuple[Tensor | np.ndarray, Tensor | np.ndarray | Sequence[int]]
               | None = None) -> VAETrainResult:
-    """Minimise ``vae.loss`` on normalised motions (M, T, F) with lengths (M,).
+    """Minimise ``vae.loss`` on normalised motions (M, T, F) with lengths (M,) with
+    ``core.training.train_loop`` (no EMA).
 
-    Batches are drawn without replacement (a permutation per epoch) from
-    ``torch.Generator(seed)``; the same generator draws the reparameterisation noise. The
-    model is initialised by the caller; seed it before building for a reproducible run.
-    With ``config.validate_every`` set, ``validation`` = (motions, lengths) of held-out clips
-    is required and evaluated after 0, k, 2k, … steps and after the last
+    Batches are drawn without replacement (a permutation per epoch,
+    ``training.shuffled_indices``) from ``torch.Generator(seed)``, each cropped to its longest
+    clip; the same generator draws the reparameterisation noise. The model is initialised by
+    the caller; seed it before building for a reproducible run (its dropout draws from the
+    global generator). With ``config.validate_every`` set, ``validation`` = (motions, lengths)
+    of held-out clips is required and evaluated after 0, k, 2k, … steps and after the last
     (``vae_validation_loss``); the plateau criterion may stop the run early, and the result's
     ``convergence`` records the curve. Validating leaves the training trajectory unchanged.
     """
     config = config or VAETrainConfig()
-    if (config.validate_every is None) != (validation is None):
-        raise ValueError("pass a validation set exactly when config.validate_every is set")
     motions, lengths = _motions_and_lengths(motions, lengths)
     validation_data = None if validation is None else _motions_and_lengths(*validation)
     device = next(vae.parameters()).device
     generator = torch.Generator().manual_seed(config.seed)
-    optimizer = torch.optim.AdamW(vae.parameters(), lr=config.lr,
-                                  weight_decay=config.weight_decay)
-    previous_threads = torch.get_num_threads()
-    if config.num_threads is not None:
-        torch.set_num_threads(config.num_threads)
-    losses: dict[str, list[float]] = {"loss": [], "recon": [], "kl": []}
-    order = torch.empty(0, dtype=torch.long)
-    plateau = PlateauCriterion(config.patience, config.min_delta)
-    curve: list[tuple[int, float]] = []
-    converged = False
+    parts: dict[str, list[float]] = {"recon": [], "kl": []}
 
-    def validate(steps_done: int) -> bool:
+    def loss(index: Tensor) -> Tensor:
+        batch_lengths = lengths[index]
+        frames = int(batch_lengths.max())       # crop the batch to its longest clip
+        out = vae.loss(motions[index, :frames].to(device), batch_lengths.to(device),
+                       kl_weight=config.kl_weight, generator=generator)
+        for key, values in parts.items():
+            values.append(out[key].item())
+        return out["loss"]
+
+    def validate(model: nn.Module) -> float:
         assert validation_data is not None
-        loss = vae_validation_loss(vae, *validation_data, kl_weight=config.kl_weight,
+        return vae_validation_loss(model, *validation_data, kl_weight=config.kl_weight,
                                    batch_size=config.batch_size,
                                    noise_seed=config.seed + VALIDATION_SEED_OFFSET)
-        curve.append((steps_done, loss))
-        return plateau.update(steps_done, loss)
 
-    start = time.perf_counter()
-    vae.train()
-    try:
-        if validation_data is not None:
-            validate(0)
-        for step in range(config.steps):
-            while order.numel() < config.batch_size:
-                order = torch.cat([order, torch.randperm(motions.shape[0], generator=generator)])
-            index, order = order[:config.batch_size], order[config.batch_size:]
-            batch_lengths = lengths[index]
-            frames = int(batch_lengths.max())       # crop the batch to its longest clip
-            out = vae.loss(motions[index, :frames].to(device), batch_lengths.to(device),
-                           kl_weight=config.kl_weight, generator=generator)
-            if not torch.isfinite(out["loss"]):
-                raise FloatingPointError(f"VAE loss became {out['loss'].item()} at step {step}")
-            optimizer.zero_grad(set_to_none=True)
-            out["loss"].backward()
-            if config.grad_clip is not None:
-                nn.utils.clip_grad_norm_(vae.parameters(), config.grad_clip)
-            optimizer.step()
-            for key in losses:
-                losses[key].append(out[key].item())
-            if validation_data is not None and config.validate_every is not None and (
-                    (step + 1) % config.validate_every == 0 or step + 1 == config.steps):
-                if validate(step + 1):
-                    converged = True
-                    break
-    finally:
-        if config.num_threads is not None:
-            torch.set_num_threads(previous_threads)
-    vae.eval()
-    convergence = None if validation_data is None else ConvergenceRecord(
-        validation=curve, steps_used=len(losses["loss"]), step_cap=config.steps,
-        converged=converged, best_step=plateau.best_step, best_loss=plateau.best)
-    return VAETrainResult(model=vae, losses=losses, seconds=time.perf_counter() - start,
-                          convergence=convergence)
+    result = train_loop(vae, loss, shuffled_indices(motions.shape[0], config.batch_size,
+                                                    generator),
+                        config, ema=False, validate=None if validation is None else validate,
+                        stage="training VAE")
+    return VAETrainResult(model=vae, losses={"loss": result.losses, **parts},
+                          seconds=result.seconds, convergence=result.convergence)
 
 
 def array_fingerprint(*arrays: Tensor | np.ndarray) -> str:
