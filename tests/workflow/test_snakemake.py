@@ -147,7 +147,8 @@ def test_quick_workflow_measures_what_reproduce_measures(tmp_path: Path) -> None
     for claim_id, sidecar in direct.items():
         assert gathered[claim_id]["measured"] == sidecar["measured"], claim_id
         assert gathered[claim_id]["verdict"] == sidecar["verdict"], claim_id
-        assert gathered[claim_id]["seeds"] == sidecar["seeds"] == [1]
+        assert gathered[claim_id]["seeds"] == sidecar["seeds"]
+        assert gathered[claim_id]["seeds"][:1] in ([], [1])  # from base seed 1
 
     report = workflow.report_path(out, 1, "quick").read_text()
     for name in CHEAP:  # every job's run is named, also 00's, which records no claim

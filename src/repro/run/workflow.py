@@ -282,7 +282,8 @@ def gather(job_roots: Sequence[str | Path], into: str | Path, *, scale: str,
 
     The merged build folder gets every job's claim sidecars (``claims/``, figures stay where
     the sidecars name them) and executed notebooks (``notebooks/``, what ``stability``'s
-    coverage table reads), replacing what an earlier gather left. The report is
+    coverage table reads), replacing what an earlier gather left there and in ``report/``
+    (its run times included: the jobs' own reports keep theirs). The report is
     ``claims.report.write_report`` with ``allow_mixed`` (each job is its own run), so its
     provenance names every run and its claims; the note before it names every job, its run
     and its build folder, also those that record no claim (notebook 00). Raises ValueError
@@ -294,8 +295,9 @@ def gather(job_roots: Sequence[str | Path], into: str | Path, *, scale: str,
     from repro.claims.stability import check_base_seed
 
     target = scale_folder(into, scale)
-    for folder in ("claims", "notebooks"):
+    for folder in ("claims", "notebooks", "report"):
         shutil.rmtree(target / folder, ignore_errors=True)
+    for folder in ("claims", "notebooks"):
         (target / folder).mkdir(parents=True)
     jobs, recorded, origin = [], [], {}
     for root in map(Path, job_roots):
