@@ -64,19 +64,24 @@ MIN_RUNTIME_MIN = 10
 #: machine (docs/TIMINGS.md, session 13), so 15 minutes is ample on any node
 QUICK_RUNTIME_MIN = 15
 
-#: peak resident memory (MB) of a notebook's worker, kernel and training pools at the
-#: standard scale, sampled every 20 s during the standard run of 2026-12-04 (docs/WORKFLOW.md)
+#: peak resident memory (MB) of a notebook's worker, kernel and training pools at the standard
+#: scale: their summed RSS sampled every 20 s during the standard run of 2026-12-04 (a fresh
+#: clone at commit 4aebdd2, cold cache, two notebooks at a time, one thread each; 42 min 39 s
+#: wall; docs/WORKFLOW.md). Notebook 00 ran for one sample only
 STANDARD_PEAK_RSS_MB: dict[str, float] = {
-    "00_stand_in_data": 1400.0,
-    "01_x0_vs_eps": 1400.0,
-    "02_root_representation": 1400.0,
-    "03_emphasis_projection": 1400.0,
-    "04_energy_contour_maps": 1400.0,
-    "05_sef_ablation": 1400.0,
-    "06_guidance_schedule": 1400.0,
-    "07_latent_count": 1400.0,
-    "08_composed_augmentation": 1400.0,
+    "00_stand_in_data": 542.0,
+    "01_x0_vs_eps": 2009.0,
+    "02_root_representation": 1544.0,
+    "03_emphasis_projection": 1458.0,
+    "04_energy_contour_maps": 1338.0,
+    "05_sef_ablation": 1183.0,
+    "06_guidance_schedule": 1155.0,
+    "07_latent_count": 1413.0,
+    "08_composed_augmentation": 1732.0,
 }
+#: the least memory a job asks for: a kernel that imported torch holds about 0.5 GB before
+#: any work, and a peak between two samples is not seen
+MIN_MEM_MB = 2048
 #: memory asked for, over that peak: × 1.5 at the standard and quick scales (quick jobs use
 #: less: tiny data and models); at the paper scale twice the standard request, for its wider
 #: models and their optimiser state — an allowance until a paper job's benchmark file
@@ -127,14 +132,16 @@ def job_resources(notebook: str, scale: str, *, device: str = "auto",
     paper scale's counted CPU-hours, each with the models it reads from other notebooks) ×
     :data:`RUNTIME_MARGIN`, at least :data:`MIN_RUNTIME_MIN`; an upper bound on a GPU or with
     more threads, whose speed-up no run has measured yet. mem_mb: the standard scale's peak
-    × :data:`MEMORY_FACTOR`. gpu: 1 when the job's device is cuda.
+    × :data:`MEMORY_FACTOR`, in steps of 512, at least :data:`MIN_MEM_MB`. gpu: 1 when the
+    job's device is cuda.
     """
     check_scale(scale)
     if notebook not in plan.STANDARD_PLAN_MINUTES:
         raise ValueError(f"no plan for notebook {notebook!r}; planned: "
                          f"{', '.join(plan.STANDARD_PLAN_MINUTES)}")
     runtime = max(MIN_RUNTIME_MIN, math.ceil(_cpu_minutes(notebook, scale) * RUNTIME_MARGIN))
-    mem_mb = 512 * math.ceil(STANDARD_PEAK_RSS_MB[notebook] * MEMORY_FACTOR[scale] / 512)
+    mem_mb = max(MIN_MEM_MB, 512 * math.ceil(STANDARD_PEAK_RSS_MB[notebook]
+                                             * MEMORY_FACTOR[scale] / 512))
     threads = THREADS[scale] if threads is None else threads
     if threads < 1:
         raise ValueError(f"threads must be at least 1, got {threads}")
