@@ -157,3 +157,38 @@ def test_quick_workflow_measures_what_reproduce_measures(tmp_path: Path) -> None
         assert f"{name} → run {run_id}" in report
         assert (build / "notebooks" / f"{name}.ipynb").is_file()
     assert (out / "cache").is_dir()  # the jobs' one model cache
+
+
+def test_report_and_stability_rules_gather_finished_jobs(tmp_path: Path) -> None:
+    """Jobs already finished (their executed notebooks and sidecars in place, as the runner
+    leaves them): Snakemake runs only the gathers and the comparison of the two base seeds."""
+    from conftest import make_context
+
+    from repro.claims.ledger import record_claim
+    from repro.infra.storage import write_json
+
+    out = tmp_path / "out"
+    for seed, error in [(0, 0.5), (3, 0.0)]:
+        for name, claim_id, measured in [
+                ("01_x0_vs_eps", "GMD-A1", {"max_abs_mu_difference": 0.0,
+                                            "printed_c_max_relative_error": error}),
+                ("02_root_representation", "GMD-A2",
+                 {"cosine_x0_share_argmax_fraction": 0.0,
+                  "cosine_eps_share_argmax_fraction": 0.99})]:
+            build = workflow.scale_folder(workflow.job_root(out, name, seed), "quick")
+            run_id = f"20261204T00000{seed}.000Z-abc1234-seed{seed}-quick"
+            write_json(build / "runs" / run_id / "run.json", {"run_id": run_id,
+                                                              "notebooks": [name]})
+            record_claim(make_context(build, scale="quick", seed=seed, run_id=run_id),
+                         claim_id, measured, seeds=[seed])
+            notebook = workflow.executed_notebook(out, name, seed, "quick")
+            notebook.parent.mkdir(parents=True)
+            notebook.write_text("{}")
+    done = _snakemake(tmp_path, "--cores", "1",
+                      config=["scale=quick", "seeds=[0,3]", "notebooks=[01,02]", f"out={out}"])
+    log = done.stdout + done.stderr
+    assert "rule notebook" not in log  # nothing reran
+    for seed in (0, 3):
+        assert "GMD-A1" in workflow.report_path(out, seed, "quick").read_text()
+    stability = (workflow.report_path(out, 0, "quick").parent / "STABILITY.md").read_text()
+    assert "Verdicts that changed with the seed: GMD-A1." in stability
