@@ -76,6 +76,12 @@ def test_reproduce_arguments() -> None:
                      "-p", 'data_dir="/data/Human ML3D"']
 
 
+def test_config_file_repeats_the_defaults() -> None:
+    yaml = pytest.importorskip("yaml")
+    written = yaml.safe_load((paths.REPO_ROOT / "workflow" / "config.yaml").read_text())
+    assert written == {**workflow.DEFAULTS, "gpu_model": ""}
+
+
 def test_config_is_checked(tmp_path: Path) -> None:
     config = WorkflowConfig.from_config({"scale": "quick", "seeds": [0, 3],
                                          "notebooks": ["00", "GMD-C4"], "out": str(tmp_path)})

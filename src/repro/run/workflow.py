@@ -20,6 +20,7 @@ provenance names every run.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import shlex
 import shutil
@@ -190,14 +191,8 @@ def reproduce_arguments(notebook: str, scale: str, seed: int, *, device: str = "
                  "--jobs", "1", "--threads", str(resources.threads),
                  "--device", job_device(notebook, scale, device)]
     if data_dir is not None:
-        arguments += ["-p", f"data_dir={_json_string(data_dir)}"]
+        arguments += ["-p", f"data_dir={json.dumps(str(data_dir))}"]
     return shlex.join(arguments)
-
-
-def _json_string(text: str) -> str:
-    import json
-
-    return json.dumps(str(text))
 
 
 # --- the workflow's configuration ----------------------------------------------------------
