@@ -6,6 +6,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 LAB    := $(VENV)/.installed-lab
+FLOW   := $(VENV)/.installed-workflow
 JOBS   ?= 2
 SEED   ?= 0
 SCALE  ?= standard
@@ -37,7 +38,11 @@ $(LAB): $(STAMP) requirements-lab.txt
 	$(PY) -m pip install --quiet -r requirements-lab.txt
 	@touch $(LAB)
 
-setup: $(STAMP) $(LAB)  ## create or refresh .venv (pinned requirements, kernel "repro", JupyterLab)
+$(FLOW): $(STAMP) requirements-workflow.txt
+	$(PY) -m pip install --quiet -r requirements-workflow.txt
+	@touch $(FLOW)
+
+setup: $(STAMP) $(LAB) $(FLOW)  ## create or refresh .venv (pinned requirements, kernel "repro", JupyterLab, Snakemake)
 
 lab: $(LAB)  ## open the notebooks in JupyterLab
 	$(VENV)/bin/jupyter lab notebooks

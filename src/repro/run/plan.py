@@ -1,4 +1,6 @@
-"""The standard scale's compute plan per notebook (docs/COMPUTE.md §3c), for honest progress.
+"""The compute plan per notebook: the standard scale's measured minutes (docs/COMPUTE.md §3c,
+§13), for honest progress, and the paper scale's counted CPU-hours (§2), for the workflow's
+job requests (``run.workflow``).
 
 ``make reproduce`` estimates what is left from these shares until a run of the same scale has
 measured its own times (``runner.known_seconds``); the step caps and the times of other
@@ -9,7 +11,8 @@ report (about 5 minutes) are outside the notebooks.
 
 from __future__ import annotations
 
-__all__ = ["STANDARD_PLAN_MINUTES", "planned_seconds"]
+__all__ = ["PAPER_CPU_HOURS", "PAPER_SHARED_CPU_HOURS", "STANDARD_PLAN_MINUTES",
+           "STANDARD_READS", "planned_seconds"]
 
 #: docs/COMPUTE.md §13 (the third standard design): the second standard run's measured wall
 #: minutes per notebook (§12), with notebook 03's GMD-C4 at one seed of two arms trained 1500
@@ -24,6 +27,57 @@ STANDARD_PLAN_MINUTES: dict[str, float] = {
     "06_guidance_schedule": 6.4,
     "07_latent_count": 15.4,
     "08_composed_augmentation": 8.6,
+}
+
+
+#: docs/COMPUTE.md §2 (census of the paper scale, fp32 column, counted at the step caps from
+#: the code and §1's per-step costs on the 2-core Xeon without AMX): each notebook's own
+#: CPU-hours with one thread — the models it trains first (a bank model is charged to the
+#: first notebook that reads it) and its sampling. 01: motion 41.8 + trajectory 26.0 +
+#: evaluator 0.01 + sampling 2.0; 02: trajectory 6.5 + motion 34.8 + sampling 1.9; 03: motion
+#: 125.3 + sampling 0.4; 06: motion 10.4 + sampling 3.5; EnergyMoGen: 04 the pipelines of
+#: train seeds 0–4 (3.7), 07 N ∈ {1, 3, 7} (6.6), 08 the fine-tunes (0.7), and the ≈ 1 CPU-h
+#: of 04–08's sampling split evenly. Notebook 00 is not in the census: it generates the same
+#: stand-in set as at the standard scale (``standin.figures.Settings``), so its standard
+#: minutes stand. Total ≈ 265 CPU-h, §2's fp32 figure.
+PAPER_CPU_HOURS: dict[str, float] = {
+    "00_stand_in_data": STANDARD_PLAN_MINUTES["00_stand_in_data"] / 60.0,
+    "01_x0_vs_eps": 41.8 + 26.0 + 0.01 + 2.0,
+    "02_root_representation": 6.5 + 34.8 + 1.9,
+    "03_emphasis_projection": 125.3 + 0.4,
+    "04_energy_contour_maps": 3.7 + 0.25,
+    "05_sef_ablation": 0.25,
+    "06_guidance_schedule": 10.4 + 3.5,
+    "07_latent_count": 6.6 + 0.25,
+    "08_composed_augmentation": 0.7 + 0.25,
+}
+
+#: docs/COMPUTE.md §2 "Shared today": the models a notebook reads that another notebook's
+#: share pays for (reader → lender → CPU-hours at the paper scale). Run as separate jobs on a
+#: shared cache, the reader either trains them itself or waits on the lender's lock
+#: (``infra.cache.artifact_lock``) while the lender trains them, so its request must cover
+#: them. The T = 1000 ε trajectory model on absolute windows (3 seeds: 6.5 of 01's 26.0,
+#: §2's B2 row) is read by 02 (B2) and 06 (F1); the EnergyMoGen pipelines of train seeds
+#: 0–2 (3 of 04's 5 at 3.7) by 05, 07 (N = 5) and 08 (pretrained).
+PAPER_SHARED_CPU_HOURS: dict[str, dict[str, float]] = {
+    "02_root_representation": {"01_x0_vs_eps": 6.5},
+    "06_guidance_schedule": {"01_x0_vs_eps": 6.5},
+    "05_sef_ablation": {"04_energy_contour_maps": 3.7 * 3 / 5},
+    "07_latent_count": {"04_energy_contour_maps": 3.7 * 3 / 5},
+    "08_composed_augmentation": {"04_energy_contour_maps": 3.7 * 3 / 5},
+}
+
+#: docs/COMPUTE.md §3c and §5 (as built): the notebooks whose bank models a notebook reads
+#: at the standard scale — 02 and 06 read 01's absolute-root trajectory models, 06 also 02's
+#: absolute-root x0 text model, 05, 07 (N = 5) and 08 the pipelines 04 trains. §3c does not
+#: split a share by model, so a reader's request adds its lenders' whole shares (an upper
+#: bound).
+STANDARD_READS: dict[str, tuple[str, ...]] = {
+    "02_root_representation": ("01_x0_vs_eps",),
+    "06_guidance_schedule": ("01_x0_vs_eps", "02_root_representation"),
+    "05_sef_ablation": ("04_energy_contour_maps",),
+    "07_latent_count": ("04_energy_contour_maps",),
+    "08_composed_augmentation": ("04_energy_contour_maps",),
 }
 
 
