@@ -73,3 +73,46 @@ def test_no_module_is_over_the_size_limit() -> None:
     long = {str(p.relative_to(PACKAGE)): n for p in _modules()
             if (n := len(p.read_text().splitlines())) > MAX_LINES}
     assert not long, f"modules over {MAX_LINES} lines: {long}"
+
+
+def _module_name(path: Path) -> str:
+    """``standin.generator`` for src/repro/standin/generator.py, ``standin`` for its package."""
+    parts = path.relative_to(PACKAGE).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imported_modules(path: Path, known: set[str]) -> set[str]:
+    """The package's modules ``path`` imports anywhere (top level, functions, TYPE_CHECKING)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("repro."):
+            module = node.module.removeprefix("repro.")
+            found.add(module)
+            found.update(f"{module}.{alias.name}" for alias in node.names)
+        elif isinstance(node, ast.Import):
+            found.update(alias.name.removeprefix("repro.") for alias in node.names
+                         if alias.name.startswith("repro."))
+    return found & known
+
+
+def test_no_module_imports_itself_through_others() -> None:
+    """No import cycle between the package's modules (issue #34: captions ↔ generator was
+    the one), counting imports inside functions and under TYPE_CHECKING."""
+    paths = {_module_name(p): p for p in _modules()}
+    graph = {name: _imported_modules(path, set(paths)) - {name} for name, path in paths.items()}
+    cycles: list[list[str]] = []
+    state: dict[str, int] = {}   # 1: on the current path, 2: done
+
+    def visit(name: str, trail: list[str]) -> None:
+        state[name] = 1
+        for target in sorted(graph[name]):
+            if state.get(target) == 1:
+                cycles.append([*trail[trail.index(target):], target])
+            elif target not in state:
+                visit(target, [*trail, target])
+        state[name] = 2
+
+    for name in sorted(graph):
+        if name not in state:
+            visit(name, [name])
+    assert not cycles, "import cycles: " + "; ".join(" → ".join(c) for c in cycles)

@@ -47,7 +47,6 @@ def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
     from repro.infra.storage import read_json
 
     monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path))
-    monkeypatch.setenv("REPRO_BUILD_DIR", str(tmp_path))
     assert main(["report"]) == 2  # nothing recorded yet
     record_claim(make_context(tmp_path, scale="standard"), "GMD-A1",
                  {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
@@ -61,7 +60,6 @@ def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
     assert "| 01_x0_vs_eps | 230.5 |" in (tmp_path / "report" / "REPORT.md").read_text()
     assert read_json(claims)["run_seconds"] == {"01_x0_vs_eps": 230.5}
     assert read_json(claims)["slowest_seconds"] == {"01_x0_vs_eps": 230.5}
-    monkeypatch.setenv("REPRO_BUILD_DIR", str(tmp_path / "quick"))
     record_claim(make_context(tmp_path / "quick"), "GMD-A1",
                  {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
     assert main(["report", "--quick", "--snapshot"]) == 2  # a quick run is never a result

@@ -64,7 +64,6 @@ def sandbox(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     monkeypatch.setenv("REPRO_NOTEBOOKS_DIR", str(notebooks))
     monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
     monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path / "cache"))
-    monkeypatch.delenv("REPRO_BUILD_DIR", raising=False)
     return tmp_path
 
 

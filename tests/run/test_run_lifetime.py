@@ -91,7 +91,6 @@ def hanging_run(tmp_path: Path):
     env = {**os.environ, "REPRO_NOTEBOOKS_DIR": str(notebooks),
            "REPRO_BUILD_ROOT": str(tmp_path / "build"), "TEST_BEATS": str(beats),
            "PYTHONPATH": os.pathsep.join([REPO_SRC, os.environ.get("PYTHONPATH", "")])}
-    env.pop("REPRO_BUILD_DIR", None)
     log = open(tmp_path / "runner.log", "w")  # noqa: SIM115
     runner = subprocess.Popen([sys.executable, "-m", "repro", "reproduce", "--quick",
                                "--threads", "1"], env=env, stdout=log, stderr=subprocess.STDOUT,

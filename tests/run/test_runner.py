@@ -34,7 +34,6 @@ def sandbox(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     _notebook(notebooks / "02_bad.ipynb", "raise RuntimeError('boom in cell two')")
     monkeypatch.setenv("REPRO_NOTEBOOKS_DIR", str(notebooks))
     monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
-    monkeypatch.delenv("REPRO_BUILD_DIR", raising=False)
     return tmp_path
 
 

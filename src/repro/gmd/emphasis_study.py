@@ -37,7 +37,7 @@ from repro.gmd.models import (
 )
 from repro.gmd.paper_settings import STANDARD_DIFFUSION_STEPS
 from repro.gmd.run_seeds import seeds_of
-from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows
+from repro.gmd.windows import DataConfig, DataDir, FeatureSpace, MotionWindows
 from repro.infra import cache
 from repro.infra.context import check_scale
 from repro.motion.features import FEATURE_DIM, FPS
@@ -345,12 +345,12 @@ class Settings:
             left.append("Table B.1's plain model (k = 1)")
         return left
 
-    def data(self, data_dir: str | None = None,
+    def data(self, data_dir: DataDir = None,
              representation: str = "absolute") -> DataConfig:
         return DataConfig(data_dir=data_dir, stand_in_clips=self.stand_in_clips,
                           stride=self.stride, representation=representation)
 
-    def base_spec(self, data_dir: str | None = None) -> GMDModelSpec:
+    def base_spec(self, data_dir: DataDir = None) -> GMDModelSpec:
         """The shared spec; ``Variant.spec`` adds the seed and the loss weights."""
         tiny = ({"base_channels": 16, "channel_mults": (1, 2), "batch_size": 64, "lr": 1e-3}
                 if self.quick else {})

@@ -35,7 +35,7 @@ from repro.gmd.measurements import foot_skating_of, jitter_of
 from repro.gmd.models import GMDModelSpec, TrainedGMD
 from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_STOP_T
 from repro.gmd.run_seeds import seeds_of
-from repro.gmd.windows import FeatureSpace
+from repro.gmd.windows import DataDir, FeatureSpace
 from repro.gmd.x0_vs_eps import Settings as ModelSettings
 from repro.infra.context import check_scale
 
@@ -494,11 +494,11 @@ class Settings:
         """T of the trajectory model (GMD's 1000; standard 100; quick 50)."""
         return self.model.guidance_diffusion_steps
 
-    def spec(self, data_dir: str | None = None) -> GMDModelSpec:
+    def spec(self, data_dir: DataDir = None) -> GMDModelSpec:
         """Notebook 01's guidance ε trajectory model (seed 0; ``replace(seed=…)`` per seed)."""
         return self.model.guidance_trajectory_spec("epsilon", self.model.data(data_dir))
 
-    def motion_spec(self, data_dir: str | None = None) -> GMDModelSpec:
+    def motion_spec(self, data_dir: DataDir = None) -> GMDModelSpec:
         """GMD's second stage (seed 0): notebook 01's x0 motion spec on its absolute-root
         windows, where the trajectory's root x/z is imputed. Below the paper scale it is
         text-conditioned — at the standard scale exactly notebook 02's GMD-B3 absolute-root

@@ -45,7 +45,7 @@ from repro.gmd.models import (
     training_fields,
 )
 from repro.gmd.run_seeds import seeds_of
-from repro.gmd.windows import REPRESENTATIONS, DataConfig, short_label
+from repro.gmd.windows import REPRESENTATIONS, DataConfig, DataDir, short_label
 from repro.infra.context import check_scale
 from repro.models.evaluator import EvaluatorConfig
 from repro.motion.features import (
@@ -383,7 +383,7 @@ class Settings:
         return {"num_timesteps": self.trajectory_diffusion_steps,
                 "guidance_stop_t": self.guidance_stop_t, "x0_clamp": self.x0_clamp}
 
-    def data(self, representation: str, data_dir: str | None = None) -> DataConfig:
+    def data(self, representation: str, data_dir: DataDir = None) -> DataConfig:
         """48-frame windows in ``representation`` (one of ``REPRESENTATIONS``)."""
         return DataConfig(data_dir=data_dir, stand_in_clips=self.stand_in_clips,
                           stride=self.stride, representation=representation)
@@ -393,7 +393,7 @@ class Settings:
         return EvaluatorConfig(steps=self.evaluator_steps)
 
     def trajectory_spec(self, representation: str, seed: int,
-                        data_dir: str | None = None) -> GMDModelSpec:
+                        data_dir: DataDir = None) -> GMDModelSpec:
         """The guidance experiments' trajectory model: ε prediction, the family's architecture
         and convergence training (``models.training_fields``, ``trajectory_steps`` the cap),
         ``trajectory_diffusion_steps`` of the ``GUIDANCE_SCHEDULE``. At the paper and standard
@@ -408,7 +408,7 @@ class Settings:
                                               step_cap=self.trajectory_steps))
 
     def motion_spec(self, representation: str, seed: int,
-                    data_dir: str | None = None) -> GMDModelSpec:
+                    data_dir: DataDir = None) -> GMDModelSpec:
         return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
                                 data=self.data(representation, data_dir), seed=seed,
                                 diffusion_steps=self.diffusion_steps,

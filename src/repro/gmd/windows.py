@@ -41,6 +41,7 @@ __all__ = [
     "TASKS",
     "check_task",
     "DataConfig",
+    "DataDir",
     "FeatureSpace",
     "MotionWindows",
     "Representation",
@@ -52,6 +53,9 @@ __all__ = [
 
 Task = Literal["trajectory", "motion"]
 Representation = Literal["relative", "absolute"]
+#: a HumanML3D-layout folder (a run context's `data_dir` is a Path; `DataConfig` keeps its
+#: string), or None for the generated stand-in set
+DataDir = str | Path | None
 TASKS = ("trajectory", "motion")
 #: number of model channels per task: the trajectory model sees (angle, x, z, y).
 CHANNELS = {"trajectory": TRAJECTORY_FEATURES.stop - TRAJECTORY_FEATURES.start,
@@ -70,7 +74,8 @@ def short_label(representation: str) -> str:
 class DataConfig:
     """Which windows a model trains on.
 
-    ``data_dir`` is a HumanML3D-layout folder, or None for the generated stand-in set
+    ``data_dir`` is a HumanML3D-layout folder (a Path is kept as its string), or None for the
+    generated stand-in set
     (``dataset.ensure_dataset(DatasetConfig(n_clips=stand_in_clips, seed=stand_in_seed))``).
     Windows of ``frames`` frames (a multiple of 4) start every ``stride`` frames of each clip;
     clips shorter than ``frames`` give none. ``max_windows`` keeps a random subset (seed 0,
@@ -86,6 +91,8 @@ class DataConfig:
     max_windows: int | None = None
 
     def __post_init__(self) -> None:
+        if self.data_dir is not None and not isinstance(self.data_dir, str):
+            object.__setattr__(self, "data_dir", str(self.data_dir))  # a Path: its string
         if self.frames < 4 or self.frames % 4:
             raise ValueError(f"frames must be a positive multiple of 4, got {self.frames}")
         if self.stride < 1:

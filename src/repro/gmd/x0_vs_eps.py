@@ -37,6 +37,7 @@ from repro.gmd.paper_settings import (
 from repro.gmd.run_seeds import seeds_of
 from repro.gmd.windows import (
     DataConfig,
+    DataDir,
     FeatureSpace,
     MotionWindows,
     Representation,
@@ -304,7 +305,7 @@ class Settings:
         test of that code; not at the standard scale."""
         return self.scale != "standard"
 
-    def data(self, data_dir: str | None = None,
+    def data(self, data_dir: DataDir = None,
              representation: Representation = "absolute") -> DataConfig:
         """The windows (``data_dir`` or the stand-in set) in ``representation``: absolute
         root by default, the trajectory models'."""
@@ -314,7 +315,7 @@ class Settings:
         return DataConfig(stand_in_clips=self.stand_in_clips, frames=self.frames,
                           representation=representation)
 
-    def motion_data(self, data_dir: str | None = None) -> DataConfig:
+    def motion_data(self, data_dir: DataDir = None) -> DataConfig:
         """GMD-A4's motion windows: :meth:`data` in ``motion_representation``."""
         return self.data(data_dir, self.motion_representation)
 
@@ -360,7 +361,7 @@ QUICK_GUIDANCE_DIFFUSION_STEPS = 50
 
 
 def guidance_trajectory_spec(scale: str, prediction: Literal["x0", "epsilon"] = "epsilon",
-                             data_dir: str | None = None, seed: int = 0) -> GMDModelSpec:
+                             data_dir: DataDir = None, seed: int = 0) -> GMDModelSpec:
     """``Settings.for_scale(scale).guidance_trajectory_spec`` on the scale's windows: the
     trajectory model every guidance experiment shares (GMD's trajectory model predicts ε;
     T = 1000 at the paper scale, 100 at standard)."""

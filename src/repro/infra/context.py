@@ -1,8 +1,9 @@
 """One run's settings, passed explicitly from the notebook to the library and the ledger.
 
-``repro.run.notebook.setup_notebook`` builds it from the notebook's parameters (and the user's
-environment overrides, read once there); nothing inside the process reads them back from the
-environment.
+``repro.run.notebook.setup_notebook`` builds it from the notebook's parameters (and what the
+runner's worker gives its kernel, the run ID and thread share, read once there); the notebook
+reads its run settings from the context only (``ctx.data_dir``, ``ctx.threads``), and nothing
+inside the process reads them back from the environment.
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ class RunContext:
         scale: "quick" (a test of the code; never a result), "standard" or "paper".
         seed: base seed; experiments take ``seeds(...)`` from it.
         device: where models train and sample.
-        threads: torch threads of this process.
+        threads: torch threads of this process (``setup_notebook`` sets them).
         build_dir: the run's output folder (claims/, figures/ below it).
         cache_dir: trained models and generated data, keyed by their configuration.
         data_dir: a HumanML3D-layout folder, or None for the generated stand-in set.

@@ -7,6 +7,10 @@ cannot say (a seed is ≥ 0, a data folder exists and passes ``validate-dataset`
 exists here). The runner alone sets ``scale``, ``build_dir``, ``seed`` and ``device`` (from
 ``--scale``/``--quick``, its staging folder, ``--seed`` and ``--device``), so ``-p`` cannot
 send one scale's output into another scale's folder.
+
+These are the only checks of a parameter: the runner makes them (:func:`validate_parameters`)
+before any kernel starts; a notebook run by hand makes the same ones in
+``run.notebook.setup_notebook`` (:func:`check_standard_parameters`).
 """
 
 from __future__ import annotations
@@ -134,8 +138,9 @@ def value_problems(name: str, value: Any, entry: dict[str, Any]) -> list[str]:
     rule = RULES.get(name)
     types = rule.types if rule else declared_types(entry)
     if types is not None and not _type_matches(value, types):
-        return [f"parameter {name} must be {_type_text(types)} (the notebook's default is "
-                f"{entry.get('default')}), got {value!r} ({type(value).__name__})"]
+        default = f" (the notebook's default is {entry['default']})" if "default" in entry else ""
+        return [f"parameter {name} must be {_type_text(types)}{default}, got {value!r} "
+                f"({type(value).__name__})"]
     if rule and rule.check:
         problem = rule.check(value)
         if problem:
@@ -179,6 +184,16 @@ def check_extra_parameters(extra: dict[str, Any]) -> None:
     reserved = [f"{name} ({SET_BY_RUNNER[name]})" for name in extra if name in SET_BY_RUNNER]
     if reserved:
         raise ValueError(f"-p cannot set {'; '.join(reserved)}")
+
+
+def check_standard_parameters(parameters: dict[str, Any]) -> None:
+    """Raise ValueError naming every problem of the standard parameters a notebook run by hand
+    passes to ``setup_notebook`` (the runner's checks of :data:`RULES`, with no notebook to
+    inspect)."""
+    problems = [problem for key, value in parameters.items()
+                for problem in value_problems(key, value, {})]
+    if problems:
+        raise ValueError("; ".join(problems))
 
 
 def validate_parameters(name: str, parameters: dict[str, Any]) -> None:

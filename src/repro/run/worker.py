@@ -105,10 +105,12 @@ def _ipc_kernel_manager() -> type:
 
 
 def _prepare_environment(spec: WorkerSpec, runtime_dir: str) -> None:
+    """What the kernel inherits beyond its parameters (its staging folder is its ``build_dir``
+    parameter): thread counts for torch and the BLAS pools, the run ID, the progress and
+    lifetime channels, the runtime folder and the figure backend."""
     for variable in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
                      "REPRO_TORCH_THREADS"):
         os.environ[variable] = str(spec.threads)
-    os.environ["REPRO_BUILD_DIR"] = spec.staging
     os.environ["REPRO_RUN_ID"] = spec.run_id
     os.environ[progress.ENV_VARIABLE] = str(Path(spec.progress_dir) / f"{spec.name}.stage.json")
     os.environ[kernel_guard.RUNNER_PID] = str(spec.runner_pid)

@@ -5,14 +5,11 @@ rule-based part-of-speech tags HumanML3D's text files carry (``caption#lemma/POS
 from __future__ import annotations
 
 import re
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from repro.standin.clip_spec import ClipSpec
 from repro.standin.concepts import CONCEPTS
-
-if TYPE_CHECKING:
-    from repro.standin.generator import ClipSpec
 
 __all__ = ["SUBJECTS", "humanml3d_text_line", "sample_captions", "sample_named_captions",
            "tag_caption"]

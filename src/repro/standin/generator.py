@@ -1,5 +1,6 @@
-"""Procedural, concept-driven stand-in clips: what to generate (:class:`ClipSpec`), how
-concepts compose, and the generated :class:`Clip`.
+"""Procedural, concept-driven stand-in clips: what to generate (:class:`ClipSpec`, defined in
+``repro.standin.clip_spec`` and re-exported here), how concepts compose, and the generated
+:class:`Clip`.
 
 Every clip is made by forward kinematics (``skeleton.forward_kinematics``) from a root
 trajectory and per-joint local rotations on HumanML3D's target skeleton, so bone lengths are
@@ -25,7 +26,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -34,13 +35,18 @@ import torch
 from repro.motion.features import FPS, joints_to_features
 from repro.motion.skeleton import forward_kinematics
 from repro.standin.captions import humanml3d_text_line, sample_named_captions
+from repro.standin.clip_spec import (
+    COMPOSITIONS,
+    MAX_DURATION,
+    MIN_DURATION,
+    PARTIAL_CAPTION_SHARE,
+    ClipSpec,
+)
 from repro.standin.concepts import (
     BODY_PARTS,
     CONCEPTS,
-    Concept,
     can_be_simultaneous,
     check_concept,
-    check_simultaneous,
 )
 from repro.standin.pose import Track, solve_pose, take_part
 from repro.standin.primitives import idle, place, slerp_directions, smoothstep
@@ -57,92 +63,11 @@ __all__ = [
 #: made after the first datasets were cached under 1. 3: partial captions of multi-concept clips
 #: and freely moving unowned parts in single-concept clips (issue #16; docs/GENERATOR_V3.md).
 GENERATOR_VERSION = "3"
-#: the share of a multi-concept clip's captions that name only some of its concepts
-#: (``captions.sample_named_captions``). 0.5, chosen on the pilot of docs/GENERATOR_V3.md by the
-#: rule fixed before it: the largest share on the grid 0, 0.1, ..., 0.9 at which at least 85 %
-#: of multi-concept clips keep one caption naming all their concepts (so the joined text of
-#: every composition is still trained), because the larger the share, the more of each
-#: single-concept text's clips hold another concept (the pilot's span).
-PARTIAL_CAPTION_SHARE = 0.5
-MIN_DURATION, MAX_DURATION = 2.0, 6.0
 #: cross-fade length at a sequential transition (frames, centred on the boundary).
 BLEND_FRAMES = 8
-COMPOSITIONS = ("single", "simultaneous", "sequential")
-#: how many concepts a clip of each composition holds
-_CONCEPT_COUNTS = {"single": (1,), "simultaneous": (2, 3), "sequential": (2,)}
 
 
 # ---------------------------------------------------------------------------- clip specs
-
-@dataclass(frozen=True)
-class ClipSpec:
-    """What to generate: concepts, how they combine, total duration (s) and overrides.
-
-    ``params`` may hold ``initial_heading`` (rad), ``start_xz`` (m) and, per concept name, a
-    dict overriding that concept's sampled parameters (unknown keys are an error).
-    ``segment_durations`` (sequential only) defaults to a split proportional to the
-    concepts' minimum durations. ``partial_caption_share``: the share of the captions of a
-    multi-concept clip that name only some of its concepts (:data:`PARTIAL_CAPTION_SHARE`;
-    0 gives captions that name every concept, as generator v2).
-    """
-
-    concepts: tuple[str, ...]
-    composition: str = "single"
-    duration: float = 4.0
-    params: Mapping[str, Any] = field(default_factory=dict)
-    segment_durations: tuple[float, ...] | None = None
-    partial_caption_share: float = PARTIAL_CAPTION_SHARE
-
-    def __post_init__(self) -> None:
-        if not 0.0 <= self.partial_caption_share <= 1.0:
-            raise ValueError(f"partial_caption_share must be in [0, 1], got "
-                             f"{self.partial_caption_share}")
-        if isinstance(self.concepts, str):
-            raise ValueError(f"concepts must be a sequence of names, got the string "
-                             f"{self.concepts!r}")
-        object.__setattr__(self, "concepts", tuple(self.concepts))
-        found = [check_concept(name) for name in self.concepts]
-        if self.composition not in COMPOSITIONS:
-            raise ValueError(f"unknown composition {self.composition!r}; known: {COMPOSITIONS}")
-        expected = _CONCEPT_COUNTS[self.composition]
-        if len(self.concepts) not in expected:
-            raise ValueError(f"a {self.composition} clip has "
-                             f"{' or '.join(map(str, expected))} concept(s), got "
-                             f"{len(self.concepts)}: {self.concepts}")
-        if not MIN_DURATION <= self.duration <= MAX_DURATION:
-            raise ValueError(f"duration must be in [{MIN_DURATION}, {MAX_DURATION}] s, got "
-                             f"{self.duration}")
-        if self.composition == "simultaneous":
-            check_simultaneous(self.concepts)
-        if self.composition != "sequential":
-            if self.segment_durations is not None:
-                raise ValueError("segment_durations is only for sequential clips")
-            for concept in found:
-                _check_long_enough(concept, self.duration)
-            return
-        if self.segment_durations is None:
-            mins = np.array([c.min_duration for c in found])
-            durations = tuple(float(d) for d in self.duration * mins / mins.sum())
-            object.__setattr__(self, "segment_durations", durations)
-        durations = tuple(float(d) for d in self.segment_durations)
-        object.__setattr__(self, "segment_durations", durations)
-        if len(durations) != len(found) or abs(sum(durations) - self.duration) > 1e-6:
-            raise ValueError(f"segment_durations {durations} must have one entry per concept "
-                             f"and sum to duration {self.duration}")
-        for concept, duration in zip(found, durations, strict=True):
-            _check_long_enough(concept, duration)
-
-    @property
-    def n_frames(self) -> int:
-        """Raw joint frames: duration × 20 fps + 1 (features then have duration × 20)."""
-        return int(round(self.duration * FPS)) + 1
-
-
-def _check_long_enough(concept: Concept, duration: float) -> None:
-    if duration < concept.min_duration - 1e-9:
-        raise ValueError(f"concept {concept.name!r} needs at least {concept.min_duration} s, "
-                         f"got {duration:.3f} s")
-
 
 DEFAULT_COMPOSITION_WEIGHTS: dict[str, float] = {
     "single": 0.5, "simultaneous": 0.3, "sequential": 0.2}
