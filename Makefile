@@ -19,7 +19,7 @@ ARGS   ?=
 NOT_IMPORTED := /tests?/|/torch/testing/_internal/|/transformers/models/(?!auto/|bert/|__init__)
 
 .DEFAULT_GOAL := help
-.PHONY: help setup test unit notebooks-quick reproduce bench lint check-rendered lab clean
+.PHONY: help setup test test-workflow unit notebooks-quick reproduce bench lint check-rendered lab clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*##' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-16s %s\n", $$1, $$2}'
@@ -50,9 +50,12 @@ lab: $(LAB)  ## open the notebooks in JupyterLab
 unit: $(STAMP)  ## unit tests only (no notebooks)
 	$(PY) -m pytest -q -n $(JOBS) --dist loadfile -m "not notebook"
 
-test: $(STAMP)  ## lint + unit tests + every notebook executed with quick parameters
+test: $(STAMP) $(FLOW)  ## lint + unit tests + every notebook executed with quick parameters
 	$(PY) -m ruff check src tests notebooks scripts
-	$(PY) -m pytest -q -n $(JOBS) --dist loadfile
+	$(PY) -m pytest -q -n $(JOBS) --dist loadfile -m "not workflow"
+
+test-workflow: $(FLOW)  ## a real local Snakemake run of two notebooks at the quick scale against reproduce
+	$(PY) -m pytest -q -m workflow tests/workflow
 
 reproduce: $(STAMP)  ## every notebook at the standard scale (SCALE=paper: the papers' settings); build/report, results/
 	$(PY) -m repro reproduce --scale $(SCALE) --jobs $(JOBS) --seed $(SEED) --snapshot $(ARGS)

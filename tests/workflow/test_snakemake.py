@@ -125,6 +125,7 @@ CHEAP = ["00_stand_in_data", "03_emphasis_projection"]
 
 
 @pytest.mark.notebook
+@pytest.mark.workflow
 def test_quick_workflow_measures_what_reproduce_measures(tmp_path: Path) -> None:
     """Two cheap notebooks from base seed 1 through the local profile, and the same two
     through ``python -m repro reproduce --quick --only`` (own build root and cache, one
