@@ -549,7 +549,8 @@ def validate_dataset(root: str | os.PathLike) -> list[Problem]:
     objects; no ID in two splits; joints — ``new_joints/`` when present (shape (T, 22, 3),
     features recover to them within 1e-4 m), else recovered from the features — keep
     their bone lengths within 1e-3 m over frames; a features file no split lists (every one,
-    when the split files are missing) must still be a readable (T, 263) array.
+    when the split files are missing) must still be a readable (T, 263) array; the folder is
+    usable (``motion.usability``: no split is empty, train and test keep a clip).
     """
     root = Path(root)
     if not root.is_dir():
@@ -573,6 +574,9 @@ def validate_dataset(root: str | os.PathLike) -> list[Problem]:
     check_joints = (root / "new_joints").is_dir()
     for clip in seen:
         problems += _validate_clip(root, clip, check_joints)
+    from repro.motion.usability import usability_problems  # it reads this module's loaders
+
+    problems += [Problem(path, "split", message) for path, message in usability_problems(root)]
     return problems + _validate_unlisted(root, set(seen))
 
 
