@@ -1,0 +1,31 @@
+"""EnergyMoGen's models on ``cuda`` through ``load_pipeline(config, "cuda")`` (issue #33): a
+tiny training of the VAE and the latent denoiser, a composed DDIM sampler step and the
+decoding. Skipped, with the reason, where torch sees no CUDA device."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import torch
+from conftest import TINY_PIPELINE
+
+from repro.energymogen.pipeline import Sampler, load_pipeline
+
+pytestmark = pytest.mark.skipif(
+    not torch.cuda.is_available(),
+    reason=f"no CUDA device visible to torch {torch.__version__} (built with CUDA "
+           f"{torch.version.cuda or 'none'}): the GPU path is tested only where one is present")
+
+
+def test_the_latent_denoiser_trains_and_samples_on_cuda(emg_cache: Path) -> None:
+    pipe = load_pipeline(TINY_PIPELINE, "cuda", log=None)
+    for name, module in (("VAE", pipe.vae), ("latent denoiser", pipe.denoiser)):
+        assert all(p.device.type == "cuda" for p in module.parameters()), name
+    texts = [["walk forward"], ["wave the right hand"]]
+    for sampler in (Sampler("latent"), Sampler("single")):
+        z = pipe.sample(sampler, texts, ["walk forward and wave the right hand"], seed=0,
+                        steps=2)
+        assert z.device.type == "cuda" and torch.isfinite(z).all()
+    features = pipe.decode(z)
+    assert features.shape[0] == 1 and features.shape[-1] == 263
