@@ -23,6 +23,13 @@ from pathlib import Path
 import numpy as np
 
 from repro.motion.features import FPS
+from repro.motion.layout import (
+    MAX_FRAMES_EXCLUSIVE,
+    MIN_FRAMES,
+    UNIT_LENGTH,
+    read_split,
+    read_text_file,
+)
 
 #: the splits the notebooks read and what for (val.txt must exist but may be empty: no
 #: notebook reads it)
@@ -51,8 +58,6 @@ def _frames(path: Path) -> int | None:
 def _piece_lengths(root: Path, clip: str, frames: int) -> list[int]:
     """Lengths of the pieces ``MotionDataset`` makes of one clip: the whole clip when a text
     line covers it all, and one piece per distinct captioned time range."""
-    from repro.motion.humanml3d import read_text_file
-
     try:
         lines = read_text_file(root / "texts" / f"{clip}.txt")
     except (OSError, ValueError):
@@ -65,8 +70,6 @@ def _piece_lengths(root: Path, clip: str, frames: int) -> list[int]:
 
 def split_pieces(root: str | os.PathLike, split: str) -> list[int] | None:
     """The lengths of the pieces the loader keeps from one split (None: no split file)."""
-    from repro.motion.humanml3d import MAX_FRAMES_EXCLUSIVE, MIN_FRAMES, UNIT_LENGTH, read_split
-
     root = Path(root)
     try:
         ids = read_split(root, split)
@@ -87,8 +90,6 @@ def usability_problems(root: str | os.PathLike,
     """(path, message) for each way the notebooks could not use ``root``: an empty train or
     test split, one none of whose clips the loader keeps, and with ``needs`` a split
     giving fewer windows than the scale cuts. [] when the folder is usable."""
-    from repro.motion.humanml3d import MAX_FRAMES_EXCLUSIVE, MIN_FRAMES
-
     root = Path(root)
     problems: list[tuple[Path, str]] = []
     for split, use in SPLIT_USE.items():
