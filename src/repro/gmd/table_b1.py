@@ -175,10 +175,13 @@ def ground_truth_row(evaluator: Evaluator, evaluation: EvaluationSet,
             "concept_recall": concept_recall(evaluation.features, evaluation.truth)}
 
 
-def summarise_rows(per_seed: Sequence[dict[str, float]]) -> dict[str, dict[str, float]]:
-    """Per metric: mean and Student-t 95 % interval over seeds (``core.stats.t_interval``)."""
+def summarise_rows(per_seed: Sequence[dict[str, float]]) -> dict[str, dict[str, float] | str]:
+    """Per metric: mean and Student-t 95 % interval over seeds (``core.stats.t_interval``);
+    :data:`NOT_MEASURABLE` for a metric with no number (concept recall without ``labels/``)."""
     names = per_seed[0].keys()
-    return {name: t_interval([row[name] for row in per_seed]).as_dict() for name in names}
+    columns = {name: [row[name] for row in per_seed] for name in names}
+    return {name: t_interval(values).as_dict() if measurable(values) else NOT_MEASURABLE
+            for name, values in columns.items()}
 
 
 TABLE_METRICS = ("fid", "r_precision_top3", "diversity", "concept_recall")
