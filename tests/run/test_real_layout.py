@@ -143,3 +143,12 @@ def test_notebook_00_runs_on_the_folder(real_layout: Path, tmp_path: Path,
     assert result.ok, result.error
     text = Path(result.output).read_text(encoding="utf-8")
     assert text.count("not measurable on real data") >= 2
+
+
+def test_validate_dataset_checks_the_windows_of_the_scale_it_is_given(
+        real_layout: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from repro.run.cli import main
+
+    assert main(["validate-dataset", str(real_layout), "--scale", "quick"]) == 0
+    assert main(["validate-dataset", str(real_layout)]) == 1   # standard, as reproduce
+    assert "this scale's notebooks need at least 64 (standard scale)" in capsys.readouterr().out

@@ -116,7 +116,8 @@ def _usability_problem(resolved: str, scale: str) -> str | None:
     if not problems:
         return None
     return (f"cannot be used at the {scale} scale:\n"
-            + "\n".join(f"  {path}: {message}" for path, message in problems))
+            + "\n".join(f"  {path}: {message}" for path, message in problems)
+            + f"\n(python -m repro validate-dataset {resolved} --scale {scale} shows the same)")
 
 
 def _scale_problems(parameters: dict[str, Any]) -> list[str]:
