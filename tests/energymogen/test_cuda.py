@@ -10,7 +10,9 @@ import pytest
 import torch
 from conftest import TINY_PIPELINE
 
+from repro.energymogen import augmentation as ag
 from repro.energymogen.pipeline import Sampler, load_pipeline
+from repro.models.latent_denoiser import train_latent_denoiser
 
 pytestmark = pytest.mark.skipif(
     not torch.cuda.is_available(),
@@ -29,3 +31,21 @@ def test_the_latent_denoiser_trains_and_samples_on_cuda(emg_cache: Path) -> None
         assert z.device.type == "cuda" and torch.isfinite(z).all()
     features = pipe.decode(z)
     assert features.shape[0] == 1 and features.shape[-1] == 263
+
+
+def test_emg8_fine_tuning_trains_on_the_pipelines_device(
+        emg_cache: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """EMG-8's fine-tuning config names no device: ``load_or_finetune`` trains on the
+    pipeline's (it trained on the CPU before issue #33, then moved the result)."""
+    pipe = load_pipeline(TINY_PIPELINE, "cuda", log=None)
+    devices = []
+
+    def recording(*args: object, **kwargs: object) -> object:
+        devices.append(args[5].device)
+        return train_latent_denoiser(*args, **kwargs)
+
+    monkeypatch.setattr(ag, "train_latent_denoiser", recording)
+    rows = ag.caption_rows(pipe, pipe.data.train_features[:8], pipe.data.train_captions[:8])
+    tuned, _ = ag.load_or_finetune(pipe, rows, ag.finetune_config(pipe.config, seed=0))
+    assert devices == ["cuda"]
+    assert all(p.device.type == "cuda" for p in tuned.parameters())
