@@ -11,6 +11,7 @@ import torch
 from conftest import TINY_PIPELINE
 
 from repro.energymogen import augmentation as ag
+from repro.energymogen import pipeline as em
 from repro.energymogen.pipeline import Sampler, load_pipeline
 from repro.models.latent_denoiser import train_latent_denoiser
 
@@ -20,8 +21,24 @@ pytestmark = pytest.mark.skipif(
            f"{torch.version.cuda or 'none'}): the GPU path is tested only where one is present")
 
 
-def test_the_latent_denoiser_trains_and_samples_on_cuda(emg_cache: Path) -> None:
+def _record_devices(monkeypatch: pytest.MonkeyPatch, module: object) -> list[str]:
+    """The device of every ``train_latent_denoiser`` call ``module`` makes (its TrainConfig's:
+    ``train_diffusion`` moves the model there, whatever device it was built on)."""
+    devices: list[str] = []
+
+    def recording(*args: object, **kwargs: object) -> object:
+        devices.append(args[5].device)
+        return train_latent_denoiser(*args, **kwargs)
+
+    monkeypatch.setattr(module, "train_latent_denoiser", recording)
+    return devices
+
+
+def test_the_latent_denoiser_trains_and_samples_on_cuda(
+        emg_cache: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    devices = _record_devices(monkeypatch, em)
     pipe = load_pipeline(TINY_PIPELINE, "cuda", log=None)
+    assert devices == ["cuda"]   # before issue #33 the denoiser trained on the CPU
     for name, module in (("VAE", pipe.vae), ("latent denoiser", pipe.denoiser)):
         assert all(p.device.type == "cuda" for p in module.parameters()), name
     texts = [["walk forward"], ["wave the right hand"]]
@@ -38,13 +55,7 @@ def test_emg8_fine_tuning_trains_on_the_pipelines_device(
     """EMG-8's fine-tuning config names no device: ``load_or_finetune`` trains on the
     pipeline's (it trained on the CPU before issue #33, then moved the result)."""
     pipe = load_pipeline(TINY_PIPELINE, "cuda", log=None)
-    devices = []
-
-    def recording(*args: object, **kwargs: object) -> object:
-        devices.append(args[5].device)
-        return train_latent_denoiser(*args, **kwargs)
-
-    monkeypatch.setattr(ag, "train_latent_denoiser", recording)
+    devices = _record_devices(monkeypatch, ag)
     rows = ag.caption_rows(pipe, pipe.data.train_features[:8], pipe.data.train_captions[:8])
     tuned, _ = ag.load_or_finetune(pipe, rows, ag.finetune_config(pipe.config, seed=0))
     assert devices == ["cuda"]
