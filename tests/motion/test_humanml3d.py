@@ -378,12 +378,14 @@ def test_real_clips_validate_and_load(tmp_path: Path) -> None:
     for clip in ("012314", "000612"):
         (tmp_path / "texts" / f"{clip}.txt").write_text(_text(WALK))
     (tmp_path / "train.txt").write_text("012314\n")
-    (tmp_path / "val.txt").write_text("000612\n")
-    (tmp_path / "test.txt").write_text("")
+    (tmp_path / "val.txt").write_text("")   # no notebook reads val; an empty test is refused
+    (tmp_path / "test.txt").write_text("000612\n")
     problems = D.validate_dataset(tmp_path)  # 000612 comes without new_joints
     assert {(p.path.parent.name, p.kind) for p in problems} == {("new_joint_vecs", "dtype"),
                                                                 ("new_joints", "missing")}
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        val = D.MotionDataset(tmp_path, "val")
+        val = D.MotionDataset(tmp_path, "test")
     assert val[0]["length"] == 196 and val[0]["motion"].dtype == torch.float32
+    (tmp_path / "test.txt").write_text("")   # issue #33: the validator accepted this folder
+    assert ("test.txt", "split") in {(p.path.name, p.kind) for p in D.validate_dataset(tmp_path)}

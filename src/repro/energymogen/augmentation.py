@@ -220,9 +220,9 @@ def load_or_finetune(pipe: EnergyMoGenPipeline, rows: Rows,
     def build() -> nn.Module:       # the cached EMA copy comes back with requires_grad off
         return copy.deepcopy(base).requires_grad_(True)
 
-    def train(model: nn.Module) -> tuple[nn.Module, dict]:
-        return train_latent_denoiser(model, pipe.diffusion, rows.latents, rows.tokens,
-                                     rows.mask, train_config).for_cache()
+    def train(model: nn.Module) -> tuple[nn.Module, dict]:   # on the pipeline's device (#33)
+        return train_latent_denoiser(model, pipe.diffusion, rows.latents, rows.tokens, rows.mask,
+                                     replace(train_config, device=str(pipe.device))).for_cache()
 
     denoiser = cache.load_or_train("emg_finetuned_denoiser", key, build, train,
                                    device=pipe.device).eval()

@@ -433,8 +433,9 @@ def train_denoiser_stage(data: StandInData, config: PipelineConfig, vae: VAEStag
     def train_denoiser(model: nn.Module) -> tuple[nn.Module, dict]:
         held_out = None if validation is None else (validation.latents, validation.tokens,
                                                     validation.mask)
+        on_device = replace(train_config, device=str(torch.device(device)))  # not in the key
         return train_latent_denoiser(model, diffusion, rows.latents, rows.tokens, rows.mask,
-                                     train_config, validation=held_out).for_cache()
+                                     on_device, validation=held_out).for_cache()
 
     denoiser = cache.load_or_train("emg_latent_denoiser", key, build_denoiser, train_denoiser,
                                    device=device).eval()

@@ -22,7 +22,7 @@ from repro.gmd.root_representation import (
     global_root_xz,
     root_jacobian,
 )
-from repro.gmd.table_b1 import PAPER_TABLE_B1, TABLE_METRICS
+from repro.gmd.table_b1 import NOT_MEASURABLE, PAPER_TABLE_B1, TABLE_METRICS, measurable
 from repro.gmd.windows import FeatureSpace, short_label
 from repro.motion.features import relative_to_absolute_root
 
@@ -191,6 +191,8 @@ def plot_table_b1(real: dict[str, float], rows: dict[str, list[dict[str, float]]
                       f"{PAPER_TABLE_B1['Ours (abs)'][k]:g} (real {PAPER_TABLE_B1['Real'][k]:g})")
         else:
             title += "\n(not in the paper)"
+        if not measurable([r[metric] for per_seed in rows.values() for r in per_seed]):
+            title += f"\n{NOT_MEASURABLE}"
         ax.set_xticks([0, 1], ["rel", "abs"])
         ax.set_title(title, fontsize=9)
     axes[0].legend(fontsize=7, loc="lower left")

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from repro.core.tables import interval_text, render
+from repro.gmd import table_b1
 
 __all__ = ["reading_a3", "reading_b1", "reading_b2", "reading_b3", "reading_c4", "reading_clamp"]
 
@@ -115,6 +116,22 @@ def reading_b3(rows: dict[str, list[dict[str, float]]], real: dict[str, float], 
     n = len(rows["relative"])
     gap_rel = [abs(v - real["diversity"]) for v in values("relative", "diversity")]
     gap_abs = [abs(v - real["diversity"]) for v in values("absolute", "diversity")]
+    if not table_b1.measurable(values("relative", "concept_recall")
+                               + values("absolute", "concept_recall")):
+        return render(
+            "**Reading** (this run, {n} seed(s)). FID: rel {fid_rel} vs abs {fid_abs} (lower "
+            "mean: {fid_low}; the paper has abs lower). R-precision top-3: rel {r3_rel} vs "
+            "abs {r3_abs}. Diversity gap to the real windows' {div_real:.3f}: rel {gap_rel} "
+            "vs abs {gap_abs}. Concept recall: {not_measurable} (the folder has no `labels/` "
+            "for the concept oracles to compare with). The real windows' R-precision: "
+            "{r3_real:.2f}.",
+            n=n, fid_rel=interval_text(values("relative", "fid")),
+            fid_abs=interval_text(values("absolute", "fid")), fid_low=lower("fid"),
+            r3_rel=interval_text(values("relative", "r_precision_top3")),
+            r3_abs=interval_text(values("absolute", "r_precision_top3")),
+            div_real=real["diversity"], gap_rel=interval_text(gap_rel),
+            gap_abs=interval_text(gap_abs), not_measurable=table_b1.NOT_MEASURABLE,
+            r3_real=real["r_precision_top3"])
     return render(
         "**Reading** (this run, {n} seed(s)). FID: rel {fid_rel} vs abs {fid_abs} (lower "
         "mean: {fid_low}; the paper has abs lower). R-precision top-3: rel {r3_rel} vs abs "

@@ -175,13 +175,24 @@ def ground_truth_row(evaluator: Evaluator, evaluation: EvaluationSet,
             "concept_recall": concept_recall(evaluation.features, evaluation.truth)}
 
 
-def summarise_rows(per_seed: Sequence[dict[str, float]]) -> dict[str, dict[str, float]]:
-    """Per metric: mean and Student-t 95 % interval over seeds (``core.stats.t_interval``)."""
+def summarise_rows(per_seed: Sequence[dict[str, float]]) -> dict[str, dict[str, float] | str]:
+    """Per metric: mean and Student-t 95 % interval over seeds (``core.stats.t_interval``);
+    :data:`NOT_MEASURABLE` for a metric with no number (concept recall without ``labels/``)."""
     names = per_seed[0].keys()
-    return {name: t_interval([row[name] for row in per_seed]).as_dict() for name in names}
+    columns = {name: [row[name] for row in per_seed] for name in names}
+    return {name: t_interval(values).as_dict() if measurable(values) else NOT_MEASURABLE
+            for name, values in columns.items()}
 
 
 TABLE_METRICS = ("fid", "r_precision_top3", "diversity", "concept_recall")
+#: concept recall on a folder without the stand-in's ``labels/`` (real HumanML3D): no window
+#: has labelled concepts, so :func:`concept_recall` is NaN and the table says this instead
+NOT_MEASURABLE = "not measurable on real data"
+
+
+def measurable(values: float | Sequence[float]) -> bool:
+    """Whether a column's values hold a number (concept recall is NaN without labels)."""
+    return bool(np.isfinite(np.asarray(values, dtype=np.float64)).any())
 
 
 def table_b1_markdown(real: dict[str, float], rows: dict[str, list[dict[str, float]]]) -> str:
@@ -190,10 +201,12 @@ def table_b1_markdown(real: dict[str, float], rows: dict[str, list[dict[str, flo
     header = ["row", "FID ↓", "R-precision top-3 ↑", "Diversity →", "concept recall ↑",
               "seeds"]
     body: list[list[object]] = [["Real (stand-in test vs train)"]
-                                + [real[m] for m in TABLE_METRICS] + ["–"]]
+                                + [real[m] if measurable(real[m]) else NOT_MEASURABLE
+                                   for m in TABLE_METRICS] + ["–"]]
     for rep in REPRESENTATIONS:
         body.append([f"tiny GMD ({short_label(rep)})"]
                     + [interval_text([r[m] for r in rows[rep]], decimals=3)
+                       if measurable([r[m] for r in rows[rep]]) else NOT_MEASURABLE
                        for m in TABLE_METRICS] + [len(rows[rep])])
     for name, (fid, r3, div) in PAPER_TABLE_B1.items():
         body.append([f"paper: {name}", fid, r3, div, "–", "–"])

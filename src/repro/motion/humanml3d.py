@@ -19,7 +19,6 @@ Sub-range captions (start/end ≠ 0) become their own items, cut at ``int(20·st
 from __future__ import annotations
 
 import json
-import math
 import os
 import warnings
 from collections.abc import Sequence
@@ -40,79 +39,23 @@ from repro.motion.features import (
     features_to_joints,
     relative_to_absolute_root,
 )
+from repro.motion.layout import (
+    MAX_FRAMES_EXCLUSIVE,
+    MIN_FRAMES,
+    SPLITS,
+    UNIT_LENGTH,
+    parse_text_line,
+    read_split,
+    read_text_file,
+)
 from repro.motion.skeleton import NUM_JOINTS, bone_lengths
+from repro.motion.usability import usability_problems
 
-SPLITS = ("train", "val", "test")
-MIN_FRAMES = 40
-#: HumanML3D drops clips of 200 frames or more, whatever ``max_length`` is.
-MAX_FRAMES_EXCLUSIVE = 200
 MAX_LENGTH = 196
-UNIT_LENGTH = 4
 REPRESENTATIONS = ("relative", "absolute")
 #: validator tolerances: bone-length spread over frames (m), features → new_joints (m).
 BONE_LENGTH_TOLERANCE = 1e-3
 RECOVERY_TOLERANCE = 1e-4
-
-
-# ------------------------------------------------------------------------------- text files
-
-@dataclass(frozen=True)
-class TextLine:
-    """One line of ``texts/ID.txt``: ``caption#word/POS ...#start#end``."""
-
-    caption: str
-    tokens: tuple[str, ...]
-    start: float
-    end: float
-
-    @property
-    def whole_clip(self) -> bool:
-        return self.start == 0.0 and self.end == 0.0
-
-
-def parse_text_line(line: str) -> TextLine:
-    """Parse one text line; NaN times count as 0 (HumanML3D). Raises ValueError naming the fault."""
-    fields = line.rstrip("\r\n").split("#")
-    if len(fields) != 4:
-        raise ValueError(f"expected 4 '#'-separated fields (caption#tokens#start#end), "
-                         f"got {len(fields)}")
-    caption, token_field, start_field, end_field = fields
-    if not caption.strip():
-        raise ValueError("empty caption")
-    tokens = tuple(token_field.split())
-    bad = [token for token in tokens if "/" not in token]
-    if bad:
-        raise ValueError(f"tokens must be word/POS, got {bad[0]!r}")
-    try:
-        start, end = float(start_field), float(end_field)
-    except ValueError as error:
-        raise ValueError(f"start/end must be numbers, got {start_field!r}, "
-                         f"{end_field!r}") from error
-    start, end = (0.0 if math.isnan(t) else t for t in (start, end))
-    if start < 0 or end < 0 or (end <= start and not (start == 0.0 and end == 0.0)):
-        raise ValueError(f"bad time range {start}–{end} s")
-    return TextLine(caption.strip(), tokens, start, end)
-
-
-def read_text_file(path: str | os.PathLike) -> list[TextLine]:
-    """All non-blank lines of a text file; a bad line raises ValueError with path and line."""
-    lines = []
-    for number, line in enumerate(Path(path).read_text(encoding="utf-8").splitlines(), 1):
-        if not line.strip():
-            continue
-        try:
-            lines.append(parse_text_line(line))
-        except ValueError as error:
-            raise ValueError(f"{path}, line {number}: {error}") from None
-    return lines
-
-
-def read_split(root: str | os.PathLike, split: str) -> list[str]:
-    """The clip IDs listed in ``<root>/<split>.txt`` (one per line, blank lines ignored)."""
-    path = Path(root) / f"{split}.txt"
-    if not path.is_file():
-        raise FileNotFoundError(f"split file {path} not found")
-    return [line.strip() for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
 
 
 def _check_root(root: str | os.PathLike) -> Path:
@@ -549,7 +492,8 @@ def validate_dataset(root: str | os.PathLike) -> list[Problem]:
     objects; no ID in two splits; joints — ``new_joints/`` when present (shape (T, 22, 3),
     features recover to them within 1e-4 m), else recovered from the features — keep
     their bone lengths within 1e-3 m over frames; a features file no split lists (every one,
-    when the split files are missing) must still be a readable (T, 263) array.
+    when the split files are missing) must still be a readable (T, 263) array; the folder is
+    usable (``motion.usability``: no split is empty, train and test keep a clip).
     """
     root = Path(root)
     if not root.is_dir():
@@ -573,6 +517,7 @@ def validate_dataset(root: str | os.PathLike) -> list[Problem]:
     check_joints = (root / "new_joints").is_dir()
     for clip in seen:
         problems += _validate_clip(root, clip, check_joints)
+    problems += [Problem(path, "split", message) for path, message in usability_problems(root)]
     return problems + _validate_unlisted(root, set(seen))
 
 

@@ -186,10 +186,18 @@ def _cmd_stability(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from repro.motion.humanml3d import format_problems, validate_dataset
+    """Exit 0 when the folder is valid and usable at ``--scale`` (the windows the scale's
+    notebooks cut, as ``reproduce`` checks), 1 with the problems, 2 when it cannot be read."""
+    from repro.motion.humanml3d import Problem, format_problems, validate_dataset
+    from repro.motion.usability import usability_problems
+    from repro.run.params import window_needs
 
     try:
         problems = validate_dataset(args.directory)
+        if not [p for p in problems if p.severity == "error"]:
+            problems += [Problem(path, "windows", f"{message} ({args.scale} scale)")
+                         for path, message in usability_problems(args.directory,
+                                                                 window_needs(args.scale))]
     except (FileNotFoundError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -282,8 +290,13 @@ def main(argv: list[str] | None = None) -> int:
                       help="write results/STABILITY.md instead of <first build>/report/")
     stab.set_defaults(func=_cmd_stability)
 
+    from repro.infra.context import SCALES
+
     val = sub.add_parser("validate-dataset", help="check a HumanML3D-layout folder")
     val.add_argument("directory")
+    val.add_argument("--scale", choices=SCALES, default="standard",
+                     help="also check the windows this scale's notebooks cut (default: "
+                          "standard, as reproduce)")
     val.set_defaults(func=_cmd_validate)
 
     bench = sub.add_parser("bench", help="measure the time budgets (writes build/bench)")

@@ -24,6 +24,7 @@ from typing import Any
 
 from repro.infra import paths
 from repro.infra.context import scale_problem, seed_problem
+from repro.motion.usability import WindowNeeds
 
 STANDARD_PARAMETERS = ("scale", "seed", "device", "build_dir")
 SET_BY_RUNNER = {
@@ -90,6 +91,42 @@ def _dataset_problem(resolved: str) -> str | None:
         return (f"is not a valid HumanML3D-layout folder:\n{format_problems(problems)}\n"
                 f"(python -m repro validate-dataset {folder} shows the same)")
     return None
+
+
+def window_needs(scale: str) -> WindowNeeds:
+    """What the GMD notebooks of ``scale`` cut from a data folder: their longest windows
+    (``gmd.windows.DataConfig``'s and notebook 01's), and as many test windows as notebook 02
+    draws goal targets from (``goal_targets`` draws them without replacement)."""
+    from repro.gmd import root_representation, x0_vs_eps
+    from repro.gmd.windows import DataConfig
+
+    default = DataConfig()
+    frames = max(default.frames, x0_vs_eps.Settings.for_scale(scale).frames)
+    targets = root_representation.Settings.for_scale(scale).targets
+    return WindowNeeds(frames, default.stride, {"train": 1, "test": targets})
+
+
+@functools.lru_cache(maxsize=8)
+def _usability_problem(resolved: str, scale: str) -> str | None:
+    """Whether the notebooks of ``scale`` can use a valid folder (one check per folder, scale
+    and run)."""
+    from repro.motion.usability import usability_problems
+
+    problems = usability_problems(resolved, window_needs(scale))
+    if not problems:
+        return None
+    return (f"cannot be used at the {scale} scale:\n"
+            + "\n".join(f"  {path}: {message}" for path, message in problems)
+            + f"\n(python -m repro validate-dataset {resolved} --scale {scale} shows the same)")
+
+
+def _scale_problems(parameters: dict[str, Any]) -> list[str]:
+    """data_dir against what its scale's notebooks cut (after the per-value checks passed)."""
+    folder, scale = parameters.get("data_dir"), parameters.get("scale", "standard")
+    if not isinstance(folder, str) or scale_problem(scale) is not None:
+        return []
+    problem = _usability_problem(str(Path(folder).expanduser().resolve()), scale)
+    return [] if problem is None else [f"data_dir {problem}"]
 
 
 RULES: dict[str, Rule] = {
@@ -164,6 +201,7 @@ def notebook_parameters(name: str) -> dict[str, Any]:
 def forget_checks() -> None:
     """Forget the dataset folders validated so far (the runner calls this per run)."""
     _dataset_problem.cache_clear()
+    _usability_problem.cache_clear()
 
 
 #: parameters naming a folder: a relative one is read from the caller's working folder, so the
@@ -192,6 +230,7 @@ def check_standard_parameters(parameters: dict[str, Any]) -> None:
     inspect)."""
     problems = [problem for key, value in parameters.items()
                 for problem in value_problems(key, value, {})]
+    problems = problems or _scale_problems(parameters)
     if problems:
         raise ValueError("; ".join(problems))
 
@@ -209,5 +248,6 @@ def validate_parameters(name: str, parameters: dict[str, Any]) -> None:
         raise ValueError(f"notebook {name} must declare the standard parameters {missing}")
     problems = [problem for key, value in parameters.items()
                 for problem in value_problems(key, value, declared[key])]
+    problems = problems or _scale_problems(parameters)
     if problems:
         raise ValueError(f"notebook {name}: " + "; ".join(problems))

@@ -188,3 +188,19 @@ def co_occurrence_reading(table: CoOccurrence, measured_share: float | None,
             "{measured:.1%} (the generator's share: {stated:.0%}).",
             measured=measured_share, stated=stated_share)
     return text
+
+
+#: how a measurement that needs the stand-in's labels reads on a folder without them
+NOT_MEASURABLE = "not measurable on real data"
+
+
+def has_labels(root: str | Path) -> bool:
+    """Whether a HumanML3D-layout folder carries the stand-in's ``labels/`` (real HumanML3D
+    does not: the oracle agreement and the caption co-occurrence need them)."""
+    return (Path(root) / "labels").is_dir()
+
+
+def not_measurable_reading(what: str, root: str | Path) -> str:
+    """The notebook's line for a labels-based measurement on a folder without ``labels/``."""
+    return (f"{what}: {NOT_MEASURABLE} ({Path(root)} has no `labels/`, the stand-in "
+            f"generator's concept labels this measurement compares against).")

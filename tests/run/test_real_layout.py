@@ -1,0 +1,154 @@
+"""A folder in the real HumanML3D layout, without the stand-in's ``labels/`` (issue #33): the
+validator and the parameter check accept it and reject what the notebooks cannot use, and
+notebook 00 runs on it at the quick scale, reading "not measurable on real data" where it
+would compare against labels.
+
+The folder is a small stand-in set with ``labels/`` dropped, plus the shared real HumanML3D
+clips (../shared/humanml3d_sample) where they fit the loader's 40 ≤ T < 200 frames (skipped
+when that folder is absent). Only notebook 00 is executed here: the GMD notebooks (01, 02, 03,
+06) read ``data_dir`` through ``gmd.windows.DataConfig`` alone and take minutes each at the
+quick scale (train their models), too long for ``make test``; their windows are loaded here
+instead. The EnergyMoGen notebooks (04, 05, 07, 08) build their data from the stand-in
+generator and refuse a ``data_dir``.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from repro.gmd.windows import DataConfig, load_windows
+from repro.infra import paths
+from repro.motion.features import features_to_joints
+from repro.motion.humanml3d import validate_dataset
+from repro.motion.usability import WindowNeeds, usability_problems
+from repro.run import runner
+from repro.run.params import check_standard_parameters, forget_checks
+from repro.standin.dataset import write_dataset
+
+#: the shared real clips and the split each joins (012314 is a train clip of HumanML3D,
+#: 000612 a test clip)
+REAL_CLIPS = {"012314": ("new_joint_vecs/012314.npy", "train"),
+              "000612": ("extra/000612.npy", "test")}
+
+
+def _append(path: Path, clip: str) -> None:
+    text = path.read_text(encoding="utf-8")
+    path.write_text(text + ("" if not text or text.endswith("\n") else "\n") + clip + "\n",
+                    encoding="utf-8")
+
+
+@pytest.fixture(scope="module")
+def real_layout(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A stand-in set without ``labels/`` (and its ``dataset.json``), with the shared real
+    clips added where present."""
+    root = write_dataset(tmp_path_factory.mktemp("real_layout"), n_clips=60, seed=7)
+    shutil.rmtree(root / "labels")
+    (root / "dataset.json").unlink(missing_ok=True)
+    sample = paths.humanml3d_sample_dir()
+    for clip, (source, split) in REAL_CLIPS.items():
+        if not (sample / source).is_file():
+            continue
+        features = np.load(sample / source).astype(np.float32)
+        if not 40 <= len(features) < 200:
+            continue
+        np.save(root / "new_joint_vecs" / f"{clip}.npy", features)
+        joints = sample / "new_joints" / f"{clip}.npy"   # HumanML3D's: recovered from features
+        np.save(root / "new_joints" / f"{clip}.npy", np.load(joints) if joints.is_file() else
+                features_to_joints(features.astype(np.float64)).astype(np.float32))
+        (root / "texts" / f"{clip}.txt").write_text(
+            "a person moves.#a/DET person/NOUN move/VERB#0.0#0.0\n", encoding="utf-8")
+        _append(root / f"{split}.txt", clip)
+    return root
+
+
+def _copy(root: Path, tmp_path: Path) -> Path:
+    return Path(shutil.copytree(root, tmp_path / "copy"))
+
+
+def _parameters(data_dir: Path, scale: str = "quick") -> dict[str, object]:
+    return {"scale": scale, "seed": 0, "device": "cpu", "build_dir": None,
+            "data_dir": str(data_dir)}
+
+
+def test_the_real_layout_without_labels_is_valid_and_usable(real_layout: Path) -> None:
+    assert not (real_layout / "labels").exists()
+    assert [p for p in validate_dataset(real_layout) if p.severity == "error"] == []
+    forget_checks()
+    check_standard_parameters(_parameters(real_layout))
+
+
+def test_the_shared_real_clips_join_the_folder_where_present(real_layout: Path) -> None:
+    sample = paths.humanml3d_sample_dir()
+    if not (sample / "new_joint_vecs" / "012314.npy").is_file():
+        pytest.skip(f"{sample} not found: the real clips are not added")
+    assert "012314" in (real_layout / "train.txt").read_text().split()
+    assert "000612" in (real_layout / "test.txt").read_text().split()
+
+
+def test_an_empty_test_split_is_rejected_by_both_checks(real_layout: Path,
+                                                        tmp_path: Path) -> None:
+    root = _copy(real_layout, tmp_path)
+    (root / "test.txt").write_text("", encoding="utf-8")
+    problems = [p for p in validate_dataset(root) if p.severity == "error"]
+    assert [(p.path.name, p.kind) for p in problems] == [("test.txt", "split")]
+    assert "lists no clips" in problems[0].message
+    forget_checks()
+    with pytest.raises(ValueError, match="test.txt: lists no clips"):
+        check_standard_parameters(_parameters(root))
+
+
+def test_a_split_the_loader_keeps_nothing_of_is_rejected(real_layout: Path,
+                                                         tmp_path: Path) -> None:
+    root = _copy(real_layout, tmp_path)
+    short = np.load(root / "new_joint_vecs" / "000000.npy")[:20]
+    np.save(root / "new_joint_vecs" / "short.npy", short)
+    np.save(root / "new_joints" / "short.npy", np.load(root / "new_joints" / "000000.npy")[:20])
+    (root / "texts" / "short.txt").write_text("a person stands.#a/DET#0.0#0.0\n")
+    (root / "train.txt").write_text("short\n", encoding="utf-8")
+    (root / "val.txt").write_text("", encoding="utf-8")  # no notebook reads val: allowed
+    messages = [p.message for p in validate_dataset(root) if p.severity == "error"]
+    assert len(messages) == 1 and "the loader keeps none" in messages[0]
+
+
+def test_too_few_test_windows_for_the_scale_are_named(real_layout: Path) -> None:
+    """The quick scale needs 8 test windows of 48 frames, the standard 64 (notebook 02's goal
+    targets): the small folder serves the first and not the second."""
+    forget_checks()
+    check_standard_parameters(_parameters(real_layout, "quick"))
+    with pytest.raises(ValueError, match="(?s)cannot be used at the standard scale.*windows of 48"):
+        check_standard_parameters(_parameters(real_layout, "standard"))
+    wanted = WindowNeeds(48, 24, {"test": 10_000})
+    [(path, message)] = usability_problems(real_layout, wanted)
+    assert path.name == "test.txt" and "at least 10000" in message
+
+
+def test_the_gmd_windows_load_from_the_folder(real_layout: Path) -> None:
+    config = DataConfig(data_dir=str(real_layout), frames=48, representation="relative")
+    train = load_windows(config)
+    test = load_windows(config, "test", statistics=(train.mean, train.std))
+    assert len(train) > 0 and len(test) >= 8 and train.x.shape[1:] == (263, 48)
+
+
+@pytest.mark.notebook
+def test_notebook_00_runs_on_the_folder(real_layout: Path, tmp_path: Path,
+                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
+    [result] = runner.run_notebooks(["00_stand_in_data"], scale="quick",
+                                    extra_parameters={"data_dir": str(real_layout)},
+                                    log=lambda *_: None)
+    assert result.ok, result.error
+    text = Path(result.output).read_text(encoding="utf-8")
+    assert text.count("not measurable on real data") >= 2
+
+
+def test_validate_dataset_checks_the_windows_of_the_scale_it_is_given(
+        real_layout: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from repro.run.cli import main
+
+    assert main(["validate-dataset", str(real_layout), "--scale", "quick"]) == 0
+    assert main(["validate-dataset", str(real_layout)]) == 1   # standard, as reproduce
+    assert "this scale's notebooks need at least 64 (standard scale)" in capsys.readouterr().out
