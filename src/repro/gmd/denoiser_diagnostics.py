@@ -1,7 +1,8 @@
 """Where a motion model's jitter comes from (issue #14): diagnostics beside the quality gate.
 
-The ``gmd_motion`` gate (``core.gates``) says *whether* unguided samples skate and jitter; these
-say *where*, without sampling:
+The ``gmd_motion`` gate (``core.gates``, version 3) says whether the denoiser beats the best
+Gaussian denoiser on held-out x̂0 (since version 3 it no longer reads skating or jitter of
+samples, which claims compare); these say *where* a model's jitter comes from, without sampling:
 
 * :func:`x0_error_by_block` — the denoiser's RMS error on x0, per feature block, at chosen t,
   beside the noise √(1 − ᾱ_t) that x_t still holds. An error far above that noise at small t,
