@@ -116,37 +116,30 @@ def reading_b3(rows: dict[str, list[dict[str, float]]], real: dict[str, float], 
     n = len(rows["relative"])
     gap_rel = [abs(v - real["diversity"]) for v in values("relative", "diversity")]
     gap_abs = [abs(v - real["diversity"]) for v in values("absolute", "diversity")]
-    if not table_b1.measurable(values("relative", "concept_recall")
-                               + values("absolute", "concept_recall")):
-        return render(
-            "**Reading** (this run, {n} seed(s)). FID: rel {fid_rel} vs abs {fid_abs} (lower "
-            "mean: {fid_low}; the paper has abs lower). R-precision top-3: rel {r3_rel} vs "
-            "abs {r3_abs}. Diversity gap to the real windows' {div_real:.3f}: rel {gap_rel} "
-            "vs abs {gap_abs}. Concept recall: {not_measurable} (the folder has no `labels/` "
-            "for the concept oracles to compare with). The real windows' R-precision: "
-            "{r3_real:.2f}.",
-            n=n, fid_rel=interval_text(values("relative", "fid")),
-            fid_abs=interval_text(values("absolute", "fid")), fid_low=lower("fid"),
-            r3_rel=interval_text(values("relative", "r_precision_top3")),
-            r3_abs=interval_text(values("absolute", "r_precision_top3")),
-            div_real=real["diversity"], gap_rel=interval_text(gap_rel),
-            gap_abs=interval_text(gap_abs), not_measurable=table_b1.NOT_MEASURABLE,
-            r3_real=real["r_precision_top3"])
-    return render(
+    columns = render(
         "**Reading** (this run, {n} seed(s)). FID: rel {fid_rel} vs abs {fid_abs} (lower "
         "mean: {fid_low}; the paper has abs lower). R-precision top-3: rel {r3_rel} vs abs "
         "{r3_abs}. Diversity gap to the real windows' {div_real:.3f}: rel {gap_rel} vs abs "
-        "{gap_abs}. The concept oracles find fewer of the captioned concepts in abs samples "
-        "than in rel samples on {k} of {n} seeds (recall rel {cr_rel} vs abs {cr_abs}). Both "
-        "tiny models are far from the real windows (R-precision {r3_real:.2f}, concept "
-        "recall {cr_real:.2f}), so this is a weak test of a small effect: the paper's FID "
-        "difference ({p_rel:g} vs {p_abs:g}) is {share:.0%} of its rel value.",
+        "{gap_abs}.",
         n=n, fid_rel=interval_text(values("relative", "fid")),
         fid_abs=interval_text(values("absolute", "fid")), fid_low=lower("fid"),
         r3_rel=interval_text(values("relative", "r_precision_top3")),
         r3_abs=interval_text(values("absolute", "r_precision_top3")),
         div_real=real["diversity"], gap_rel=interval_text(gap_rel),
-        gap_abs=interval_text(gap_abs), k=recall_abs_lower,
+        gap_abs=interval_text(gap_abs))
+    if not table_b1.measurable(values("relative", "concept_recall")
+                               + values("absolute", "concept_recall")):
+        return columns + render(
+            " Concept recall: {not_measurable} (the folder has no `labels/` for the concept "
+            "oracles to compare with). The real windows' R-precision: {r3_real:.2f}.",
+            not_measurable=table_b1.NOT_MEASURABLE, r3_real=real["r_precision_top3"])
+    return columns + render(
+        " The concept oracles find fewer of the captioned concepts in abs samples than in rel "
+        "samples on {k} of {n} seeds (recall rel {cr_rel} vs abs {cr_abs}). Both tiny models "
+        "are far from the real windows (R-precision {r3_real:.2f}, concept recall "
+        "{cr_real:.2f}), so this is a weak test of a small effect: the paper's FID difference "
+        "({p_rel:g} vs {p_abs:g}) is {share:.0%} of its rel value.",
+        n=n, k=recall_abs_lower,
         cr_rel=interval_text(values("relative", "concept_recall")),
         cr_abs=interval_text(values("absolute", "concept_recall")),
         r3_real=real["r_precision_top3"], cr_real=real["concept_recall"],
