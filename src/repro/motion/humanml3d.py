@@ -44,6 +44,8 @@ from repro.motion.layout import (
     MIN_FRAMES,
     SPLITS,
     UNIT_LENGTH,
+    caption_spans,
+    kept_length,
     parse_text_line,
     read_split,
     read_text_file,
@@ -197,7 +199,7 @@ def _load_entries(root: Path, ids: list[str], min_length: int,
     skipped: dict[str, list[str]] = {"nan": [], "length": [], "no_caption": []}
 
     def keep(frames: int) -> bool:
-        return min_length <= frames < MAX_FRAMES_EXCLUSIVE and frames >= UNIT_LENGTH
+        return kept_length(frames, min_length)
 
     for clip in ids:
         motion = _load_features(root / "new_joint_vecs" / f"{clip}.npy")
@@ -208,14 +210,7 @@ def _load_entries(root: Path, ids: list[str], min_length: int,
             skipped["length"].append(clip)
             continue
         labels = _read_labels(root / "labels" / f"{clip}.json")
-        whole: list[str] = []
-        ranges: dict[tuple[int, int], list[str]] = {}
-        for line in read_text_file(root / "texts" / f"{clip}.txt"):
-            if line.whole_clip:
-                whole.append(line.caption)
-            else:
-                span = (int(line.start * FPS), int(line.end * FPS))
-                ranges.setdefault(span, []).append(line.caption)
+        whole, ranges = caption_spans(read_text_file(root / "texts" / f"{clip}.txt"), FPS)
         pieces = [(clip, motion, whole)] if whole else []
         pieces += [(f"{clip}@{a}-{b}", motion[a:b], captions)
                    for (a, b), captions in ranges.items()]

@@ -10,13 +10,19 @@ from dataclasses import dataclass
 from pathlib import Path
 
 __all__ = ["MAX_FRAMES_EXCLUSIVE", "MIN_FRAMES", "SPLITS", "UNIT_LENGTH", "TextLine",
-           "parse_text_line", "read_split", "read_text_file"]
+           "caption_spans", "kept_length", "parse_text_line", "read_split", "read_text_file"]
 
 SPLITS = ("train", "val", "test")
 MIN_FRAMES = 40
 #: HumanML3D drops clips of 200 frames or more, whatever ``max_length`` is.
 MAX_FRAMES_EXCLUSIVE = 200
 UNIT_LENGTH = 4
+
+
+def kept_length(frames: int, min_length: int = MIN_FRAMES) -> bool:
+    """Whether the loader keeps a clip or captioned piece of ``frames`` frames:
+    ``min_length ≤ T < MAX_FRAMES_EXCLUSIVE`` and at least one ``UNIT_LENGTH``."""
+    return min_length <= frames < MAX_FRAMES_EXCLUSIVE and frames >= UNIT_LENGTH
 
 
 # ------------------------------------------------------------------------------- text files
@@ -57,6 +63,21 @@ def parse_text_line(line: str) -> TextLine:
     if start < 0 or end < 0 or (end <= start and not (start == 0.0 and end == 0.0)):
         raise ValueError(f"bad time range {start}–{end} s")
     return TextLine(caption.strip(), tokens, start, end)
+
+
+def caption_spans(lines: list[TextLine], fps: float
+                  ) -> tuple[list[str], dict[tuple[int, int], list[str]]]:
+    """The pieces the loader cuts from one clip's text lines: the captions of the whole clip
+    (lines with start = end = 0), and the captions of each distinct frame span
+    ``(int(start · fps), int(end · fps))``, in the order the spans first appear."""
+    whole: list[str] = []
+    spans: dict[tuple[int, int], list[str]] = {}
+    for line in lines:
+        if line.whole_clip:
+            whole.append(line.caption)
+        else:
+            spans.setdefault((int(line.start * fps), int(line.end * fps)), []).append(line.caption)
+    return whole, spans
 
 
 def read_text_file(path: str | os.PathLike) -> list[TextLine]:

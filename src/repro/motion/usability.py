@@ -26,7 +26,8 @@ from repro.motion.features import FPS
 from repro.motion.layout import (
     MAX_FRAMES_EXCLUSIVE,
     MIN_FRAMES,
-    UNIT_LENGTH,
+    caption_spans,
+    kept_length,
     read_split,
     read_text_file,
 )
@@ -62,10 +63,8 @@ def _piece_lengths(root: Path, clip: str, frames: int) -> list[int]:
         lines = read_text_file(root / "texts" / f"{clip}.txt")
     except (OSError, ValueError):
         return []
-    lengths = [frames] if any(line.whole_clip for line in lines) else []
-    spans = {(int(line.start * FPS), int(line.end * FPS)) for line in lines
-             if not line.whole_clip}
-    return lengths + [len(range(frames)[a:b]) for a, b in spans]
+    whole, spans = caption_spans(lines, FPS)
+    return ([frames] if whole else []) + [len(range(frames)[a:b]) for a, b in spans]
 
 
 def split_pieces(root: str | os.PathLike, split: str) -> list[int] | None:
@@ -78,10 +77,9 @@ def split_pieces(root: str | os.PathLike, split: str) -> list[int] | None:
     kept = []
     for clip in ids:
         frames = _frames(root / "new_joint_vecs" / f"{clip}.npy")
-        if frames is None or not MIN_FRAMES <= frames < MAX_FRAMES_EXCLUSIVE:
+        if frames is None or not kept_length(frames):
             continue
-        kept += [n for n in _piece_lengths(root, clip, frames)
-                 if max(MIN_FRAMES, UNIT_LENGTH) <= n < MAX_FRAMES_EXCLUSIVE]
+        kept += [n for n in _piece_lengths(root, clip, frames) if kept_length(n)]
     return kept
 
 
