@@ -54,6 +54,13 @@ def _control_record(claim_id: str, kind: str, measured: Mapping[str, Any] | None
             "parts": [p.as_dict() for p in decision.parts], "measured": dict(measured)}, decision
 
 
+def control_records(claim_id: str, controls: Mapping[str, Mapping[str, Any]] | None,
+                    ) -> dict[str, dict[str, Any]]:
+    """Each control (kind → its measurements; absent: missing) as the sidecar stores it."""
+    return {kind: _control_record(claim_id, kind, (controls or {}).get(kind))[0]
+            for kind in CONTROLS}
+
+
 def _checked_model(claim_id: str, record: Mapping[str, Any]) -> dict[str, Any]:
     missing = sorted({"name", "family", "gate", "passed"} - set(record))
     if missing:

@@ -15,14 +15,13 @@ controls=...)`` decides both with the claim's own rule.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import torch
 from torch import Tensor
 
-from repro.core.tables import markdown_table
+from repro.claims.result import Controls
 from repro.gmd.emphasis_study import coherence
 from repro.gmd.guidance import goal_error
 from repro.gmd.guidance_schedule import strength_key
@@ -35,8 +34,8 @@ from repro.motion.features import (
     relative_to_absolute_root,
 )
 
-__all__ = ["CONTROL_SEED_BASE", "Controls", "a4_controls", "b2_controls", "c4_controls",
-           "calibrate_increasing", "control_seed", "controls_markdown", "f1_controls",
+__all__ = ["CONTROL_SEED_BASE", "a4_controls", "b2_controls", "c4_controls",
+           "calibrate_increasing", "control_seed", "f1_controls",
            "scale_world"]
 
 #: control randomness lives far from the experiments' seeds (0, 1, 2, …)
@@ -50,30 +49,6 @@ _RIC = FEATURE_BLOCKS["ric_positions"]
 #: features that no joint position reads (rotations, velocities, contacts): an offset there
 #: moves the evaluator's embedding and leaves every joint, hence jitter, exactly unchanged
 _NOT_JOINTS = slice(_RIC.stop, None)
-
-
-@dataclass
-class Controls:
-    """A claim's two controls as ``record_claim`` takes them, and what was planted."""
-
-    null: dict[str, Any]
-    positive: dict[str, Any]
-    planted: dict[str, Any] = field(default_factory=dict)
-    #: what each control's arms are, in words rendered from the planted sizes
-    null_text: str = ""
-    positive_text: str = ""
-
-    def as_controls(self) -> dict[str, dict[str, Any]]:
-        return {"positive": self.positive, "null": self.null}
-
-
-def controls_markdown(controls: Controls, verdicts: Mapping[str, str]) -> str:
-    """The two controls beside a verdict: what each is, its verdict under the claim's rule
-    (``verdicts``: "positive"/"null" → verdict) and what it must come out as."""
-    rows = [["positive", controls.positive_text, verdicts["positive"], "reproduced"],
-            ["null", controls.null_text, verdicts["null"],
-             "neither reproduced nor partially"]]
-    return markdown_table(["control", "arms", "verdict (same rule)", "must be"], rows)
 
 
 def control_seed(seed: int, arm: int, stream: int = 0) -> int:

@@ -19,8 +19,9 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
+from repro.claims.result import Controls
 from repro.core.diffusion import GaussianDiffusion
-from repro.gmd.controls import Controls, control_seed
+from repro.gmd.controls import control_seed
 from repro.gmd.guidance import default_stop_step, sample
 from repro.gmd.models import TrainedGMD
 from repro.gmd.paper_settings import X0_CLAMP

@@ -9,8 +9,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from repro.claims.result import Controls
 from repro.core import metrics
-from repro.gmd.controls import Controls, calibrate_increasing, control_seed
+from repro.gmd.controls import calibrate_increasing, control_seed
 from repro.gmd.table_b1 import EvaluationSet, registered_measurements, table_row
 from repro.models.evaluator import Evaluator
 

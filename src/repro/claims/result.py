@@ -1,0 +1,119 @@
+"""What an experiment returns and how a notebook records and shows it.
+
+Every paper package's experiment ends in a :class:`ClaimResult`: the measurements the
+registered rule reads, the two controls (:class:`Controls`: the registered effect planted, no
+effect), the models behind the measurements, the figures, the headline and the notes. A
+notebook cell then does three things: call the experiment, ``record(ctx, result)`` (the
+ledger's rule, controls and gates: :func:`repro.claims.ledger.record_claim`), and display
+:func:`recorded_markdown` — the verdict and the controls' table, one renderer for both papers.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from repro.claims.ledger import CONTROLS, control_records, record_claim, verdict_markdown
+from repro.claims.verdicts import Decision, parts_in_words
+from repro.core.tables import markdown_table
+from repro.infra.context import RunContext
+
+__all__ = ["ClaimResult", "Controls", "Recorded", "controls_markdown", "record",
+           "recorded_markdown", "summary_markdown"]
+
+#: what each control arm is when an experiment gives no words of its own
+_DEFAULT_ARMS = {"positive": "the registered δ planted", "null": "no effect"}
+_MUST_BE = {"positive": "reproduced", "null": "neither reproduced nor partially"}
+
+
+@dataclass
+class Controls:
+    """A claim's two controls as the ledger decides them: the measurements of the positive
+    control (every part's registered effect planted) and of the null control (no effect),
+    what was planted, and each control's arms in words rendered from the planted sizes."""
+
+    null: dict[str, Any]
+    positive: dict[str, Any]
+    planted: dict[str, Any] = field(default_factory=dict)
+    null_text: str = ""
+    positive_text: str = ""
+
+    def as_controls(self) -> dict[str, dict[str, Any]]:
+        """The ``controls=`` argument of ``record_claim``."""
+        return {"positive": self.positive, "null": self.null}
+
+
+@dataclass
+class ClaimResult:
+    """One claim's experiment, as ``record_claim`` takes it (its arguments, by name)."""
+
+    claim_id: str
+    measured: dict[str, Any]
+    seeds: Sequence[int]
+    controls: Controls | None = None
+    models: Sequence[Mapping[str, Any]] = ()
+    figures: Sequence[str | os.PathLike] = ()
+    headline: str = ""
+    notes: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+    quality_gates: Mapping[str, bool] | None = None
+
+
+@dataclass(frozen=True)
+class Recorded:
+    """A recorded claim: its decision and each control as the sidecar stores it."""
+
+    result: ClaimResult
+    decision: Decision
+    controls: dict[str, dict[str, Any]]
+
+    @property
+    def verdict(self) -> str:
+        return self.decision.verdict
+
+    @property
+    def reason(self) -> str:
+        return self.decision.reason
+
+
+def record(ctx: RunContext, result: ClaimResult) -> Recorded:
+    """Decide ``result`` by its registered rule, controls and gates and write its sidecar."""
+    controls = result.controls.as_controls() if result.controls is not None else None
+    decision = record_claim(ctx, result.claim_id, result.measured, seeds=result.seeds,
+                            controls=controls, quality_gates=result.quality_gates,
+                            models=result.models, figures=result.figures, notes=result.notes,
+                            headline=result.headline, extra=result.extra)
+    return Recorded(result, decision, control_records(result.claim_id, controls))
+
+
+def controls_markdown(claim_id: str, stored: Mapping[str, Mapping[str, Any]],
+                      controls: Controls | None = None) -> str:
+    """The two controls beside a verdict, one row each: what its arms are, what it must come
+    out as, its verdict under the claim's rule, passed or failed, and its parts."""
+    texts = {"positive": controls.positive_text, "null": controls.null_text} if controls else {}
+    rows = []
+    for kind in CONTROLS:
+        found = stored[kind]
+        rows.append([kind, texts.get(kind) or _DEFAULT_ARMS[kind], _MUST_BE[kind],
+                     found.get("verdict", "—"), found["status"],
+                     parts_in_words(found.get("parts", []))])
+    return (f"**{claim_id} controls**\n\n"
+            + markdown_table(["control", "arms", "must be", "verdict (same rule)", "outcome",
+                              "parts"], rows))
+
+
+def recorded_markdown(ctx: RunContext, recorded: Recorded) -> str:
+    """The notebook's verdict block: the verdict with its rule and reason, then the controls."""
+    claim_id = recorded.result.claim_id
+    return (verdict_markdown(ctx, claim_id, recorded.decision) + "\n\n"
+            + controls_markdown(claim_id, recorded.controls, recorded.result.controls))
+
+
+def summary_markdown(ctx: RunContext, recorded: Sequence[Recorded]) -> str:
+    """A notebook's closing summary: each claim's verdict and reason (a quick run says that it
+    is not a result)."""
+    mode = " (quick run: not a result)" if ctx.quick else ""
+    return f"### Summary{mode}\n\n" + "\n".join(
+        f"- **{r.result.claim_id}**: {r.verdict} — {r.reason}" for r in recorded)

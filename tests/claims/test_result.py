@@ -1,0 +1,52 @@
+"""What an experiment returns: the ledger records a ClaimResult as record_claim would, and one
+renderer shows the verdict with both controls' outcomes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from conftest import make_context
+
+from repro.claims.ledger import load_sidecars
+from repro.claims.result import ClaimResult, Controls, record, recorded_markdown, summary_markdown
+from repro.claims.verdicts import INCONCLUSIVE, REPRODUCED
+
+A3_EPS = {"goal_error_eps": [0.1, 0.12, 0.11, 0.1, 0.13],
+          "best_gain_survival_eps": [0.9, 0.95, 0.92, 0.93, 0.91],
+          "guided_change_survival_eps": [0.9, 0.95, 0.92, 0.93, 0.91]}
+A3_GOOD = {**A3_EPS, "goal_error_x0": [0.5, 0.6, 0.55, 0.52, 0.58],
+           "best_gain_survival_x0": [0.3, 0.2, 0.25, 0.22, 0.28],
+           "guided_change_survival_x0": [0.3, 0.2, 0.25, 0.22, 0.28]}
+A3_NONE = {**A3_EPS, "goal_error_x0": A3_EPS["goal_error_eps"],
+           "best_gain_survival_x0": A3_EPS["best_gain_survival_eps"],
+           "guided_change_survival_x0": A3_EPS["guided_change_survival_eps"]}
+
+
+def test_a_result_is_recorded_with_its_controls_and_rendered_once(tmp_path: Path) -> None:
+    ctx = make_context(tmp_path, scale="standard")
+    result = ClaimResult("GMD-A3", A3_GOOD, seeds=[0, 1, 2, 3, 4], headline="x0 0.55 m",
+                         controls=Controls(null=A3_NONE, positive=A3_GOOD,
+                                           null_text="one model twice"),
+                         extra={"strength": 100.0})
+    recorded = record(ctx, result)
+    sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
+    assert sidecar["verdict"] == recorded.verdict == REPRODUCED
+    assert sidecar["headline"] == "x0 0.55 m" and sidecar["extra"] == {"strength": 100.0}
+    assert sidecar["controls"] == recorded.controls
+    assert recorded.controls["positive"]["status"] == "passed"
+    assert recorded.controls["null"]["status"] == "passed"
+    text = recorded_markdown(ctx, recorded)
+    assert "**GMD-A3 — reproduced**" in text and "one model twice" in text
+    assert "the registered δ planted" in text      # the positive arm had no words of its own
+    assert summary_markdown(ctx, [recorded]).startswith("### Summary\n\n- **GMD-A3**: reproduced")
+
+
+def test_a_positive_control_that_misses_makes_the_claim_inconclusive(tmp_path: Path) -> None:
+    ctx = make_context(tmp_path, scale="quick")
+    recorded = record(ctx, ClaimResult("GMD-A3", A3_GOOD, seeds=[0, 1, 2, 3, 4],
+                                       controls=Controls(null=A3_NONE, positive=A3_NONE)))
+    assert recorded.controls["positive"]["status"] == "failed"
+    assert recorded.verdict == INCONCLUSIVE
+    assert "| positive | the registered δ planted | reproduced |" in recorded_markdown(
+        ctx, recorded)
+    assert "(quick run: not a result)" in summary_markdown(ctx, [recorded])
