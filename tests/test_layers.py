@@ -14,7 +14,7 @@ PACKAGE = Path(repro.__file__).parent
 
 #: layer of each subpackage; a module may import its own layer's package or a lower layer.
 LAYERS = {"infra": 0, "motion": 1, "core": 2, "standin": 3, "models": 4,
-          "gmd": 5, "energymogen": 5, "claims": 6, "run": 7}
+          "claims": 5, "gmd": 6, "energymogen": 6, "run": 7}
 PAPERS = {"gmd", "energymogen"}
 MAX_LINES = 600
 
