@@ -11,6 +11,7 @@ from conftest import TINY_PIPELINE
 
 from repro.claims.ledger import decide_claim
 from repro.claims.registry import get_claim
+from repro.claims.result import Controls
 from repro.energymogen import controls as ctl
 from repro.energymogen.data import composition_items, stand_in_clip
 from repro.energymogen.energy import smooth_energy_map
@@ -94,10 +95,10 @@ def _map_cases(seeds: int, per_seed: int = 1) -> dict[str, list[list[dict]]]:
 def test_map_controls_plant_the_registered_correlation_and_the_null_none() -> None:
     out = ctl.energy_map_controls(_map_cases(200), smooth_energy_map, 8)
     for case in ("conjunction", "negation"):
-        planted = np.subtract(out["positive"][f"{case}_similarity_to_multi"],
-                              out["positive"][f"{case}_similarity_floor"])
-        null = np.subtract(out["null"][f"{case}_similarity_to_multi"],
-                           out["null"][f"{case}_similarity_floor"])
+        planted = np.subtract(out.positive[f"{case}_similarity_to_multi"],
+                              out.positive[f"{case}_similarity_floor"])
+        null = np.subtract(out.null[f"{case}_similarity_to_multi"],
+                           out.null[f"{case}_similarity_floor"])
         # four standard errors: a smooth random field puts much noise on a correlation
         assert planted.mean() == pytest.approx(0.1, abs=4 * planted.std() / np.sqrt(200))
         assert null.mean() == pytest.approx(0.0, abs=4 * null.std() / np.sqrt(200))
@@ -105,14 +106,14 @@ def test_map_controls_plant_the_registered_correlation_and_the_null_none() -> No
 
 def test_map_controls_are_decided_by_the_rule_with_the_seeds_it_asks_for() -> None:
     out = ctl.energy_map_controls(_map_cases(64), smooth_energy_map, 8)
-    assert get_claim("EMG-6").decide(out["positive"]).verdict == "reproduced"
-    assert get_claim("EMG-6").decide(out["null"]).verdict not in ("reproduced",
-                                                                 "partially reproduced")
+    assert get_claim("EMG-6").decide(out.positive).verdict == "reproduced"
+    assert get_claim("EMG-6").decide(out.null).verdict not in ("reproduced",
+                                                              "partially reproduced")
 
 
 def test_map_controls_average_every_case_of_a_seed() -> None:
     out = ctl.energy_map_controls(_map_cases(4, per_seed=3), smooth_energy_map, 8)
-    assert all(len(v) == 4 for v in out["positive"].values())
+    assert all(len(v) == 4 for v in out.positive.values())
 
 
 class _MatchingEvaluator:
@@ -159,8 +160,9 @@ def t2m(tiny_pipeline: EnergyMoGenPipeline) -> tuple[EnergyMoGenPipeline, TextTo
     return dataclasses.replace(tiny_pipeline, evaluator=evaluator), test
 
 
-def _verdicts(claim_id: str, controls: dict) -> tuple[str, str]:
-    return tuple(get_claim(claim_id).decide(controls[k]).verdict for k in ("positive", "null"))
+def _verdicts(claim_id: str, controls: Controls) -> tuple[str, str]:
+    return tuple(get_claim(claim_id).decide(found).verdict
+                 for found in (controls.positive, controls.null))
 
 
 def _ratio_close(a: list[float], b: list[float], expected: float) -> bool:
@@ -184,7 +186,7 @@ def test_composition_controls_see_a_larger_planted_effect(tiny_pipeline: EnergyM
         positive, null = _verdicts(claim_id, out[claim_id])
         assert positive == "reproduced"
         assert _not_fired(null)
-        m = out[claim_id]["positive"]
+        m = out[claim_id].positive
         # the planted rates (oracle-measured on real clips): +0.3 both-present
         assert np.mean(m["conjunction_both_present"]) - np.mean(
             m["best_single_concept_both_present"]) == pytest.approx(0.3, abs=0.08)
@@ -194,11 +196,11 @@ def test_step_size_controls_plant_the_registered_drop(composition_pipe: EnergyMo
                                                       ) -> None:
     keys = [gamma_key(g) for g in TABLE9_GAMMAS]
     out = ctl.step_size_controls(composition_pipe, SEEDS, keys)
-    r3 = out["positive"]["r_precision_top3"]
-    assert out["calibration"]["positive"][0]["0.001,0.002"]["swap"] == 0.0
+    r3 = out.positive["r_precision_top3"]
+    assert out.planted["positive"][0]["0.001,0.002"]["swap"] == 0.0
     ratio = np.mean(r3["0.1,0.2"]) / np.mean(r3["0.0,0.0"])
     assert ratio == pytest.approx(1 - 0.417, abs=0.08)      # δ: half the paper's drop
-    assert out["null"]["r_precision_top3"].keys() == r3.keys()
+    assert out.null["r_precision_top3"].keys() == r3.keys()
 
 
 def test_step_size_controls_see_a_larger_planted_effect(
@@ -232,14 +234,14 @@ def test_amplified_steps_scale_the_distance_at_the_transitions_only() -> None:
 def test_sef_controls_plant_the_registered_transition_ratio(
         composition_pipe: EnergyMoGenPipeline) -> None:
     out = ctl.sef_controls(composition_pipe, SEEDS[:4], timeline_items_per_seed=8)
-    trans = out["positive"]["transition_distance"]
+    trans = out.positive["transition_distance"]
     ratio = np.mean(trans["0.0,1.0,0.0"]) / np.mean(trans["1.0,0.0,0.0"])
     assert ratio == pytest.approx(1.1875, rel=0.05)
-    null = out["null"]["transition_distance"]
+    null = out.null["transition_distance"]
     assert np.mean(null["0.0,1.0,0.0"]) / np.mean(null["1.0,0.0,0.0"]) == pytest.approx(
         1.0, rel=0.05)
     for name in ("transition_distance_at_transitions", "transition_speed_ratio"):
-        planted = out["positive"][name]
+        planted = out.positive[name]
         assert set(planted) == {"1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"}
         assert all(len(v) == 4 for v in planted.values())
 
@@ -256,11 +258,11 @@ def test_latent_count_controls_plant_the_registered_sizes(
         t2m: tuple[EnergyMoGenPipeline, TextToMotionTest]) -> None:
     pipe, test = t2m
     out = ctl.latent_count_controls(pipe, test, (1, 3, 5, 7), SEEDS)
-    recon, fid = out["positive"]["reconstruction_error"], out["positive"]["generation_fid"]
+    recon, fid = out.positive["reconstruction_error"], out.positive["generation_fid"]
     others = [v for n in ("1", "3", "5") for v in recon[n]]
     assert _ratio_close(recon["7"], others, 1 - 0.362)
     assert _ratio_close(fid["5"], [v for n in ("1", "3", "7") for v in fid[n]], 1 - 0.177)
-    null = out["null"]["generation_fid"]
+    null = out.null["generation_fid"]
     assert _ratio_close(null["5"], [v for n in ("1", "3", "7") for v in null[n]], 1.0)
 
 
@@ -277,7 +279,7 @@ def test_augmentation_controls_plant_the_registered_fid_ratio(
         t2m: tuple[EnergyMoGenPipeline, TextToMotionTest]) -> None:
     pipe, test = t2m
     out = ctl.augmentation_controls(pipe, test, SEEDS)
-    m = out["positive"]
+    m = out.positive
     assert _ratio_close(m["fid_augmented"], m["fid_baseline"], 0.9)
     gain = np.subtract(m["r_precision_top3_augmented"], m["r_precision_top3_baseline"])
     assert abs(gain.mean() - 0.01) <= 3 * gain.std(ddof=1) / np.sqrt(gain.size)
@@ -296,10 +298,10 @@ def test_augmentation_controls_see_a_larger_planted_effect(
 def test_controls_feed_the_ledger(composition_pipe: EnergyMoGenPipeline) -> None:
     emg5 = ctl.sef_controls(composition_pipe, [0, 1], timeline_items_per_seed=4)
     claim = get_claim("EMG-5")
-    measured = {name: emg5["null"][name] for name in [*claim.measurements,
+    measured = {name: emg5.null[name] for name in [*claim.measurements,
                                                        *claim.new_measurements]}
     decision, stored = decide_claim("EMG-5", measured,
-                                       controls=ctl.as_ledger_controls(emg5))
+                                       controls=emg5.as_controls())
     assert stored["positive"]["status"] in ("passed", "failed")
     assert stored["null"]["status"] in ("passed", "failed")
     assert "controls" not in stored["positive"]["measured"]
@@ -310,7 +312,7 @@ def test_t2m_measurements_rank_within_a_grouped_tests_own_batches(
     """EMG-8's controls measure R@3 as its study does: on the shared-concept test, within the
     test's batches of clips that share a concept."""
     shared = load_or_build_shared_concept_test(TINY_PIPELINE, 64)
-    reference = ctl._reference(tiny_pipeline, shared)
+    reference = ctl.reference_embeddings(tiny_pipeline, shared)
     measured = ctl.t2m_measurements(tiny_pipeline, shared, shared.features, 0, reference)
     expected = grouped_r_precision(tiny_pipeline.evaluator.embed_texts(shared.texts(0)),
                                    reference)[2]

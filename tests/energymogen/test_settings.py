@@ -5,10 +5,13 @@ one pipeline (one model bank)."""
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 from dataclasses import fields
+from pathlib import Path
 
 import pytest
+from conftest import make_context
 
 from repro.core.training import PlateauCriterion
 from repro.energymogen import pipeline as em
@@ -146,3 +149,12 @@ def test_seeds_of() -> None:
     assert [seeds_of("EMG-7", s) for s in SCALES] == [1, 3, 3]
     with pytest.raises(ValueError, match="no seed count"):
         seeds_of("EMG-1", "paper")
+
+
+@pytest.mark.parametrize("settings", SETTINGS)
+def test_a_run_gets_its_scales_settings_and_a_data_folder_is_refused(
+        settings: type[EnergyViewSettings], tmp_path: Path) -> None:
+    ctx = make_context(tmp_path, scale="standard")
+    assert settings.for_run(ctx) == settings.for_scale("standard")
+    with pytest.raises(ValueError, match=rf"^{settings.NOTEBOOK} .*data_dir must be None"):
+        settings.for_run(dataclasses.replace(ctx, data_dir=tmp_path))

@@ -4,12 +4,13 @@ per claim: the experiment's own measurement code (oracles, the calls of
 rules read, ``energy.map_similarity``, ``latent_count.mpjpe``) run on
 the same number of seeds and items, on constructed sample sets whose truth is known.
 
-Every function returns ``{"positive": measured, "null": measured, "calibration": {...}}``:
-``measured`` dicts shaped like the notebook's (the ledger decides them with the claim's own
-v2 rule); *positive* plants every part's registered effect δ (registry v2), *null* plants
-none (the compared arms come from one source, with independent randomness per seed). Sizes
-are set analytically or from a scale factor measured on the data before the arms are drawn
-(never by trying until a control passes); ``calibration`` records those numbers. ``scale``
+Every function returns a ``claims.result.Controls``: ``positive`` and ``null`` measured dicts
+shaped like the notebook's (the ledger decides them with the claim's own rule); *positive*
+plants every part's registered effect δ (registry v2), *null* plants none (the compared arms
+come from one source, with independent randomness per seed). Sizes are set analytically or
+from a scale factor measured on the data before the arms are drawn (never by trying until a
+control passes); ``planted`` records those numbers (the sidecar's ``control_calibration``),
+``positive_text``/``null_text`` say what each control's arms are. ``scale``
 multiplies every planted effect: 1 (the registered δ) in the notebooks; the tests plant
 larger effects to show that the measurement sees them.
 
@@ -27,19 +28,27 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from repro.core import metrics, tables
+from repro.claims.result import Controls
+from repro.core import metrics
 from repro.energymogen.config import LOWER_CONCEPTS
 from repro.energymogen.data import composition_items, negation_items, stand_in_clips_of
 from repro.energymogen.energy import map_similarity
-from repro.energymogen.harness import TextToMotionTest, grouped_r_precision
+from repro.energymogen.harness import TextToMotionTest
 from repro.energymogen.latent_count import mpjpe
+from repro.energymogen.noise_calibration import (
+    FidCurve,
+    fid_curve,
+    reference_embeddings,
+    t2m_measurements,
+    with_feature_noise,
+)
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, pipeline_for
 from repro.energymogen.planted import (
+    CONTROL_STREAM,
     amplify_transition_steps,
     permute_motions,
     plant_transitions,
@@ -55,14 +64,11 @@ from repro.energymogen.studies import (
 from repro.energymogen.timelines import real_then_clips, timeline_items
 from repro.standin.oracles import detect_concepts
 
-__all__ = ["CONTROL_STREAM", "as_ledger_controls", "augmentation_controls",
-           "amplify_transition_steps", "composition_controls", "controls_markdown",
-           "energy_map_controls", "plant_transitions",
+__all__ = ["CONTROL_STREAM", "augmentation_controls", "amplify_transition_steps",
+           "composition_controls", "energy_map_controls", "plant_transitions",
            "latent_count_controls", "scale_movement", "sef_controls", "step_size_controls",
            "swap_motions", "FidCurve", "fid_curve", "permute_motions"]
 
-#: rng stream of every control (disjoint from the experiments' streams)
-CONTROL_STREAM = 13013
 KINDS = ("positive", "null")
 
 
@@ -119,7 +125,7 @@ def _neither(pair: tuple[str, ...]) -> str:
 
 
 def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_case: int,
-                         scale: float = 1.0) -> dict[str, dict[str, Any]]:
+                         scale: float = 1.0) -> dict[str, Controls]:
     """EMG-2/3's controls: the six rates of ``studies.composition_study`` measured by the same
     oracles on constructed sets of generator clips, per seed on that seed's items (the same
     composition items and negation cases and counts).
@@ -181,11 +187,20 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
             m["baseline_negated_present"].append(float(base[:, 1].mean()))
             m["negation_kept_present"].append(float(treated[:, 0].mean()))
             m["baseline_kept_present"].append(float(base[:, 0].mean()))
-    for claim_id in claims:
-        out[claim_id]["calibration"] = {"planted": plan,
+    positive = plan["positive"]
+    positive_text = (f"both concepts in {positive['conjunction']:.3g} of the conjunction arm's "
+                     f"items against {_BASE_BOTH:g} of the best single concept's; negated "
+                     f"concept kept in {positive['negated']:.3g} against {_BASE_NEGATED:g}, the "
+                     f"kept one in {positive['kept']:.3g} against 1")
+    null_text = (f"the baseline's rates in both arms ({_BASE_BOTH:g} both concepts, negated "
+                 f"concept {_BASE_NEGATED:g}; kept 0.5 against 1), independent draws, "
+                 f"{len(seeds)} seed(s)")
+    return {claim_id: Controls(null=out[claim_id]["null"], positive=out[claim_id]["positive"],
+                               planted={"planted": plan,
                                         "single_concept_both_present": _BASE_BOTH,
-                                        "baseline_negated_present": _BASE_NEGATED}
-    return out
+                                        "baseline_negated_present": _BASE_NEGATED},
+                               null_text=null_text, positive_text=positive_text)
+            for claim_id in claims}
 
 
 def _negation_sets(neg: Any, pool: _TrainingClips, rng: np.random.Generator
@@ -226,7 +241,7 @@ def _standardised(values: np.ndarray) -> np.ndarray:
 
 def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]],
                         smooth: Callable[[np.ndarray], np.ndarray], grid: int, *,
-                        scale: float = 1.0) -> dict[str, Any]:
+                        scale: float = 1.0) -> Controls:
     """EMG-6's controls on the experiment's own composed maps (``case["smooth"]["composed"]``;
     ``cases``: kind → one list of cases per seed, as ``energy.map_similarities`` reads): the
     maps the composed one is compared with — the multi-concept map and the floor's — are
@@ -260,9 +275,13 @@ def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]
                 floor.append(float(np.mean(seed_floor)))
             out[kind][f"{case_kind}_similarity_to_multi"] = multi
             out[kind][f"{case_kind}_similarity_floor"] = floor
-    out["calibration"] = {"planted_correlation": delta, "grid": grid,
-                          "reason": "δ = 0.1 in Pearson r (registry v3)"}
-    return out
+    return Controls(null=out["null"], positive=out["positive"],
+                    planted={"planted_correlation": delta, "grid": grid,
+                             "reason": "δ = 0.1 in Pearson r (registry v3)"},
+                    null_text=("random smooth fields as the multi-concept and the floor's maps, "
+                               "independent per seed, case and arm"),
+                    positive_text=(f"the multi-concept field mixed with the composed map at "
+                                   f"weight {delta:g} (r {delta:g} above the floor's)"))
 
 
 # --- EMG-4 / EMG-5: R-precision and transition distance of ground-truth motions ------------
@@ -326,7 +345,7 @@ def _endpoints(pipe: EnergyMoGenPipeline, items: Any, seed: int, movement: float
 
 
 def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: Sequence[str],
-                       *, scale: float = 1.0) -> dict[str, Any]:
+                       *, scale: float = 1.0) -> Controls:
     """EMG-4's controls: every Table 9 row is the seed's ground-truth composition motions with
     a fraction swapped (:func:`swap_motions`), measured as ``composition_metrics`` measures
     (:func:`row_measurements`).
@@ -349,13 +368,17 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
                 for key, target in targets.items()}
 
     out = _row_plan(source, seeds, 4, rows)
-    for kind in KINDS:
-        out[kind] = {"r_precision_top3": out[kind]["r_precision_top3"]}
-    return out
+    r3 = {kind: {"r_precision_top3": out[kind]["r_precision_top3"]} for kind in KINDS}
+    return Controls(null=r3["null"], positive=r3["positive"], planted=out["calibration"],
+                    null_text=(f"every row the ground truth at R@3 R₀/1.035, independent swaps, "
+                               f"{len(seeds)} seed(s)"),
+                    positive_text=(f"[{best}] clean (R₀), the other rows at R₀/"
+                                   f"{1 + 0.035 * scale:g}, [{large}] at {1 - 0.417 * scale:g} "
+                                   "of γ = 0's"))
 
 
 def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float = 1.0,
-                 timeline_items_per_seed: int = 16) -> dict[str, Any]:
+                 timeline_items_per_seed: int = 16) -> Controls:
     """EMG-5's controls: R@3 on the seed's ground-truth composition motions (held-out pairs)
     with a fraction swapped (:func:`swap_motions`, R@3 linear in it; movement scaled with
     :func:`scale_movement` as before, for the all-frames distance kept as context); the
@@ -406,8 +429,14 @@ def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float =
                 values = timeline_measurements(features, clips.transitions)
                 for metric in ("transition_distance_at_transitions", "transition_speed_ratio"):
                     m.setdefault(metric, {}).setdefault(key, []).append(values[metric])
-    out["calibration"] = {"rows": out["calibration"], "transition_step_factor": planted}
-    return out
+    return Controls(null=out["null"], positive=out["positive"],
+                    planted={"rows": out["calibration"], "transition_step_factor": planted},
+                    null_text=(f"the three rows clean ground truth (R@3 at R₀/1.2143), "
+                               f"independent draws, {len(seeds)} seed(s)"),
+                    positive_text=(f"transitions latent × 1, semantic × {1 + 0.1875 * scale:g}, "
+                                   f"SEF × {(1 + 0.1875 * scale) * (1 - 0.1364 * scale):.4g}; "
+                                   f"R@3 SEF R₀, latent R₀/{1 + 0.2143 * scale:g}, semantic "
+                                   f"{1 + 0.2015 * scale:g} × latent's"))
 
 
 # --- EMG-7: MPJPE and generation FID ------------------------------------------------------
@@ -423,65 +452,6 @@ def _offset_height(features: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     return out
 
 
-def _noisy(features: np.ndarray, std: np.ndarray, amplitude: float,
-           rng: np.random.Generator) -> np.ndarray:
-    """features + amplitude·std·z, z ~ N(0, 1) in the features' dtype (float32: half the time)."""
-    noise = rng.standard_normal(features.shape, dtype=features.dtype)
-    return features + (amplitude * np.asarray(std)).astype(features.dtype) * noise
-
-
-def t2m_measurements(pipe: EnergyMoGenPipeline, test: TextToMotionTest, features: np.ndarray,
-                     seed: int, reference: np.ndarray) -> dict[str, float]:
-    """FID against the test clips (``reference``: their evaluator embeddings) and R@3
-    (fraction) of the test captions drawn with ``seed``, computed exactly as
-    ``harness.generation_metrics`` computes those two (the same calls: random batches, or the
-    test's own batches when it is grouped, ``harness.grouped_r_precision``)."""
-    gen = pipe.evaluator.embed_motions(features, test.lengths)
-    text = pipe.evaluator.embed_texts(test.texts(seed))
-    r = (grouped_r_precision(text, gen) if test.grouped
-         else metrics.r_precision(text, gen, 32, 3, seed))
-    return {"fid": metrics.fid(gen, reference), "r_precision_top3": float(r[2])}
-
-
-def _reference(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> np.ndarray:
-    return pipe.evaluator.embed_motions(test.features, test.lengths)
-
-
-#: the calibration grid around the base amplitude (the planted arms only lower FID from it)
-_AMPLITUDES = np.geomspace(0.2, 0.7, 6)
-_CALIBRATION_DRAWS = 4
-
-
-@dataclass(frozen=True)
-class FidCurve:
-    """FID of noised test clips against the clean ones as a power law of the noise amplitude,
-    FID ≈ c·aᵏ, fitted (least squares in log–log) to the mean FID over calibration draws of
-    its own on a grid around the base amplitude: the measured scale factor from which each
-    arm's amplitude is read (a fit, so one noisy calibration draw does not set it)."""
-
-    amplitudes: tuple[float, ...]
-    fids: tuple[float, ...]
-    log_c: float
-    k: float
-
-    def fid(self, amplitude: float) -> float:
-        return float(np.exp(self.log_c + self.k * np.log(amplitude)))
-
-    def amplitude(self, fid: float) -> float:
-        return float(np.exp((np.log(fid) - self.log_c) / self.k))
-
-
-def fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest, reference: np.ndarray
-              ) -> FidCurve:
-    """:class:`FidCurve` of the pipeline's evaluator on ``test`` (feature noise: amplitude ×
-    the data's per-feature std, :func:`_noisy`)."""
-    rng = np.random.default_rng([CONTROL_STREAM, 77])
-    fids = np.mean([[t2m_measurements(pipe, test, _noisy(test.features, pipe.data.std, a, rng),
-                                      0, reference)["fid"] for a in _AMPLITUDES]
-                    for _ in range(_CALIBRATION_DRAWS)], axis=0)
-    k, log_c = np.polyfit(np.log(_AMPLITUDES), np.log(fids), 1)
-    return FidCurve(tuple(_AMPLITUDES.tolist()), tuple(fids.tolist()), float(log_c), float(k))
-
 
 #: our choice: the compared arms' base noise (× the data's per-feature std)
 _BASE_AMPLITUDE = 0.5
@@ -489,11 +459,12 @@ _BASE_AMPLITUDE = 0.5
 
 def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                           counts: Sequence[int], seeds: Sequence[int], *, scale: float = 1.0
-                          ) -> dict[str, Any]:
+                          ) -> Controls:
     """EMG-7's controls: per N and seed, "reconstructions" = the test clips with per-clip root
     height offsets |N(0, 1)|·√(π/2)·e (mean e, independent per N and seed; MPJPE through
     ``latent_count.mpjpe`` is exactly their mean) and "generations" = the test clips with
-    feature noise (FID as ``evaluate_generated`` computes it, :func:`t2m_measurements`).
+    feature noise (FID as ``evaluate_generated`` computes it,
+    ``noise_calibration.t2m_measurements``).
 
     Positive: N = 7's offsets scaled by 1 − 0.362 (δ: half the paper's 72.5 % margin, of the
     other N's error), N = 5's FID at (1 − 0.177) of the others' (δ: half of 35.4 %), its noise
@@ -501,7 +472,7 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
     every N alike.
     e = 0.05 m (the decision is scale-free in e)."""
     base = 0.05
-    reference = _reference(pipe, test)
+    reference = reference_embeddings(pipe, test)
     curve = fid_curve(pipe, test, reference)
     other_fid = curve.fid(_BASE_AMPLITUDE)
     best_amplitude = curve.amplitude((1 - 0.177 * scale) * other_fid)
@@ -516,21 +487,26 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                 recon = _offset_height(test.features, offsets)
                 amplitude = (best_amplitude if kind == "positive" and n == 5
                              else _BASE_AMPLITUDE)
-                generated = _noisy(test.features, pipe.data.std, amplitude, rng)
+                generated = with_feature_noise(test.features, pipe.data.std, amplitude, rng)
                 out[kind]["reconstruction_error"].setdefault(str(n), []).append(
                     mpjpe(recon, test.features))
                 out[kind]["generation_fid"].setdefault(str(n), []).append(
                     t2m_measurements(pipe, test, generated, seed, reference)["fid"])
-    out["calibration"] = {"offset_mean_m": base, "base_amplitude": _BASE_AMPLITUDE,
-                          "best_amplitude": best_amplitude, "other_fid": other_fid,
-                          "fid_curve": dataclasses.asdict(curve)}
-    return out
+    return Controls(null=out["null"], positive=out["positive"],
+                    planted={"offset_mean_m": base, "base_amplitude": _BASE_AMPLITUDE,
+                             "best_amplitude": best_amplitude, "other_fid": other_fid,
+                             "fid_curve": dataclasses.asdict(curve)},
+                    null_text=(f"every N the test clips lifted by {base:g} m on average and "
+                               f"noised at {_BASE_AMPLITUDE:g} × std, independent draws, "
+                               f"{len(seeds)} seed(s)"),
+                    positive_text=(f"N = 7's lift × {1 - 0.362 * scale:g}; N = 5's noise "
+                                   f"{best_amplitude:.3g} × std (FID × {1 - 0.177 * scale:g})"))
 
 
 # --- EMG-8: R@3 and FID of the text-to-motion test -----------------------------------------
 
 def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
-                          seeds: Sequence[int], *, scale: float = 1.0) -> dict[str, Any]:
+                          seeds: Sequence[int], *, scale: float = 1.0) -> Controls:
     """EMG-8's controls: "generations" of the baseline and the augmented model are the test
     clips with feature noise and a fraction of their motions passed round
     (:func:`permute_motions`: R@3 falls, FID does not move), measured
@@ -541,12 +517,12 @@ def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
     baseline's FID (δ: 10 % of it; :class:`FidCurve`) and its permuted fraction for R@3 + 0.01
     (δ: one percentage point; R@3 clean and fully permuted at that noise, measured on a
     calibration draw, linear in between). Null: both arms alike."""
-    reference = _reference(pipe, test)
+    reference = reference_embeddings(pipe, test)
     curve = fid_curve(pipe, test, reference)
     rng_cal = np.random.default_rng([CONTROL_STREAM, 88])
 
     def r3_at(amplitude: float, fraction: float) -> float:
-        noisy = _noisy(test.features, pipe.data.std, amplitude, rng_cal)
+        noisy = with_feature_noise(test.features, pipe.data.std, amplitude, rng_cal)
         return t2m_measurements(pipe, test, permute_motions(noisy, fraction, rng_cal),
                                 0, reference)["r_precision_top3"]
 
@@ -565,36 +541,19 @@ def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
         for kind in KINDS:
             rng = _rng(seed, 8, kind)
             for arm, (amplitude, fraction) in plan[kind].items():
-                noisy = _noisy(test.features, pipe.data.std, amplitude, rng)
+                noisy = with_feature_noise(test.features, pipe.data.std, amplitude, rng)
                 values = t2m_measurements(pipe, test, permute_motions(noisy, fraction, rng),
                                           seed, reference)
                 out[kind].setdefault(f"r_precision_top3_{arm}", []).append(
                     values["r_precision_top3"])
                 out[kind].setdefault(f"fid_{arm}", []).append(values["fid"])
-    out["calibration"] = {"plan": plan, "baseline_fid_expected": base_fid,
-                          "fid_curve": dataclasses.asdict(curve),
-                          "baseline_r3_expected": base_r3}
-    return out
-
-
-# --- reporting -----------------------------------------------------------------------------
-
-def as_ledger_controls(controls: Mapping[str, Any]) -> dict[str, Any]:
-    """The ``controls=`` argument of ``record_claim``: the positive and null measurements."""
-    return {kind: controls[kind] for kind in KINDS}
-
-
-def controls_markdown(decisions: Mapping[str, Any]) -> str:
-    """A table of the two controls, ``decisions`` = kind → the claim's v2 decision of that
-    control (``get_claim(id).decide(controls[kind])``, what the ledger records beside the
-    verdict): control, what it must come out as, its verdict, passed or failed, its parts."""
-    expected = {"positive": "reproduced", "null": "neither reproduced nor partially"}
-    rows = []
-    for kind in KINDS:
-        decision = decisions[kind]
-        passed = (decision.verdict == "reproduced" if kind == "positive"
-                  else decision.verdict not in ("reproduced", "partially reproduced"))
-        rows.append([f"{kind} ({'registered δ planted' if kind == 'positive' else 'no effect'})",
-                     expected[kind], decision.verdict, "passed" if passed else "failed",
-                     decision.parts_in_words()])
-    return tables.markdown_table(["control", "must come out", "verdict", "outcome", "parts"], rows)
+    return Controls(null=out["null"], positive=out["positive"],
+                    planted={"plan": plan, "baseline_fid_expected": base_fid,
+                             "fid_curve": dataclasses.asdict(curve),
+                             "baseline_r3_expected": base_r3},
+                    null_text=(f"both arms noised at {_BASE_AMPLITUDE:g} × std with {base_swap:g} "
+                               f"of the motions permuted, independent draws, "
+                               f"{len(seeds)} seed(s)"),
+                    positive_text=(f"the augmented arm at {aug_amplitude:.3g} × std (FID × "
+                                   f"{1 - 0.1 * scale:g}), {aug_swap:.3g} permuted (R@3 "
+                                   f"+ {0.01 * scale:g})"))

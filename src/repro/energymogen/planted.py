@@ -16,8 +16,11 @@ import numpy as np
 from repro.energymogen.studies import transition_speed_ratio
 from repro.energymogen.timelines import RealThenClips
 
-__all__ = ["amplify_transition_steps", "permute_motions", "plant_transitions", "scale_movement",
-           "swap_motions"]
+__all__ = ["CONTROL_STREAM", "amplify_transition_steps", "permute_motions", "plant_transitions",
+           "scale_movement", "swap_motions"]
+
+#: rng stream of every control (disjoint from the experiments' streams)
+CONTROL_STREAM = 13013
 
 
 def swap_motions(features: np.ndarray, fraction: float, rng: np.random.Generator,

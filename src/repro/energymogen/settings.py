@@ -17,13 +17,14 @@ configurations share the cache), so the models of notebook 04 are those of 05, 0
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar, Self
 
 from repro.core.training import TrainConfig
 from repro.energymogen.augmentation import composed_set_size, finetune_config
 from repro.energymogen.config import PipelineConfig, pipeline_config
 from repro.energymogen.convergence import TrainingPlan
 from repro.energymogen.latent_count import LATENT_COUNTS
-from repro.infra.context import QUICK_NOTE, check_scale
+from repro.infra.context import QUICK_NOTE, RunContext, check_scale
 
 __all__ = ["FULL_SEEDS", "SEEDS", "STANDARD_LATENT_COUNTS", "AugmentationSettings",
            "EnergyViewSettings", "LatentCountSettings", "SEFAblationSettings", "seeds_of"]
@@ -78,8 +79,29 @@ def seeds_of(claim_id: str, scale: str) -> int:
     return row[claim_id]
 
 
+class _NotebookSettings:
+    """What the settings of every EnergyMoGen notebook share: the notebook they belong to and
+    why it runs on the generated stand-in set only (it composes or trains on the labelled
+    stand-in concepts, which a data folder does not have)."""
+
+    NOTEBOOK: ClassVar[str]
+    GENERATED_ONLY: ClassVar[str]
+
+    @classmethod
+    def for_scale(cls, scale: str) -> Self:
+        raise NotImplementedError
+
+    @classmethod
+    def for_run(cls, ctx: RunContext) -> Self:
+        """The settings of ``ctx``'s scale; a ValueError when the run was given a data folder."""
+        if ctx.data_dir is not None:
+            raise ValueError(f"{cls.NOTEBOOK} {cls.GENERATED_ONLY}; it runs on the generated set "
+                             "only (data_dir must be None)")
+        return cls.for_scale(ctx.scale)
+
+
 @dataclass(frozen=True)
-class EnergyViewSettings:
+class EnergyViewSettings(_NotebookSettings):
     """Notebook 04 (EMG-1, 2, 3, 6, 9).
 
     ``emg1_samples`` noised test latents for EMG-1's identities; ``negation_items_per_case``
@@ -94,6 +116,8 @@ class EnergyViewSettings:
     pipeline as 05, 07 and 08).
     """
 
+    NOTEBOOK: ClassVar[str] = "04_energy_contour_maps"
+    GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts with held-out pairs"
     scale: str
     pipeline: PipelineConfig
     plan: TrainingPlan
@@ -130,13 +154,15 @@ class EnergyViewSettings:
 
 
 @dataclass(frozen=True)
-class SEFAblationSettings:
+class SEFAblationSettings(_NotebookSettings):
     """Notebook 05 (EMG-4, EMG-5): the pipeline, the number of seeds and the MTT-style
     timeline items per seed on which EMG-5's transitions are measured (``timelines``; 64 at
     standard and paper, our choice: 1–3 boundaries each, about 150 transitions per row and seed, one
     item in eight of MTT's 500; 8 in quick runs) and the training plan (every EnergyMoGen
     notebook's: one trained pipeline)."""
 
+    NOTEBOOK: ClassVar[str] = "05_sef_ablation"
+    GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts with held-out pairs"
     scale: str
     pipeline: PipelineConfig
     plan: TrainingPlan
@@ -156,13 +182,16 @@ class SEFAblationSettings:
 
 
 @dataclass(frozen=True)
-class LatentCountSettings:
+class LatentCountSettings(_NotebookSettings):
     """Notebook 07 (EMG-7): the N swept, the training seeds, the size of the held-out
     text-to-motion test set (256 clips: 8 R-precision batches of 32, FID of 32-d embeddings
     from 256 samples; 64 in quick runs), the torch threads and the training plan
     (``convergence.TrainingPlan.for_scale``: every N's VAE and denoiser trained to convergence
     at paper, the VAE's cap from the pilot of docs/pilot_emg_vae.md; fixed steps at standard)."""
 
+    NOTEBOOK: ClassVar[str] = "07_latent_count"
+    GENERATED_ONLY: ClassVar[str] = (
+        "trains on the labelled stand-in set of the EnergyMoGen pipeline")
     scale: str
     pipeline: PipelineConfig
     seeds: int
@@ -193,7 +222,7 @@ class LatentCountSettings:
 
 
 @dataclass(frozen=True)
-class AugmentationSettings:
+class AugmentationSettings(_NotebookSettings):
     """Notebook 08 (EMG-8): seeds (each with its own pretrained models,
     ``pipeline.SeedPipelines``), the rule's test set — the shared-concept test of
     ``harness.build_shared_concept_test``, 384 clips: one R-precision batch of 32 per concept
@@ -202,6 +231,8 @@ class AugmentationSettings:
     the training plan (notebook 07's); the composed set's size and the fine-tuning follow from
     the pipeline (``augmentation.composed_set_size``, ``augmentation.finetune_config``)."""
 
+    NOTEBOOK: ClassVar[str] = "08_composed_augmentation"
+    GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts"
     scale: str
     pipeline: PipelineConfig
     seeds: int
