@@ -50,3 +50,10 @@ def test_a_positive_control_that_misses_makes_the_claim_inconclusive(tmp_path: P
     assert "| positive | the registered δ planted | reproduced |" in recorded_markdown(
         ctx, recorded)
     assert "(quick run: not a result)" in summary_markdown(ctx, [recorded])
+
+
+def test_a_claim_without_controls_shows_no_controls_table(tmp_path: Path) -> None:
+    ctx = make_context(tmp_path, scale="standard")
+    recorded = record(ctx, ClaimResult("GMD-A3", A3_GOOD, seeds=[0, 1, 2, 3, 4]))
+    assert recorded.controls["null"]["status"] == "missing"
+    assert "controls**" not in recorded_markdown(ctx, recorded)

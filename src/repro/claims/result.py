@@ -105,9 +105,13 @@ def controls_markdown(claim_id: str, stored: Mapping[str, Mapping[str, Any]],
 
 
 def recorded_markdown(ctx: RunContext, recorded: Recorded) -> str:
-    """The notebook's verdict block: the verdict with its rule and reason, then the controls."""
+    """The notebook's verdict block: the verdict with its rule and reason, then the controls
+    (a claim without a model-based measurement has none: its block ends with the reason)."""
     claim_id = recorded.result.claim_id
-    return (verdict_markdown(ctx, claim_id, recorded.decision) + "\n\n"
+    verdict = verdict_markdown(ctx, claim_id, recorded.decision)
+    if recorded.result.controls is None:
+        return verdict
+    return (verdict + "\n\n"
             + controls_markdown(claim_id, recorded.controls, recorded.result.controls))
 
 
