@@ -14,7 +14,7 @@ import torch
 
 from repro.core.diffusion import GaussianDiffusion, cosine_betas, linear_betas
 
-__all__ = ["coefficient_shares", "peak_fraction", "posterior_mean_forms",
+__all__ = ["c_identity_error", "coefficient_shares", "peak_fraction", "posterior_mean_forms",
            "printed_c_relative_error", "schedule_diffusion"]
 
 
@@ -46,6 +46,11 @@ def printed_c_relative_error(diffusion: GaussianDiffusion) -> np.ndarray:
     """|c_printed − c|/c per t, c_printed = a/ᾱ_t + b (Eq. 2 as printed), c = a/√ᾱ_t + b."""
     c = diffusion.eps_mean_coef_xt
     return np.abs(diffusion.eps_mean_coef_xt_as_printed - c) / c
+
+
+def c_identity_error(diffusion: GaussianDiffusion) -> float:
+    """max_t |c·√α_t − 1|: Eq. 2's c = a/√ᾱ_t + b is 1/√α_t (GMD-A1's derivation)."""
+    return float(np.max(np.abs(diffusion.eps_mean_coef_xt * np.sqrt(diffusion.alphas) - 1.0)))
 
 
 def coefficient_shares(diffusion: GaussianDiffusion) -> dict[str, np.ndarray]:

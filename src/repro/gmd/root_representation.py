@@ -378,6 +378,15 @@ class Settings:
         """GMD's clamp of the ε trajectory model's x̂0 (±6, ``paper_settings.X0_CLAMP``)."""
         return paper_settings.X0_CLAMP
 
+    @property
+    def b3_control_options(self) -> dict[str, int]:
+        """The calibration of GMD-B3's positive control (``controls_b3.b3_controls``'
+        keywords): its registered defaults, or in a quick run one calibration draw and one
+        round of 8-step bisections (a test of the code)."""
+        if self.quick:
+            return {"calibration_draws": 1, "rounds": 1, "iterations": 8}
+        return {}
+
     def sampling_parameters(self) -> dict[str, float | int]:
         """What a B2 sidecar records as ``extra.parameters``."""
         return {"num_timesteps": self.trajectory_diffusion_steps,
