@@ -1,0 +1,36 @@
+"""Notebooks only call the library (issue #34): no code cell over 25 lines, no cell that
+branches on the run's parameters or its scale, every claim recorded through ``record``."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from repro.infra import paths
+from repro.run import runner
+
+MAX_CELL_LINES = 25
+#: a branch in a cell on the raw parameters or on the context's scale
+BRANCH = re.compile(r"\b(if|elif)\b.*\b(quick|scale|seed|device|data_dir|build_dir)\b")
+
+
+def _code_cells(name: str) -> list[tuple[int, str]]:
+    notebook = json.loads(Path(paths.REPO_ROOT, "notebooks", f"{name}.ipynb").read_text())
+    return [(i, "".join(c["source"])) for i, c in enumerate(notebook["cells"])
+            if c["cell_type"] == "code"]
+
+
+@pytest.mark.parametrize("name", runner.available_notebooks())
+def test_cells_only_call_the_library(name: str) -> None:
+    long = {i: len(src.splitlines()) for i, src in _code_cells(name)
+            if len(src.splitlines()) > MAX_CELL_LINES}
+    assert not long, f"{name}: code cells over {MAX_CELL_LINES} lines (cell: lines) {long}"
+    branches = {i: line.strip() for i, src in _code_cells(name) for line in src.splitlines()
+                if BRANCH.search(line.split("#")[0])}
+    assert not branches, f"{name}: cells branch on the run's parameters {branches}"
+    direct = [i for i, src in _code_cells(name) if "record_claim(" in src]
+    assert not direct, (f"{name}: cells {direct} call record_claim; return a ClaimResult and "
+                        "record it")
