@@ -82,4 +82,5 @@ def test_the_experiment_returns_the_rules_lists_and_records_them(
     recorded = record(make_context(tmp_path), dataclasses.replace(result, controls=None))
     sidecar = load_sidecars(tmp_path / "claims")["GMD-F1"]
     assert sidecar["measured"]["jitter_unguided"] == sweeps.jerk_by_s["0"]
-    assert "**GMD-F1 controls**" in recorded_markdown(make_context(tmp_path), recorded)
+    shown = recorded_markdown(make_context(tmp_path), recorded)
+    assert shown.startswith("**GMD-F1 — ") and "**GMD-F1 controls**" not in shown
