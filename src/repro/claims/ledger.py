@@ -54,13 +54,6 @@ def _control_record(claim_id: str, kind: str, measured: Mapping[str, Any] | None
             "parts": [p.as_dict() for p in decision.parts], "measured": dict(measured)}, decision
 
 
-def control_records(claim_id: str, controls: Mapping[str, Mapping[str, Any]] | None,
-                    ) -> dict[str, dict[str, Any]]:
-    """Each control (kind → its measurements; absent: missing) as the sidecar stores it."""
-    return {kind: _control_record(claim_id, kind, (controls or {}).get(kind))[0]
-            for kind in CONTROLS}
-
-
 def _checked_model(claim_id: str, record: Mapping[str, Any]) -> dict[str, Any]:
     missing = sorted({"name", "family", "gate", "passed"} - set(record))
     if missing:
@@ -98,13 +91,24 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
     return decision, stored
 
 
-def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
-                 seeds: Sequence[int], controls: Mapping[str, Mapping[str, Any]] | None = None,
-                 quality_gates: Mapping[str, bool] | None = None,
-                 models: Sequence[Mapping[str, Any]] = (),
-                 figures: Sequence[str | os.PathLike] = (), notes: str = "", headline: str = "",
-                 extra: Mapping[str, Any] | None = None) -> Decision:
-    """Apply the registered rules of ``claim_id`` to ``measured`` and write its sidecar.
+def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], **kwargs: Any,
+                 ) -> Decision:
+    """Apply the registered rules of ``claim_id`` to ``measured`` and write its sidecar
+    (:func:`record_claim_and_controls`'s arguments; its decision)."""
+    return record_claim_and_controls(ctx, claim_id, measured, **kwargs)[0]
+
+
+def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
+                              seeds: Sequence[int],
+                              controls: Mapping[str, Mapping[str, Any]] | None = None,
+                              quality_gates: Mapping[str, bool] | None = None,
+                              models: Sequence[Mapping[str, Any]] = (),
+                              figures: Sequence[str | os.PathLike] = (), notes: str = "",
+                              headline: str = "",
+                              extra: Mapping[str, Any] | None = None,
+                              ) -> tuple[Decision, dict[str, dict[str, Any]]]:
+    """Apply the registered rules of ``claim_id`` to ``measured`` and write its sidecar; the
+    decision and each control as the sidecar stores it.
 
     Args:
         ctx: the run (its scale, run ID and claims folder); a quick run's verdict is recorded
@@ -166,7 +170,7 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
         "commit": _git_commit(),
     }
     write_json(ctx.claims_dir / f"{claim.id}.json", sidecar)
-    return decision
+    return decision, stored_controls
 
 
 def load_sidecars(directory: str | os.PathLike) -> dict[str, dict[str, Any]]:

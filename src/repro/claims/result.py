@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from repro.claims.ledger import CONTROLS, control_records, record_claim, verdict_markdown
+from repro.claims.ledger import CONTROLS, record_claim_and_controls, verdict_markdown
 from repro.claims.verdicts import Decision, parts_in_words
 from repro.core.tables import markdown_table
 from repro.infra.context import RunContext
@@ -81,11 +81,11 @@ class Recorded:
 def record(ctx: RunContext, result: ClaimResult) -> Recorded:
     """Decide ``result`` by its registered rule, controls and gates and write its sidecar."""
     controls = result.controls.as_controls() if result.controls is not None else None
-    decision = record_claim(ctx, result.claim_id, result.measured, seeds=result.seeds,
-                            controls=controls, quality_gates=result.quality_gates,
-                            models=result.models, figures=result.figures, notes=result.notes,
-                            headline=result.headline, extra=result.extra)
-    return Recorded(result, decision, control_records(result.claim_id, controls))
+    decision, stored = record_claim_and_controls(
+        ctx, result.claim_id, result.measured, seeds=result.seeds, controls=controls,
+        quality_gates=result.quality_gates, models=result.models, figures=result.figures,
+        notes=result.notes, headline=result.headline, extra=result.extra)
+    return Recorded(result, decision, stored)
 
 
 def controls_markdown(claim_id: str, stored: Mapping[str, Mapping[str, Any]],
