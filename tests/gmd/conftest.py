@@ -41,12 +41,13 @@ def small_config(dataset_dir: Path) -> Callable[..., DataConfig]:
 
 @pytest.fixture()
 def small_spec(small_config: Callable[..., DataConfig]) -> Callable[..., GMDModelSpec]:
-    """``small_spec(root=None, **changes)``: a 3-step ε trajectory model on ``small_config``."""
+    """``small_spec(root=None, **changes)``: a 3-step ε trajectory model on ``small_config``
+    (``changes`` as ``GMDModelSpec.replace``: training fields by their ``TrainConfig`` names)."""
 
     def make(root: Path | None = None, **changes: object) -> GMDModelSpec:
-        base = dict(task="trajectory", prediction="epsilon", data=small_config(root=root),
-                    base_channels=8, channel_mults=(1, 2), diffusion_steps=20, train_steps=3,
-                    batch_size=8)
-        return GMDModelSpec(**{**base, **changes})
+        base = GMDModelSpec(task="trajectory", prediction="epsilon",
+                            data=small_config(root=root), base_channels=8,
+                            channel_mults=(1, 2), diffusion_steps=20)
+        return base.replace(steps=3, batch_size=8).replace(**changes)
 
     return make

@@ -22,7 +22,7 @@ pytestmark = pytest.mark.skipif(
 @pytest.mark.parametrize("task", ["trajectory", "motion"])
 def test_the_unet_trains_and_samples_on_cuda(task: str, cache: Path,
                                              small_spec: Callable[..., GMDModelSpec]) -> None:
-    spec = small_spec(task=task, train_steps=2, diffusion_steps=5)
+    spec = small_spec(task=task, steps=2, diffusion_steps=5)
     trained = load_or_train_gmd(spec, device="cuda")
     assert trained.device.type == "cuda"
     assert all(p.device.type == "cuda" for p in trained.model.parameters())

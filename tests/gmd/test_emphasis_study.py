@@ -103,11 +103,12 @@ def test_coherence_and_trajectory_error_of_ground_truth(windows: MotionWindows) 
 def test_variants_follow_gmds_configs() -> None:
     base = GMDModelSpec(task="motion", prediction="x0")
     loss = Variant("loss_scaling", 10).spec(base, seed=4)
-    assert loss.seed == 4 and loss.feature_weights[:5] == (100.0, 100.0, 100.0, 100.0, 1.0)
-    assert Variant("loss_scaling", 1).spec(base, seed=4).feature_weights is None
+    assert loss.training.seed == 4
+    assert loss.training.feature_weights[:5] == (100.0, 100.0, 100.0, 100.0, 1.0)
+    assert Variant("loss_scaling", 1).spec(base, seed=4).training.feature_weights is None
     assert Variant("loss_scaling", 2).projection(seed=0) is None
     emphasis = Variant("emphasis", 5)
-    assert emphasis.spec(base, seed=2).feature_weights is None
+    assert emphasis.spec(base, seed=2).training.feature_weights is None
     projection = emphasis.projection(seed=2)
     assert projection.c == 5.0 and projection.seed == 2 and projection.emphasised == (0, 1, 2)
     assert emphasis.label == "Emphasis c=5"

@@ -17,7 +17,7 @@ FRAMES = 16  # = conftest.FRAMES: the windows of the small_config fixture
 
 @pytest.mark.parametrize("prediction", ["epsilon", "x0"])
 def test_goal_gradient_flows_to_x_t(small_spec, cache: Path, prediction: str) -> None:
-    trained = load_or_train_gmd(small_spec(prediction=prediction, train_steps=5))
+    trained = load_or_train_gmd(small_spec(prediction=prediction, steps=5))
     x_t = torch.randn(2, 4, FRAMES, requires_grad=True)
     t = torch.full((2,), 10, dtype=torch.long)
     out = trained.diffusion.p_mean_variance(trained.model, x_t, t)

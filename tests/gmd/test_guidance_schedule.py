@@ -24,9 +24,9 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> TrainedGMD:
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("REPRO_CACHE_DIR", str(cache))
         spec = GMDModelSpec(task="trajectory", prediction="epsilon",
-                                data=DataConfig(data_dir=str(root), frames=FRAMES, stride=8),
-                                base_channels=8, channel_mults=(1, 2), diffusion_steps=20,
-                                train_steps=3, batch_size=8)
+                            data=DataConfig(data_dir=str(root), frames=FRAMES, stride=8),
+                            base_channels=8, channel_mults=(1, 2),
+                            diffusion_steps=20).replace(steps=3, batch_size=8)
         return load_or_train_gmd(spec)
 
 
@@ -171,8 +171,8 @@ def motion(tmp_path_factory: pytest.TempPathFactory) -> TrainedGMD:
         patch.setenv("REPRO_CACHE_DIR", str(cache))
         spec = GMDModelSpec(task="motion", prediction="x0",
                             data=DataConfig(data_dir=str(root), frames=FRAMES, stride=8),
-                            base_channels=8, channel_mults=(1, 2), diffusion_steps=10,
-                            train_steps=3, batch_size=8)
+                            base_channels=8, channel_mults=(1, 2),
+                            diffusion_steps=10).replace(steps=3, batch_size=8)
         return load_or_train_gmd(spec)
 
 

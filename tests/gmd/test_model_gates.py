@@ -193,8 +193,8 @@ def test_emphasis_study_records_measure_each_variant_in_its_own_space(
 
     data = DataConfig(data_dir=str(dataset_dir), frames=16, stride=4)  # ≥ 32 test windows
     base = GMDModelSpec(task="motion", prediction="x0", text_conditioned=True, data=data,
-                        base_channels=8, channel_mults=(1, 2), diffusion_steps=5,
-                        train_steps=2, batch_size=8)
+                        base_channels=8, channel_mults=(1, 2),
+                        diffusion_steps=5).replace(steps=2, batch_size=8)
     settings = study.Settings(scale="quick", seeds=1, stand_in_clips=0, stride=4,
                               diffusion_steps=5, train_steps=2, samples=32, evaluator_steps=5,
                               values=(1,))

@@ -10,8 +10,8 @@ from repro.gmd.windows import load_windows
 def test_budget_table_reports_steps_stops_and_gates(cache, small_spec, small_config) -> None:
     train = load_windows(small_config())
     test = load_windows(small_config(), "test", statistics=(train.mean, train.std))
-    spec = small_spec(task="motion", prediction="epsilon", train_steps=2, validate_every=1)
-    plain = load_or_train_gmd(small_spec(task="motion", prediction="x0", train_steps=2), train)
+    spec = small_spec(task="motion", prediction="epsilon", steps=2, validate_every=1)
+    plain = load_or_train_gmd(small_spec(task="motion", prediction="x0", steps=2), train)
     short = load_or_train_gmd(spec, train)
     longer = load_or_train_gmd(longer_run(spec), train)
     assert mg.training_summary(plain) == {"steps_used": 2, "step_cap": 2, "converged": None,

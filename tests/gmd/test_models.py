@@ -60,7 +60,7 @@ def test_bag_of_words_and_loss_weights(small_config, small_spec) -> None:
 
 def test_load_or_train_many_trains_missing_models_in_worker_processes(small_config, small_spec,
                                                                       cache: Path) -> None:
-    specs = [small_spec(prediction=p, train_steps=2) for p in ("x0", "epsilon")]
+    specs = [small_spec(prediction=p, steps=2) for p in ("x0", "epsilon")]
     windows = load_windows(specs[0].data)
     assert not any(is_cached(spec, windows) for spec in specs)
     trained = load_or_train_many(specs, windows, workers=2)
@@ -98,8 +98,8 @@ def _pinned_specs() -> dict[str, GMDModelSpec]:
     from repro.gmd.root_representation import Settings as RootSettings
 
     quick_motion = GMDModelSpec(task="motion", prediction="x0",
-                                data=DataConfig(stand_in_clips=120, frames=24), train_steps=20,
-                                batch_size=32, diffusion_steps=20, seed=1)
+                                data=DataConfig(stand_in_clips=120, frames=24),
+                                diffusion_steps=20).replace(steps=20, batch_size=32, seed=1)
     return {
         "default": GMDModelSpec(),
         "nb01_quick_motion_x0": quick_motion,
@@ -130,7 +130,7 @@ def test_window_fingerprints_are_pinned(small_config) -> None:
 
 
 def test_initialisation_comes_from_the_seed_alone() -> None:
-    spec = GMDModelSpec(base_channels=8, channel_mults=(1, 2), seed=4)
+    spec = GMDModelSpec(base_channels=8, channel_mults=(1, 2)).replace(seed=4)
     first = spec.build_model().state_dict()
     torch.manual_seed(123)
     torch.randn(17)
@@ -157,7 +157,7 @@ def test_autocast_is_opt_in_and_in_the_key_only_when_set() -> None:
     assert fp32.train_config().autocast is None
     assert bf16.train_config().autocast == "bfloat16"
     with pytest.raises(ValueError, match="autocast must be one of"):
-        GMDModelSpec(autocast="float16")
+        GMDModelSpec().replace(autocast="float16")
 
 
 def test_input_skip_is_opt_in_in_the_key_only_when_set_and_reaches_the_unet() -> None:
@@ -176,6 +176,6 @@ def test_input_skip_is_opt_in_in_the_key_only_when_set_and_reaches_the_unet() ->
 
 
 def test_full_mode_motion_trains_under_bf16_and_the_rest_in_fp32() -> None:
-    assert models.training_fields("motion", scale="paper")["autocast"] == "bfloat16"
-    assert models.training_fields("trajectory", scale="paper")["autocast"] is None
-    assert "autocast" not in models.training_fields("motion", scale="quick", step_cap=10)
+    assert models.training_fields("motion", scale="paper")["training"].autocast == "bfloat16"
+    assert models.training_fields("trajectory", scale="paper")["training"].autocast is None
+    assert models.training_fields("motion", scale="quick", step_cap=10)["training"].autocast is None

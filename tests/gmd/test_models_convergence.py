@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -55,13 +56,16 @@ def test_every_full_mode_model_is_at_least_as_wide_as_its_data() -> None:
 def test_full_mode_models_train_to_convergence_and_x0_and_eps_share_everything_else() -> None:
     specs = _full_mode_specs()
     for name, spec in specs.items():
-        assert spec.validate_every is not None, name
+        assert spec.training.validate_every is not None, name
+        # the spec's training (cond_dropout only acts on a text-conditioned model)
         config = spec.train_config()
-        assert (config.validate_every, config.patience, config.min_delta, config.steps) == (
-            spec.validate_every, spec.patience, spec.min_delta, spec.train_steps), name
+        assert dataclasses.replace(config, cond_dropout=spec.training.cond_dropout) == (
+            spec.training), name
+        assert config.cond_dropout == (spec.training.cond_dropout if spec.text_conditioned
+                                       else 0.0), name
     assert specs["01 motion x0"].replace(prediction="epsilon") == specs["01 motion ε"]
     assert specs["01 trajectory x0"].replace(prediction="epsilon") == specs["01 trajectory ε"]
-    assert specs["01 motion x0"].train_steps == MOTION_TRAINING.step_cap
+    assert specs["01 motion x0"].training.steps == MOTION_TRAINING.step_cap
 
 
 def test_convergence_fields_enter_the_key_only_when_set(small_spec) -> None:
@@ -95,18 +99,18 @@ def test_validation_split_holds_out_whole_training_clips(small_config) -> None:
 
 def test_quick_mode_exercises_the_convergence_path() -> None:
     fields = training_fields("motion", scale="quick", step_cap=20)
-    assert fields["train_steps"] == 20 and fields["validate_every"] < 20
+    assert fields["training"].steps == 20 and fields["training"].validate_every < 20
     assert "base_channels" not in fields               # quick keeps its tiny model
     quick = x0eps.Settings.for_scale("quick")
     spec = quick.spec("motion", "x0", quick.data())
-    assert spec.validate_every is not None and spec.base_channels == 16
+    assert spec.training.validate_every is not None and spec.base_channels == 16
     with pytest.raises(ValueError, match="step_cap"):
         training_fields("motion", scale="quick")
 
 
 def test_a_model_trained_with_validation_records_its_convergence(small_spec,
                                                                   cache: Path) -> None:
-    spec = small_spec(train_steps=8, validate_every=2, patience=1, min_delta=0.5,
+    spec = small_spec(steps=8, validate_every=2, patience=1, min_delta=0.5,
                       validation_fraction=0.2)
     windows = load_windows(spec.data)
     trained = load_or_train_gmd(spec, windows)
@@ -126,7 +130,7 @@ def test_a_model_trained_with_validation_records_its_convergence(small_spec,
 
 def test_on_validation_sees_each_evaluation_and_leaves_the_model_as_it_was(
         small_spec, cache: Path) -> None:
-    spec = small_spec(train_steps=6, validate_every=2, patience=10, validation_fraction=0.2)
+    spec = small_spec(steps=6, validate_every=2, patience=10, validation_fraction=0.2)
     windows = load_windows(spec.data)
     seen: list[tuple[int, float]] = []
 
@@ -144,9 +148,9 @@ def test_on_validation_sees_each_evaluation_and_leaves_the_model_as_it_was(
 
 
 def test_longer_run_doubles_the_cap_and_cannot_stop_on_the_plateau(small_spec) -> None:
-    spec = small_spec(train_steps=8, validate_every=2)
-    longer = longer_run(spec)
-    assert longer.train_steps == 16 and longer.patience * longer.validate_every > 16
-    assert longer.replace(train_steps=8, patience=spec.patience) == spec
+    spec = small_spec(steps=8, validate_every=2)
+    longer = longer_run(spec).training
+    assert longer.steps == 16 and longer.patience * longer.validate_every > 16
+    assert longer_run(spec).replace(steps=8, patience=spec.training.patience) == spec
     with pytest.raises(ValueError, match="validate_every"):
         longer_run(small_spec())

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 
+from repro.core.training import TrainConfig
 from repro.gmd import emphasis_study, guidance_schedule, models, paper_settings
 from repro.gmd import root_representation as rr
 from repro.gmd import x0_vs_eps as x0eps
@@ -19,19 +20,21 @@ def test_standard_motion_and_trajectory_models_are_the_plans() -> None:
     for prediction in ("x0", "epsilon"):
         motion = settings.spec("motion", prediction, settings.motion_data())
         assert (motion.base_channels, motion.channel_mults) == (64, (1.0, 1.0))
-        assert motion.input_skip and motion.autocast is None
-        assert (motion.batch_size, motion.lr, motion.train_steps) == (32, 1e-3, 900)
-        assert motion.validate_every == 150 and motion.patience > 900 // 150  # no plateau stop
+        training = motion.training
+        assert motion.input_skip and training.autocast is None
+        assert (training.batch_size, training.lr, training.steps) == (32, 1e-3, 900)
+        assert training.validate_every == 150 and training.patience > 900 // 150  # no plateau
         assert motion.diffusion_steps == 100 and motion.schedule == "cosine"
         trajectory = settings.spec("trajectory", prediction, settings.data())
         assert (trajectory.base_channels, trajectory.channel_mults) == (32, (1.0, 2.0))
-        assert not trajectory.input_skip and trajectory.autocast is None
-        assert (trajectory.batch_size, trajectory.lr, trajectory.train_steps) == (32, 1e-3, 1000)
-        assert trajectory.validate_every == 100 and trajectory.patience > 1000 // 100
+        training = trajectory.training
+        assert not trajectory.input_skip and training.autocast is None
+        assert (training.batch_size, training.lr, training.steps) == (32, 1e-3, 1000)
+        assert training.validate_every == 100 and training.patience > 1000 // 100
         assert trajectory.diffusion_steps == 100
     # a step override keeps the run fixed (the patience outlasts it)
     fields = training_fields("motion", scale="standard", step_cap=1500)
-    assert fields["train_steps"] == 1500 and fields["patience"] > 1500 // 150
+    assert fields["training"].steps == 1500 and fields["training"].patience > 1500 // 150
     assert not settings.longer_eps_run and x0eps.Settings.for_scale("paper").longer_eps_run
     assert x0eps.Settings.for_scale("quick").longer_eps_run  # a test of the paper path
     assert settings.generated == 128
@@ -44,8 +47,8 @@ def test_every_standard_model_runs_t_100_and_the_stops_scale() -> None:
     assert nb02.guidance_stop_t == 2 and nb02.evaluation_windows == 128
     nb03 = emphasis_study.Settings.for_scale("standard")
     assert nb03.base_spec().diffusion_steps == 100
-    assert nb03.base_spec().input_skip and nb03.base_spec().train_steps == 1500
-    assert nb02.motion_spec("absolute", 0).train_steps == 900
+    assert nb03.base_spec().input_skip and nb03.base_spec().training.steps == 1500
+    assert nb02.motion_spec("absolute", 0).training.steps == 900
     nb06 = guidance_schedule.Settings.for_scale("standard")
     assert nb06.num_timesteps == 100 and nb06.spec().diffusion_steps == 100
     assert nb06.stops() == {0: 0, 20: 2, 50: 5, 200: 20}
@@ -101,14 +104,15 @@ def test_paper_scale_is_todays_full_settings() -> None:
             ("trajectory", paper_settings.TRAJECTORY_ARCHITECTURE, models.TRAJECTORY_TRAINING)):
         assert training_fields(task, scale="paper") == {
             "base_channels": architecture.base_channels,
-            "channel_mults": architecture.channel_mults, "batch_size": plan.batch_size,
-            "lr": plan.lr, "validate_every": plan.validate_every, "patience": plan.patience,
-            "autocast": plan.autocast, "train_steps": plan.step_cap}
+            "channel_mults": architecture.channel_mults,
+            "training": TrainConfig(steps=plan.step_cap, batch_size=plan.batch_size, lr=plan.lr,
+                                    validate_every=plan.validate_every, patience=plan.patience,
+                                    autocast=plan.autocast, cond_dropout=0.1)}
     nb01 = x0eps.Settings.for_scale("paper")
     motion = nb01.spec("motion", "x0", nb01.motion_data())
     assert motion == GMDModelSpec(task="motion", prediction="x0", data=nb01.motion_data(),
                                   diffusion_steps=100, **training_fields("motion", scale="paper"))
-    assert not motion.input_skip and motion.autocast == "bfloat16"
+    assert not motion.input_skip and motion.training.autocast == "bfloat16"
     assert (nb01.generated, nb01.guidance_diffusion_steps) == (256, 1000)
     assert nb01.evaluator_config("id") == EvaluatorConfig(data_id="id")
     nb02 = rr.Settings.for_scale("paper")

@@ -33,11 +33,11 @@ def loaded(tmp_path_factory: pytest.TempPathFactory) -> schedule_study.ScheduleM
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("REPRO_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
         spec = GMDModelSpec(task="trajectory", prediction="epsilon", data=data, base_channels=8,
-                            channel_mults=(1, 2), diffusion_steps=20, train_steps=3,
-                            batch_size=8)
+                            channel_mults=(1, 2), diffusion_steps=20).replace(steps=3,
+                                                                              batch_size=8)
         motion_spec = GMDModelSpec(task="motion", prediction="x0", data=data, base_channels=8,
-                                   channel_mults=(1, 2), diffusion_steps=10, train_steps=3,
-                                   batch_size=8)
+                                   channel_mults=(1, 2), diffusion_steps=10).replace(
+                                       steps=3, batch_size=8)
         model, motion = load_or_train_gmd(spec), load_or_train_gmd(motion_spec)
     train = load_windows(data)   # also the goals' windows: the small set has few test clips
     stops = {g: gs.model_stop_step(g, 20) for g in (0, 20, 50, 200)}

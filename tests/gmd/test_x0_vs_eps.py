@@ -101,8 +101,9 @@ def test_settings_build_the_specs_notebook_01_always_trained() -> None:
     data = quick.data(None)
     assert data == DataConfig(stand_in_clips=120, frames=24)
     assert quick.spec("motion", "x0", data, seed=1) == GMDModelSpec(
-        task="motion", prediction="x0", data=data, train_steps=20, batch_size=32,
-        diffusion_steps=20, seed=1, validate_every=5, patience=2, text_conditioned=True)
+        task="motion", prediction="x0", data=data, diffusion_steps=20,
+        text_conditioned=True).replace(steps=20, batch_size=32, seed=1, validate_every=5,
+                                       patience=2)
     full = Settings.for_scale("paper")
     assert full.spec("trajectory", "epsilon", full.data(None)) == GMDModelSpec(
         **training_fields("trajectory", scale="paper"))

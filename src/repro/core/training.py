@@ -166,9 +166,11 @@ class ConvergenceRecord:
                 "best_step": self.best_step, "best_loss": self.best_loss}
 
 
-@dataclass
+@dataclass(frozen=True)
 class TrainConfig:
-    """Optimisation settings. ``to_config()`` is what a cache hash should cover."""
+    """Optimisation settings (frozen: a model family's config holds one, and a spec is
+    hashable). ``to_config()`` is what a cache hash should cover; change a field with
+    ``dataclasses.replace``."""
 
     steps: int = 1000
     batch_size: int = 64
@@ -178,7 +180,7 @@ class TrainConfig:
     ema_decay: float = 0.9999
     ema_warmup: bool = True
     seed: int = 0
-    feature_weights: list[float] | None = None
+    feature_weights: tuple[float, ...] | None = None
     cond_dropout: float = 0.0
     device: str = "cpu"
     num_threads: int | None = None
@@ -209,7 +211,8 @@ class TrainConfig:
         if not 0.0 <= self.cond_dropout <= 1.0:
             raise ValueError(f"cond_dropout must be in [0, 1], got {self.cond_dropout}")
         if self.feature_weights is not None:
-            self.feature_weights = [float(w) for w in self.feature_weights]
+            object.__setattr__(self, "feature_weights",
+                               tuple(float(w) for w in self.feature_weights))
         check_autocast(self.autocast)
         check_convergence_fields(self)
 
@@ -222,6 +225,8 @@ class TrainConfig:
         config = dataclasses.asdict(self)
         config.pop("device")
         config.pop("num_threads")
+        if self.feature_weights is not None:
+            config["feature_weights"] = list(self.feature_weights)
         for name, default in _OPT_IN_DEFAULTS.items():
             if config[name] == default:
                 config.pop(name)

@@ -54,7 +54,7 @@ def classifier_free(trained: TrainedGMD, scale: float = GMD_CFG_SCALE) -> Traine
     network is :class:`ClassifierFreeModel` (weights shared, nothing retrained)."""
     if trained.vocabulary is None:
         raise ValueError("classifier-free guidance needs a text-conditioned model")
-    if not trained.spec.cond_dropout > 0:
+    if not trained.spec.training.cond_dropout > 0:
         raise ValueError("classifier-free guidance needs a model trained with condition "
                          "dropout (cond_dropout > 0)")
     return dataclasses.replace(trained, model=ClassifierFreeModel(trained.model, scale).eval())

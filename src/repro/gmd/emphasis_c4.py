@@ -217,7 +217,8 @@ def c4_result(results: Results, settings: Settings, base: GMDModelSpec, seeds: S
             f"{differences[f'{v:g}'].high:+.3f}]" for v in values),
         notes=(f"Tiny text-conditioned x0 UNet1D (base {base.base_channels} × "
                f"{base.channel_mults}, T = {settings.diffusion_steps}, at most "
-               f"{base.train_steps} steps × batch {base.batch_size}, lr {base.lr:g}) per variant "
+               f"{base.training.steps} steps × batch {base.training.batch_size}, lr "
+               f"{base.training.lr:g}) per variant "
                f"and seed, {settings.samples} trajectory-imputed samples per seed (root x/z of "
                f"all frames imputed on x̂0 while t ≥ "
                f"{default_stop_step(settings.diffusion_steps)}); loss scaling weighs features "

@@ -352,8 +352,7 @@ class Settings:
 
     def base_spec(self, data_dir: DataDir = None) -> GMDModelSpec:
         """The shared spec; ``Variant.spec`` adds the seed and the loss weights."""
-        tiny = ({"base_channels": 16, "channel_mults": (1, 2), "batch_size": 64, "lr": 1e-3}
-                if self.quick else {})
+        tiny = {"base_channels": 16, "channel_mults": (1, 2)} if self.quick else {}
         return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
                             data=self.data(data_dir), diffusion_steps=self.diffusion_steps,
                             **tiny, **training_fields("motion", scale=self.scale,

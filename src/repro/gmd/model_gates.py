@@ -259,7 +259,7 @@ def gmd_model_name(trained: TrainedGMD, label: str = "") -> str:
     """A name that is the same wherever the same cached model is used (its cache key)."""
     spec = trained.spec
     head = f"gmd {spec.task}/{spec.prediction}" + (f" {label}" if label else "")
-    return f"{head} seed {spec.seed} [{trained.cache_key[:10]}]"
+    return f"{head} seed {spec.training.seed} [{trained.cache_key[:10]}]"
 
 
 def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, float],
@@ -284,7 +284,7 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
                           steps=int(summary["steps_used"]),
                           train_seconds=trained.metrics.get("seconds"), validation_curve=curve,
                           converged=summary["converged"], reads=reads)
-    record["precision"] = trained.spec.autocast or "fp32"
+    record["precision"] = trained.spec.training.autocast or "fp32"
     if convergence:
         record["convergence"] = {"step_cap": convergence["step_cap"],
                                  "stop_reason": convergence["stop_reason"],
@@ -303,8 +303,8 @@ def training_summary(trained: TrainedGMD) -> dict[str, Any]:
     if convergence:
         return {key: convergence[key]
                 for key in ("steps_used", "step_cap", "converged", "stop_reason")}
-    steps = len(trained.metrics.get("losses") or []) or trained.spec.train_steps
-    return {"steps_used": steps, "step_cap": trained.spec.train_steps, "converged": None,
+    steps = len(trained.metrics.get("losses") or []) or trained.spec.training.steps
+    return {"steps_used": steps, "step_cap": trained.spec.training.steps, "converged": None,
             "stop_reason": None}
 
 
@@ -321,7 +321,7 @@ def budget_markdown(arms: Mapping[str, Sequence[TrainedGMD]],
             summary = training_summary(trained)
             gate = record["gate"]
             passed += bool(record["passed"])
-            rows.append([label, str(trained.spec.seed), str(summary["steps_used"]),
+            rows.append([label, str(trained.spec.training.seed), str(summary["steps_used"]),
                          str(summary["step_cap"]), summary["stop_reason"] or "fixed steps",
                          *(f"{gate[m]['value']:.3g}" if gate[m]["value"] is not None else "—"
                            for m in ("x0_error_vs_gaussian",)),

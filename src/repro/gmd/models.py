@@ -23,7 +23,6 @@ from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import (
     TrainConfig,
     ValidationSet,
-    check_autocast,
     fixed_steps_patience,
     train_diffusion,
 )
@@ -156,24 +155,39 @@ def trajectory_loss_weights(k: float, channels: int = FEATURE_DIM) -> list[float
 
 
 
+#: GMD's training defaults (a spec's ``training``): AdamW at lr 1e-3, weight decay 0.01, batch
+#: 64, gradient clip 1, EMA 0.9999 with warm-up, 1000 steps, seed 0; a text-conditioned model
+#: drops its condition 10 % of the time (``cond_dropout``: ``train_diffusion`` drops only a
+#: condition it is given, and a spec without text leaves it out of its key)
+GMD_TRAINING = TrainConfig(steps=1000, batch_size=64, lr=1e-3, weight_decay=0.01,
+                           ema_decay=0.9999, cond_dropout=0.1)
+#: the spec's key names of ``TrainConfig`` fields (the names before the spec held one)
+_KEY_NAMES = {"steps": "train_steps"}
+#: ``TrainConfig`` fields in the spec's key as they always were (the rest: only when changed)
+_KEYED_TRAINING = ("steps", "batch_size", "lr", "weight_decay", "ema_decay", "seed",
+                   "feature_weights")
+_TRAINING_FIELDS = frozenset(f.name for f in dataclasses.fields(TrainConfig))
+
+
 @dataclass(frozen=True)
 class GMDModelSpec:
     """Everything that decides a trained tiny GMD model (with the data fingerprint: its key).
 
     ``task`` "trajectory" (4 channels) or "motion" (263); ``prediction`` "x0" or "epsilon";
     ``data`` the windows; the UNet is ``UNet1D(C, base_channels, channel_mults)``; the
-    diffusion has ``diffusion_steps`` steps of the ``schedule``; AdamW (``lr``,
-    ``weight_decay``), gradient clip 1, EMA ``ema_decay`` with warm-up (``training``).
-    ``feature_weights`` (C,) weigh the squared error per channel (GMD's loss scaling k²,
+    diffusion has ``diffusion_steps`` steps of the ``schedule``; ``training`` the optimisation
+    (``core.training.TrainConfig``, :data:`GMD_TRAINING` by default): its ``feature_weights``
+    (C,) weigh the squared error per channel (GMD's loss scaling k²,
     ``trajectory_loss_weights``). ``text_conditioned`` adds a bag-of-words caption condition
-    (dropped with probability ``cond_dropout`` for classifier-free use).
+    (dropped with probability ``training.cond_dropout`` for classifier-free use).
 
-    Convergence (issue #14, docs/TRAINING.md): with ``validate_every`` set, the windows of a
-    held-out ``validation_fraction`` of the *training-split* clips (``validation_split``; never
-    the test windows the claims measure on) are left out of training, the EMA weights' loss on
-    them is measured every ``validate_every`` steps, and training stops when it has not
-    improved by a relative ``min_delta`` for ``patience`` evaluations; ``train_steps`` is then
-    the cap. Without ``validate_every`` these fields leave the key (every earlier key holds).
+    Convergence (issue #14, docs/TRAINING.md): with ``training.validate_every`` set, the
+    windows of a held-out ``validation_fraction`` of the *training-split* clips
+    (``validation_split``; never the test windows the claims measure on) are left out of
+    training, the EMA weights' loss on them is measured every ``validate_every`` steps, and
+    training stops when it has not improved by a relative ``min_delta`` for ``patience``
+    evaluations; ``training.steps`` is then the cap. Without ``validate_every`` these fields
+    leave the key (every earlier key holds).
     """
 
     task: Task = "trajectory"
@@ -183,45 +197,34 @@ class GMDModelSpec:
     channel_mults: tuple[float, ...] = (1, 2, 4)
     diffusion_steps: int = 100
     schedule: Literal["cosine", "linear"] = "cosine"
-    train_steps: int = 1000
-    batch_size: int = 64
-    lr: float = 1e-3
-    weight_decay: float = 0.01
-    ema_decay: float = 0.9999
-    seed: int = 0
-    feature_weights: tuple[float, ...] | None = None
+    training: TrainConfig = GMD_TRAINING
     text_conditioned: bool = False
-    cond_dropout: float = 0.1
-    validate_every: int | None = None
-    patience: int = 5
-    min_delta: float = 0.01
     validation_fraction: float = 0.05
-    #: None (fp32) or "bfloat16": ``TrainConfig.autocast`` (opt-in; in the key only when set)
-    autocast: str | None = None
     #: ``UNet1D(input_skip=True)``: a full-rank input-to-output path (in the key only when set)
     input_skip: bool = False
 
     def __post_init__(self) -> None:
         check_task(self.task)
+        if not isinstance(self.training, TrainConfig):
+            raise TypeError(f"training must be a TrainConfig, got {type(self.training).__name__}")
         if not 0.0 < self.validation_fraction < 1.0:
             raise ValueError(f"validation_fraction must be in (0, 1), got "
                              f"{self.validation_fraction}")
-        if self.validate_every is None and (self.patience, self.min_delta,
-                                            self.validation_fraction) != _CONVERGENCE_DEFAULTS:
-            raise ValueError("patience, min_delta and validation_fraction only act with "
-                             "validate_every set")
+        if (self.training.validate_every is None
+                and self.validation_fraction != _CONVERGENCE_DEFAULTS[2]):
+            raise ValueError("validation_fraction only acts with training.validate_every set")
         if self.prediction not in ("x0", "epsilon"):
             raise ValueError(f"prediction must be 'x0' or 'epsilon', got {self.prediction!r}")
         if self.schedule not in ("cosine", "linear"):
             raise ValueError(f"schedule must be 'cosine' or 'linear', got {self.schedule!r}")
-        check_autocast(self.autocast)
+        if self.training.device != "cpu" or self.training.num_threads is not None:
+            raise ValueError("a spec's training holds no device or threads: load_or_train_gmd "
+                             "takes the device")
         object.__setattr__(self, "channel_mults", tuple(float(m) for m in self.channel_mults))
-        if self.feature_weights is not None:
-            weights = tuple(float(w) for w in self.feature_weights)
-            if len(weights) != CHANNELS[self.task]:
-                raise ValueError(f"feature_weights needs {CHANNELS[self.task]} values for the "
-                                 f"{self.task} task, got {len(weights)}")
-            object.__setattr__(self, "feature_weights", weights)
+        weights = self.training.feature_weights
+        if weights is not None and len(weights) != CHANNELS[self.task]:
+            raise ValueError(f"feature_weights needs {CHANNELS[self.task]} values for the "
+                             f"{self.task} task, got {len(weights)}")
         if self.data.frames % 2 ** (len(self.channel_mults) - 1):
             raise ValueError(f"frames = {self.data.frames} must be divisible by "
                              f"2**(len(channel_mults) - 1) = {2 ** (len(self.channel_mults) - 1)}")
@@ -231,21 +234,46 @@ class GMDModelSpec:
         return CHANNELS[self.task]
 
     def replace(self, **changes: Any) -> GMDModelSpec:
-        """A copy with some fields changed (``dataclasses.replace``)."""
+        """A copy with some fields changed (``dataclasses.replace``); a ``TrainConfig`` field
+        name (``seed``, ``steps``, ``feature_weights`` …) changes ``training``'s field."""
+        training = {name: changes.pop(name) for name in list(changes)
+                    if name in _TRAINING_FIELDS}
+        if training:
+            changes["training"] = dataclasses.replace(changes.get("training", self.training),
+                                                      **training)
         return dataclasses.replace(self, **changes)
 
     def as_dict(self) -> dict[str, Any]:
-        config = dataclasses.asdict(self)
-        config["data"] = self.data.as_dict()
-        if not self.text_conditioned:
-            config.pop("cond_dropout")
-        if self.validate_every is None:  # keeps the keys of specs made before convergence
-            for name in ("validate_every", "patience", "min_delta", "validation_fraction"):
-                config.pop(name)
-        if self.autocast is None:  # keeps the keys of fp32 specs made before the field
-            config.pop("autocast")
-        if not self.input_skip:  # keeps the keys of specs made before the field
-            config.pop("input_skip")
+        """The spec's part of the cache key: its fields with ``training``'s flattened under
+        their names from before the spec held a ``TrainConfig`` (``steps`` as ``train_steps``;
+        ``cond_dropout`` only for a text-conditioned model, the convergence fields only with
+        ``validate_every``, ``autocast`` and ``input_skip`` only when set, any other training
+        field only when it differs from its default), so every earlier key holds."""
+        training = self.training
+        config = {"task": self.task, "prediction": self.prediction,
+                  "data": self.data.as_dict(), "base_channels": self.base_channels,
+                  "channel_mults": self.channel_mults, "diffusion_steps": self.diffusion_steps,
+                  "schedule": self.schedule, "text_conditioned": self.text_conditioned}
+        for name in _KEYED_TRAINING:
+            config[_KEY_NAMES.get(name, name)] = getattr(training, name)
+        if self.text_conditioned:
+            config["cond_dropout"] = training.cond_dropout
+        if training.validate_every is not None:
+            config.update(validate_every=training.validate_every, patience=training.patience,
+                          min_delta=training.min_delta,
+                          validation_fraction=self.validation_fraction)
+        if training.autocast is not None:
+            config["autocast"] = training.autocast
+        if self.input_skip:
+            config["input_skip"] = True
+        unlisted = set(_KEYED_TRAINING) | {"cond_dropout", "validate_every", "patience",
+                                           "min_delta", "autocast", "device", "num_threads"}
+        for name in sorted(_TRAINING_FIELDS - unlisted):
+            value = getattr(training, name)
+            if value != getattr(GMD_TRAINING, name):
+                config[name] = value
+        if config["feature_weights"] is not None:
+            config["feature_weights"] = tuple(config["feature_weights"])
         return config
 
     def diffusion(self) -> GaussianDiffusion:
@@ -255,20 +283,16 @@ class GMDModelSpec:
         """The untrained UNet, initialised from ``torch.manual_seed(seed)`` in a forked RNG: the
         same weights whatever the process drew before, and the caller's global RNG untouched."""
         with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(self.seed)
+            torch.manual_seed(self.training.seed)
             return UNet1D(self.channels, self.base_channels, self.channel_mults,
                           cond_dim=cond_dim, input_skip=self.input_skip)
 
     def train_config(self, device: str | torch.device = "cpu") -> TrainConfig:
-        return TrainConfig(steps=self.train_steps, batch_size=self.batch_size, lr=self.lr,
-                           weight_decay=self.weight_decay, ema_decay=self.ema_decay,
-                           seed=self.seed,
-                           feature_weights=None if self.feature_weights is None
-                           else list(self.feature_weights),
-                           cond_dropout=self.cond_dropout if self.text_conditioned else 0.0,
-                           validate_every=self.validate_every,
-                           patience=self.patience, min_delta=self.min_delta,
-                           autocast=self.autocast, device=str(device))
+        """``training`` on ``device``, without the condition dropout of a model that has no
+        condition (it would drop nothing)."""
+        return dataclasses.replace(
+            self.training, device=str(device),
+            cond_dropout=self.training.cond_dropout if self.text_conditioned else 0.0)
 
 
 @dataclass
@@ -303,9 +327,10 @@ class TrainedGMD:
         return bag_of_words(self.vocabulary, captions).to(self.device)
 
 
-def training_fields(task: Task, *, scale: str, step_cap: int | None = None) -> dict[str, Any]:
-    """The architecture and training fields of a notebook's ``GMDModelSpec`` of ``task`` at
-    ``scale`` (issues #14, #32).
+def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
+                    seed: int = 0) -> dict[str, Any]:
+    """The architecture fields and the ``training`` (seeded with ``seed``) of a notebook's
+    ``GMDModelSpec`` of ``task`` at ``scale`` (issues #14, #32).
 
     - ``paper``: ``paper_settings``' architecture of the family and its ``ConvergenceTraining``
       (batch, lr, validation interval, patience, autocast, step cap; ``step_cap`` overrides the
@@ -321,8 +346,9 @@ def training_fields(task: Task, *, scale: str, step_cap: int | None = None) -> d
     if scale == "quick":
         if step_cap is None:
             raise ValueError("quick mode needs the notebook's step count as step_cap")
-        return {"train_steps": int(step_cap), "validate_every": QUICK_TRAINING.validate_every,
-                "patience": QUICK_TRAINING.patience}
+        return {"training": dataclasses.replace(
+            GMD_TRAINING, steps=int(step_cap), validate_every=QUICK_TRAINING.validate_every,
+            patience=QUICK_TRAINING.patience, seed=int(seed))}
     if scale == "standard":
         architecture = (STANDARD_MOTION_ARCHITECTURE if task == "motion"
                         else STANDARD_TRAJECTORY_ARCHITECTURE)
@@ -335,21 +361,22 @@ def training_fields(task: Task, *, scale: str, step_cap: int | None = None) -> d
         plan = MOTION_TRAINING if task == "motion" else TRAJECTORY_TRAINING
         steps = plan.step_cap if step_cap is None else int(step_cap)
         patience, skip = plan.patience, {}
+    training = dataclasses.replace(GMD_TRAINING, steps=steps, batch_size=plan.batch_size,
+                                   lr=plan.lr, validate_every=plan.validate_every,
+                                   patience=patience, autocast=plan.autocast, seed=int(seed))
     return {"base_channels": architecture.base_channels,
-            "channel_mults": architecture.channel_mults, "batch_size": plan.batch_size,
-            "lr": plan.lr, "validate_every": plan.validate_every, "patience": patience,
-            "autocast": plan.autocast, "train_steps": steps, **skip}
+            "channel_mults": architecture.channel_mults, "training": training, **skip}
 
 
 def longer_run(spec: GMDModelSpec, factor: int = 2) -> GMDModelSpec:
     """``spec`` trained ``factor``× its step cap without the plateau stop (the patience
     outlasts the run), still validated so its curve is recorded: GMD-A4's longer ε run, which
     shows whether the ε arm converges later than the budget both arms share (issue #14)."""
-    if spec.validate_every is None:
+    validate_every = spec.training.validate_every
+    if validate_every is None:
         raise ValueError("longer_run needs a spec trained with validation (validate_every)")
-    steps = int(factor) * spec.train_steps
-    return spec.replace(train_steps=steps,
-                        patience=fixed_steps_patience(steps, spec.validate_every))
+    steps = int(factor) * spec.training.steps
+    return spec.replace(steps=steps, patience=fixed_steps_patience(steps, validate_every))
 
 
 def validation_split(data: MotionWindows, fraction: float) -> tuple[Tensor, Tensor]:
@@ -382,7 +409,7 @@ def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
     """The trained model of ``spec`` from the cache (kind ``gmd_<task>``), trained on a miss.
 
     ``data`` are the training windows of ``spec.data`` (loaded when None; pass them to avoid
-    reloading). Deterministic given ``spec.seed``; the same code runs on ``device="cuda"``.
+    reloading). Deterministic given ``spec.training.seed``; the same code runs on ``device="cuda"``.
     ``on_validation`` goes to ``train_diffusion`` on a miss (a pilot measuring the EMA weights
     at each held-out evaluation); it does not change the training, so it is not in the key.
     """
@@ -402,7 +429,7 @@ def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
         x = data.channels(spec.task).contiguous()
         cond = bag_of_words(vocabulary, data.captions) if vocabulary is not None else None
         validation = None
-        if spec.validate_every is not None:
+        if spec.training.validate_every is not None:
             fit, held = validation_split(data, spec.validation_fraction)
             validation = ValidationSet(x[held], cond=None if cond is None else cond[held])
             x, cond = x[fit].contiguous(), None if cond is None else cond[fit]
@@ -472,14 +499,15 @@ def load_or_train_many(specs: Sequence[GMDModelSpec], data: MotionWindows, *,
 def describe(spec: GMDModelSpec) -> str:
     """A one-line summary of a spec for notes and figure titles."""
     mults = ",".join(f"{m:g}" for m in spec.channel_mults)
-    steps = (f"{spec.train_steps} steps" if spec.validate_every is None else
-             f"to convergence (held-out loss every {spec.validate_every} steps, stop after "
-             f"{spec.patience} without a {spec.min_delta:.0%} gain, cap {spec.train_steps} "
-             f"steps)")
+    training = spec.training
+    steps = (f"{training.steps} steps" if training.validate_every is None else
+             f"to convergence (held-out loss every {training.validate_every} steps, stop after "
+             f"{training.patience} without a {training.min_delta:.0%} gain, cap "
+             f"{training.steps} steps)")
     return (f"{spec.task}/{spec.prediction} UNet1D(base {spec.base_channels}, mults [{mults}]), "
             f"T={spec.diffusion_steps} {spec.schedule}, {steps} × batch "
-            f"{spec.batch_size}, lr {spec.lr:g}"
-            f"{', bf16 autocast' if spec.autocast == 'bfloat16' else ''}, {spec.data.frames} "
+            f"{training.batch_size}, lr {training.lr:g}"
+            f"{', bf16 autocast' if training.autocast == 'bfloat16' else ''}, {spec.data.frames} "
             f"frames ({spec.data.representation} root)")
 
 

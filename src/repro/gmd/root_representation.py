@@ -410,19 +410,19 @@ class Settings:
         root model is notebook 01's and 06's (``x0_vs_eps.guidance_trajectory_spec``: one cache
         key, tested)."""
         return GMDModelSpec(task="trajectory", prediction="epsilon",
-                            data=self.data(representation, data_dir), seed=seed,
+                            data=self.data(representation, data_dir),
                             diffusion_steps=self.trajectory_diffusion_steps,
                             schedule=paper_settings.GUIDANCE_SCHEDULE,
                             **training_fields("trajectory", scale=self.scale,
-                                              step_cap=self.trajectory_steps))
+                                              step_cap=self.trajectory_steps, seed=seed))
 
     def motion_spec(self, representation: str, seed: int,
                     data_dir: DataDir = None) -> GMDModelSpec:
         return GMDModelSpec(task="motion", prediction="x0", text_conditioned=True,
-                                data=self.data(representation, data_dir), seed=seed,
-                                diffusion_steps=self.diffusion_steps,
-                                **training_fields("motion", scale=self.scale,
-                                                  step_cap=self.motion_steps))
+                            data=self.data(representation, data_dir),
+                            diffusion_steps=self.diffusion_steps,
+                            **training_fields("motion", scale=self.scale,
+                                              step_cap=self.motion_steps, seed=seed))
 
 
 def load_clips(root: Path, split: str, *, min_frames: int, n: int) -> tuple[list[str],

@@ -329,13 +329,11 @@ class Settings:
         its ε model the same spec predicting ε; A4 samples both with the null condition
         (``guidance.sample`` without text: the unconditional model that classifier-free
         training keeps). The paper scale keeps today's unconditional models."""
-        fields = {"batch_size": self.batch_size,
-                  **training_fields(task, scale=self.scale, step_cap=self.train_steps)}
+        fields = training_fields(task, scale=self.scale, step_cap=self.train_steps, seed=seed)
         spec = GMDModelSpec(task=task, prediction=prediction, data=data,
-                            diffusion_steps=self.diffusion_steps, seed=seed, **fields)
-        if task == "motion" and self.scale != "paper":
-            spec = spec.replace(text_conditioned=True)
-        return spec
+                            diffusion_steps=self.diffusion_steps, **fields)
+        return spec.replace(batch_size=self.batch_size,
+                            text_conditioned=task == "motion" and self.scale != "paper")
 
     def guidance_trajectory_spec(self, prediction: Literal["x0", "epsilon"], data: DataConfig,
                                  seed: int = 0) -> GMDModelSpec:

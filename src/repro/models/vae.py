@@ -228,7 +228,7 @@ _UNUSED_FIELDS = ("ema_decay", "ema_warmup", "feature_weights", "cond_dropout",
                   "validation_timesteps")
 
 
-@dataclass
+@dataclass(frozen=True)
 class VAETrainConfig(TrainConfig):
     """The VAE's ``TrainConfig`` (``core.training.train_loop``: AdamW + gradient clipping,
     seeded; no EMA) and its KL weight (appendix A: AdamW, lr 1e-4, recon 1, KL 1e-4).

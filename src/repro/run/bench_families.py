@@ -12,6 +12,7 @@ signals, random latents and text tokens): the speed does not depend on the value
 from __future__ import annotations
 
 import copy
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -193,7 +194,7 @@ def _gmd_family(task: str, sizes: BenchSizes) -> Family:
     spec = GMDModelSpec(task=task)
     channels = spec.channels
     frames = sizes.frames or spec.data.frames
-    batch = sizes.batch or spec.batch_size
+    batch = sizes.batch or spec.training.batch_size
     diffusion = schedule_diffusion(spec.schedule, sizes.timesteps or spec.diffusion_steps,
                                    spec.prediction)
     data = smooth_signals(sizes.data_items, channels, frames, seed=1)
@@ -204,9 +205,8 @@ def _gmd_family(task: str, sizes: BenchSizes) -> Family:
 
     def package(fast_mish: bool = False, **levers: Any) -> Callable[[int], float]:
         def run(steps: int) -> float:
-            config = TrainConfig(steps=steps, batch_size=batch, lr=spec.lr,
-                                 weight_decay=spec.weight_decay, ema_decay=spec.ema_decay,
-                                 seed=0, **levers)
+            config = dataclasses.replace(spec.training, steps=steps, batch_size=batch, seed=0,
+                                         **levers)
             return train_diffusion(build(fast_mish), diffusion, data, config,
                                    progress=False).seconds
         return run
@@ -215,11 +215,11 @@ def _gmd_family(task: str, sizes: BenchSizes) -> Family:
         name=f"gmd_{task}",
         sizes={"model": f"UNet1D({channels}, base {spec.base_channels}, mults "
                         f"{list(spec.channel_mults)})", "batch": batch, "frames": frames,
-               "diffusion_steps": diffusion.num_timesteps, "lr": spec.lr},
+               "diffusion_steps": diffusion.num_timesteps, "lr": spec.training.lr},
         batch=batch,
         baseline=lambda steps: plain_diffusion_loop(build(), diffusion, data, steps,
-                                                    batch=batch, lr=spec.lr,
-                                                    ema_decay=spec.ema_decay),
+                                                    batch=batch, lr=spec.training.lr,
+                                                    ema_decay=spec.training.ema_decay),
         package=package(),
         levers={"fast_mish": package(fast_mish=True),
                 "fast_mish+fused_adamw": package(fast_mish=True, fused_adamw=True),

@@ -152,8 +152,8 @@ def _width_study(sizes: BenchSizes) -> dict[str, Any]:
     data = smooth_signals(sizes.data_items, spec.channels, frames, seed=5)
     wide_steps = max(1, sizes.steps // 4)
     #: name → (width, mults, batch, steps per measurement)
-    cases = {"base16": (spec.base_channels, spec.channel_mults, sizes.batch or spec.batch_size,
-                        sizes.steps),
+    batch = sizes.batch or spec.training.batch_size
+    cases = {"base16": (spec.base_channels, spec.channel_mults, batch, sizes.steps),
              f"width{sizes.wide_width}": (sizes.wide_width, (1.0, 1.0, 1.0), sizes.wide_batch,
                                           wide_steps),
              "notebook_motion": (sizes.wide_width, MOTION_ARCHITECTURE.channel_mults,
@@ -164,7 +164,8 @@ def _width_study(sizes: BenchSizes) -> dict[str, Any]:
                  batch: int = batch) -> Callable[[int], float]:
             return lambda n: train_diffusion(
                 _seeded(lambda: UNet1D(spec.channels, width, mults)), diffusion, data,
-                TrainConfig(steps=n, batch_size=batch, lr=spec.lr, seed=0, autocast=autocast),
+                TrainConfig(steps=n, batch_size=batch, lr=spec.training.lr, seed=0,
+                            autocast=autocast),
                 progress=False).seconds
 
         pair = paired_ratios(loop(None), loop("bfloat16"), steps, sizes.repeats)
@@ -195,7 +196,7 @@ def _isolated_levers(sizes: BenchSizes) -> dict[str, Any]:
     noise would hide them: forward + backward and forward only with ``FastMish`` against
     ``nn.Mish``; the parameter update (AdamW + clip + EMA) as loops, foreach, fused."""
     spec = GMDModelSpec(task="motion")
-    frames, batch = sizes.frames or spec.data.frames, sizes.batch or spec.batch_size
+    frames, batch = sizes.frames or spec.data.frames, sizes.batch or spec.training.batch_size
     pairs, calls = 4 * sizes.repeats, max(1, sizes.steps - 1)
     plain = _seeded(lambda: UNet1D(spec.channels, spec.base_channels, spec.channel_mults))
     fast = UNet1D(spec.channels, spec.base_channels, spec.channel_mults, fast_mish=True)
@@ -281,7 +282,7 @@ def _pilot(sizes: BenchSizes) -> dict[str, Any]:
         torch.manual_seed(0)
         model = UNet1D(spec.channels, spec.base_channels, spec.channel_mults,
                        fast_mish=fast_mish)
-        config = TrainConfig(steps=sizes.pilot_steps, batch_size=batch, lr=spec.lr, seed=0,
+        config = TrainConfig(steps=sizes.pilot_steps, batch_size=batch, lr=spec.training.lr, seed=0,
                              **levers)
         result = train_diffusion(model, diffusion, train, config, progress=False)
         losses[name] = _validation_loss(result.model, diffusion, held_out)
