@@ -34,13 +34,13 @@ def run_context() -> Callable[..., RunContext]:
 
 #: the tiny pipeline every EnergyMoGen test trains (its cache keys are pinned in
 #: tests/energymogen/test_pipeline.py)
-TINY_PIPELINE = PipelineConfig(n_train_clips=24, test_clips_per_pair=2, vae_steps=2,
-                               text_steps=2, denoiser_steps=2, evaluator_steps=2, ddim_steps=2,
-                               items_per_pair=4)
+TINY_PIPELINE = PipelineConfig(n_train_clips=24, test_clips_per_pair=2, ddim_steps=2,
+                               items_per_pair=4).with_steps(vae=2, text=2, denoiser=2,
+                                                            evaluator=2)
 #: EMG-8's tiny pipeline: 6 pretraining steps, so that fine-tuning (a third of them) takes 2
-TINY_AUGMENTATION_PIPELINE = PipelineConfig(n_train_clips=24, test_clips_per_pair=2,
-                                            vae_steps=2, text_steps=2, denoiser_steps=6,
-                                            evaluator_steps=2, ddim_steps=2, items_per_pair=4)
+TINY_AUGMENTATION_PIPELINE = PipelineConfig(
+    n_train_clips=24, test_clips_per_pair=2, ddim_steps=2,
+    items_per_pair=4).with_steps(vae=2, text=2, denoiser=6, evaluator=2)
 
 
 def pytest_configure(config: pytest.Config) -> None:

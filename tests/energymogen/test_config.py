@@ -3,7 +3,7 @@ the sets of three and the negation cases, and the one pipeline configuration per
 
 from __future__ import annotations
 
-from dataclasses import fields
+from dataclasses import fields, replace
 
 from repro.energymogen.config import (
     ARM_CONCEPTS,
@@ -44,9 +44,15 @@ def test_full_mode_is_the_default_config_and_quick_only_shrinks() -> None:
     assert full == PipelineConfig()
     changed = {f.name for f in fields(PipelineConfig) if getattr(full, f.name) != getattr(
         quick, f.name)}
-    assert changed == {"n_train_clips", "test_clips_per_pair", "vae_steps", "text_steps",
-                       "denoiser_steps", "evaluator_steps", "ddim_steps", "items_per_pair",
-                       "items_per_extra_set"}
-    assert all(getattr(quick, name) < getattr(full, name) for name in changed)
+    trainings = {"vae_training", "text_training", "denoiser_training", "evaluator"}
+    assert changed == {"n_train_clips", "test_clips_per_pair", "ddim_steps", "items_per_pair",
+                       "items_per_extra_set"} | trainings
+    assert all(getattr(quick, name) < getattr(full, name) for name in changed - trainings)
+    for name in trainings:   # only the step counts shrink
+        quick_training, full_training = (getattr(quick, name), getattr(full, name))
+        if name == "evaluator":
+            quick_training, full_training = quick_training.training, full_training.training
+        assert quick_training.steps < full_training.steps
+        assert replace(quick_training, steps=full_training.steps) == full_training
     assert config_summary(full)["latent_count"] == 5
     assert full.data_dict()["held_out"] == [list(p) for p in HELD_OUT_PAIRS]

@@ -134,15 +134,15 @@ def test_records_come_from_the_pipeline(tiny) -> None:
     vae, denoiser = mg.pipeline_records(pipe, test, real, reads=["n5_generates_best"])
     assert vae["reads"] == denoiser["reads"] == ["n5_generates_best"]
     assert vae["family"] == "vae" and denoiser["family"] == "latent_denoiser"
-    assert vae["steps"] == TINY_PIPELINE.vae_steps == pipe.training["vae"].steps
-    assert denoiser["steps"] == TINY_PIPELINE.denoiser_steps
+    assert vae["steps"] == TINY_PIPELINE.vae_training.steps == pipe.training["vae"].steps
+    assert denoiser["steps"] == TINY_PIPELINE.denoiser_training.steps
     assert vae["train_seconds"] > 0 and denoiser["train_seconds"] > 0
     assert vae["converged"] is None and vae["validation_curve"] == []   # no validation
     assert vae["parameters"] == sum(p.numel() for p in pipe.vae.parameters())
     assert vae["name"] != denoiser["name"]
     evaluator = mg.evaluator_record(pipe, test)
     assert evaluator["reads"] is None
-    assert evaluator["steps"] == TINY_PIPELINE.evaluator_steps
+    assert evaluator["steps"] == TINY_PIPELINE.evaluator.training.steps
     assert evaluator["training_losses"]
     text = gates_markdown([vae, denoiser, evaluator])
     for metric in ("concept_preservation", "x0_error_vs_gaussian", "r_precision_top3",

@@ -142,8 +142,9 @@ def _keys_as_before(config: PipelineConfig,
     model_kwargs = {"latent_count": config.latent_count, "latent_dim": config.latent_dim,
                     "width": config.vae_width, "layers": config.vae_layers, "heads": 4,
                     "max_frames": config.frames, "dropout": 0.0}
-    vae_config = VAETrainConfig(steps=config.vae_steps, batch_size=config.vae_batch,
-                                lr=config.vae_lr, seed=config.data_seed)
+    vae, text, denoiser = config.vae_training, config.text_training, config.denoiser_training
+    vae_config = VAETrainConfig(steps=vae.steps, batch_size=vae.batch_size,
+                                lr=vae.lr, seed=config.data_seed)
     motions = data.normalise(data.train_features)
     vae_key = {"model": model_kwargs, "train": vae_config.to_config(),
                "data": array_fingerprint(np.asarray(motions, dtype=np.float32),
@@ -159,7 +160,7 @@ def _keys_as_before(config: PipelineConfig,
     latents = (mu * scale).cpu()
     vocab = Vocabulary.build([c for caps in data.train_captions for c in caps])
     text_key = {"vocab": list(vocab.tokens), "latents": array_fingerprint(latents),
-                "dim": config.text_dim, "steps": config.text_steps, "lr": config.text_lr,
+                "dim": config.text_dim, "steps": text.steps, "lr": text.lr,
                 "max_len": config.max_text_len, "seed": config.data_seed, "format": 1}
     rows = [(i, c) for i, caps in enumerate(data.train_captions) for c in caps]
     ids, text_lengths = vocab.encode_batch([c for _, c in rows], config.max_text_len)
@@ -168,8 +169,8 @@ def _keys_as_before(config: PipelineConfig,
     width = int(mask.sum(1).max())
     tokens, mask = tokens[:, :width].contiguous(), mask[:, :width].contiguous()
     row_latents = latents[[i for i, _ in rows]]
-    train_config = TrainConfig(steps=config.denoiser_steps, batch_size=config.denoiser_batch,
-                               lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
+    train_config = TrainConfig(steps=denoiser.steps, batch_size=denoiser.batch_size,
+                               lr=denoiser.lr, ema_decay=0.999, cond_dropout=0.1,
                                seed=config.data_seed)
     denoiser_key = {"model": em.denoiser_kwargs(config), "train": train_config.to_config(),
                     "schedule": "scaled_linear(0.00085, 0.012)", "T": config.num_timesteps,

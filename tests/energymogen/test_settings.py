@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-from dataclasses import fields
+from dataclasses import fields, replace
 from pathlib import Path
 
 import pytest
@@ -73,7 +73,9 @@ def test_standard_scale_is_the_compute_plan() -> None:
     paper = pipeline_config("paper")
     changed = {f.name for f in fields(PipelineConfig)
                if getattr(config, f.name) != getattr(paper, f.name)}
-    assert changed == {"vae_steps", "denoiser_layers", "denoiser_steps"}  # the paper's width
+    assert changed == {"vae_training", "denoiser_layers", "denoiser_training"}  # paper's width
+    assert config.vae_training == replace(paper.vae_training, steps=900)   # only the steps
+    assert config.denoiser_training == replace(paper.denoiser_training, steps=1500)
     vae = em.vae_train_config(config, 0, plan=plan)
     denoiser = em.denoiser_train_config(config, 0, plan=plan)
     assert (vae.steps, denoiser.steps) == (900, 1500)

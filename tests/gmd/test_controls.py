@@ -77,7 +77,7 @@ def test_c4_null_arms_are_equal_in_expectation_and_positive_plants_a_tenth(
 def evaluator(windows: MotionWindows):
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
     return train_evaluator(features, lengths, windows.captions,
-                           EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16))
+                           EvaluatorConfig(hidden=16, dim=8).replace(steps=3, batch_size=16))
 
 
 def test_a4_positive_plants_the_jitter_and_fid_ratios(windows: MotionWindows, evaluator) -> None:
@@ -233,7 +233,7 @@ def table_b1_setup():
                                        representation="relative"))
     features = relative.features().numpy()
     evaluator = train_evaluator(features, [relative.frames] * len(relative), relative.captions,
-                                EvaluatorConfig(steps=30, hidden=16, dim=8, batch_size=16))
+                                EvaluatorConfig(hidden=16, dim=8).replace(steps=30, batch_size=16))
     evaluation = evaluation_set(relative, 128, seed=0)
     return evaluator, evaluation, ground_truth_row(evaluator, evaluation, features, seed=0)
 

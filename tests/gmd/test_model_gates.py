@@ -134,7 +134,7 @@ def test_evaluator_r_precision_is_high_for_a_trained_evaluator_and_chance_when_s
         motions[i, :, i % 8] += 3.0
     lengths = [frames] * n
     evaluator = train_evaluator(motions, lengths, captions,
-                                EvaluatorConfig(dim=16, hidden=32, steps=150))
+                                EvaluatorConfig(dim=16, hidden=32).replace(steps=150))
     measured = dict(train_features=motions, samples=32)
     good = mg.evaluator_gate_values(evaluator, motions, lengths, captions, seed=0, **measured)
     assert good["r_precision_top3"] > 0.3 and good["trivial_fid_ratio"] > 0
@@ -227,8 +227,8 @@ def test_motion_evaluation_gives_the_reference_fid_of_training_windows(cache, wi
     from repro.gmd.measurements import evaluator_inputs
 
     train, test = windows
-    config = EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16,
-                             data_id=train.fingerprint)
+    config = EvaluatorConfig(hidden=16, dim=8, data_id=train.fingerprint).replace(
+        steps=3, batch_size=16)
     evaluation = mg.motion_evaluation(train, test, config, reference_samples=6, seed=4)
     features, lengths = evaluator_inputs(train.space("motion"), train.x)
     picks = np.random.default_rng(4).choice(len(train), 6, replace=False)
@@ -249,8 +249,8 @@ def test_the_fid_gates_reference_is_the_mean_of_its_draws_and_draw_0_is_the_sing
     from repro.gmd.measurements import evaluator_inputs
 
     train, test = windows
-    config = EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16,
-                             data_id=train.fingerprint)
+    config = EvaluatorConfig(hidden=16, dim=8, data_id=train.fingerprint).replace(
+        steps=3, batch_size=16)
     evaluation = mg.motion_evaluation(train, test, config, reference_samples=6, seed=4)
     assert len(evaluation.reference_fid_draws) == mg.REFERENCE_FID_DRAWS
     assert evaluation.reference_fid_draws[0] == pytest.approx(evaluation.real_fid, rel=1e-4)

@@ -90,8 +90,9 @@ def test_the_standard_model_bank_shares_keys() -> None:
                 == rr.Settings.for_scale("standard").motion_spec("absolute", seed))
     # one evaluator for notebooks 01, 02 and 03 (``emphasis_study.window_evaluator``)
     steps = emphasis_study.Settings.for_scale("standard").evaluator_steps
-    assert rr.Settings.for_scale("standard").evaluator_config() == EvaluatorConfig(steps=steps)
-    assert nb01.evaluator_config("fingerprint") == EvaluatorConfig(steps=steps)
+    shared = EvaluatorConfig().replace(steps=steps)
+    assert rr.Settings.for_scale("standard").evaluator_config() == shared
+    assert nb01.evaluator_config("fingerprint") == EvaluatorConfig().replace(steps=steps)
     # the paper scale keeps A4's T = 100 and A3's T = 1000 trajectory models apart
     paper = x0eps.Settings.for_scale("paper")
     assert (paper.spec("trajectory", "epsilon", paper.data(None))

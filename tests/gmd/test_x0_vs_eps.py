@@ -109,7 +109,8 @@ def test_settings_build_the_specs_notebook_01_always_trained() -> None:
         **training_fields("trajectory", scale="paper"))
     assert Settings.for_scale("paper", train_steps=50).train_steps == 50
     assert full.data("/some/folder") == DataConfig(data_dir="/some/folder", frames=48)
-    assert quick.evaluator_config("id").steps == 30 and full.evaluator_config("id").steps == 500
+    assert quick.evaluator_config("id").training.steps == 30
+    assert full.evaluator_config("id").training.steps == 500
     # GMD-A4's motion models: the same windows in HumanML3D's relative root (MDM's), the
     # trajectory models in GMD's absolute root
     for settings in (quick, full):

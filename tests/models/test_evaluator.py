@@ -21,7 +21,7 @@ torch.set_num_threads(1)
 
 ACTIONS = ("walks", "jumps", "waves", "kicks")
 MANNERS = ("slowly", "quickly", "to the left", "to the right")
-FAST = EvaluatorConfig(steps=80, hidden=64, dim=32, seed=0)
+FAST = EvaluatorConfig(hidden=64, dim=32).replace(steps=80, seed=0)
 FRAMES = 48
 PADDING_VALUE = 100.0
 
@@ -123,9 +123,9 @@ def test_save_load_roundtrip(trained, tmp_path):
 
 def test_training_is_deterministic_and_seed_dependent():
     data = toy_set(40, seed=6)
-    config = EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16)
+    config = EvaluatorConfig(hidden=16, dim=8).replace(steps=3, batch_size=16)
     a, b = train_evaluator(*data, config), train_evaluator(*data, config)
-    c = train_evaluator(*data, EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16, seed=1))
+    c = train_evaluator(*data, config.replace(seed=1))
     np.testing.assert_array_equal(a.embed_motions(data[0], data[1]),
                                   b.embed_motions(data[0], data[1]))
     assert not np.allclose(a.embed_motions(data[0], data[1]), c.embed_motions(data[0], data[1]))
@@ -134,7 +134,7 @@ def test_training_is_deterministic_and_seed_dependent():
 def test_load_or_train_caches_by_config_and_data(tmp_path, monkeypatch):
     monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path))
     data = toy_set(40, seed=7)
-    config = EvaluatorConfig(steps=2, hidden=16, dim=8, batch_size=16)
+    config = EvaluatorConfig(hidden=16, dim=8).replace(steps=2, batch_size=16)
     calls = []
     real_fit = ev._fit
 
@@ -150,8 +150,7 @@ def test_load_or_train_caches_by_config_and_data(tmp_path, monkeypatch):
     np.testing.assert_array_equal(again.embed_motions(data[0], data[1]),
                                   first.embed_motions(data[0], data[1]))
     assert again.losses == first.losses and len(again.losses) == 2
-    load_or_train_evaluator(*data, EvaluatorConfig(steps=2, hidden=16, dim=8, batch_size=16,
-                                                   seed=3))
+    load_or_train_evaluator(*data, config.replace(seed=3))
     load_or_train_evaluator(data[0] + 1.0, data[1], data[2], config)
     assert len(calls) == 3
     assert len(list((tmp_path / "evaluator").iterdir())) == 3
@@ -166,7 +165,7 @@ def test_a_cached_evaluator_is_the_one_train_evaluator_makes(tmp_path, monkeypat
     the entry read back hold the same statistics and weights as train_evaluator's."""
     monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path))
     data = toy_set(40, seed=5)
-    config = EvaluatorConfig(steps=3, hidden=16, dim=8, batch_size=16)
+    config = EvaluatorConfig(hidden=16, dim=8).replace(steps=3, batch_size=16)
     direct = train_evaluator(*data, config)
     mean, std = feature_statistics(data[0], data[1], config.std_floor)
     for model in (load_or_train_evaluator(*data, config), load_or_train_evaluator(*data, config)):
@@ -198,3 +197,17 @@ def test_bad_input_is_rejected():
     nan[0, 0, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):
         train_evaluator(nan, lengths, captions, FAST)
+
+
+def test_the_config_holds_its_training_and_keys_as_before():
+    """``EvaluatorConfig`` holds a ``TrainConfig``; its key and config.json form are the flat
+    fields of the config before it did (so every cached evaluator keeps its key)."""
+    config = EvaluatorConfig(dim=8, data_id="d").replace(steps=7, seed=2)
+    assert config.training.steps == 7 and config.training.grad_clip is None
+    assert config.as_dict() == {"dim": 8, "hidden": 128, "word_dim": 64, "max_text_len": 24,
+                                "min_count": 1, "steps": 7, "batch_size": 64, "lr": 1e-3,
+                                "weight_decay": 0.01, "temperature": 0.1, "std_floor": 0.01,
+                                "seed": 2, "data_id": "d"}
+    assert EvaluatorConfig.from_dict(config.as_dict()) == config
+    with pytest.raises(ValueError, match="does not use"):
+        EvaluatorConfig().replace(ema_decay=0.5)

@@ -187,18 +187,19 @@ def finetune_config(config: PipelineConfig, seed: int, threads: int | None = 1,
                     pretraining_steps: int | None = None) -> TrainConfig:
     """Fine-tuning as appendix A's ratios (our reading): steps = round(pretraining steps / 3)
     (100K after 300K; ``pretraining_steps`` = the steps the pretrained denoiser used, default
-    ``config.denoiser_steps``), lr = pretraining lr / 2 (5·10⁻⁵ vs 10⁻⁴); batch, EMA 0.999,
-    10 % text dropout as pretraining. ``threads`` only changes speed (not in cache keys)."""
-    steps = config.denoiser_steps if pretraining_steps is None else int(pretraining_steps)
-    return TrainConfig(steps=max(1, round(steps / 3)),
-                       batch_size=config.denoiser_batch, lr=config.denoiser_lr / 2,
-                       ema_decay=0.999, cond_dropout=0.1, seed=seed, num_threads=threads)
+    ``config.denoiser_training.steps``), lr = pretraining lr / 2 (5·10⁻⁵ vs 10⁻⁴); the rest
+    (batch, EMA 0.999, 10 % text dropout) as pretraining. ``threads`` only changes speed (not
+    in cache keys)."""
+    pretraining = config.denoiser_training
+    steps = pretraining.steps if pretraining_steps is None else int(pretraining_steps)
+    return replace(pretraining, steps=max(1, round(steps / 3)), lr=pretraining.lr / 2,
+                   seed=seed, num_threads=threads)
 
 
 def pipeline_finetune_config(pipe: EnergyMoGenPipeline, seed: int,
                              threads: int | None = 1) -> TrainConfig:
     """:func:`finetune_config` of ``pipe``'s pretrained denoiser: a third of the steps it used
-    (its ``training`` record; ``config.denoiser_steps`` when it has none)."""
+    (its ``training`` record; ``config.denoiser_training.steps`` when it has none)."""
     record = pipe.training.get("denoiser")
     return finetune_config(pipe.config, seed, threads,
                            None if record is None else record.steps)

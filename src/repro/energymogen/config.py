@@ -19,8 +19,11 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 from typing import Any
 
+from repro.core.training import TrainConfig
 from repro.infra.context import check_scale
+from repro.models.evaluator import EvaluatorConfig
 from repro.models.frozen_text import MINILM_WIDTH
+from repro.models.vae import VAETrainConfig
 from repro.standin.generator import GENERATOR_VERSION
 
 __all__ = [
@@ -101,6 +104,20 @@ STANDARD_DENOISER_WIDTH, STANDARD_DENOISER_LAYERS = 64, 2
 LEARNED_TEXT_DIM, LEARNED_MAX_TEXT_LEN = 64, 24
 
 
+#: the motion VAE's training (Sec. 3.1; appendix A: AdamW, recon weight 1, KL 1e-4; our lr
+#: 1e-3 and 1000 batches of 32 clips: minutes, not 300K iterations)
+VAE_TRAINING = VAETrainConfig(steps=1000, batch_size=32, lr=1e-3)
+#: the learned stand-in text encoder's (``text_encoder="learned"`` only): 300 batches of up to
+#: 128 captions, AdamW lr 2e-3, weight decay 0.01, no clip, no EMA
+TEXT_TRAINING = TrainConfig(steps=300, batch_size=128, lr=2e-3, weight_decay=0.01,
+                            grad_clip=None)
+#: the latent denoiser's (appendix A: AdamW, EMA 0.999, the text dropped 10 % of the time)
+DENOISER_TRAINING = TrainConfig(steps=2500, batch_size=128, lr=5e-4, ema_decay=0.999,
+                                cond_dropout=0.1)
+#: the evaluator (the stand-in for Guo et al.'s / TMR's encoders): 32-d, 64 channels, 400 steps
+EVALUATOR = EvaluatorConfig(dim=32, hidden=64).replace(steps=400)
+
+
 @dataclass(frozen=True)
 class PipelineConfig:
     """Everything that decides the data and the trained models (the cache keys).
@@ -112,6 +129,11 @@ class PipelineConfig:
     MLD's scaled-linear β (0.00085 → 0.012, T = 1000); the guidance scale s = 2.5 (MLD uses
     7.5 with CLIP; a tiny model on clean, well-separated stand-in concepts needs less, and
     Eq. 7 adds one s per concept); DDIM with 50 steps (Sec. 5.2).
+
+    Each model holds its training (``core.training.TrainConfig``; the evaluator its
+    ``EvaluatorConfig``); a held training's ``seed`` is replaced by the run's seed
+    (``pipeline.load_pipeline``'s ``train_seed``; ``data_seed`` for the text encoder, 0 for the
+    evaluator). :meth:`with_steps` changes the step counts.
     """
 
     frames: int = FRAMES
@@ -124,31 +146,24 @@ class PipelineConfig:
     latent_dim: int = 32
     vae_width: int = 64
     vae_layers: int = 2
-    vae_steps: int = 1000
-    vae_batch: int = 32
-    vae_lr: float = 1e-3
+    vae_training: VAETrainConfig = VAE_TRAINING
     # frozen text encoder (the stand-in for CLIP ViT-L/14). text_dim is the width of its token
     # states (the denoiser's text width): the model's 384 with "minilm" (the default), 64 with
-    # "learned" (:func:`with_learned_text`); text_steps and text_lr train the learned one only;
+    # "learned" (:func:`with_learned_text`); text_training trains the learned one only;
     # max_text_len counts WordPiece tokens with [CLS] and [SEP] ("minilm",
     # MINILM_MAX_TEXT_LEN = 77, CLIP's context length) or words ("learned": 24)
     text_dim: int = MINILM_WIDTH
-    text_steps: int = 300
-    text_lr: float = 2e-3
+    text_training: TrainConfig = TEXT_TRAINING
     max_text_len: int = MINILM_MAX_TEXT_LEN
     #: one of :data:`TEXT_ENCODERS`
     text_encoder: str = "minilm"
     # latent denoiser (Sec. 3.1; appendix A: AdamW, 10 % unconditional)
     denoiser_width: int = 64
     denoiser_layers: int = 3
-    denoiser_steps: int = 2500
-    denoiser_batch: int = 128
-    denoiser_lr: float = 5e-4
+    denoiser_training: TrainConfig = DENOISER_TRAINING
     num_timesteps: int = 1000
-    # evaluator (stand-in for Guo et al.'s / TMR's encoders)
-    evaluator_dim: int = 32
-    evaluator_hidden: int = 64
-    evaluator_steps: int = 400
+    # evaluator (stand-in for Guo et al.'s / TMR's encoders; its data_id is set from the data)
+    evaluator: EvaluatorConfig = EVALUATOR
     # sampling
     ddim_steps: int = 50
     guidance_scale: float = 2.5
@@ -165,6 +180,20 @@ class PipelineConfig:
                              f"text_dim must be {MINILM_WIDTH}, got {self.text_dim} (use "
                              "with_minilm(config), or with_learned_text(config) for the "
                              "learned encoder)")
+
+    def with_steps(self, *, vae: int | None = None, text: int | None = None,
+                   denoiser: int | None = None, evaluator: int | None = None) -> PipelineConfig:
+        """A copy whose models train the given step counts (None: unchanged)."""
+        changes: dict[str, Any] = {}
+        if vae is not None:
+            changes["vae_training"] = replace(self.vae_training, steps=int(vae))
+        if text is not None:
+            changes["text_training"] = replace(self.text_training, steps=int(text))
+        if denoiser is not None:
+            changes["denoiser_training"] = replace(self.denoiser_training, steps=int(denoiser))
+        if evaluator is not None:
+            changes["evaluator"] = self.evaluator.replace(steps=int(evaluator))
+        return replace(self, **changes)
 
     def data_dict(self) -> dict[str, Any]:
         return {"generator_version": GENERATOR_VERSION, "frames": self.frames,
@@ -194,13 +223,12 @@ def pipeline_config(scale: str) -> PipelineConfig:
     if scale == "paper":
         return PipelineConfig()
     if scale == "standard":
-        return PipelineConfig(vae_steps=STANDARD_VAE_STEPS,
-                              denoiser_width=STANDARD_DENOISER_WIDTH,
-                              denoiser_layers=STANDARD_DENOISER_LAYERS,
-                              denoiser_steps=STANDARD_DENOISER_STEPS)
-    return PipelineConfig(n_train_clips=160, test_clips_per_pair=3, vae_steps=40,
-                          text_steps=40, denoiser_steps=80, evaluator_steps=40, ddim_steps=5,
-                          items_per_pair=4, items_per_extra_set=5)
+        return PipelineConfig(denoiser_width=STANDARD_DENOISER_WIDTH,
+                              denoiser_layers=STANDARD_DENOISER_LAYERS).with_steps(
+            vae=STANDARD_VAE_STEPS, denoiser=STANDARD_DENOISER_STEPS)
+    return PipelineConfig(n_train_clips=160, test_clips_per_pair=3, ddim_steps=5,
+                          items_per_pair=4, items_per_extra_set=5).with_steps(
+        vae=40, text=40, denoiser=80, evaluator=40)
 
 
 def with_minilm(config: PipelineConfig) -> PipelineConfig:

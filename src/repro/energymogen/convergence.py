@@ -36,9 +36,10 @@ class TrainingPlan:
     HumanML3D's validation split) every ``*_validate_every`` steps; stop after ``patience``
     evaluations without a relative gain of ``min_delta``, or at the ``*_step_cap``.
 
-    With a plan the caps replace ``PipelineConfig.vae_steps``/``denoiser_steps`` and the
-    convergence fields and the validation data enter the cache keys; without one (None)
-    training is as before, with the same keys. :meth:`for_scale` gives the notebooks' plans.
+    With a plan the caps replace the step counts of ``PipelineConfig.vae_training`` /
+    ``denoiser_training`` and the convergence fields and the validation data enter the cache
+    keys; without one (None) training is as before, with the same keys. :meth:`for_scale`
+    gives the notebooks' plans.
     """
 
     validation_clips: int

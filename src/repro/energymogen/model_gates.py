@@ -204,7 +204,8 @@ def evaluator_record(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
     record = model_record(name="EMG evaluator", family="evaluator",
                           values=evaluator_gate_values(pipe, test), reference={},
                           parameters=parameter_count(pipe.evaluator),
-                          steps=pipe.evaluator.config.steps, train_seconds=None, reads=reads)
+                          steps=pipe.evaluator.config.training.steps, train_seconds=None,
+                          reads=reads)
     record["training_losses"] = [float(v) for v in pipe.evaluator.losses]
     return record
 

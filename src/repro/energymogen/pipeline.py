@@ -246,9 +246,8 @@ def denoiser_kwargs(config: PipelineConfig) -> dict[str, Any]:
 
 
 def _evaluator_config(config: PipelineConfig) -> EvaluatorConfig:
-    return EvaluatorConfig(dim=config.evaluator_dim, hidden=config.evaluator_hidden,
-                           steps=config.evaluator_steps, seed=0,
-                           data_id=f"energymogen-stand-in-{cache.config_hash(config.data_dict())}")
+    return config.evaluator.replace(
+        seed=0, data_id=f"energymogen-stand-in-{cache.config_hash(config.data_dict())}")
 
 
 def latent_diffusion(config: PipelineConfig) -> GaussianDiffusion:
@@ -286,17 +285,14 @@ class VAEStage:
 
 def vae_train_config(config: PipelineConfig, train_seed: int, threads: int | None = None,
                      plan: TrainingPlan | None = None) -> VAETrainConfig:
-    """The VAE's training configuration: ``config``'s batch and lr, seeded with
-    ``train_seed`` (initialisation, batches, reparameterisation noise); ``config.vae_steps``
-    steps, or with a ``plan`` its step cap and convergence fields. ``threads`` only changes
-    speed (not in the cache key)."""
+    """The VAE's training configuration: ``config.vae_training`` seeded with ``train_seed``
+    (initialisation, batches, reparameterisation noise); with a ``plan``, its step cap and
+    convergence fields. ``threads`` only changes speed (not in the cache key)."""
+    training = replace(config.vae_training, seed=int(train_seed), num_threads=threads)
     if plan is None:
-        return VAETrainConfig(steps=config.vae_steps, batch_size=config.vae_batch,
-                              lr=config.vae_lr, seed=int(train_seed), num_threads=threads)
-    return VAETrainConfig(steps=plan.vae_step_cap, batch_size=config.vae_batch,
-                          lr=config.vae_lr, seed=int(train_seed), num_threads=threads,
-                          validate_every=plan.vae_validate_every,
-                          patience=plan.vae_patience, min_delta=plan.min_delta)
+        return training
+    return replace(training, steps=plan.vae_step_cap, validate_every=plan.vae_validate_every,
+                   patience=plan.vae_patience, min_delta=plan.min_delta)
 
 
 def validation_clips(config: PipelineConfig, plan: TrainingPlan | None) -> HeldOutClips | None:
@@ -371,19 +367,16 @@ def validation_rows(data: StandInData, clips: HeldOutClips, vae: VAEStage, text:
 
 def denoiser_train_config(config: PipelineConfig, train_seed: int, threads: int | None = None,
                           plan: TrainingPlan | None = None) -> TrainConfig:
-    """The denoiser's training configuration (appendix A: AdamW, EMA 0.999, text dropped 10 %
-    of the time), seeded with ``train_seed`` (initialisation, batches, timesteps, noise,
-    dropout); ``config.denoiser_steps`` steps, or with a ``plan`` its cap and convergence
-    fields (validation loss on the EMA weights). ``threads`` only changes speed."""
+    """The denoiser's training configuration: ``config.denoiser_training`` (appendix A:
+    AdamW, EMA 0.999, text dropped 10 % of the time) seeded with ``train_seed``
+    (initialisation, batches, timesteps, noise, dropout); with a ``plan``, its cap and
+    convergence fields (validation loss on the EMA weights). ``threads`` only changes speed."""
+    training = replace(config.denoiser_training, seed=int(train_seed), num_threads=threads)
     if plan is None:
-        return TrainConfig(steps=config.denoiser_steps, batch_size=config.denoiser_batch,
-                           lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
-                           seed=int(train_seed), num_threads=threads)
-    return TrainConfig(steps=plan.denoiser_step_cap, batch_size=config.denoiser_batch,
-                       lr=config.denoiser_lr, ema_decay=0.999, cond_dropout=0.1,
-                       seed=int(train_seed), num_threads=threads,
-                       validate_every=plan.denoiser_validate_every,
-                       patience=plan.denoiser_patience, min_delta=plan.min_delta)
+        return training
+    return replace(training, steps=plan.denoiser_step_cap,
+                   validate_every=plan.denoiser_validate_every,
+                   patience=plan.denoiser_patience, min_delta=plan.min_delta)
 
 
 def denoiser_cache_key(config: PipelineConfig, train_config: TrainConfig,

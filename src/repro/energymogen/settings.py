@@ -62,10 +62,11 @@ def scale_note(scale: str) -> str:
                 f"{paper.vae_width}, denoiser {paper.denoiser_width} × {paper.denoiser_layers} "
                 f"layers, trained to a plateau; N ∈ {set(LATENT_COUNTS)}; the registered seeds).")
     return (f"**Standard scale** (`make reproduce`, docs/COMPUTE.md): VAE width "
-            f"{standard.vae_width}, a fixed {standard.vae_steps} steps; latent denoiser "
+            f"{standard.vae_width}, a fixed {standard.vae_training.steps} steps; latent denoiser "
             f"{standard.denoiser_width} × {standard.denoiser_layers} layers (paper: "
             f"{paper.denoiser_width} × {paper.denoiser_layers}), a fixed "
-            f"{standard.denoiser_steps} steps; {SEEDS['standard']['EMG-2']} seeds per claim; "
+            f"{standard.denoiser_training.steps} steps; {SEEDS['standard']['EMG-2']} seeds per "
+            "claim; "
             f"EMG-7 sweeps N ∈ {set(STANDARD_LATENT_COUNTS)}. Where the text below names longer "
             "training, more seeds or other N, those are the paper scale's; the values this run "
             "used are printed by its cells and recorded in every claim's sidecar.")

@@ -53,7 +53,7 @@ def emg7_result(results: Mapping[str, Any], settings: LatentCountSettings,
         "every N; training seeds vary VAE and denoiser, not the data. Reconstruction error = "
         "MPJPE (m) of decode(mu) "
         f"on {test_clips} held-out in-distribution clips (global joints); FID/R-precision/"
-        f"MM-Dist/Diversity with the tiny {config.evaluator_dim}-d evaluator (its own scale). "
+        f"MM-Dist/Diversity with the tiny {config.evaluator.dim}-d evaluator (its own scale). "
         f"{threads} torch thread(s) for training.")
     headline = (f"MPJPE N={'/'.join(str(n) for n in counts)}: "
                 + "/".join(f"{np.mean(recon_error[str(n)]):.3f}" for n in counts)

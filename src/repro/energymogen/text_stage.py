@@ -17,14 +17,14 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 import torch
 from torch import Tensor, nn
 
-from repro.core.training import TrainConfig, train_loop
+from repro.core.training import train_loop
 from repro.energymogen.config import PipelineConfig
 from repro.energymogen.data import StandInData
 from repro.infra import cache
@@ -49,11 +49,10 @@ def _train_text_encoder(model: _LatentTextModel, vocab: Vocabulary, captions: li
                         latents: Tensor, config: PipelineConfig,
                         seed: int) -> tuple[nn.Module, dict]:
     """Symmetric InfoNCE between sentence vectors and linear maps of the latents (CLIP-style);
-    identical captions are not negatives. ``core.training.train_loop``: AdamW (lr
-    ``config.text_lr``, weight decay 0.01), no clip, no EMA, ``config.text_steps`` batches of
-    up to 128 drawn by ``evaluator.caption_batches`` with ``seed + 17``."""
-    train = TrainConfig(steps=config.text_steps, batch_size=128, lr=config.text_lr,
-                        weight_decay=0.01, grad_clip=None, seed=seed + 17)
+    identical captions are not negatives. ``core.training.train_loop`` with
+    ``config.text_training`` (AdamW, no clip, no EMA; batches of up to its batch size drawn by
+    ``evaluator.caption_batches``) seeded with ``seed + 17``."""
+    train = replace(config.text_training, seed=seed + 17)
     flat = latents.reshape(latents.shape[0], -1)
     if len(captions) != flat.shape[0]:
         raise ValueError(f"{len(captions)} caption lists for {flat.shape[0]} latents")
@@ -84,7 +83,8 @@ def text_encoder_cache_key(vocab: Vocabulary, latents: Tensor, config: PipelineC
                            train_seed: int) -> dict[str, Any]:
     """The cache key (kind ``emg_text_encoder``) of :func:`train_text_stage`."""
     return {"vocab": list(vocab.tokens), "latents": array_fingerprint(latents),
-            "dim": config.text_dim, "steps": config.text_steps, "lr": config.text_lr,
+            "dim": config.text_dim, "steps": config.text_training.steps,
+            "lr": config.text_training.lr,
             "max_len": config.max_text_len, "seed": int(train_seed), "format": 1}
 
 

@@ -467,8 +467,8 @@ def measure_text_to_motion(trained: TrainedGMD, targets: Targets, evaluator: Any
 
 def window_evaluator(train: MotionWindows, steps: int) -> Any:
     """The package's contrastive evaluator (``evaluator.load_or_train_evaluator``,
-    ``EvaluatorConfig(steps=steps)``) on the relative-root features of the training windows,
-    one caption list per window. Pass the *relative*-root windows of the same data
+    ``EvaluatorConfig().replace(steps=steps)``) on the relative-root features of the training
+    windows, one caption list per window. Pass the *relative*-root windows of the same data
     (``Settings.data(..., "relative")``): notebook 02 trains exactly this evaluator, so the
     two notebooks share one cache entry."""
     from repro.models.evaluator import EvaluatorConfig, load_or_train_evaluator
@@ -476,7 +476,7 @@ def window_evaluator(train: MotionWindows, steps: int) -> Any:
     with torch.no_grad():
         relative = train.space("motion").relative_features(train.x).numpy()
     return load_or_train_evaluator(relative, np.full(len(relative), train.frames),
-                                   train.captions, EvaluatorConfig(steps=steps))
+                                   train.captions, EvaluatorConfig().replace(steps=steps))
 
 
 @dataclass

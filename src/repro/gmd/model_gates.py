@@ -344,7 +344,7 @@ def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float],
             f"[{cache.fingerprint(*weights, digits=10)}]")
     return model_record(name=name, family="evaluator", values=values, reference={},
                         parameters=sum(p.numel() for p in evaluator.parameters()),
-                        steps=len(evaluator.losses) or evaluator.config.steps,
+                        steps=len(evaluator.losses) or evaluator.config.training.steps,
                         train_seconds=None, validation_curve=loss_curve(evaluator.losses),
                         converged=None, reads=reads)
 

@@ -21,9 +21,11 @@ from torch import Tensor
 
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import (
+    TRAIN_CONFIG_FIELDS,
     TrainConfig,
     ValidationSet,
     fixed_steps_patience,
+    replace_with_training,
     train_diffusion,
 )
 from repro.gmd.coefficients import schedule_diffusion
@@ -166,7 +168,6 @@ _KEY_NAMES = {"steps": "train_steps"}
 #: ``TrainConfig`` fields in the spec's key as they always were (the rest: only when changed)
 _KEYED_TRAINING = ("steps", "batch_size", "lr", "weight_decay", "ema_decay", "seed",
                    "feature_weights")
-_TRAINING_FIELDS = frozenset(f.name for f in dataclasses.fields(TrainConfig))
 
 
 @dataclass(frozen=True)
@@ -234,14 +235,9 @@ class GMDModelSpec:
         return CHANNELS[self.task]
 
     def replace(self, **changes: Any) -> GMDModelSpec:
-        """A copy with some fields changed (``dataclasses.replace``); a ``TrainConfig`` field
-        name (``seed``, ``steps``, ``feature_weights`` …) changes ``training``'s field."""
-        training = {name: changes.pop(name) for name in list(changes)
-                    if name in _TRAINING_FIELDS}
-        if training:
-            changes["training"] = dataclasses.replace(changes.get("training", self.training),
-                                                      **training)
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields changed (``core.training.replace_with_training``: a
+        ``TrainConfig`` field name such as ``seed`` or ``steps`` changes ``training``'s)."""
+        return replace_with_training(self, **changes)
 
     def as_dict(self) -> dict[str, Any]:
         """The spec's part of the cache key: its fields with ``training``'s flattened under
@@ -268,7 +264,7 @@ class GMDModelSpec:
             config["input_skip"] = True
         unlisted = set(_KEYED_TRAINING) | {"cond_dropout", "validate_every", "patience",
                                            "min_delta", "autocast", "device", "num_threads"}
-        for name in sorted(_TRAINING_FIELDS - unlisted):
+        for name in sorted(TRAIN_CONFIG_FIELDS - unlisted):
             value = getattr(training, name)
             if value != getattr(GMD_TRAINING, name):
                 config[name] = value

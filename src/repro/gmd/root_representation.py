@@ -399,7 +399,7 @@ class Settings:
 
     def evaluator_config(self) -> EvaluatorConfig:
         """The package's evaluator with ``evaluator_steps`` (full mode: its default, 500)."""
-        return EvaluatorConfig(steps=self.evaluator_steps)
+        return EvaluatorConfig().replace(steps=self.evaluator_steps)
 
     def trajectory_spec(self, representation: str, seed: int,
                         data_dir: DataDir = None) -> GMDModelSpec:

@@ -348,9 +348,9 @@ class Settings:
         the standard scale notebooks 02's and 03's (``emphasis_study.window_evaluator``: the
         same relative-root windows, no name, so one cache key)."""
         if self.quick:
-            return EvaluatorConfig(dim=16, hidden=32, steps=30, data_id=data_id)
+            return EvaluatorConfig(dim=16, hidden=32, data_id=data_id).replace(steps=30)
         if self.shared_evaluator_steps is not None:
-            return EvaluatorConfig(steps=self.shared_evaluator_steps)
+            return EvaluatorConfig().replace(steps=self.shared_evaluator_steps)
         return EvaluatorConfig(data_id=data_id)
 
 

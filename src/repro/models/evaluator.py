@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
@@ -26,7 +26,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from repro.core import metrics
-from repro.core.training import TrainConfig, train_loop
+from repro.core.training import TrainConfig, replace_with_training, train_loop
 from repro.infra import cache
 from repro.infra.storage import atomic_open, read_json, write_json
 from repro.motion.features import FEATURE_DIM
@@ -35,6 +35,14 @@ from repro.standin.text import TextEncoder, Vocabulary, tokenize
 #: features 259:263 are foot contacts; the evaluator never sees them.
 EVALUATOR_FEATURES = slice(0, 259)
 _FORMAT_VERSION = 1
+
+
+#: the evaluator's training (``core.training.train_loop``, no EMA): AdamW at lr 1e-3, weight
+#: decay 0.01, 500 steps of 64 captions, no gradient clip, seed 0
+EVALUATOR_TRAINING = TrainConfig(steps=500, batch_size=64, lr=1e-3, weight_decay=0.01,
+                                 grad_clip=None, seed=0)
+#: the ``TrainConfig`` fields the evaluator uses (and keys); the others keep their defaults
+_USED_TRAINING = ("steps", "batch_size", "lr", "weight_decay", "seed")
 
 
 @dataclass(frozen=True)
@@ -46,23 +54,41 @@ class EvaluatorConfig:
     word_dim: int = 64
     max_text_len: int = 24
     min_count: int = 1
-    steps: int = 500
-    batch_size: int = 64
-    lr: float = 1e-3
-    weight_decay: float = 0.01
+    #: ``steps`` batches of ``batch_size`` captions, AdamW at ``lr`` and ``weight_decay``,
+    #: seeded (initialisation and batches) with ``seed``
+    training: TrainConfig = EVALUATOR_TRAINING
     temperature: float = 0.1
     #: floor on the per-feature std, so features constant in training do not explode.
     std_floor: float = 0.01
-    seed: int = 0
     #: a name for the training data (e.g. the stand-in dataset hash); informational only,
     #: the cache key also fingerprints the arrays themselves.
     data_id: str = ""
 
-    def train_config(self) -> TrainConfig:
-        """The settings of ``core.training.train_loop``: AdamW at ``lr`` and
-        ``weight_decay``, ``steps`` batches of ``batch_size``, no gradient clip (and no EMA)."""
-        return TrainConfig(steps=self.steps, batch_size=self.batch_size, lr=self.lr,
-                           weight_decay=self.weight_decay, grad_clip=None, seed=self.seed)
+    def __post_init__(self) -> None:
+        unused = [f.name for f in fields(TrainConfig) if f.name not in _USED_TRAINING
+                  and getattr(self.training, f.name) != getattr(EVALUATOR_TRAINING, f.name)]
+        if unused:
+            raise ValueError(f"the evaluator's training does not use {unused}")
+
+    def replace(self, **changes: Any) -> EvaluatorConfig:
+        """A copy with some fields changed (``core.training.replace_with_training``:
+        ``steps``, ``seed`` … change ``training``'s)."""
+        return replace_with_training(self, **changes)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The fields with ``training``'s used ones flattened beside them: the cache key's and
+        ``config.json``'s form (the evaluator's fields before it held a ``TrainConfig``)."""
+        config = asdict(self)
+        config.update({name: getattr(self.training, name) for name in _USED_TRAINING})
+        config.pop("training")
+        return config
+
+    @classmethod
+    def from_dict(cls, config: dict[str, Any]) -> EvaluatorConfig:
+        """The config of :meth:`as_dict`'s form."""
+        config = dict(config)
+        training = {name: config.pop(name) for name in _USED_TRAINING if name in config}
+        return cls(**config).replace(**training)
 
 
 class MotionEncoder(nn.Module):
@@ -124,7 +150,8 @@ class Evaluator(nn.Module):
 
     def __init__(self, config: EvaluatorConfig, vocab: Vocabulary, mean: np.ndarray,
                  std: np.ndarray) -> None:
-        """Untrained modules, initialised from ``config.seed`` without touching global RNG."""
+        """Untrained modules, initialised from ``config.training.seed`` without touching the
+        global RNG."""
         super().__init__()
         if np.shape(mean) != (EVALUATOR_FEATURES.stop,) or np.shape(std) != np.shape(mean):
             raise ValueError(f"mean and std must have shape ({EVALUATOR_FEATURES.stop},)")
@@ -132,7 +159,7 @@ class Evaluator(nn.Module):
         self.register_buffer("feature_mean", torch.as_tensor(mean, dtype=torch.float32))
         self.register_buffer("feature_std", torch.as_tensor(std, dtype=torch.float32))
         with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(config.seed)
+            torch.manual_seed(config.training.seed)
             self.motion_encoder = MotionEncoder(len(mean), config.hidden, config.dim)
             self.text_encoder = TextEncoder(len(vocab), config.dim, config.word_dim)
         self.losses: list[float] = []
@@ -184,7 +211,7 @@ class Evaluator(nn.Module):
         statistics), each written atomically."""
         directory = Path(directory)
         write_json(directory / "config.json",
-                   {"format": _FORMAT_VERSION, "config": asdict(self.config)})
+                   {"format": _FORMAT_VERSION, "config": self.config.as_dict()})
         self.vocab.save(directory / "vocab.json")
         write_json(directory / "losses.json", self.losses)
         with atomic_open(directory / "weights.pt", "wb") as handle:
@@ -199,7 +226,7 @@ class Evaluator(nn.Module):
             raise ValueError(f"{directory}: evaluator format {meta.get('format')!r}, "
                              f"expected {_FORMAT_VERSION}")
         size = EVALUATOR_FEATURES.stop
-        evaluator = cls(EvaluatorConfig(**meta["config"]),
+        evaluator = cls(EvaluatorConfig.from_dict(meta["config"]),
                         Vocabulary.load(directory / "vocab.json"), np.zeros(size), np.ones(size))
         evaluator.load_state_dict(torch.load(directory / "weights.pt", weights_only=True))
         evaluator.losses = list(read_json(directory / "losses.json"))
@@ -268,8 +295,8 @@ def same_caption(texts: Sequence[str]) -> torch.Tensor:
 
 def _fit(evaluator: Evaluator, motions: np.ndarray, lengths: np.ndarray,
          caption_lists: list[list[str]]) -> Evaluator:
-    """Symmetric InfoNCE with ``core.training.train_loop`` (``EvaluatorConfig.train_config``),
-    batches drawn by ``caption_batches`` from ``np.random.default_rng(seed)``."""
+    """Symmetric InfoNCE with ``core.training.train_loop`` (``EvaluatorConfig.training``),
+    batches drawn by ``caption_batches`` from ``np.random.default_rng(training.seed)``."""
     config = evaluator.config
     x_all, mask_all = evaluator._normalised(motions, lengths)
 
@@ -279,9 +306,9 @@ def _fit(evaluator: Evaluator, motions: np.ndarray, lengths: np.ndarray,
                         evaluator.motion_encoder(x_all[idx], mask_all[idx]),
                         config.temperature, same_caption(texts))
 
-    batches = caption_batches(np.random.default_rng(config.seed), caption_lists,
-                              min(config.batch_size, motions.shape[0]))
-    result = train_loop(evaluator, loss, batches, config.train_config(), ema=False,
+    batches = caption_batches(np.random.default_rng(config.training.seed), caption_lists,
+                              min(config.training.batch_size, motions.shape[0]))
+    result = train_loop(evaluator, loss, batches, config.training, ema=False,
                         stage="training evaluator")
     evaluator.losses.extend(result.losses)
     return evaluator
@@ -315,7 +342,7 @@ def _fingerprint(motions: np.ndarray, lengths: np.ndarray,
 
 def evaluator_cache_config(config: EvaluatorConfig, fingerprint: str) -> dict:
     """What the cache key covers: the full config, the data fingerprint, the format."""
-    return {"evaluator": asdict(config), "data": fingerprint, "format": _FORMAT_VERSION}
+    return {"evaluator": config.as_dict(), "data": fingerprint, "format": _FORMAT_VERSION}
 
 
 def load_or_train_evaluator(train_motions: np.ndarray, lengths: Sequence[int],

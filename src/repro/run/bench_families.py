@@ -15,7 +15,7 @@ import copy
 import dataclasses
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -24,7 +24,7 @@ import torch.nn.functional as F
 from torch import Tensor, nn
 
 from repro.core.diffusion import GaussianDiffusion
-from repro.core.training import TrainConfig, ema_decay_at, train_diffusion
+from repro.core.training import ema_decay_at, train_diffusion
 from repro.energymogen.config import PipelineConfig
 from repro.energymogen.pipeline import denoiser_kwargs, scaled_linear_betas, vae_kwargs
 from repro.gmd.coefficients import schedule_diffusion
@@ -32,14 +32,13 @@ from repro.gmd.models import GMDModelSpec
 from repro.gmd.paper_settings import MOTION_ARCHITECTURE
 from repro.models.evaluator import (
     Evaluator,
-    EvaluatorConfig,
     feature_statistics,
     info_nce,
     train_evaluator,
 )
 from repro.models.latent_denoiser import LatentDenoiser, train_latent_denoiser
 from repro.models.unet import UNet1D
-from repro.models.vae import MotionVAE, VAETrainConfig, train_vae
+from repro.models.vae import MotionVAE, train_vae
 from repro.standin.text import Vocabulary, tokenize
 
 __all__ = ["FULL", "QUICK", "BenchSizes", "Family", "all_families", "plain_diffusion_loop",
@@ -231,7 +230,7 @@ def _gmd_family(task: str, sizes: BenchSizes) -> Family:
 def _latent_family(sizes: BenchSizes) -> Family:
     config = PipelineConfig()
     kwargs = denoiser_kwargs(config)
-    batch = sizes.batch or config.denoiser_batch
+    batch = sizes.batch or config.denoiser_training.batch_size
     tokens_len = sizes.text_tokens
     diffusion = GaussianDiffusion(scaled_linear_betas(sizes.timesteps or config.num_timesteps),
                                   prediction="epsilon")
@@ -249,8 +248,8 @@ def _latent_family(sizes: BenchSizes) -> Family:
 
     def package(**levers: Any) -> Callable[[int], float]:
         def run(steps: int) -> float:
-            train_config = TrainConfig(steps=steps, batch_size=batch, lr=config.denoiser_lr,
-                                       ema_decay=0.999, cond_dropout=0.1, seed=0, **levers)
+            train_config = dataclasses.replace(config.denoiser_training, steps=steps,
+                                               batch_size=batch, seed=0, **levers)
             return train_latent_denoiser(build(), diffusion, latents, tokens, mask,
                                          train_config).seconds
         return run
@@ -261,10 +260,11 @@ def _latent_family(sizes: BenchSizes) -> Family:
     return Family(
         name="latent_denoiser",
         sizes={"model": f"LatentDenoiser({kwargs})", "batch": batch, "text_tokens": tokens_len,
-               "diffusion_steps": diffusion.num_timesteps, "lr": config.denoiser_lr},
+               "diffusion_steps": diffusion.num_timesteps, "lr": config.denoiser_training.lr},
         batch=batch,
         baseline=lambda steps: plain_diffusion_loop(_TextDenoiser(build()), diffusion, latents,
-                                                    steps, batch=batch, lr=config.denoiser_lr,
+                                                    steps, batch=batch,
+                                                    lr=config.denoiser_training.lr,
                                                     ema_decay=0.999, cond=packed),
         package=package(),
         levers={"fused_adamw": package(fused_adamw=True),
@@ -277,7 +277,7 @@ def _vae_family(sizes: BenchSizes) -> Family:
     config = PipelineConfig()
     kwargs = vae_kwargs(config)
     frames = sizes.frames or config.frames
-    batch = sizes.batch or config.vae_batch
+    batch = sizes.batch or config.vae_training.batch_size
     kwargs["max_frames"] = max(kwargs["max_frames"], frames)
     motions = smooth_signals(sizes.data_items, 263, frames, seed=3).transpose(1, 2).contiguous()
     lengths = torch.full((sizes.data_items,), frames)
@@ -288,7 +288,7 @@ def _vae_family(sizes: BenchSizes) -> Family:
 
     def baseline(steps: int) -> float:
         vae = build().train()
-        optimizer = _plain_adamw(vae, config.vae_lr, 0.01)
+        optimizer = _plain_adamw(vae, config.vae_training.lr, 0.01)
         g = torch.Generator().manual_seed(0)
         start = time.perf_counter()
         for step in range(steps):
@@ -298,20 +298,20 @@ def _vae_family(sizes: BenchSizes) -> Family:
         return time.perf_counter() - start
 
     def package(steps: int) -> float:
-        train_config = VAETrainConfig(steps=steps, batch_size=batch, lr=config.vae_lr, seed=0)
+        train_config = dataclasses.replace(config.vae_training, steps=steps, batch_size=batch,
+                                           seed=0)
         return train_vae(build(), motions, lengths, train_config).seconds
 
     return Family(name="vae", sizes={"model": f"MotionVAE({kwargs})", "batch": batch,
-                                     "frames": frames, "lr": config.vae_lr},
+                                     "frames": frames, "lr": config.vae_training.lr},
                   batch=batch, baseline=baseline, package=package, levers={})
 
 
 def _evaluator_family(sizes: BenchSizes) -> Family:
     pipeline = PipelineConfig()
     frames = sizes.frames or pipeline.frames
-    config = EvaluatorConfig(dim=pipeline.evaluator_dim, hidden=pipeline.evaluator_hidden,
-                             steps=1)
-    batch = min(sizes.batch or config.batch_size, sizes.data_items)
+    config = pipeline.evaluator.replace(steps=1)
+    batch = min(sizes.batch or config.training.batch_size, sizes.data_items)
     motions = smooth_signals(sizes.data_items, 263, frames, seed=4).transpose(1, 2).numpy().copy()
     lengths = np.full(sizes.data_items, frames)
     captions = _captions(sizes.data_items)
@@ -324,8 +324,8 @@ def _evaluator_family(sizes: BenchSizes) -> Family:
         evaluator = Evaluator(config, vocab, mean, std).train()
         x = torch.from_numpy(((motions[..., :259] - mean) / std).astype(np.float32))
         mask = torch.ones(x.shape[:2], dtype=torch.bool)
-        optimizer = _plain_adamw(evaluator, config.lr, config.weight_decay)
-        rng = np.random.default_rng(config.seed)
+        optimizer = _plain_adamw(evaluator, config.training.lr, config.training.weight_decay)
+        rng = np.random.default_rng(config.training.seed)
         for step in range(steps):
             idx = rng.choice(len(captions), batch, replace=False)
             texts = [captions[i] for i in idx]
@@ -339,12 +339,12 @@ def _evaluator_family(sizes: BenchSizes) -> Family:
         return time.perf_counter() - start
 
     def package(steps: int) -> float:
-        run_config = EvaluatorConfig(**{**asdict(config), "steps": steps})
+        run_config = config.replace(steps=steps)
         return seconds_of(lambda: train_evaluator(motions, lengths, captions, run_config))
 
     return Family(name="evaluator",
                   sizes={"model": f"Evaluator(dim {config.dim}, hidden {config.hidden})",
-                         "batch": batch, "frames": frames, "lr": config.lr,
+                         "batch": batch, "frames": frames, "lr": config.training.lr,
                          "note": "both loops' seconds include the vocabulary and statistics"},
                   batch=batch, baseline=baseline, package=package, levers={})
 
