@@ -20,7 +20,8 @@ from repro.claims.verdicts import Decision, parts_in_words
 from repro.core.tables import markdown_table
 from repro.infra.context import RunContext
 
-__all__ = ["ClaimResult", "Controls", "Recorded", "controls_markdown", "record",
+__all__ = ["ClaimResult", "Controls", "Recorded", "controls_markdown", "not_measurable_result",
+           "record",
            "recorded_markdown", "summary_markdown"]
 
 #: what each control arm is when an experiment gives no words of its own
@@ -76,6 +77,16 @@ class Recorded:
     @property
     def reason(self) -> str:
         return self.decision.reason
+
+
+def not_measurable_result(claim_id: str, reason: str, seeds: Sequence[int], *,
+                          models: Sequence[Mapping[str, Any]] = ()) -> ClaimResult:
+    """A claim whose measurement cannot be made on the run's data (e.g. it needs the stand-in's
+    concept labels and the run was given a real data folder): nothing measured, so every part
+    is inconclusive ("not recorded"); ``reason`` (which says "not measurable on real data" and
+    why) is its headline and notes, and ``extra["not_measurable"]``. No number is made up."""
+    return ClaimResult(claim_id, {}, seeds=seeds, models=models, headline=reason, notes=reason,
+                       extra={"not_measurable": reason})
 
 
 def record(ctx: RunContext, result: ClaimResult) -> Recorded:

@@ -21,13 +21,16 @@ from typing import ClassVar, Self
 
 from repro.core.training import TrainConfig
 from repro.energymogen.augmentation import composed_set_size, finetune_config
-from repro.energymogen.config import PipelineConfig, pipeline_config
+from repro.energymogen.config import FRAMES, PipelineConfig, pipeline_config
 from repro.energymogen.convergence import TrainingPlan
+from repro.energymogen.data import FOLDER_MIN_TEST, FOLDER_MIN_TRAIN, FOLDER_STRIDE
 from repro.energymogen.latent_count import LATENT_COUNTS
 from repro.infra.context import QUICK_NOTE, RunContext, check_scale
+from repro.motion.usability import WindowNeeds, usability_problems
 
-__all__ = ["FULL_SEEDS", "SEEDS", "STANDARD_LATENT_COUNTS", "AugmentationSettings",
-           "EnergyViewSettings", "LatentCountSettings", "SEFAblationSettings", "seeds_of"]
+__all__ = ["FULL_SEEDS", "NOTEBOOKS", "SEEDS", "STANDARD_LATENT_COUNTS", "AugmentationSettings",
+           "EnergyViewSettings", "LatentCountSettings", "SEFAblationSettings", "folder_needs",
+           "folder_problems", "seeds_of"]
 
 #: our choice for notebooks 07/08: one torch thread (speed only, never in a cache key; see
 #: ``core.training.torch_threads``)
@@ -79,13 +82,33 @@ def seeds_of(claim_id: str, scale: str) -> int:
     return row[claim_id]
 
 
+def folder_needs(scale: str) -> WindowNeeds:
+    """What the EnergyMoGen notebooks of ``scale`` cut from a data folder
+    (``data.build_folder_data``): windows of ``config.FRAMES`` frames every
+    ``data.FOLDER_STRIDE``; the train split must give the plan's validation clips and
+    ``data.FOLDER_MIN_TRAIN`` training windows besides, the test split ``data.FOLDER_MIN_TEST``
+    (one R-precision batch). ``run.params`` and ``validate-dataset`` check the same."""
+    plan = TrainingPlan.for_scale(scale)
+    return WindowNeeds(FRAMES, FOLDER_STRIDE, {"train": plan.validation_clips + FOLDER_MIN_TRAIN,
+                                               "test": FOLDER_MIN_TEST})
+
+
+def folder_problems(data_dir: str, scale: str) -> list[str]:
+    """Why the EnergyMoGen notebooks of ``scale`` cannot use ``data_dir`` ([] when they can):
+    ``motion.usability.usability_problems`` with :func:`folder_needs`."""
+    return [f"{path}: {message}"
+            for path, message in usability_problems(data_dir, folder_needs(scale))]
+
+
 class _NotebookSettings:
-    """What the settings of every EnergyMoGen notebook share: the notebook they belong to and
-    why it runs on the generated stand-in set only (it composes or trains on the labelled
-    stand-in concepts, which a data folder does not have)."""
+    """What the settings of every EnergyMoGen notebook share: the notebook they belong to,
+    whether it runs on a data folder (``FOLDER_READY``: its measurements that need the
+    stand-in's labelled concepts then read "not measurable on real data", every other runs)
+    and, where it does not, why it runs on the generated stand-in set only."""
 
     NOTEBOOK: ClassVar[str]
     GENERATED_ONLY: ClassVar[str]
+    FOLDER_READY: ClassVar[bool] = False
 
     @classmethod
     def for_scale(cls, scale: str) -> Self:
@@ -93,10 +116,17 @@ class _NotebookSettings:
 
     @classmethod
     def for_run(cls, ctx: RunContext) -> Self:
-        """The settings of ``ctx``'s scale; a ValueError when the run was given a data folder."""
+        """The settings of ``ctx``'s scale. With a data folder: a ValueError when this notebook
+        does not run on one, or when the folder gives too few windows for the scale
+        (:func:`folder_problems`, what ``validate-dataset --scale`` reports)."""
         if ctx.data_dir is not None:
-            raise ValueError(f"{cls.NOTEBOOK} {cls.GENERATED_ONLY}; it runs on the generated set "
-                             "only (data_dir must be None)")
+            if not cls.FOLDER_READY:
+                raise ValueError(f"{cls.NOTEBOOK} {cls.GENERATED_ONLY}; it runs on the generated "
+                                 "set only (data_dir must be None)")
+            problems = folder_problems(str(ctx.data_dir), ctx.scale)
+            if problems:
+                raise ValueError(f"{cls.NOTEBOOK}: data_dir {ctx.data_dir} cannot be used at "
+                                 f"the {ctx.scale} scale:\n" + "\n".join(problems))
         return cls.for_scale(ctx.scale)
 
 
@@ -118,6 +148,7 @@ class EnergyViewSettings(_NotebookSettings):
 
     NOTEBOOK: ClassVar[str] = "04_energy_contour_maps"
     GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts with held-out pairs"
+    FOLDER_READY: ClassVar[bool] = True
     scale: str
     pipeline: PipelineConfig
     plan: TrainingPlan
@@ -262,3 +293,9 @@ class AugmentationSettings(_NotebookSettings):
         """The fine-tuning configuration of ``seed`` (appendix A's ratios): a third of the
         pretrained denoiser's ``pretraining_steps`` (default the configured steps)."""
         return finetune_config(self.pipeline, seed, self.threads, pretraining_steps)
+
+
+#: the EnergyMoGen notebooks (``run.params`` checks a data folder against :func:`folder_needs`
+#: for these, against the GMD notebooks' windows for the others)
+NOTEBOOKS: tuple[str, ...] = tuple(settings.NOTEBOOK for settings in (
+    EnergyViewSettings, SEFAblationSettings, LatentCountSettings, AugmentationSettings))
