@@ -60,6 +60,8 @@ class ClaimResult:
     notes: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
     quality_gates: Mapping[str, bool] | None = None
+    #: why the run's data cannot give the measurements (``ledger.decide_claim``); None: measured
+    not_measurable: str | None = None
 
 
 @dataclass(frozen=True)
@@ -82,11 +84,12 @@ class Recorded:
 def not_measurable_result(claim_id: str, reason: str, seeds: Sequence[int], *,
                           models: Sequence[Mapping[str, Any]] = ()) -> ClaimResult:
     """A claim whose measurement cannot be made on the run's data (e.g. it needs the stand-in's
-    concept labels and the run was given a real data folder): nothing measured, so every part
-    is inconclusive ("not recorded"); ``reason`` (which says "not measurable on real data" and
-    why) is its headline and notes, and ``extra["not_measurable"]``. No number is made up."""
+    concept labels and the run was given a real data folder): nothing measured, every part
+    and the claim inconclusive with ``reason`` (which says "not measurable on real data" and
+    why; also its headline and notes, and the sidecar's ``not_measurable``). No number is
+    made up."""
     return ClaimResult(claim_id, {}, seeds=seeds, models=models, headline=reason, notes=reason,
-                       extra={"not_measurable": reason})
+                       not_measurable=reason)
 
 
 def record(ctx: RunContext, result: ClaimResult) -> Recorded:
@@ -95,7 +98,8 @@ def record(ctx: RunContext, result: ClaimResult) -> Recorded:
     decision, stored = record_claim_and_controls(
         ctx, result.claim_id, result.measured, seeds=result.seeds, controls=controls,
         quality_gates=result.quality_gates, models=result.models, figures=result.figures,
-        notes=result.notes, headline=result.headline, extra=result.extra)
+        notes=result.notes, headline=result.headline, extra=result.extra,
+        not_measurable=result.not_measurable)
     return Recorded(result, decision, stored)
 
 

@@ -53,6 +53,7 @@ __all__ = [
     "StandInData",
     "build_composition_pool", "build_folder_data", "build_stand_in_data", "composition_items",
     "concept_text", "draw_clip_request", "draw_training_like_clips", "energy_view_items",
+    "evaluator_clips",
     "folder_windows", "load_or_build_data", "load_or_build_test_pool",
     "load_or_build_validation_clips",
     "negation_items", "not_measurable_reason", "pair_caption", "stand_in_clip", "stand_in_clips",
@@ -359,6 +360,17 @@ def build_folder_data(config: PipelineConfig, data_dir: str,
     return StandInData(features[train], [captions[i] for i in train], [() for _ in train],
                        test, np.zeros((len(test), 0, 0, 3), np.float32), test_captions,
                        [() for _ in test], mean, std, data_dir=str(data_dir), validation=held_out)
+
+
+def evaluator_clips(data: StandInData) -> tuple[np.ndarray, list[list[str]]]:
+    """The evaluator's training clips and captions: on the stand-in set every clip (training
+    and the composition test pool: the measuring instrument, never the generator); on a data
+    folder the training windows only (its test windows are what the evaluator measures on:
+    the gates' test set, the reference embeddings)."""
+    if not data.labelled:
+        return data.train_features, [list(c) for c in data.train_captions]
+    return (np.concatenate([data.train_features, data.test_features]),
+            [list(c) for c in data.train_captions + data.test_captions])
 
 
 def load_or_build_test_pool(config: PipelineConfig, name: str) -> CompositionPool:

@@ -95,9 +95,10 @@ def parameter_count(model: nn.Module) -> int:
 def real_concept_recall(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> float:
     """The oracles' concept recall on the real test clips (``harness.oracle_accuracy``: per
     clip the fraction of its concepts found, averaged): the data's value for the ``vae`` and
-    ``latent_denoiser`` gates. NaN on a data folder (``pipe.data.labelled`` False): the
-    oracles read the stand-in's concepts, which real clips do not carry."""
-    if not pipe.data.labelled:
+    ``latent_denoiser`` gates. NaN for a test set without concepts (a data folder's,
+    ``harness.folder_test``): the oracles read the stand-in's concepts, which real clips do
+    not carry."""
+    if not any(test.concepts):
         return float("nan")
     return oracle_accuracy(pipe.joints(test.features), test.concepts)
 
@@ -105,9 +106,10 @@ def real_concept_recall(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> fl
 @torch.no_grad()
 def vae_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dict[str, float]:
     """Gate ``vae``: ``concept_preservation``, the oracles' recall on decode(μ(x)) of the test
-    clips. On a data folder nothing ({}): the recall needs the stand-in's concept labels, so
-    the gate reads "not measured" and the parts resting on the VAE stay inconclusive."""
-    if not pipe.data.labelled:
+    clips. For a test set without concepts (a data folder's) nothing ({}): the recall needs
+    the stand-in's concept labels, so the gate reads "not measured" and the parts resting on
+    the VAE stay inconclusive."""
+    if not any(test.concepts):
         return {}
     recon = pipe.decode(pipe.encode_motion(test.features))
     return {"concept_preservation": oracle_accuracy(pipe.joints(recon), test.concepts)}

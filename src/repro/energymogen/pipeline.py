@@ -48,6 +48,7 @@ from repro.energymogen.data import (
     HeldOutClips,
     StandInData,
     build_folder_data,
+    evaluator_clips,
     load_or_build_data,
     load_or_build_validation_clips,
 )
@@ -252,16 +253,6 @@ def _evaluator_config(config: PipelineConfig, data: StandInData) -> EvaluatorCon
     return EvaluatorConfig(dim=config.evaluator_dim, hidden=config.evaluator_hidden,
                            steps=config.evaluator_steps, seed=0, data_id=data_id)
 
-
-def evaluator_clips(data: StandInData) -> tuple[np.ndarray, list[list[str]]]:
-    """The evaluator's training clips and captions: on the stand-in set every clip (training
-    and the composition test pool: the measuring instrument, never the generator); on a data
-    folder the training windows only (its test windows are what the evaluator measures on:
-    the gates' test set, the reference embeddings)."""
-    if not data.labelled:
-        return data.train_features, [list(c) for c in data.train_captions]
-    return (np.concatenate([data.train_features, data.test_features]),
-            [list(c) for c in data.train_captions + data.test_captions])
 
 
 def latent_diffusion(config: PipelineConfig) -> GaussianDiffusion:
@@ -484,7 +475,7 @@ def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
       the paper's CLIP; the evaluator never shares it);
     - denoiser: ε-prediction on the scaled latent means, every caption of a clip a row;
     - evaluator: trained on every clip (training and test pool): it is the measuring
-      instrument, never the generator (:func:`evaluator_clips`).
+      instrument, never the generator (``data.evaluator_clips``).
 
     ``data_dir`` (None: the generated stand-in set, ``data.load_or_build_data``) names a
     HumanML3D-layout folder (real data): the data are then ``data.build_folder_data``'s (its

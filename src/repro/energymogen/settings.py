@@ -17,6 +17,7 @@ configurations share the cache), so the models of notebook 04 are those of 05, 0
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import ClassVar, Self
 
 from repro.core.training import TrainConfig
@@ -95,9 +96,12 @@ def folder_needs(scale: str) -> WindowNeeds:
 
 def folder_problems(data_dir: str, scale: str) -> list[str]:
     """Why the EnergyMoGen notebooks of ``scale`` cannot use ``data_dir`` ([] when they can):
-    ``motion.usability.usability_problems`` with :func:`folder_needs`."""
-    return [f"{path}: {message}"
-            for path, message in usability_problems(data_dir, folder_needs(scale))]
+    a missing train or test split, then ``motion.usability.usability_problems`` with
+    :func:`folder_needs` (``validate_dataset``'s other checks run in ``setup_notebook``)."""
+    missing = [f"{Path(data_dir) / f'{split}.txt'}: missing" for split in ("train", "test")
+               if not (Path(data_dir) / f"{split}.txt").is_file()]
+    return missing + [f"{path}: {message}"
+                      for path, message in usability_problems(data_dir, folder_needs(scale))]
 
 
 class _NotebookSettings:
