@@ -192,9 +192,12 @@ def _load_or_build(kind: str, key: dict, build: Callable[[], TextToMotionTest], 
 
 def oracle_accuracy(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> float:
     """Mean over clips of the fraction of the clip's concepts that ``oracles.detect_concepts``
-    finds in its joints (B, T, 22, 3); clips may hold different numbers of concepts."""
+    finds in its joints (B, T, 22, 3); clips may hold different numbers of concepts. NaN
+    when no clip has a concept (a data folder's test set: not measurable on real data)."""
     if len(joints) != len(concepts):
         raise ValueError(f"{len(joints)} motions for {len(concepts)} concept lists")
+    if not any(concepts):
+        return float("nan")
     return float(np.mean([np.mean([name in found for name in names]) for names, found in
                           zip(concepts, map(detect_concepts, joints), strict=True)]))
 

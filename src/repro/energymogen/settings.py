@@ -225,6 +225,7 @@ class LatentCountSettings(_NotebookSettings):
     at paper, the VAE's cap from the pilot of docs/pilot_emg_vae.md; fixed steps at standard)."""
 
     NOTEBOOK: ClassVar[str] = "07_latent_count"
+    FOLDER_READY: ClassVar[bool] = True
     GENERATED_ONLY: ClassVar[str] = (
         "trains on the labelled stand-in set of the EnergyMoGen pipeline")
     scale: str
