@@ -12,7 +12,7 @@ instead. The EnergyMoGen notebooks cut 64-frame windows and need more of them
 (``energymogen.settings.folder_needs``: the plan's validation clips and 32 training windows
 besides, 32 test windows), which this 60-clip folder does not give — the validator and
 notebook 04's parameter check both say so; a 200-clip folder without labels serves them, and
-notebook 04 runs on it (≈ 35 s alone: its tiny pipeline trains on the folder's windows;
+notebook 04 runs on it (≈ 40 s alone: its tiny pipeline trains on the folder's windows;
 EMG-1 and EMG-9 are measured, EMG-2, 3 and 6 — compositions of the stand-in's labelled
 concepts — are recorded as not measurable on real data). Notebook 07 runs on such a folder
 too (EMG-7 measured, its oracle columns not measurable; run by hand, ≈ 30 s more than 04 on

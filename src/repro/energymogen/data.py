@@ -11,6 +11,12 @@
 
 Built once per configuration and cached (``repro.infra.cache``: kinds ``emg_data``,
 ``emg_test_sets``).
+
+- **a data folder** (real HumanML3D layout, ``load_pipeline(data_dir=...)``):
+  :func:`build_folder_data` cuts its splits into ``FRAMES``-frame windows (not cached: every
+  model trained on them is keyed by their fingerprint). It has no concepts
+  (``StandInData.labelled`` False), so nothing here composes it: :func:`composition_items`
+  refuses it and the studies that need concepts return :class:`NotMeasurable`.
 """
 
 from __future__ import annotations

@@ -136,7 +136,10 @@ class _NotebookSettings:
 
 @dataclass(frozen=True)
 class EnergyViewSettings(_NotebookSettings):
-    """Notebook 04 (EMG-1, 2, 3, 6, 9).
+    """Notebook 04 (EMG-1, 2, 3, 6, 9). On a data folder (real data, no concept labels):
+    EMG-1 (model identities on the folder's test windows and captions) and EMG-9 (no data)
+    are measured; EMG-2, 3 and 6, which compose the stand-in's labelled concepts, are
+    recorded as not measurable on real data (docs/RUNNING.md "The real HumanML3D").
 
     ``emg1_samples`` noised test latents for EMG-1's identities; ``negation_items_per_case``
     items per ``config.NEGATION_CASES`` case (EMG-2/3); the guidance-scale check (paper scale
@@ -222,7 +225,9 @@ class LatentCountSettings(_NotebookSettings):
     text-to-motion test set (256 clips: 8 R-precision batches of 32, FID of 32-d embeddings
     from 256 samples; 64 in quick runs), the torch threads and the training plan
     (``convergence.TrainingPlan.for_scale``: every N's VAE and denoiser trained to convergence
-    at paper, the VAE's cap from the pilot of docs/pilot_emg_vae.md; fixed steps at standard)."""
+    at paper, the VAE's cap from the pilot of docs/pilot_emg_vae.md; fixed steps at standard).
+    On a data folder EMG-7 is measured (reconstruction error, and FID of generated motions
+    against the folder's test windows); its oracle columns read not measurable on real data."""
 
     NOTEBOOK: ClassVar[str] = "07_latent_count"
     FOLDER_READY: ClassVar[bool] = True
