@@ -254,7 +254,6 @@ def _evaluator_config(config: PipelineConfig, data: StandInData) -> EvaluatorCon
                            steps=config.evaluator_steps, seed=0, data_id=data_id)
 
 
-
 def latent_diffusion(config: PipelineConfig) -> GaussianDiffusion:
     """The latent diffusion: MLD's scaled-linear β (:func:`scaled_linear_betas`), T =
     ``num_timesteps``, ε-prediction (Sec. 3.1)."""
