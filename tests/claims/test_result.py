@@ -5,10 +5,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from conftest import make_context
 
 from repro.claims.ledger import load_sidecars
-from repro.claims.result import ClaimResult, Controls, record, recorded_markdown, summary_markdown
+from repro.claims.result import (
+    ClaimResult,
+    Controls,
+    not_measurable_result,
+    record,
+    recorded_markdown,
+    summary_markdown,
+)
 from repro.claims.verdicts import INCONCLUSIVE, REPRODUCED
 
 A3_EPS = {"goal_error_eps": [0.1, 0.12, 0.11, 0.1, 0.13],
@@ -57,3 +65,20 @@ def test_a_claim_without_controls_shows_no_controls_table(tmp_path: Path) -> Non
     recorded = record(ctx, ClaimResult("GMD-A3", A3_GOOD, seeds=[0, 1, 2, 3, 4]))
     assert recorded.controls["null"]["status"] == "missing"
     assert "controls**" not in recorded_markdown(ctx, recorded)
+
+
+def test_a_claim_not_measurable_on_the_data_is_recorded_as_such(tmp_path: Path) -> None:
+    """Issue #33: a claim whose measurements need the stand-in's labels, on a real folder —
+    nothing measured or made up, every part and the verdict inconclusive with the reason."""
+    ctx = make_context(tmp_path)
+    reason = "not measurable on real data: the folder has no stand-in concept labels"
+    recorded = record(ctx, not_measurable_result("EMG-2", reason, [0]))
+    assert recorded.verdict == INCONCLUSIVE and recorded.reason == reason
+    sidecar = load_sidecars(ctx.claims_dir)["EMG-2"]
+    assert sidecar["not_measurable"] == reason and sidecar["measured"] == {}
+    assert sidecar["parts"] and {p["outcome"] for p in sidecar["parts"]} == {INCONCLUSIVE}
+    assert {p["reason"] for p in sidecar["parts"]} == {reason}
+    assert {c["status"] for c in sidecar["controls"].values()} == {"missing"}
+    assert reason in recorded_markdown(ctx, recorded)
+    with pytest.raises(ValueError, match="the rule needs measurements"):   # never silently
+        record(ctx, ClaimResult("EMG-2", {}, seeds=[0]))

@@ -154,9 +154,13 @@ def test_seeds_of() -> None:
 
 
 @pytest.mark.parametrize("settings", SETTINGS)
-def test_a_run_gets_its_scales_settings_and_a_data_folder_is_refused(
+def test_a_run_gets_its_scales_settings_and_a_data_folder_is_checked(
         settings: type[EnergyViewSettings], tmp_path: Path) -> None:
+    """Notebook 04 runs on a data folder that gives its windows (an empty folder does not:
+    tests/run/test_real_layout.py runs it on one that does); 05, 07, 08 refuse any."""
     ctx = make_context(tmp_path, scale="standard")
     assert settings.for_run(ctx) == settings.for_scale("standard")
-    with pytest.raises(ValueError, match=rf"^{settings.NOTEBOOK} .*data_dir must be None"):
+    refusal = ("cannot be used at the standard scale" if settings.FOLDER_READY
+               else "data_dir must be None")
+    with pytest.raises(ValueError, match=rf"^{settings.NOTEBOOK}.*{refusal}"):
         settings.for_run(dataclasses.replace(ctx, data_dir=tmp_path))

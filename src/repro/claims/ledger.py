@@ -22,7 +22,15 @@ from typing import Any
 
 from repro.claims.provenance import ReportError
 from repro.claims.registry import REGISTRY_VERSION, get_claim, interval_summary
-from repro.claims.verdicts import PARTIAL, REPRODUCED, Decision, apply_controls, parts_in_words
+from repro.claims.verdicts import (
+    INCONCLUSIVE,
+    PARTIAL,
+    REPRODUCED,
+    Decision,
+    PartResult,
+    apply_controls,
+    parts_in_words,
+)
 from repro.infra import paths
 from repro.infra.context import RunContext
 from repro.infra.storage import read_json, write_json
@@ -72,10 +80,19 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
                  controls: Mapping[str, Mapping[str, Any]] | None = None,
                  quality_gates: Mapping[str, bool] | None = None,
                  gate_reads: Mapping[str, Sequence[str] | None] | None = None,
+                 not_measurable: str | None = None,
                  ) -> tuple[Decision, dict[str, Any]]:
     """(the decision after controls and gates, the controls as stored); ``gate_reads``: the
-    parts each gate's model is read by (absent: every part)."""
+    parts each gate's model is read by (absent: every part). ``not_measurable``: why the
+    run's data cannot give the rule's measurements (e.g. "not measurable on real data: ...");
+    then nothing is required, every part is inconclusive with that reason, and so is the
+    claim (its controls are recorded as missing)."""
     claim = get_claim(claim_id)
+    if not_measurable is not None:
+        stored = {kind: _control_record(claim_id, kind, None)[0] for kind in CONTROLS}
+        parts = [PartResult(p.name, INCONCLUSIVE, not_measurable) for p in claim.parts]
+        return Decision(INCONCLUSIVE, not_measurable, {p.name: p.outcome for p in parts},
+                        parts), stored
     missing = sorted(set(claim.measurements) - set(measured))
     if missing:
         raise ValueError(f"{claim_id}: the rule needs measurements {missing}; got "
@@ -106,6 +123,7 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
                               figures: Sequence[str | os.PathLike] = (), notes: str = "",
                               headline: str = "",
                               extra: Mapping[str, Any] | None = None,
+                              not_measurable: str | None = None,
                               ) -> tuple[Decision, dict[str, dict[str, Any]]]:
     """Apply the registered rules of ``claim_id`` to ``measured`` and write its sidecar; the
     decision and each control as the sidecar stores it.
@@ -134,13 +152,16 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
         notes: what the notebook chose where the paper is silent, caveats.
         headline: one line of our key numbers for the report's table (default: derived).
         extra: further numbers to keep beside the rule's inputs (tables, paper rows).
+        not_measurable: why the run's data cannot give the measurements (``decide_claim``);
+            the sidecar then keeps it as ``not_measurable`` (absent otherwise).
     """
     claim = get_claim(claim_id)
     models = [{**_checked_model(claim_id, m), "scale": ctx.scale} for m in models]
     gates = {**(quality_gates or {}), **{f"model {m['name']}": bool(m["passed"]) for m in models}}
     reads = {f"model {m['name']}": m.get("reads") for m in models}
     decision, stored_controls = decide_claim(claim_id, measured, controls=controls,
-                                             quality_gates=gates or None, gate_reads=reads)
+                                             quality_gates=gates or None, gate_reads=reads,
+                                             not_measurable=not_measurable)
     sidecar = {
         "id": claim.id,
         "registry_version": REGISTRY_VERSION,
@@ -169,6 +190,8 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
         "recorded_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "commit": _git_commit(),
     }
+    if not_measurable is not None:
+        sidecar["not_measurable"] = not_measurable
     write_json(ctx.claims_dir / f"{claim.id}.json", sidecar)
     return decision, stored_controls
 

@@ -20,7 +20,8 @@ from repro.claims.verdicts import Decision, parts_in_words
 from repro.core.tables import markdown_table
 from repro.infra.context import RunContext
 
-__all__ = ["ClaimResult", "Controls", "Recorded", "controls_markdown", "record",
+__all__ = ["ClaimResult", "Controls", "Recorded", "controls_markdown", "not_measurable_result",
+           "record",
            "recorded_markdown", "summary_markdown"]
 
 #: what each control arm is when an experiment gives no words of its own
@@ -59,6 +60,8 @@ class ClaimResult:
     notes: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
     quality_gates: Mapping[str, bool] | None = None
+    #: why the run's data cannot give the measurements (``ledger.decide_claim``); None: measured
+    not_measurable: str | None = None
 
 
 @dataclass(frozen=True)
@@ -78,13 +81,25 @@ class Recorded:
         return self.decision.reason
 
 
+def not_measurable_result(claim_id: str, reason: str, seeds: Sequence[int], *,
+                          models: Sequence[Mapping[str, Any]] = ()) -> ClaimResult:
+    """A claim whose measurement cannot be made on the run's data (e.g. it needs the stand-in's
+    concept labels and the run was given a real data folder): nothing measured, every part
+    and the claim inconclusive with ``reason`` (which says "not measurable on real data" and
+    why; also its headline and notes, and the sidecar's ``not_measurable``). No number is
+    made up."""
+    return ClaimResult(claim_id, {}, seeds=seeds, models=models, headline=reason, notes=reason,
+                       not_measurable=reason)
+
+
 def record(ctx: RunContext, result: ClaimResult) -> Recorded:
     """Decide ``result`` by its registered rule, controls and gates and write its sidecar."""
     controls = result.controls.as_controls() if result.controls is not None else None
     decision, stored = record_claim_and_controls(
         ctx, result.claim_id, result.measured, seeds=result.seeds, controls=controls,
         quality_gates=result.quality_gates, models=result.models, figures=result.figures,
-        notes=result.notes, headline=result.headline, extra=result.extra)
+        notes=result.notes, headline=result.headline, extra=result.extra,
+        not_measurable=result.not_measurable)
     return Recorded(result, decision, stored)
 
 

@@ -25,13 +25,15 @@ from typing import Any
 import numpy as np
 
 from repro.claims.registry import get_claim
-from repro.claims.result import ClaimResult, Controls
+from repro.claims.result import ClaimResult, Controls, not_measurable_result
+from repro.core.tables import interval_text, markdown_table
 from repro.energymogen.config import (
     HELD_OUT_PAIRS,
     NEGATION_CASES,
     THREE_CONCEPT_SETS,
     THREES_AS_PAIRS,
 )
+from repro.energymogen.data import NotMeasurable, not_measurable_reason
 from repro.energymogen.pipeline import EnergyMoGenPipeline
 from repro.energymogen.settings import EnergyViewSettings, SEFAblationSettings
 from repro.energymogen.studies import (
@@ -45,7 +47,8 @@ from repro.energymogen.studies import (
     lambda_key,
 )
 
-__all__ = ["emg23_results", "emg4_result", "emg5_result", "guidance_scale_check"]
+__all__ = ["by_pair_markdown", "composition_study_text", "emg23_results", "emg4_result",
+           "emg5_result", "guidance_scale_check"]
 
 Results = Mapping[str, Mapping[str, Any]]
 Figures = Sequence[str | os.PathLike]
@@ -55,12 +58,53 @@ Models = Sequence[Mapping[str, Any]]
 _LAT, _SEM, _SEF = "1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"
 
 
-def emg23_results(study: Mapping[str, Any], controls: Mapping[str, Controls],
+def composition_study_text(study: Mapping[str, Any] | NotMeasurable) -> str:
+    """The lines notebook 04 prints for ``studies.composition_study``: each mode's six rates
+    (mean ± 95 % half-width, per seed), the baselines and which concept a conjunction keeps;
+    on a data folder the study's reason (``data.NotMeasurable``)."""
+    if isinstance(study, NotMeasurable):
+        return f"EMG-2/3: {study.reason}."
+    lines, extra23 = [], study["extra"]
+    for mode in ("latent", "semantic"):
+        lines.append(f"--- {mode}")
+        for name, values in study[mode].items():
+            lines.append(f"{name:36s} {interval_text(values)}   "
+                         f"per seed {np.round(values, 3).tolist()}")
+    for name in ("unconditional_both_present", "multi_text_both_present",
+                 "ground_truth_both_present", "single_concept_1_present",
+                 "single_concept_2_present"):
+        lines.append(f"{name:36s} {interval_text(extra23[name])}")
+    for mode, rates in extra23["conjunction_concept_present"].items():
+        lines.append(f"which concept survives ({mode}): leg/locomotion concept "
+                     f"{interval_text(rates['lower'])}, arm concept {interval_text(rates['arm'])}")
+    return "\n".join(lines)
+
+
+def by_pair_markdown(study: Mapping[str, Any] | NotMeasurable) -> str:
+    """Notebook 04's table of both-concepts-found rates by held-out pair (mean over seeds)."""
+    if isinstance(study, NotMeasurable):
+        return f"**Both concepts found, by held-out pair**: {study.reason}."
+    by_pair = study["extra"]["by_pair"]
+    rows = [[pair] + [f"{np.mean(by_pair[m][pair]):.2f}" if by_pair[m][pair] else "—"
+                      for m in ("best_single", "multi_text", "latent", "semantic")]
+            for pair in by_pair["latent"]]
+    return ("**Both concepts found, by held-out pair (mean over seeds)**\n\n"
+            + markdown_table(["held-out pair", "best single", "joined text", "latent Eq. 7",
+                              "semantic Eq. 9"], rows))
+
+
+def emg23_results(study: Mapping[str, Any] | NotMeasurable,
+                  controls: Mapping[str, Controls] | None,
                   settings: EnergyViewSettings, seeds: Sequence[int], *, models: Models,
                   figures: Figures) -> tuple[ClaimResult, ClaimResult]:
     """EMG-2 (latent Eq. 7/8) and EMG-3 (semantic Eq. 9) from ``studies.composition_study``
     (``study``) and ``controls.composition_controls`` (``controls``: claim → its controls),
-    with the study's baselines and per-pair rates beside them."""
+    with the study's baselines and per-pair rates beside them. On a data folder (``study`` a
+    ``data.NotMeasurable``) both are not measurable on real data: nothing is recorded as
+    measured (``claims.result.not_measurable_result``)."""
+    if isinstance(study, NotMeasurable):
+        return (not_measurable_result("EMG-2", study.reason, seeds, models=models),
+                not_measurable_result("EMG-3", study.reason, seeds, models=models))
     config, per_case, extra23 = settings.pipeline, settings.negation_items_per_case, study["extra"]
     choice_note = (f"Guidance s = {config.guidance_scale}; Eq. 7 w_i = s; Eq. 8 w = s; Eq. 9 "
                    "conjunction w^s = (1, 1), negation w^s = (1, −0.5), guided with s. "
@@ -104,6 +148,9 @@ def guidance_scale_check(pipes: Callable[[int], EnergyMoGenPipeline],
     model, ``pipes(seed)``) with fewer items; logged, not recorded, paper scale only."""
     if not settings.scale_check:
         log(f"{settings.scale} run: scale check skipped (paper scale only)")
+        return
+    if not pipes(seeds[0]).data.labelled:
+        log(f"scale check: {not_measurable_reason(pipes(seeds[0]).data)}")
         return
     start = time.perf_counter()
     for other in settings.scale_check_scales:

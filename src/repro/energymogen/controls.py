@@ -35,7 +35,12 @@ import numpy as np
 from repro.claims.result import Controls
 from repro.core import metrics
 from repro.energymogen.config import LOWER_CONCEPTS
-from repro.energymogen.data import composition_items, negation_items, stand_in_clips_of
+from repro.energymogen.data import (
+    NotMeasurable,
+    composition_items,
+    negation_items,
+    stand_in_clips_of,
+)
 from repro.energymogen.energy import map_similarity
 from repro.energymogen.harness import TextToMotionTest
 from repro.energymogen.latent_count import mpjpe
@@ -125,7 +130,7 @@ def _neither(pair: tuple[str, ...]) -> str:
 
 
 def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_case: int,
-                         scale: float = 1.0) -> dict[str, Controls]:
+                         scale: float = 1.0) -> dict[str, Controls] | None:
     """EMG-2/3's controls: the six rates of ``studies.composition_study`` measured by the same
     oracles on constructed sets of generator clips, per seed on that seed's items (the same
     composition items and negation cases and counts).
@@ -145,8 +150,12 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
     are the planted rates.
 
     Returns ``{"EMG-2": controls, "EMG-3": controls}``: the clips are generated once per seed
-    and shared by both claims and both controls; each arm's draws are independent.
+    and shared by both claims and both controls; each arm's draws are independent. None on a
+    data folder: the arms are generator clips of the stand-in's concepts, and the claims they
+    control are not measurable there (``studies.composition_study``).
     """
+    if not pipeline_for(source, seeds[0]).data.labelled:
+        return None
     names = ("conjunction_both_present", "best_single_concept_both_present",
              "negation_negated_present", "baseline_negated_present", "negation_kept_present",
              "baseline_kept_present")
@@ -239,9 +248,9 @@ def _standardised(values: np.ndarray) -> np.ndarray:
     return (flat - flat.mean()) / flat.std()
 
 
-def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]],
-                        smooth: Callable[[np.ndarray], np.ndarray], grid: int, *,
-                        scale: float = 1.0) -> Controls:
+def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]]
+                        | NotMeasurable, smooth: Callable[[np.ndarray], np.ndarray], grid: int,
+                        *, scale: float = 1.0) -> Controls | None:
     """EMG-6's controls on the experiment's own composed maps (``case["smooth"]["composed"]``;
     ``cases``: kind → one list of cases per seed, as ``energy.map_similarities`` reads): the
     maps the composed one is compared with — the multi-concept map and the floor's — are
@@ -253,8 +262,11 @@ def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]
     positive control's multi-concept map is a·Â + √(1−a²)·N₁ with Â the standardised composed
     map and a = δ = 0.1, so E r(composed, multi) = a to first order (N₁ independent of Â), and
     its floor map is N₂ (E r = 0): r(multi) − floor has mean δ, and the noise a smooth random
-    field puts on a correlation. The null control: multi = N₁, floor = N₂.
+    field puts on a correlation. The null control: multi = N₁, floor = N₂. None for a
+    ``NotMeasurable`` (a data folder: no maps, no claim to control).
     """
+    if isinstance(cases, NotMeasurable):
+        return None
     delta = 0.1 * scale
     out: dict[str, Any] = {kind: {} for kind in KINDS}
     for index_kind, (case_kind, per_seed) in enumerate(cases.items()):

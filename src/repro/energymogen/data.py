@@ -11,6 +11,12 @@
 
 Built once per configuration and cached (``repro.infra.cache``: kinds ``emg_data``,
 ``emg_test_sets``).
+
+- **a data folder** (real HumanML3D layout, ``load_pipeline(data_dir=...)``):
+  :func:`build_folder_data` cuts its splits into ``FRAMES``-frame windows (not cached: every
+  model trained on them is keyed by their fingerprint). It has no concepts
+  (``StandInData.labelled`` False), so nothing here composes it: :func:`composition_items`
+  refuses it and the studies that need concepts return :class:`NotMeasurable`.
 """
 
 from __future__ import annotations
@@ -34,9 +40,10 @@ from repro.energymogen.config import (
 )
 from repro.infra import cache, storage
 from repro.motion.features import FPS
-from repro.motion.humanml3d import compute_statistics
+from repro.motion.humanml3d import MotionDataset, compute_statistics, cut_windows
 from repro.standin.captions import SUBJECTS
 from repro.standin.concepts import CONCEPTS
+from repro.standin.figures import NOT_MEASURABLE
 from repro.standin.generator import (
     GENERATOR_VERSION,
     PARTIAL_CAPTION_SHARE,
@@ -47,12 +54,16 @@ from repro.standin.generator import (
 )
 
 __all__ = [
-    "VALIDATION_KEY", "ClipRequest", "CompositionItems", "CompositionPool", "HeldOutClips",
-    "NegationItems",
-    "StandInData", "build_composition_pool", "draw_clip_request", "draw_training_like_clips",
-    "load_or_build_validation_clips", "build_stand_in_data", "composition_items", "concept_text",
-    "load_or_build_data", "load_or_build_test_pool", "negation_items", "pair_caption",
-    "stand_in_clip", "stand_in_clips", "stand_in_clips_of", "trained_pairs",
+    "FOLDER_MIN_TEST", "FOLDER_MIN_TRAIN", "FOLDER_STRIDE", "VALIDATION_KEY", "ClipRequest",
+    "CompositionItems", "CompositionPool", "HeldOutClips", "NegationItems", "NotMeasurable",
+    "StandInData",
+    "build_composition_pool", "build_folder_data", "build_stand_in_data", "composition_items",
+    "concept_text", "draw_clip_request", "draw_training_like_clips", "energy_view_items",
+    "evaluator_clips",
+    "folder_windows", "load_or_build_data", "load_or_build_test_pool",
+    "load_or_build_validation_clips",
+    "negation_items", "not_measurable_reason", "pair_caption", "stand_in_clip", "stand_in_clips",
+    "stand_in_clips_of", "trained_pairs",
 ]
 
 
@@ -195,6 +206,18 @@ class StandInData:
     test_concepts: list[tuple[str, ...]]
     mean: np.ndarray
     std: np.ndarray
+    #: None: the generated stand-in set; else the HumanML3D-layout folder the data come from
+    #: (:func:`build_folder_data`: no concepts, no composition test pool)
+    data_dir: str | None = None
+    #: a data folder's validation clips (held out of its train split); None for the
+    #: stand-in set, whose validation clips are drawn (:func:`load_or_build_validation_clips`)
+    validation: HeldOutClips | None = None
+
+    @property
+    def labelled(self) -> bool:
+        """Whether the clips carry the stand-in's concepts (the generated set), which every
+        composition item, oracle and ground-truth composed motion needs."""
+        return self.data_dir is None
 
     @property
     def frames(self) -> int:
@@ -254,6 +277,106 @@ def load_or_build_data(config: PipelineConfig) -> StandInData:
             [tuple(c) for c in text["train_concepts"]], stored["test_features"],
             stored["test_joints"], [tuple(c) for c in text["test_captions"]],
             [tuple(c) for c in text["test_concepts"]], stored["mean"], stored["std"])
+
+
+# ----------------------------------------------------------------------------------------------
+# A data folder in the HumanML3D layout (real data: no concept labels)
+# ----------------------------------------------------------------------------------------------
+
+#: windows of a data folder start every ``FOLDER_STRIDE`` frames of each clip (our choice: half
+#: a window, so a 3.2 s window overlaps its neighbour by half); a clip shorter than
+#: ``config.FRAMES`` gives none
+FOLDER_STRIDE = FRAMES // 2
+#: the fewest training windows a data folder must leave once the validation clips are held out
+#: (our choice: one VAE batch of the quick scale; ``folder_needs``)
+FOLDER_MIN_TRAIN = 32
+#: the fewest test windows: one R-precision batch of 32 (the evaluator's gate,
+#: ``model_gates.evaluator_gate_values``)
+FOLDER_MIN_TEST = 32
+#: rng stream of the validation clips held out of a folder's train split
+_FOLDER_VALIDATION_STREAM = 33
+
+
+@dataclass(frozen=True)
+class NotMeasurable:
+    """What a study returns on a data folder when its measurement needs the stand-in's
+    labelled concepts: the reason (:func:`not_measurable_reason`). The notebook's later calls
+    take it where they take the study's results and say "not measurable on real data"."""
+
+    reason: str
+
+
+def not_measurable_reason(data: StandInData) -> str:
+    """Why a measurement on the stand-in's labelled concepts has no value on ``data`` (a data
+    folder): the claim's and the notebook's reading."""
+    return (f"{NOT_MEASURABLE}: {data.data_dir} has no stand-in concept labels, and this "
+            "measurement composes the generator's labelled concepts (held-out pairs, negation "
+            "cases, their texts) and reads the result with the concept oracles or against the "
+            "generator's ground-truth composed motions")
+
+
+def folder_windows(root: str, split: str) -> tuple[np.ndarray, list[tuple[str, ...]], list[str]]:
+    """Windows of ``FRAMES`` frames every :data:`FOLDER_STRIDE` frames of the clips of one
+    split of a HumanML3D-layout folder (``humanml3d.MotionDataset`` with its kept clips and
+    caption pieces, unnormalised, ``humanml3d.cut_windows``): features (M, FRAMES, 263), the
+    captions of each window's clip and the window ids."""
+    dataset = MotionDataset(root, split, normalise=False, representation="relative")
+    pieces, captions, ids = cut_windows(dataset, FRAMES, FOLDER_STRIDE)
+    if not pieces:
+        raise ValueError(f"no clip of {root}/{split}.txt has {FRAMES} frames")
+    return np.stack(pieces).astype(np.float32), [tuple(c) for c in captions], ids
+
+
+def _clip_of(window_id: str) -> str:
+    """The clip a window id (``"<clip>[@a-b]:<start>"``) was cut from."""
+    return window_id.split(":")[0].split("@")[0]
+
+
+def build_folder_data(config: PipelineConfig, data_dir: str,
+                      validation_clips: int = 0) -> StandInData:
+    """The pipeline's data from a HumanML3D-layout folder (real data; deterministic in the
+    folder and ``config.data_seed``): the train split's windows (:func:`folder_windows`) less
+    whole clips held out until they give ``validation_clips`` validation windows (the
+    convergence criterion's, never a gradient step), at most ``config.n_train_clips`` of the
+    rest (a seeded subset), normalisation statistics of those training windows as the stand-in
+    path computes them; the test split's windows as the test pool (captions, no concepts, no
+    joints: nothing there is composed). Concepts are empty: ``labelled`` is False."""
+    features, captions, ids = folder_windows(data_dir, "train")
+    clips = sorted({_clip_of(i) for i in ids})
+    rng = np.random.default_rng([config.data_seed, _FOLDER_VALIDATION_STREAM])
+    held: set[str] = set()
+    windows = {clip: 0 for clip in clips}
+    for i in ids:
+        windows[_clip_of(i)] += 1
+    for k in rng.permutation(len(clips)):
+        if sum(windows[c] for c in held) >= validation_clips:
+            break
+        held.add(clips[int(k)])
+    validation = [i for i, w in enumerate(ids) if _clip_of(w) in held][:validation_clips]
+    train = [i for i, w in enumerate(ids) if _clip_of(w) not in held]
+    if not train:
+        raise ValueError(f"{data_dir}/train.txt leaves no training window once "
+                         f"{validation_clips} validation windows are held out")
+    if len(train) > config.n_train_clips:
+        train = sorted(int(i) for i in rng.choice(train, config.n_train_clips, replace=False))
+    test, test_captions, _ = folder_windows(data_dir, "test")
+    mean, std = compute_statistics(list(features[train]))
+    held_out = HeldOutClips(features[validation], tuple(captions[i] for i in validation),
+                            tuple(() for _ in validation)) if validation else None
+    return StandInData(features[train], [captions[i] for i in train], [() for _ in train],
+                       test, np.zeros((len(test), 0, 0, 3), np.float32), test_captions,
+                       [() for _ in test], mean, std, data_dir=str(data_dir), validation=held_out)
+
+
+def evaluator_clips(data: StandInData) -> tuple[np.ndarray, list[list[str]]]:
+    """The evaluator's training clips and captions: on the stand-in set every clip (training
+    and the composition test pool: the measuring instrument, never the generator); on a data
+    folder the training windows only (its test windows are what the evaluator measures on:
+    the gates' test set, the reference embeddings)."""
+    if not data.labelled:
+        return data.train_features, [list(c) for c in data.train_captions]
+    return (np.concatenate([data.train_features, data.test_features]),
+            [list(c) for c in data.train_captions + data.test_captions])
 
 
 def load_or_build_test_pool(config: PipelineConfig, name: str) -> CompositionPool:
@@ -387,7 +510,10 @@ def composition_items(data: StandInData, seed: int, per_pair: int,
                       pool: CompositionPool | None = None) -> CompositionItems:
     """``per_pair`` items per composition set of ``pool`` (default: the held-out pairs,
     ``data.test_pool``), drawn with ``seed``: a (clip, caption) of the pool without
-    replacement and a random paraphrase for each concept text."""
+    replacement and a random paraphrase for each concept text. A data folder's test pool has
+    no composition sets: a ValueError (:func:`not_measurable_reason`)."""
+    if pool is None and not data.labelled:
+        raise ValueError(not_measurable_reason(data))
     pool = data.test_pool if pool is None else pool
     sets = list(dict.fromkeys(tuple(c) for c in pool.concepts))
     if not sets:
@@ -409,6 +535,24 @@ def composition_items(data: StandInData, seed: int, per_pair: int,
     per_concept = tuple(tuple(t[c] for t in texts) for c in range(len(sets[0])))
     return CompositionItems(tuple(concepts), per_concept, tuple(multi),
                             pool.features[index], pool.joints[index])
+
+
+def energy_view_items(data: StandInData, seed: int, per_pair: int) -> CompositionItems:
+    """The test latents' draws of EMG-1's model identities (``energy.energy_view_study``,
+    ``gradient_field.gradient_field_study``): on the stand-in set :func:`composition_items`
+    (``per_pair`` items per held-out pair, unchanged); on a data folder, which has no
+    concepts to compose, as many test windows (at most all) drawn with ``seed``, each with one
+    of its captions as the joined text and as the first "concept", the next item's caption as
+    the second: Eq. 5–7's identities hold for any two conditions, so only the texts differ."""
+    if data.labelled:
+        return composition_items(data, seed, per_pair)
+    rng = np.random.default_rng([seed, 404])
+    count = min(len(data.test_features), per_pair * len(HELD_OUT_PAIRS))
+    index = [int(i) for i in rng.choice(len(data.test_features), count, replace=False)]
+    texts = tuple(data.test_captions[i][int(rng.integers(len(data.test_captions[i])))]
+                  for i in index)
+    return CompositionItems(tuple(() for _ in index), (texts, texts[1:] + texts[:1]), texts,
+                            data.test_features[index], data.test_joints[index])
 
 
 @dataclass(frozen=True)

@@ -31,13 +31,26 @@ from repro.core import metrics
 from repro.core.diffusion import GaussianDiffusion
 from repro.energymogen.compose import Condition, make_composed_eps_fn
 from repro.energymogen.config import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPTS, NEGATION_CASES
-from repro.energymogen.data import composition_items, concept_text, pair_caption
-from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, denoiser_kwargs
+from repro.energymogen.data import (
+    NotMeasurable,
+    concept_text,
+    energy_view_items,
+    not_measurable_reason,
+    pair_caption,
+)
+from repro.energymogen.pipeline import (
+    EnergyMoGenPipeline,
+    PipelineSource,
+    Sampler,
+    denoiser_kwargs,
+    pipeline_for,
+)
 from repro.models.latent_denoiser import LatentDenoiser
 
 __all__ = [
     "MAP_KINDS", "LatentPlane", "denoiser_jacobian_asymmetry", "energy_landscape",
-    "energy_linearity_error", "energy_map_case", "energy_map_cases", "energy_view_study",
+    "energy_linearity_error", "energy_map_case", "energy_map_cases", "energy_map_study",
+    "energy_view_study",
     "fid_formula_errors", "float64_copy", "jacobian_asymmetry", "langevin_step_errors",
     "case_similarities", "latent_plane", "line_integral_energy", "map_similarities",
     "map_similarity",
@@ -216,7 +229,8 @@ def energy_view_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
                       linearity_timesteps: Sequence[int],
                       jacobian_timesteps: Sequence[int]) -> dict[str, Any]:
     """EMG-1 on the pipeline: ``samples`` ground-truth latents of the composition items of
-    ``seed`` (``data.composition_items``), noised with noise of ``seed``.
+    ``seed`` (``data.energy_view_items``: on a data folder, test windows and their captions),
+    noised with noise of ``seed``.
 
     - ``langevin``: :func:`langevin_step_errors` of the denoiser with the joined text at the
       mid-timestep latents, every timestep (DDIM with the pipeline's steps);
@@ -227,7 +241,7 @@ def energy_view_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
       joined text and with ∅, and a randomly initialised one (``torch.manual_seed(seed)``);
       ``jacobian_median``: the median of the trained model's, both conditions pooled.
     """
-    items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
+    items = energy_view_items(pipe.data, seed, pipe.config.items_per_pair)
     z0 = pipe.encode_motion(items.gt_features[:samples])
     condition = pipe.encode(list(items.multi_texts[:samples]))
     noise = torch.randn(z0.shape, generator=torch.Generator().manual_seed(seed))
@@ -254,9 +268,12 @@ def energy_view_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
             denoiser_jacobian_asymmetry(random_init, z_t, t, condition))
     stacked = {name: np.stack(values) for name, values in asymmetry.items()}
     trained = np.concatenate([stacked["trained, text"].ravel(), stacked["trained, ∅"].ravel()])
-    return {"langevin": langevin, "linearity": linearity,
-            "sum_error": max(x["max_abs_error"] for x in linearity), "asymmetry": stacked,
-            "jacobian_median": float(np.median(trained))}
+    out = {"langevin": langevin, "linearity": linearity,
+           "sum_error": max(x["max_abs_error"] for x in linearity), "asymmetry": stacked,
+           "jacobian_median": float(np.median(trained))}
+    if not pipe.data.labelled:   # a data folder: its test windows and captions (no concepts)
+        out["data_dir"] = pipe.data.data_dir
+    return out
 
 
 # ----------------------------------------------------------------------------------------------
@@ -504,11 +521,29 @@ _SIMILARITIES = {"similarity_to_multi": "similarity_to_multi",
                  "similarity_to_control": "similarity_to_control"}
 
 
+def energy_map_study(source: PipelineSource, seeds: Sequence[int], *, count: int | None = None,
+                     **kwargs: Any) -> dict[str, list[list[dict[str, Any]]]] | NotMeasurable:
+    """EMG-6's cases: kind (:data:`MAP_KINDS`) → one :func:`energy_map_cases` list per seed
+    (seed s on ``pipeline_for(source, s)``, ``count`` and ``kwargs`` passed on). On a data
+    folder a ``data.NotMeasurable``: the maps compare composed concepts of the stand-in (held-out
+    pairs, negation cases and their concept texts) with their joined text, which real captions
+    do not decompose into."""
+    first = pipeline_for(source, seeds[0])
+    if not first.data.labelled:
+        return NotMeasurable(not_measurable_reason(first.data))
+    return {kind: [energy_map_cases(pipeline_for(source, sd), kind, sd, count=count, **kwargs)
+                   for sd in seeds]
+            for kind in MAP_KINDS}
+
+
 def map_similarities(cases_by_seed: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]]
-                     ) -> dict[str, list[float]]:
+                     | NotMeasurable) -> dict[str, list[float]] | NotMeasurable:
     """EMG-6's measurements: per kind and seed, the mean over that seed's cases of composed ~
     multi, the floor, the ceiling and composed ~ control (``{kind}_{suffix}`` → per-seed
-    list). ``cases_by_seed``: kind → one list of :func:`energy_map_case` results per seed."""
+    list). ``cases_by_seed``: kind → one list of :func:`energy_map_case` results per seed
+    (:func:`energy_map_study`; a ``NotMeasurable`` is passed on)."""
+    if isinstance(cases_by_seed, NotMeasurable):
+        return cases_by_seed
     return {f"{kind}_{suffix}": [float(np.mean([c[key] for c in cases])) for cases in per_seed]
             for kind, per_seed in cases_by_seed.items() for suffix, key in _SIMILARITIES.items()}
 

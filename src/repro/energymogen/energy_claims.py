@@ -19,13 +19,15 @@ from typing import Any
 
 import numpy as np
 
-from repro.claims.result import ClaimResult, Controls
-from repro.core.tables import markdown_table, render
+from repro.claims.result import ClaimResult, Controls, not_measurable_result
+from repro.core.tables import interval_text, markdown_table, render
+from repro.energymogen.data import NotMeasurable
 from repro.energymogen.energy import MAP_KINDS
 from repro.energymogen.settings import EnergyViewSettings
 
 __all__ = ["emg1_result", "emg6_result", "emg9_result", "fid_draws_markdown",
-           "fid_fixed_cases_markdown", "raw_maps_markdown"]
+           "fid_fixed_cases_markdown", "map_cases_markdown", "map_similarity_markdown",
+           "raw_maps_markdown"]
 
 #: the per-case values EMG-6 keeps beside its per-seed measurements
 _CASE_KEYS = ("case", "control", "texts", "similarity_to_multi", "similarity_floor",
@@ -62,6 +64,11 @@ def emg1_result(energy_view: Mapping[str, Any], field: Mapping[str, Any],
              f"t ∈ {set(settings.linearity_timesteps)}. Jacobian: "
              f"{settings.emg1_samples} noised test latents × t ∈ {list(jac_timesteps)}, with the "
              "joined text and ∅; median pooled.")
+    if "data_dir" in energy_view:
+        notes += (f" Data folder {energy_view['data_dir']} (real data): the test latents are its "
+                  "test windows, the joined text one of each window's captions and the two "
+                  "summed conditions two captions of different windows (Eq. 5–7's identities "
+                  "hold for any conditions; nothing composed is read).")
     extra = {"ddpm_max_abs_error": langevin["ddpm_max_abs_error"],
              "ddim_max_abs_error": langevin["ddim_max_abs_error"],
              "eps_coefficient_range": [langevin["ddpm_eps_coefficient_min"],
@@ -78,14 +85,48 @@ def emg1_result(energy_view: Mapping[str, Any], field: Mapping[str, Any],
                        headline=headline, notes=notes, extra=extra)
 
 
-def emg6_result(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]],
-                measured: Mapping[str, Sequence[float]], settings: EnergyViewSettings,
-                seeds: Sequence[int], *, controls: Controls,
+def map_cases_markdown(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]]
+                       | NotMeasurable, seeds: Sequence[int]) -> str:
+    """Notebook 04's table of EMG-6's cases (``energy.energy_map_study``): per kind, seed and
+    case the floor, composed, ceiling and control similarities and the raw maps'; on a data
+    folder the reason it is not measurable."""
+    if isinstance(cases, NotMeasurable):
+        return f"**EMG-6 energy maps**: {cases.reason}."
+    rows = [[kind, sd, case["case"], f"{case['similarity_floor']:.3f}",
+             f"{case['similarity_to_multi']:.3f}", f"{case['similarity_ceiling']:.3f}",
+             f"{case['similarity_to_control']:.3f}",
+             f"{case['raw_similarity_to_multi']:.4f} / {case['raw_similarity_to_control']:.4f}"]
+            for kind, per_seed in cases.items() for sd, found in zip(seeds, per_seed, strict=True)
+            for case in found]
+    return markdown_table(
+        ["kind", "seed", "case", "floor (one concept)", "composed", "ceiling (paraphrase)",
+         "control", "raw maps: composed~multi / ~control"], rows)
+
+
+def map_similarity_markdown(measured: Mapping[str, Sequence[float]] | NotMeasurable) -> str:
+    """Notebook 04's table of EMG-6's similarities per kind (mean ± 95 % half-width over
+    seeds): the floor, composed ~ multi, the ceiling and the unrelated control."""
+    if isinstance(measured, NotMeasurable):
+        return f"**EMG-6 map similarities**: {measured.reason}."
+    return markdown_table(
+        ["kind", "floor: one concept ~ multi", "composed ~ multi", "ceiling: paraphrase ~ multi",
+         "composed ~ unrelated control"],
+        [[kind] + [interval_text(measured[f"{kind}_similarity_{what}"])
+                   for what in ("floor", "to_multi", "ceiling", "to_control")]
+         for kind in MAP_KINDS])
+
+
+def emg6_result(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]] | NotMeasurable,
+                measured: Mapping[str, Sequence[float]] | NotMeasurable,
+                settings: EnergyViewSettings, seeds: Sequence[int], *, controls: Controls | None,
                 models: Sequence[Mapping[str, Any]], figures: Sequence[str | os.PathLike]
                 ) -> ClaimResult:
     """EMG-6 from ``energy.map_similarities`` (``measured``: per kind and seed, composed ~
     multi, the floor, the ceiling and the control) and the cases behind it (``cases``: kind →
-    one list of ``energy.energy_map_case`` results per seed)."""
+    one list of ``energy.energy_map_case`` results per seed); on a data folder (``cases`` a
+    ``NotMeasurable``) not measurable on real data (``claims.result.not_measurable_result``)."""
+    if isinstance(cases, NotMeasurable):
+        return not_measurable_result("EMG-6", cases.reason, seeds, models=models)
     headline = ("Pearson r with the multi-concept map, floor / composed / ceiling: " + "; ".join(
         f"{kind} " + "/".join(f"{np.mean(measured[f'{kind}_similarity_{what}']):.3f}"
                               for what in ("floor", "to_multi", "ceiling"))
@@ -110,9 +151,12 @@ def emg6_result(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]],
                        figures=figures, headline=headline, notes=notes, extra=extra)
 
 
-def raw_maps_markdown(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]]) -> str:
+def raw_maps_markdown(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]]
+                      | NotMeasurable) -> str:
     """EMG-6's sentence on the raw maps (E_k itself) against the conditional ones the rule
-    compares: the range of each over every case of this run."""
+    compares: the range of each over every case of this run (none on a data folder)."""
+    if isinstance(cases, NotMeasurable):
+        return ""
     raw = [c[f"raw_similarity_to_{what}"] for per_seed in cases.values() for found in per_seed
            for c in found for what in ("multi", "control")]
     conditional = [c[key] for per_seed in cases.values() for found in per_seed for c in found

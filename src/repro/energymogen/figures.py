@@ -7,7 +7,8 @@ Each function takes what a study returned and gives a matplotlib figure; the not
 from __future__ import annotations
 
 import textwrap
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
@@ -18,6 +19,7 @@ from matplotlib.figure import Figure
 from repro.core.diffusion import GaussianDiffusion
 from repro.energymogen.augmentation import ROWS, ComposedSet
 from repro.energymogen.config import HELD_OUT_PAIRS, NEGATION_CASES
+from repro.energymogen.data import NotMeasurable
 from repro.energymogen.latent_count import PAPER_TABLE8
 from repro.energymogen.studies import (
     PAPER_TABLE7,
@@ -27,14 +29,14 @@ from repro.energymogen.studies import (
     gamma_key,
     lambda_key,
 )
-from repro.motion.plotting import filmstrip
+from repro.motion.plotting import filmstrip, save_figure
 
 __all__ = [
     "agd_step_size_figure", "augmentation_figure", "composed_examples_figure",
     "composition_examples_figure", "composition_oracle_figure", "energy_maps_figure",
     "jacobian_asymmetry_figure", "latent_count_figure", "map_similarity_figure",
-    "reconstructions_figure", "sef_tradeoff_figure", "three_concepts_figure",
-    "transition_measures_figure",
+    "reconstructions_figure", "save_composition_figures", "save_energy_map_figures",
+    "sef_tradeoff_figure", "three_concepts_figure", "transition_measures_figure",
 ]
 
 Results = Mapping[str, Mapping[str, Sequence[float]]]
@@ -126,6 +128,34 @@ def composition_examples_figure(examples: Mapping[str, np.ndarray]) -> Figure:
 
 _MAP_COLUMNS = ("concept 1", "concept 2", "composed", "multi-concept", "paraphrase",
                 "control")
+
+
+def save_composition_figures(study: Mapping[str, Any] | NotMeasurable, seeds: Sequence[int],
+                             scale: float, figure_path: Callable[[str], Path]) -> list[Path]:
+    """Notebook 04's EMG-2/3 figures saved under ``figure_path(name)``:
+    :func:`composition_oracle_figure` and :func:`composition_examples_figure` (their paths, in
+    that order); none for a ``NotMeasurable`` study (a data folder)."""
+    if isinstance(study, NotMeasurable):
+        return []
+    return [save_figure(composition_oracle_figure(study, seeds, scale),
+                        figure_path("emg2_emg3_composition_oracles.png")),
+            save_figure(composition_examples_figure(study["examples"]),
+                        figure_path("emg2_emg3_examples.png"))]
+
+
+def save_energy_map_figures(cases: Mapping[str, Any] | NotMeasurable,
+                            measured: Mapping[str, Sequence[float]] | NotMeasurable,
+                            seeds: Sequence[int], figure_path: Callable[[str], Path]
+                            ) -> list[Path]:
+    """Notebook 04's EMG-6 figures saved under ``figure_path(name)``: the first case of each
+    kind on the first seed (:func:`energy_maps_figure`) and :func:`map_similarity_figure`
+    (their paths, in that order); none when not measurable (a data folder)."""
+    if isinstance(cases, NotMeasurable) or isinstance(measured, NotMeasurable):
+        return []
+    return [save_figure(energy_maps_figure({kind: per_seed[0][0]
+                                            for kind, per_seed in cases.items()}, seeds[0]),
+                        figure_path("emg6_energy_contour_maps.png")),
+            save_figure(map_similarity_figure(measured), figure_path("emg6_map_similarity.png"))]
 
 
 def energy_maps_figure(cases: Mapping[str, Mapping[str, Any]], seed: int) -> Figure:

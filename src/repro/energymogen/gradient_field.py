@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from repro.energymogen.data import composition_items
+from repro.energymogen.data import energy_view_items
 from repro.energymogen.energy import conditional_eps
 from repro.energymogen.pipeline import EnergyMoGenPipeline
 
@@ -87,7 +87,7 @@ def gradient_field_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
     latents of the composition items of ``seed`` noised with noise of ``seed``; the joined
     text and ∅): ``residual_jacobian_asymmetry_by_t`` and ``loop_integral_relative_by_t``
     (str(t) → median over samples × conditions), the per-sample values and the loop radii."""
-    items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
+    items = energy_view_items(pipe.data, seed, pipe.config.items_per_pair)
     z0 = pipe.encode_motion(items.gt_features[:samples])
     condition = pipe.encode(list(items.multi_texts[:samples]))
     noise = torch.randn(z0.shape, generator=torch.Generator().manual_seed(seed))

@@ -28,6 +28,7 @@ import numpy as np
 from repro.core import metrics
 from repro.energymogen.config import ARM_CONCEPTS, LOWER_CONCEPTS, PipelineConfig
 from repro.energymogen.data import (
+    StandInData,
     draw_clip_request,
     draw_training_like_clips,
     stand_in_clips,
@@ -40,7 +41,7 @@ from repro.standin.oracles import detect_concepts
 
 __all__ = [
     "R_PRECISION_BATCH", "TextToMotionTest", "build_shared_concept_test",
-    "build_text_to_motion_test", "generation_metrics", "ground_truth_r_precision",
+    "build_text_to_motion_test", "folder_test", "generation_metrics", "ground_truth_r_precision",
     "grouped_r_precision",
     "grouped_r_precision_metrics",
     "load_or_build_shared_concept_test", "load_or_build_text_to_motion_test", "oracle_accuracy",
@@ -149,12 +150,27 @@ def grouped_r_precision(text_emb: np.ndarray, motion_emb: np.ndarray,
     return hits / text_emb.shape[0]
 
 
-def load_or_build_text_to_motion_test(config: PipelineConfig,
-                                      count: int) -> TextToMotionTest:
-    """:func:`build_text_to_motion_test` from ``cache_dir()/emg_t2m_test/<hash>/``."""
+def load_or_build_text_to_motion_test(config: PipelineConfig, count: int,
+                                      data: StandInData | None = None) -> TextToMotionTest:
+    """:func:`build_text_to_motion_test` from ``cache_dir()/emg_t2m_test/<hash>/``; with the
+    ``data`` of a data folder (``data.labelled`` False), :func:`folder_test` instead."""
+    if data is not None and not data.labelled:
+        return folder_test(data, count)
     key = {"data": config.data_dict(), "count": count, "key_offset": _TEST_KEY, "format": 1}
     return _load_or_build("emg_t2m_test", key, lambda: build_text_to_motion_test(config, count),
                           grouped=False)
+
+
+def folder_test(data: StandInData, count: int) -> TextToMotionTest:
+    """The text-to-motion test set of a data folder: ``count`` of its test split's windows (all
+    when it has fewer, else a subset drawn with a fixed seed, kept in split order), their
+    captions and no concepts (the folder has no labels)."""
+    total = len(data.test_features)
+    keep = (np.arange(total) if total <= count
+            else np.sort(np.random.default_rng([0, _TEST_KEY]).choice(total, count, replace=False)))
+    return TextToMotionTest(data.test_features[keep],
+                            tuple(tuple(data.test_captions[i]) for i in keep),
+                            tuple(() for _ in keep))
 
 
 def _load_or_build(kind: str, key: dict, build: Callable[[], TextToMotionTest], *,
@@ -176,9 +192,12 @@ def _load_or_build(kind: str, key: dict, build: Callable[[], TextToMotionTest], 
 
 def oracle_accuracy(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> float:
     """Mean over clips of the fraction of the clip's concepts that ``oracles.detect_concepts``
-    finds in its joints (B, T, 22, 3); clips may hold different numbers of concepts."""
+    finds in its joints (B, T, 22, 3); clips may hold different numbers of concepts. NaN
+    when no clip has a concept (a data folder's test set: not measurable on real data)."""
     if len(joints) != len(concepts):
         raise ValueError(f"{len(joints)} motions for {len(concepts)} concept lists")
+    if not any(concepts):
+        return float("nan")
     return float(np.mean([np.mean([name in found for name in names]) for names, found in
                           zip(concepts, map(detect_concepts, joints), strict=True)]))
 

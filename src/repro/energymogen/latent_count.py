@@ -45,6 +45,7 @@ from repro.energymogen.harness import TextToMotionTest, generation_metrics, orac
 from repro.energymogen.pipeline import EnergyMoGenPipeline, retrain_pipeline
 from repro.models.evaluator import evaluate_generated
 from repro.motion.features import features_to_joints
+from repro.standin.figures import NOT_MEASURABLE
 
 __all__ = [
     "LATENT_COUNTS", "PAPER_REAL_MOTION", "PAPER_TABLE8", "TABLE8_COLUMNS",
@@ -157,10 +158,11 @@ def real_motion_metrics(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 def example_reconstructions(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                             counts: Sequence[int], seed: int, *, threads: int | None = 1
                             ) -> tuple[int, list[tuple[int, np.ndarray, float]]]:
-    """The first two-concept clip of ``test`` reconstructed by the variant of every N in
-    ``counts`` with training seed ``seed`` (:func:`load_or_train_variant`, cached models):
-    (the clip's index, [(N, reconstructed joints (T, 22, 3), MPJPE in m)])."""
-    index = next(i for i, c in enumerate(test.concepts) if len(c) == 2)
+    """The first two-concept clip of ``test`` (a data folder's test set, without concepts: its
+    first clip) reconstructed by the variant of every N in ``counts`` with training seed
+    ``seed`` (:func:`load_or_train_variant`, cached models): (the clip's index, [(N,
+    reconstructed joints (T, 22, 3), MPJPE in m)])."""
+    index = next((i for i, c in enumerate(test.concepts) if len(c) == 2), 0)
     clip = test.features[index:index + 1]
     out = []
     with torch_threads(threads):
@@ -214,14 +216,18 @@ def _measure_counts(pipe: EnergyMoGenPipeline, test: TextToMotionTest, counts: S
 def table8_markdown(results: Mapping[str, Any], counts: Sequence[int] = LATENT_COUNTS,
                     extra: Sequence[tuple[str, str]] = (("mpjpe", "MPJPE m"),)) -> str:
     """Table 8's layout: reconstruction then generation rows by N, ours (mean ± 95 %
-    half-width over seeds) [paper]; a real-motion row; ``extra`` columns (ours only)."""
+    half-width over seeds) [paper]; a real-motion row; ``extra`` columns (ours only). A NaN
+    value (the oracles' on a data folder) reads "not measurable on real data"."""
     columns = list(TABLE8_COLUMNS) + list(extra)
     head = "| | N | " + " | ".join(label for _, label in columns) + " |"
     lines = [head, "|" + "---|" * (len(columns) + 2)]
 
     def cell(values: Mapping[str, Sequence[float]], metric: str,
              paper: Mapping[str, float] | None) -> str:
-        ours = interval_text(values[metric]) if metric in values else "—"
+        nan = metric in values and any(isinstance(v, float) and np.isnan(v)
+                                       for v in np.atleast_1d(values[metric]).tolist())
+        ours = ("—" if metric not in values else NOT_MEASURABLE if nan
+                else interval_text(values[metric]))
         if paper is None or metric not in paper:
             return ours
         return f"{ours} [{paper[metric]}]"

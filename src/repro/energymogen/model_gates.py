@@ -95,14 +95,22 @@ def parameter_count(model: nn.Module) -> int:
 def real_concept_recall(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> float:
     """The oracles' concept recall on the real test clips (``harness.oracle_accuracy``: per
     clip the fraction of its concepts found, averaged): the data's value for the ``vae`` and
-    ``latent_denoiser`` gates."""
+    ``latent_denoiser`` gates. NaN for a test set without concepts (a data folder's,
+    ``harness.folder_test``): the oracles read the stand-in's concepts, which real clips do
+    not carry."""
+    if not any(test.concepts):
+        return float("nan")
     return oracle_accuracy(pipe.joints(test.features), test.concepts)
 
 
 @torch.no_grad()
 def vae_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dict[str, float]:
     """Gate ``vae``: ``concept_preservation``, the oracles' recall on decode(μ(x)) of the test
-    clips."""
+    clips. For a test set without concepts (a data folder's) nothing ({}): the recall needs
+    the stand-in's concept labels, so the gate reads "not measured" and the parts resting on
+    the VAE stay inconclusive."""
+    if not any(test.concepts):
+        return {}
     recon = pipe.decode(pipe.encode_motion(test.features))
     return {"concept_preservation": oracle_accuracy(pipe.joints(recon), test.concepts)}
 
@@ -228,7 +236,8 @@ def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
     study measured it (its reconstructions' ``oracle_accuracy`` against the real clips'), the
     denoiser's x̂0 error measured here on ``test`` (:func:`denoiser_gate_values`,
     :func:`gate_seed`); the models are reloaded from the cache
-    (``latent_count.load_or_train_variant``)."""
+    (``latent_count.load_or_train_variant``). On a data folder the oracles' recall is NaN
+    and the VAE gate reads "not measured"."""
     records = []
     for i, seed in enumerate(seeds):
         real_recall = float(results["real"]["oracle_accuracy"][i])
@@ -236,9 +245,9 @@ def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
             with torch_threads(threads):     # the study's threads: the same cache entries
                 variant = load_or_train_variant(pipe, n, seed, threads=threads)
                 fit = denoiser_gate_values(variant, test, gate_seed(variant))
-            recon = results["reconstruction"][str(n)]
-            records.append(vae_record(variant, {
-                "concept_preservation": recon["oracle_accuracy"][i]}, real_recall, reads=reads))
+            recall = results["reconstruction"][str(n)]["oracle_accuracy"][i]
+            values = {} if np.isnan(recall) else {"concept_preservation": recall}  # NaN: real
+            records.append(vae_record(variant, values, real_recall, reads=reads))
             records.append(denoiser_record(variant, fit, reads=reads))
     return records
 

@@ -47,6 +47,8 @@ from repro.energymogen.data import (
     CompositionItems,
     HeldOutClips,
     StandInData,
+    build_folder_data,
+    evaluator_clips,
     load_or_build_data,
     load_or_build_validation_clips,
 )
@@ -245,9 +247,10 @@ def denoiser_kwargs(config: PipelineConfig) -> dict[str, Any]:
             "layers": config.denoiser_layers, "heads": 4}
 
 
-def _evaluator_config(config: PipelineConfig) -> EvaluatorConfig:
-    return config.evaluator.replace(
-        seed=0, data_id=f"energymogen-stand-in-{cache.config_hash(config.data_dict())}")
+def _evaluator_config(config: PipelineConfig, data: StandInData) -> EvaluatorConfig:
+    data_id = (f"energymogen-stand-in-{cache.config_hash(config.data_dict())}" if data.labelled
+               else f"energymogen-folder-{array_fingerprint(data.train_features)[:16]}")
+    return config.evaluator.replace(seed=0, data_id=data_id)
 
 
 def latent_diffusion(config: PipelineConfig) -> GaussianDiffusion:
@@ -295,11 +298,15 @@ def vae_train_config(config: PipelineConfig, train_seed: int, threads: int | Non
                    patience=plan.vae_patience, min_delta=plan.min_delta)
 
 
-def validation_clips(config: PipelineConfig, plan: TrainingPlan | None) -> HeldOutClips | None:
-    """The plan's validation clips (``data.load_or_build_validation_clips``); None without a
-    plan."""
-    return None if plan is None else load_or_build_validation_clips(config,
-                                                                     plan.validation_clips)
+def validation_clips(config: PipelineConfig, plan: TrainingPlan | None,
+                     data: StandInData | None = None) -> HeldOutClips | None:
+    """The plan's validation clips (``data.load_or_build_validation_clips``; a data folder's:
+    the clips ``data.build_folder_data`` held out of its train split); None without a plan."""
+    if plan is None:
+        return None
+    if data is not None and not data.labelled:
+        return data.validation
+    return load_or_build_validation_clips(config, plan.validation_clips)
 
 
 def train_vae_stage(data: StandInData, config: PipelineConfig, train_seed: int,
@@ -312,7 +319,7 @@ def train_vae_stage(data: StandInData, config: PipelineConfig, train_seed: int,
     start = time.perf_counter()
     motions = data.normalise(data.train_features)
     lengths = np.full(len(motions), data.frames)
-    clips = validation_clips(config, plan)
+    clips = validation_clips(config, plan, data)
     validation = None if clips is None else (data.normalise(clips.features),
                                              np.full(len(clips), data.frames))
     train_config = vae_train_config(config, train_seed, threads, plan)
@@ -412,7 +419,7 @@ def train_denoiser_stage(data: StandInData, config: PipelineConfig, vae: VAEStag
     convergence on :func:`validation_rows` of the plan's validation clips."""
     start = time.perf_counter()
     rows = denoiser_rows(data, vae.latents, text.text_encoder, text.vocab, config)
-    clips = validation_clips(config, plan)
+    clips = validation_clips(config, plan, data)
     validation = None if clips is None else validation_rows(data, clips, vae, text, config,
                                                             device)
     train_config = denoiser_train_config(config, train_seed, threads, plan)
@@ -439,7 +446,8 @@ def train_denoiser_stage(data: StandInData, config: PipelineConfig, vae: VAEStag
 def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
                   log: Callable[[str], None] | None = print,
                   train_seed: int | None = None,
-                  plan: TrainingPlan | None = None) -> EnergyMoGenPipeline:
+                  plan: TrainingPlan | None = None,
+                  data_dir: str | None = None) -> EnergyMoGenPipeline:
     """Data, VAE, text encoder, denoiser and evaluator for ``config`` (each trained on a cache
     miss, loaded otherwise); ``timings`` holds the seconds of every stage, ``training`` the
     records of the VAE and the denoiser.
@@ -459,7 +467,13 @@ def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
       the paper's CLIP; the evaluator never shares it);
     - denoiser: ε-prediction on the scaled latent means, every caption of a clip a row;
     - evaluator: trained on every clip (training and test pool): it is the measuring
-      instrument, never the generator.
+      instrument, never the generator (``data.evaluator_clips``).
+
+    ``data_dir`` (None: the generated stand-in set, ``data.load_or_build_data``) names a
+    HumanML3D-layout folder (real data): the data are then ``data.build_folder_data``'s (its
+    train split's windows, the plan's validation clips held out of them, its test split's
+    windows as the test pool), every stage trains on them exactly as above, and every cache
+    key holds their fingerprint (never a stand-in entry); ``data.labelled`` is False.
     """
     device = torch.device(device)
     seed = config.data_seed if train_seed is None else int(train_seed)
@@ -471,7 +485,8 @@ def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
             log(f"{name}: {seconds:.1f} s")
 
     start = time.perf_counter()
-    data = load_or_build_data(config)
+    data = (load_or_build_data(config) if data_dir is None else build_folder_data(
+        config, data_dir, 0 if plan is None else plan.validation_clips))
     stage("data", time.perf_counter() - start)
 
     reference_vae = train_vae_stage(data, config, config.data_seed, device, plan=plan)
@@ -486,10 +501,9 @@ def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
     stage("denoiser", denoiser.seconds)
 
     start = time.perf_counter()
-    all_features = np.concatenate([data.train_features, data.test_features])
-    all_captions = [list(c) for c in data.train_captions + data.test_captions]
+    all_features, all_captions = evaluator_clips(data)
     evaluator = load_or_train_evaluator(all_features, np.full(len(all_features), data.frames),
-                                        all_captions, _evaluator_config(config))
+                                        all_captions, _evaluator_config(config, data))
     reference = evaluator.embed_motions(data.test_features,
                                         np.full(len(data.test_features), data.frames))
     stage("evaluator", time.perf_counter() - start)

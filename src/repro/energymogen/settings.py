@@ -17,17 +17,21 @@ configurations share the cache), so the models of notebook 04 are those of 05, 0
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import ClassVar, Self
 
 from repro.core.training import TrainConfig
 from repro.energymogen.augmentation import composed_set_size, finetune_config
-from repro.energymogen.config import PipelineConfig, pipeline_config
+from repro.energymogen.config import FRAMES, PipelineConfig, pipeline_config
 from repro.energymogen.convergence import TrainingPlan
+from repro.energymogen.data import FOLDER_MIN_TEST, FOLDER_MIN_TRAIN, FOLDER_STRIDE
 from repro.energymogen.latent_count import LATENT_COUNTS
 from repro.infra.context import QUICK_NOTE, RunContext, check_scale
+from repro.motion.usability import WindowNeeds, usability_problems
 
-__all__ = ["FULL_SEEDS", "SEEDS", "STANDARD_LATENT_COUNTS", "AugmentationSettings",
-           "EnergyViewSettings", "LatentCountSettings", "SEFAblationSettings", "seeds_of"]
+__all__ = ["FULL_SEEDS", "NOTEBOOKS", "SEEDS", "STANDARD_LATENT_COUNTS", "AugmentationSettings",
+           "EnergyViewSettings", "LatentCountSettings", "SEFAblationSettings", "folder_needs",
+           "folder_problems", "seeds_of"]
 
 #: our choice for notebooks 07/08: one torch thread (speed only, never in a cache key; see
 #: ``core.training.torch_threads``)
@@ -80,13 +84,36 @@ def seeds_of(claim_id: str, scale: str) -> int:
     return row[claim_id]
 
 
+def folder_needs(scale: str) -> WindowNeeds:
+    """What the EnergyMoGen notebooks of ``scale`` cut from a data folder
+    (``data.build_folder_data``): windows of ``config.FRAMES`` frames every
+    ``data.FOLDER_STRIDE``; the train split must give the plan's validation clips and
+    ``data.FOLDER_MIN_TRAIN`` training windows besides, the test split ``data.FOLDER_MIN_TEST``
+    (one R-precision batch). ``run.params`` and ``validate-dataset`` check the same."""
+    plan = TrainingPlan.for_scale(scale)
+    return WindowNeeds(FRAMES, FOLDER_STRIDE, {"train": plan.validation_clips + FOLDER_MIN_TRAIN,
+                                               "test": FOLDER_MIN_TEST})
+
+
+def folder_problems(data_dir: str, scale: str) -> list[str]:
+    """Why the EnergyMoGen notebooks of ``scale`` cannot use ``data_dir`` ([] when they can):
+    a missing train or test split, then ``motion.usability.usability_problems`` with
+    :func:`folder_needs` (``validate_dataset``'s other checks run in ``setup_notebook``)."""
+    missing = [f"{Path(data_dir) / f'{split}.txt'}: missing" for split in ("train", "test")
+               if not (Path(data_dir) / f"{split}.txt").is_file()]
+    return missing + [f"{path}: {message}"
+                      for path, message in usability_problems(data_dir, folder_needs(scale))]
+
+
 class _NotebookSettings:
-    """What the settings of every EnergyMoGen notebook share: the notebook they belong to and
-    why it runs on the generated stand-in set only (it composes or trains on the labelled
-    stand-in concepts, which a data folder does not have)."""
+    """What the settings of every EnergyMoGen notebook share: the notebook they belong to,
+    whether it runs on a data folder (``FOLDER_READY``: its measurements that need the
+    stand-in's labelled concepts then read "not measurable on real data", every other runs)
+    and, where it does not, why it runs on the generated stand-in set only."""
 
     NOTEBOOK: ClassVar[str]
     GENERATED_ONLY: ClassVar[str]
+    FOLDER_READY: ClassVar[bool] = False
 
     @classmethod
     def for_scale(cls, scale: str) -> Self:
@@ -94,16 +121,26 @@ class _NotebookSettings:
 
     @classmethod
     def for_run(cls, ctx: RunContext) -> Self:
-        """The settings of ``ctx``'s scale; a ValueError when the run was given a data folder."""
+        """The settings of ``ctx``'s scale. With a data folder: a ValueError when this notebook
+        does not run on one, or when the folder gives too few windows for the scale
+        (:func:`folder_problems`, what ``validate-dataset --scale`` reports)."""
         if ctx.data_dir is not None:
-            raise ValueError(f"{cls.NOTEBOOK} {cls.GENERATED_ONLY}; it runs on the generated set "
-                             "only (data_dir must be None)")
+            if not cls.FOLDER_READY:
+                raise ValueError(f"{cls.NOTEBOOK} {cls.GENERATED_ONLY}; it runs on the generated "
+                                 "set only (data_dir must be None)")
+            problems = folder_problems(str(ctx.data_dir), ctx.scale)
+            if problems:
+                raise ValueError(f"{cls.NOTEBOOK}: data_dir {ctx.data_dir} cannot be used at "
+                                 f"the {ctx.scale} scale:\n" + "\n".join(problems))
         return cls.for_scale(ctx.scale)
 
 
 @dataclass(frozen=True)
 class EnergyViewSettings(_NotebookSettings):
-    """Notebook 04 (EMG-1, 2, 3, 6, 9).
+    """Notebook 04 (EMG-1, 2, 3, 6, 9). On a data folder (real data, no concept labels):
+    EMG-1 (model identities on the folder's test windows and captions) and EMG-9 (no data)
+    are measured; EMG-2, 3 and 6, which compose the stand-in's labelled concepts, are
+    recorded as not measurable on real data (docs/RUNNING.md "The real HumanML3D").
 
     ``emg1_samples`` noised test latents for EMG-1's identities; ``negation_items_per_case``
     items per ``config.NEGATION_CASES`` case (EMG-2/3); the guidance-scale check (paper scale
@@ -119,6 +156,7 @@ class EnergyViewSettings(_NotebookSettings):
 
     NOTEBOOK: ClassVar[str] = "04_energy_contour_maps"
     GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts with held-out pairs"
+    FOLDER_READY: ClassVar[bool] = True
     scale: str
     pipeline: PipelineConfig
     plan: TrainingPlan
@@ -188,9 +226,12 @@ class LatentCountSettings(_NotebookSettings):
     text-to-motion test set (256 clips: 8 R-precision batches of 32, FID of 32-d embeddings
     from 256 samples; 64 in quick runs), the torch threads and the training plan
     (``convergence.TrainingPlan.for_scale``: every N's VAE and denoiser trained to convergence
-    at paper, the VAE's cap from the pilot of docs/pilot_emg_vae.md; fixed steps at standard)."""
+    at paper, the VAE's cap from the pilot of docs/pilot_emg_vae.md; fixed steps at standard).
+    On a data folder EMG-7 is measured (reconstruction error, and FID of generated motions
+    against the folder's test windows); its oracle columns read not measurable on real data."""
 
     NOTEBOOK: ClassVar[str] = "07_latent_count"
+    FOLDER_READY: ClassVar[bool] = True
     GENERATED_ONLY: ClassVar[str] = (
         "trains on the labelled stand-in set of the EnergyMoGen pipeline")
     scale: str
@@ -263,3 +304,9 @@ class AugmentationSettings(_NotebookSettings):
         """The fine-tuning configuration of ``seed`` (appendix A's ratios): a third of the
         pretrained denoiser's ``pretraining_steps`` (default the configured steps)."""
         return finetune_config(self.pipeline, seed, self.threads, pretraining_steps)
+
+
+#: the EnergyMoGen notebooks (``run.params`` checks a data folder against :func:`folder_needs`
+#: for these, against the GMD notebooks' windows for the others)
+NOTEBOOKS: tuple[str, ...] = tuple(settings.NOTEBOOK for settings in (
+    EnergyViewSettings, SEFAblationSettings, LatentCountSettings, AugmentationSettings))

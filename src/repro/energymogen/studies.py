@@ -36,9 +36,11 @@ from repro.core.tables import interval_text
 from repro.energymogen.config import HELD_OUT_PAIRS
 from repro.energymogen.data import (
     CompositionItems,
+    NotMeasurable,
     composition_items,
     load_or_build_test_pool,
     negation_items,
+    not_measurable_reason,
 )
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
 from repro.energymogen.timelines import real_then_clips, timeline_items
@@ -335,7 +337,8 @@ def per_pair_mean(values: np.ndarray, pairs: np.ndarray) -> np.ndarray:
 
 
 def composition_study(source: PipelineSource, seeds: Sequence[int], *, per_case: int,
-                      log: Callable[[str], None] | None = None) -> dict[str, Any]:
+                      log: Callable[[str], None] | None = None
+                      ) -> dict[str, Any] | NotMeasurable:
     """EMG-2 (latent-aware, Eq. 7/8) and EMG-3 (semantic-aware, Eq. 9), oracle-measured.
 
     Seed s uses the model ``pipeline_for(source, s)`` (one pipeline for every seed, or one
@@ -350,8 +353,11 @@ def composition_study(source: PipelineSource, seeds: Sequence[int], *, per_case:
     guided with s (semantic; our choice of weights); baseline: c_i alone (guided with s).
 
     Returns ``{"latent": measured, "semantic": measured, "extra": {...}, "examples": {...}}``
-    where ``measured`` has the six registry names of EMG-2/3 as per-seed lists.
+    where ``measured`` has the six registry names of EMG-2/3 as per-seed lists; on a data
+    folder (no concepts to compose, no oracle labels) a ``data.NotMeasurable``.
     """
+    if not pipeline_for(source, seeds[0]).data.labelled:
+        return NotMeasurable(not_measurable_reason(pipeline_for(source, seeds[0]).data))
     names = ("conjunction_both_present", "best_single_concept_both_present",
              "negation_negated_present", "baseline_negated_present", "negation_kept_present",
              "baseline_kept_present")

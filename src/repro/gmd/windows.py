@@ -32,7 +32,12 @@ from repro.motion.features import (
     recover_root,
     relative_to_absolute_root,
 )
-from repro.motion.humanml3d import REPRESENTATIONS, MotionDataset, compute_statistics
+from repro.motion.humanml3d import (
+    REPRESENTATIONS,
+    MotionDataset,
+    compute_statistics,
+    cut_windows,
+)
 from repro.standin.text import Vocabulary
 
 __all__ = [
@@ -258,19 +263,6 @@ def check_task(task: str) -> None:
         raise ValueError(f"task must be one of {TASKS}, got {task!r}")
 
 
-def _cut_windows(dataset: MotionDataset, frames: int,
-                 stride: int) -> tuple[list[np.ndarray], list[list[str]], list[str]]:
-    pieces, captions, ids = [], [], []
-    for index in range(len(dataset)):
-        item = dataset[index]
-        motion = item["motion"][:item["length"]].numpy()
-        for start in range(0, len(motion) - frames + 1, stride):
-            pieces.append(motion[start:start + frames])
-            captions.append(list(item["captions"]))
-            ids.append(f"{item['id']}:{start}")
-    return pieces, captions, ids
-
-
 def _to_representation(windows: np.ndarray, representation: str,
                        chunk: int = 512) -> np.ndarray:
     """Relative windows (N, T, 263) → the representation, each window starting at the origin."""
@@ -300,7 +292,7 @@ def load_windows(config: DataConfig, split: str = "train", *,
     """
     root = config.dataset_root()
     dataset = MotionDataset(root, split, normalise=False, representation="relative")
-    pieces, captions, ids = _cut_windows(dataset, config.frames, config.stride)
+    pieces, captions, ids = cut_windows(dataset, config.frames, config.stride)
     if not pieces:
         raise ValueError(f"no clip of {root}/{split}.txt has {config.frames} frames")
     limit = config.max_windows if split == "train" else None

@@ -306,6 +306,24 @@ class MotionDataset(Dataset):
                 "labels": dict(entry.labels), "id": entry.id}
 
 
+def cut_windows(dataset: MotionDataset, frames: int,
+                stride: int) -> tuple[list[np.ndarray], list[list[str]], list[str]]:
+    """Windows of ``frames`` frames every ``stride`` frames of each item of ``dataset`` (its
+    first ``length`` frames; an item shorter than ``frames`` gives none): the windows, each
+    window's captions (its item's) and ids ``"<item id>:<start>"``. The GMD notebooks' and the
+    EnergyMoGen notebooks' windows of a data folder (``repro.motion.usability`` counts the
+    same windows)."""
+    pieces, captions, ids = [], [], []
+    for index in range(len(dataset)):
+        item = dataset[index]
+        motion = item["motion"][:item["length"]].numpy()
+        for start in range(0, len(motion) - frames + 1, stride):
+            pieces.append(motion[start:start + frames])
+            captions.append(list(item["captions"]))
+            ids.append(f"{item['id']}:{start}")
+    return pieces, captions, ids
+
+
 def collate(batch: list[dict[str, Any]]) -> dict[str, Any]:
     """Stack motions (B, max_length, 263) and lengths (B,); keep the rest as lists (captions
     and labels differ in size between items, so ``default_collate`` cannot batch them)."""

@@ -187,17 +187,21 @@ def _cmd_stability(args: argparse.Namespace) -> int:
 
 def _cmd_validate(args: argparse.Namespace) -> int:
     """Exit 0 when the folder is valid and usable at ``--scale`` (the windows the scale's
-    notebooks cut, as ``reproduce`` checks), 1 with the problems, 2 when it cannot be read."""
+    notebooks cut, the GMD notebooks' and the EnergyMoGen notebooks', as ``reproduce`` checks),
+    1 with the problems, 2 when it cannot be read."""
     from repro.motion.humanml3d import Problem, format_problems, validate_dataset
     from repro.motion.usability import usability_problems
-    from repro.run.params import window_needs
+    from repro.run.params import emg_window_needs, window_needs
 
     try:
         problems = validate_dataset(args.directory)
         if not [p for p in problems if p.severity == "error"]:
-            problems += [Problem(path, "windows", f"{message} ({args.scale} scale)")
-                         for path, message in usability_problems(args.directory,
-                                                                 window_needs(args.scale))]
+            gmd = usability_problems(args.directory, window_needs(args.scale))
+            emg = [p for p in usability_problems(args.directory, emg_window_needs(args.scale))
+                   if p not in gmd]   # the EnergyMoGen notebooks' windows (04, 05, 07, 08)
+            problems += [Problem(path, "windows", f"{who}{message} ({args.scale} scale)")
+                         for who, found in (("", gmd), ("EnergyMoGen notebooks: ", emg))
+                         for path, message in found]
     except (FileNotFoundError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2

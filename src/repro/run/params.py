@@ -106,13 +106,30 @@ def window_needs(scale: str) -> WindowNeeds:
     return WindowNeeds(frames, default.stride, {"train": 1, "test": targets})
 
 
+def emg_window_needs(scale: str) -> WindowNeeds:
+    """What the EnergyMoGen notebooks of ``scale`` cut from a data folder
+    (``energymogen.settings.folder_needs``)."""
+    from repro.energymogen.settings import folder_needs
+
+    return folder_needs(scale)
+
+
+def needs_of(name: str | None, scale: str) -> WindowNeeds:
+    """The windows notebook ``name`` cuts at ``scale``: :func:`emg_window_needs` for an
+    EnergyMoGen notebook, else (and without a name: a notebook run by hand, whose EnergyMoGen
+    settings check the rest themselves) :func:`window_needs`."""
+    from repro.energymogen.settings import NOTEBOOKS
+
+    return emg_window_needs(scale) if name in NOTEBOOKS else window_needs(scale)
+
+
 @functools.lru_cache(maxsize=8)
-def _usability_problem(resolved: str, scale: str) -> str | None:
-    """Whether the notebooks of ``scale`` can use a valid folder (one check per folder, scale
-    and run)."""
+def _usability_problem(resolved: str, scale: str, name: str | None = None) -> str | None:
+    """Whether notebook ``name`` (None: the GMD notebooks) of ``scale`` can use a valid folder
+    (one check per folder, scale, notebook family and run)."""
     from repro.motion.usability import usability_problems
 
-    problems = usability_problems(resolved, window_needs(scale))
+    problems = usability_problems(resolved, needs_of(name, scale))
     if not problems:
         return None
     return (f"cannot be used at the {scale} scale:\n"
@@ -120,12 +137,16 @@ def _usability_problem(resolved: str, scale: str) -> str | None:
             + f"\n(python -m repro validate-dataset {resolved} --scale {scale} shows the same)")
 
 
-def _scale_problems(parameters: dict[str, Any]) -> list[str]:
-    """data_dir against what its scale's notebooks cut (after the per-value checks passed)."""
+def _scale_problems(parameters: dict[str, Any], name: str | None = None) -> list[str]:
+    """data_dir against what notebook ``name`` cuts at its scale (after the per-value checks
+    passed)."""
+    from repro.energymogen.settings import NOTEBOOKS
+
     folder, scale = parameters.get("data_dir"), parameters.get("scale", "standard")
     if not isinstance(folder, str) or scale_problem(scale) is not None:
         return []
-    problem = _usability_problem(str(Path(folder).expanduser().resolve()), scale)
+    family = name if name in NOTEBOOKS else None
+    problem = _usability_problem(str(Path(folder).expanduser().resolve()), scale, family)
     return [] if problem is None else [f"data_dir {problem}"]
 
 
@@ -248,6 +269,6 @@ def validate_parameters(name: str, parameters: dict[str, Any]) -> None:
         raise ValueError(f"notebook {name} must declare the standard parameters {missing}")
     problems = [problem for key, value in parameters.items()
                 for problem in value_problems(key, value, declared[key])]
-    problems = problems or _scale_problems(parameters)
+    problems = problems or _scale_problems(parameters, name)
     if problems:
         raise ValueError(f"notebook {name}: " + "; ".join(problems))
