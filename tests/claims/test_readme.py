@@ -1,4 +1,5 @@
-"""README's verdict table is the committed snapshot's (results/claims.json)."""
+"""README's verdict table is the committed snapshot's (results/claims.json), and README stays
+a five-minute read (issue #34: at most 200 lines; measurements and pilots go to docs/)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,16 @@ def test_readme_table_matches_the_results_snapshot() -> None:
     rows = read_json(paths.results_dir() / "claims.json")["claims"]
     readme = (paths.REPO_ROOT / "README.md").read_text(encoding="utf-8")
     assert readme_claims_table(rows) in readme
+
+
+README_MAX_LINES = 200
+
+
+def test_readme_is_a_five_minute_read() -> None:
+    lines = (paths.REPO_ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= README_MAX_LINES, (
+        f"README.md has {len(lines)} lines (at most {README_MAX_LINES}): move measurements "
+        "and details to docs/")
 
 
 def test_update_replaces_only_the_marked_table(tmp_path: Path) -> None:
