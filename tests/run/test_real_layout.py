@@ -199,6 +199,11 @@ def test_the_emg_notebooks_check_the_folder_for_their_windows(real_layout: Path,
         validate_parameters("04_energy_contour_maps", _parameters(real_layout))
     assert folder_problems(str(emg_layout), "quick") == []
     assert any("windows of 64" in p for p in folder_problems(str(real_layout), "quick"))
+    # run by hand (setup_notebook names its notebook): the same per-family check
+    check_standard_parameters(_parameters(real_layout), "01_x0_vs_eps")
+    check_standard_parameters(_parameters(emg_layout), "04_energy_contour_maps")
+    with pytest.raises(ValueError, match="(?s)cannot be used at the quick scale.*windows of 64"):
+        check_standard_parameters(_parameters(real_layout), "04_energy_contour_maps")
 
 
 @pytest.mark.parametrize("settings", [SEFAblationSettings, AugmentationSettings])

@@ -27,7 +27,8 @@ __all__ = ["RunContext", "seeds_for", "setup_notebook"]
 
 
 def setup_notebook(*, scale: str, seed: int, device: str, build_dir: str | None,
-                   data_dir: str | None = None, max_threads: int | None = None) -> RunContext:
+                   data_dir: str | None = None, max_threads: int | None = None,
+                   notebook: str | None = None) -> RunContext:
     """Validate the standard parameters (by hand; the runner has), prepare the process (torch
     threads and seed, figure style) and return the run context.
 
@@ -42,11 +43,13 @@ def setup_notebook(*, scale: str, seed: int, device: str, build_dir: str | None,
             generated stand-in set. The context holds it absolute.
         max_threads: at most this many torch threads for the notebook (``ctx.threads``: the
             runner's share of the cores, else every core, capped by it).
+        notebook: the notebook's name (e.g. "04_energy_contour_maps"): run by hand, a data
+            folder is checked against the windows of its family (``run.params.needs_of``).
     """
     run_id = os.environ.get("REPRO_RUN_ID", "")
     if not run_id:  # by hand: the checks the runner makes before it starts a kernel
         check_standard_parameters({"scale": scale, "seed": seed, "device": device,
-                                   "build_dir": build_dir, "data_dir": data_dir})
+                                   "build_dir": build_dir, "data_dir": data_dir}, notebook)
     data = None if data_dir is None else Path(data_dir).expanduser().resolve()
     if build_dir is None:
         build_dir = str(paths.run_build_dir(scale))

@@ -245,13 +245,14 @@ def check_extra_parameters(extra: dict[str, Any]) -> None:
         raise ValueError(f"-p cannot set {'; '.join(reserved)}")
 
 
-def check_standard_parameters(parameters: dict[str, Any]) -> None:
+def check_standard_parameters(parameters: dict[str, Any], notebook: str | None = None) -> None:
     """Raise ValueError naming every problem of the standard parameters a notebook run by hand
-    passes to ``setup_notebook`` (the runner's checks of :data:`RULES`, with no notebook to
-    inspect)."""
+    passes to ``setup_notebook`` (the runner's checks of :data:`RULES`, with no notebook file
+    to inspect); a data folder is checked against the windows of ``notebook``'s family
+    (:func:`needs_of`; None: the GMD notebooks')."""
     problems = [problem for key, value in parameters.items()
                 for problem in value_problems(key, value, {})]
-    problems = problems or _scale_problems(parameters)
+    problems = problems or _scale_problems(parameters, notebook)
     if problems:
         raise ValueError("; ".join(problems))
 
