@@ -77,8 +77,8 @@ __all__ = [
 #: 2: ``build_model`` seeds the initialisation (before, it drew from the process's global RNG,
 #: so a model's weights depended on what the process had drawn before, not on its seed alone).
 _CACHE_VERSION = 2
-#: (patience, min_delta, validation_fraction) of a spec without convergence training
-_CONVERGENCE_DEFAULTS = (5, 0.01, 0.05)
+#: the validation fraction of a spec without convergence training
+_DEFAULT_VALIDATION_FRACTION = 0.05
 #: the held-out clips are drawn with this seed, whatever the model's seed (so both arms of a
 #: comparison, and every seed, validate on the same windows)
 VALIDATION_SPLIT_SEED = 0
@@ -200,7 +200,7 @@ class GMDModelSpec:
     schedule: Literal["cosine", "linear"] = "cosine"
     training: TrainConfig = GMD_TRAINING
     text_conditioned: bool = False
-    validation_fraction: float = 0.05
+    validation_fraction: float = _DEFAULT_VALIDATION_FRACTION
     #: ``UNet1D(input_skip=True)``: a full-rank input-to-output path (in the key only when set)
     input_skip: bool = False
 
@@ -212,7 +212,7 @@ class GMDModelSpec:
             raise ValueError(f"validation_fraction must be in (0, 1), got "
                              f"{self.validation_fraction}")
         if (self.training.validate_every is None
-                and self.validation_fraction != _CONVERGENCE_DEFAULTS[2]):
+                and self.validation_fraction != _DEFAULT_VALIDATION_FRACTION):
             raise ValueError("validation_fraction only acts with training.validate_every set")
         if self.prediction not in ("x0", "epsilon"):
             raise ValueError(f"prediction must be 'x0' or 'epsilon', got {self.prediction!r}")
