@@ -156,8 +156,8 @@ def test_seeds_of() -> None:
 @pytest.mark.parametrize("settings", SETTINGS)
 def test_a_run_gets_its_scales_settings_and_a_data_folder_is_checked(
         settings: type[EnergyViewSettings], tmp_path: Path) -> None:
-    """Notebook 04 runs on a data folder that gives its windows (an empty folder does not:
-    tests/run/test_real_layout.py runs it on one that does); 05, 07, 08 refuse any."""
+    """Every EnergyMoGen notebook runs on a data folder that gives its windows (an empty
+    folder does not: tests/run/test_real_layout.py uses one that does)."""
     ctx = make_context(tmp_path, scale="standard")
     assert settings.for_run(ctx) == settings.for_scale("standard")
     refusal = ("cannot be used at the standard scale" if settings.FOLDER_READY

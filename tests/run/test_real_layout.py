@@ -14,10 +14,14 @@ besides, 32 test windows), which this 60-clip folder does not give — the valid
 notebook 04's parameter check both say so; a 200-clip folder without labels serves them, and
 notebook 04 runs on it (≈ 40 s alone: its tiny pipeline trains on the folder's windows;
 EMG-1 and EMG-9 are measured, EMG-2, 3 and 6 — compositions of the stand-in's labelled
-concepts — are recorded as not measurable on real data). Notebook 07 runs on such a folder
-too (EMG-7 measured, its oracle columns not measurable; run by hand, ≈ 30 s more than 04 on
-the shared models, too long for ``make test``: its real-data pieces are checked directly).
-Notebooks 05 and 08 still refuse a ``data_dir`` (``_NotebookSettings.FOLDER_READY``).
+concepts — are recorded as not measurable on real data). Notebooks 05, 07 and 08 run on such
+a folder too (run by hand at the quick scale; each takes tens of seconds to minutes more, too
+long for ``make test``), so their real-data pieces are checked here directly, on conftest's
+tiny pipeline trained on the folder: 07's oracle columns read not measurable (EMG-7
+measured); 05 measures EMG-4 (Table 9's single-text rows on the folder's test windows, its
+controls on them) and records EMG-5 as not measurable (the λ compositions, timelines and
+sets of three); 08 measures the pretrained models' gates and ground truth's R@3 on the test
+windows and records EMG-8 as not measurable (nothing composed, nothing fine-tuned).
 """
 
 from __future__ import annotations
@@ -28,14 +32,29 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from conftest import TINY_PIPELINE
 
 from repro.claims.ledger import load_sidecars
+from repro.claims.result import record
+from repro.energymogen import augmentation as ag
+from repro.energymogen import composition_claims as cc
+from repro.energymogen import controls as em_controls
+from repro.energymogen import figures as em_figures
+from repro.energymogen import model_gates, t2m_claims, three_concepts, training_report
+from repro.energymogen import studies as em_studies
 from repro.energymogen.config import FRAMES, pipeline_config
-from repro.energymogen.data import build_folder_data, composition_items
-from repro.energymogen.harness import oracle_accuracy
+from repro.energymogen.data import NotMeasurable, build_folder_data, composition_items
+from repro.energymogen.harness import (
+    clip_count,
+    load_or_build_shared_concept_test,
+    load_or_build_text_to_motion_test,
+    oracle_accuracy,
+)
 from repro.energymogen.latent_count import table8_markdown
+from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, load_pipeline
 from repro.energymogen.settings import (
     AugmentationSettings,
+    EnergyViewSettings,
     LatentCountSettings,
     SEFAblationSettings,
     folder_problems,
@@ -206,13 +225,102 @@ def test_the_emg_notebooks_check_the_folder_for_their_windows(real_layout: Path,
         check_standard_parameters(_parameters(real_layout), "04_energy_contour_maps")
 
 
-@pytest.mark.parametrize("settings", [SEFAblationSettings, AugmentationSettings])
-def test_the_other_emg_notebooks_refuse_a_folder(settings: type, emg_layout: Path,
-                                                 tmp_path: Path) -> None:
-    ctx = RunContext("quick", 0, torch.device("cpu"), 1, tmp_path, tmp_path / "cache",
-                     data_dir=emg_layout)
-    with pytest.raises(ValueError, match="runs on the generated set only"):
-        settings.for_run(ctx)
+def _folder_context(emg_layout: Path, tmp_path: Path) -> RunContext:
+    return RunContext("quick", 0, torch.device("cpu"), 1, tmp_path, tmp_path / "cache",
+                      data_dir=emg_layout)
+
+
+@pytest.mark.parametrize("settings", [EnergyViewSettings, SEFAblationSettings,
+                                      LatentCountSettings, AugmentationSettings])
+def test_every_emg_notebook_takes_the_folder(settings: type, emg_layout: Path,
+                                             tmp_path: Path) -> None:
+    assert settings.FOLDER_READY
+    assert settings.for_run(_folder_context(emg_layout, tmp_path)) == settings.for_scale("quick")
+
+
+@pytest.fixture(scope="module")
+def folder_pipe(emg_layout: Path, emg_cache: Path) -> EnergyMoGenPipeline:
+    """conftest's tiny pipeline trained on the folder's windows (seconds)."""
+    return load_pipeline(TINY_PIPELINE, log=None, data_dir=str(emg_layout))
+
+
+def test_notebook_05_on_the_folder_measures_emg4_and_not_emg5(
+        folder_pipe: EnergyMoGenPipeline, emg_layout: Path, tmp_path: Path) -> None:
+    gammas = {em_studies.gamma_key(g): Sampler("single", gammas=g)
+              for g in em_studies.TABLE9_GAMMAS}
+    lambdas = {em_studies.lambda_key(lam): Sampler("sef", lambdas=lam)
+               for lam in ((1.0, 0.0, 0.0), (0.1, 0.7, 0.2), (0.0, 0.0, 1.0))}
+    rows = {**gammas, **lambdas}
+    results = em_studies.run_rows(folder_pipe, rows, [0])
+    # the test windows with their captions: single-text rows measured, compositions empty
+    assert results["1.0,0.0,0.0"] == {} and results["0.1,0.7,0.2"] == {}
+    assert all(len(results[key]["r_precision_top3"]) == 1 for key in [*gammas, "0.0,0.0,1.0"])
+    assert np.isnan(results["real"]["oracle_accuracy"][0])
+    assert np.isfinite(results["real"]["fid"][0]) and np.isfinite(results["real"]["jitter"][0])
+    table = em_studies.markdown_table(results, [("SEF", "0.1,0.7,0.2"), ("γ", "0.001,0.002")],
+                                      {}, [("r_precision_top3", "R@3"), ("both_present", "b")])
+    assert table.count("not measurable on real data") == 3 and "nan" not in table
+    timelines = em_studies.timeline_rows(folder_pipe, rows, [0], items_per_seed=4)
+    threes = em_studies.run_rows(folder_pipe, rows, [0], test_set="threes")
+    assert isinstance(timelines, NotMeasurable) and isinstance(threes, NotMeasurable)
+    em_studies.add_timelines(results, timelines)
+    ctx = _folder_context(emg_layout, tmp_path)
+    assert em_figures.save_sef_figures(results, timelines, [], ctx.figure_path) == []
+    assert em_figures.save_three_concepts_figure([], results, threes, threes,
+                                                 ctx.figure_path) == []
+    for text in (em_studies.timeline_table(timelines, []),
+                 three_concepts.threes_markdown(threes, [], {}),
+                 three_concepts.control_markdown(threes, []),
+                 three_concepts.summary_line(results, threes, threes, [])):
+        assert "not measurable on real data" in text
+    assert em_controls.sef_controls(folder_pipe, [0]) is None
+    controls4 = em_controls.step_size_controls(folder_pipe, [0], list(gammas))
+    agd = {key: em_studies.agd_relative_change(folder_pipe, ["a person walks."], sampler.gammas)
+           for key, sampler in gammas.items()}
+    settings = SEFAblationSettings.for_scale("quick")
+    record(ctx, cc.emg4_result(results, agd, settings, [0], controls=controls4, models=[],
+                               figures=[], data_dir=emg_layout))
+    record(ctx, cc.emg5_result(results, timelines, settings, [0], three_concepts=threes,
+                               three_concepts_control=threes, controls=None, models=[],
+                               figures=[]))
+    claims = load_sidecars(ctx.claims_dir)
+    assert "not_measurable" not in claims["EMG-4"]
+    assert len(claims["EMG-4"]["measured"]["r_precision_top3"]) == len(gammas)
+    assert f"Data folder {emg_layout}" in claims["EMG-4"]["notes"]
+    assert claims["EMG-5"]["not_measurable"].startswith("not measurable on real data")
+    assert claims["EMG-5"]["measured"] == {} and claims["EMG-5"]["verdict"] == "inconclusive"
+
+
+def test_notebook_08_on_the_folder_records_emg8_as_not_measurable(
+        folder_pipe: EnergyMoGenPipeline, emg_layout: Path, tmp_path: Path) -> None:
+    test = load_or_build_shared_concept_test(TINY_PIPELINE, 64, data=folder_pipe.data)
+    gate_test = load_or_build_text_to_motion_test(TINY_PIPELINE, 64, data=folder_pipe.data)
+    assert isinstance(test, NotMeasurable) and clip_count(test) == 0 and len(gate_test) >= 32
+    tests = {"shared": test, "random": gate_test}
+    ceiling = ag.ground_truth_ceiling(folder_pipe, tests, [0])
+    assert list(ceiling) == ["random"] and 0.0 <= ceiling["random"][0] <= 1.0
+    assert "not measurable on real data" in ag.ceiling_markdown(ceiling, tests)
+    results = ag.augmentation_study(folder_pipe, test, [0], size=4)
+    assert isinstance(results, NotMeasurable) and "EMG-8" in results.reason
+    for text in (ag.composed_markdown(results), ag.results_markdown(results, test),
+                 ag.results_text(results), ag.study_text(results, 1e-4)):
+        assert "not measurable on real data" in text
+    records = model_gates.augmentation_records(folder_pipe, gate_test, results, [0])
+    assert records["control"] == records["augmented"] == [] and len(records["pretrained"]) == 1
+    rows = training_report.augmentation_training(folder_pipe, results, [0])
+    assert [name.split()[0] for name, _ in rows] == ["vae", "denoiser"]
+    ctx = _folder_context(emg_layout, tmp_path)
+    assert em_figures.save_composed_examples_figure(results, ctx.figure_path) == []
+    assert em_figures.save_augmentation_figure(results, [0], ctx.figure_path) == []
+    assert em_controls.augmentation_controls(folder_pipe, test, [0]) is None
+    models = [m for part in records.values() for m in part]
+    record(ctx, t2m_claims.emg8_result(results, AugmentationSettings.for_scale("quick"), [0],
+                                       test_clips=clip_count(test), ground_truth_r3=ceiling,
+                                       controls=None, models=models, figures=[]))
+    sidecar = load_sidecars(ctx.claims_dir)["EMG-8"]
+    assert sidecar["not_measurable"].startswith("not measurable on real data")
+    assert sidecar["measured"] == {} and sidecar["verdict"] == "inconclusive"
+    assert len(sidecar["models"]) == len(models) == 2
 
 
 def test_the_emg_pipeline_data_come_from_the_folder(emg_layout: Path) -> None:

@@ -33,6 +33,13 @@ the seeds replicate pretraining too), redraws the composed set (pairs, texts, no
 them, seeds fine-tuning (batches, timesteps, noise, text dropout) and the evaluation noise and
 captions. The text-to-motion test is the shared-concept test of
 ``harness.build_shared_concept_test`` (off the ceiling of the random-batch test).
+
+On a data folder (real data, no concept labels) the study is a ``data.NotMeasurable``: the
+composed set composes stand-in concept pairs and the rule's test batches clips by concept.
+The notebook's other tables and texts (:func:`ceiling_markdown`, :func:`composed_markdown`,
+:func:`results_markdown`, :func:`results_text`, :func:`study_text`, :func:`seconds_text`)
+take it and say so; the pretrained models' gates and ground truth's R@3 on the folder's test
+windows are still measured.
 """
 
 from __future__ import annotations
@@ -48,12 +55,16 @@ import torch
 from torch import Tensor, nn
 
 from repro.core.stats import paired_difference
-from repro.core.tables import interval_text
+from repro.core.tables import interval_text, markdown_table
 from repro.core.training import TrainConfig, torch_threads
 from repro.energymogen.config import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPTS, PipelineConfig
 from repro.energymogen.convergence import TrainingRecord, cached_training_record
-from repro.energymogen.data import composition_items, concept_text
-from repro.energymogen.harness import TextToMotionTest, generation_metrics
+from repro.energymogen.data import NotMeasurable, composition_items, concept_text
+from repro.energymogen.harness import (
+    TextToMotionTest,
+    generation_metrics,
+    ground_truth_r_precision,
+)
 from repro.energymogen.model_gates import denoiser_gate_values
 from repro.energymogen.pipeline import (
     EnergyMoGenPipeline,
@@ -73,9 +84,11 @@ from repro.standin.generator import ClipSpec
 
 __all__ = [
     "COMPML_FRACTION", "ROWS", "ComposedSet", "Rows", "augmentation_study", "caption_rows",
-    "composable_pairs", "compose_set", "composed_set_size", "concatenate_rows",
-    "finetune_config", "held_out_composed_metrics", "joined_caption", "load_or_finetune",
-    "pipeline_finetune_config", "rows_markdown",
+    "ceiling_markdown", "composable_pairs", "compose_set", "composed_markdown",
+    "composed_set_size", "concatenate_rows", "finetune_config", "ground_truth_ceiling",
+    "held_out_composed_metrics", "joined_caption", "load_or_finetune",
+    "pipeline_finetune_config", "results_markdown", "results_text", "rows_markdown",
+    "seconds_text", "study_text",
 ]
 
 #: CompML motions per HumanML3D motion: 5000 / 14616 (Sec. 5.1; appendix G.1).
@@ -245,9 +258,10 @@ def held_out_composed_metrics(variant: EnergyMoGenPipeline, seed: int) -> dict[s
     return composition_metrics(variant, features, variant.joints(features), items, seed)
 
 
-def augmentation_study(source: PipelineSource, test: TextToMotionTest,
+def augmentation_study(source: PipelineSource, test: TextToMotionTest | NotMeasurable,
                        seeds: Sequence[int], *, size: int, threads: int | None = 1,
-                       log: Callable[[str], None] | None = None) -> dict[str, Any]:
+                       log: Callable[[str], None] | None = None
+                       ) -> dict[str, Any] | NotMeasurable:
     """Per seed s, from the pretrained pipeline of s (``pipeline_for(source, s)``; a single
     pipeline is one pretrained model for every seed): compose a set of ``size``, fine-tune
     control and augmented, measure every row of :data:`ROWS` on both tests, all with
@@ -258,7 +272,12 @@ def augmentation_study(source: PipelineSource, test: TextToMotionTest,
     denoisers over the Gaussian denoiser's on ``test`` (``model_gates.denoiser_gate_values``,
     their ``latent_denoiser`` gate)}, "pretrained_train_seeds": per-seed training seed}``;
     composed-set metrics: the oracles' both-present rate on the set itself, overall and on held-out
-    pairs, and their per-concept accuracy."""
+    pairs, and their per-concept accuracy. A ``NotMeasurable`` test (a data folder's,
+    ``harness.load_or_build_shared_concept_test``) gives a ``NotMeasurable``: nothing is
+    composed or fine-tuned."""
+    if isinstance(test, NotMeasurable):
+        return NotMeasurable(f"{test.reason}; EMG-8 fine-tunes on SEF compositions of stand-in "
+                             "concept pairs and tests on batches of clips sharing one concept")
     out: dict[str, Any] = {"t2m": {r: {} for r in ROWS}, "held_out": {r: {} for r in ROWS},
                            "composed": {}, "seconds": {"compose": [], "control": [],
                                                        "augmented": [], "evaluate": []},
@@ -332,3 +351,89 @@ def rows_markdown(results: Mapping[str, Mapping[str, Sequence[float]]],
             interval_text(paired_difference(results["augmented"][m], results["control"][m]))
             for m, _ in columns) + " |")
     return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------------------------
+# Notebook 08's tables and texts (a data folder's ``NotMeasurable`` said as such)
+# ----------------------------------------------------------------------------------------------
+
+Study = Mapping[str, Any] | NotMeasurable
+#: the text-to-motion columns of the rule's test, and those of the held-out composed texts
+T2M_COLUMNS = (("r_precision_top1", "R@1"), ("r_precision_top3", "R@3"), ("fid", "FID"),
+               ("mm_dist", "MM-Dist"), ("diversity", "Diversity"),
+               ("oracle_accuracy", "oracle acc."))
+HELD_OUT_COLUMNS = (("oracle_accuracy", "oracle acc."), ("both_present", "both found"),
+                    ("r_precision_top3", "R@3 %"), ("fid", "FID"))
+
+
+def ground_truth_ceiling(pipe: EnergyMoGenPipeline,
+                         tests: Mapping[str, TextToMotionTest | NotMeasurable],
+                         seeds: Sequence[int]) -> dict[str, list[float]]:
+    """Test name → ground truth's R@3 per seed (``harness.ground_truth_r_precision``) for
+    every test of ``tests`` that exists (a ``NotMeasurable`` one is left out)."""
+    return {name: [ground_truth_r_precision(pipe, test, s) for s in seeds]
+            for name, test in tests.items() if not isinstance(test, NotMeasurable)}
+
+
+def ceiling_markdown(ceiling: Mapping[str, Sequence[float]],
+                     tests: Mapping[str, TextToMotionTest | NotMeasurable]) -> str:
+    """The table of :func:`ground_truth_ceiling` (a missing test: its reason)."""
+    rows = [[name, len(test), interval_text(ceiling[name])] if name in ceiling
+            else [name, "—", test.reason] for name, test in tests.items()]
+    return ("**Ground truth's R@3 on each test** (the test clips themselves against their "
+            "captions, the pipeline's evaluator; mean ± 95 % half-width over seeds)\n\n"
+            + markdown_table(["test", "clips", "R@3 of ground truth"], rows))
+
+
+def study_text(results: Study, lr: float) -> str:
+    """The study's line on its pretrained models and fine-tuning (at ``lr``)."""
+    if isinstance(results, NotMeasurable):
+        return f"EMG-8: {results.reason}"
+    steps = [r.steps for r in results["training"]["control"]]
+    return (f"pretrained with training seeds {results['pretrained_train_seeds']}; fine-tuning "
+            f"steps per seed {steps} at lr {lr:g}")
+
+
+def composed_markdown(results: Study) -> str:
+    """The composed set itself, measured by the oracles (mean ± 95 % half-width)."""
+    if isinstance(results, NotMeasurable):
+        return f"**The composed set**: {results.reason}."
+    composed = results["composed"]
+    labels = {"both_present": "both concepts found (the set's own both-present rate)",
+              "oracle_accuracy": "concepts found (per concept)",
+              "held_out_pair_fraction": "share of items on held-out pairs",
+              "both_present_held_out_pairs": "both found, held-out pairs only"}
+    return ("**The composed set itself, measured by the oracles** (mean ± 95 % half-width over "
+            "seeds; what the augmented model is fine-tuned on)\n\n"
+            + markdown_table(["measure", "value"], [[label, interval_text(composed[key])]
+                                                     for key, label in labels.items()]))
+
+
+def results_markdown(results: Study, test: TextToMotionTest | NotMeasurable) -> str:
+    """The two text-to-motion tables: (1) the rule's shared-concept test, (2) the held-out
+    composed texts (:func:`rows_markdown`)."""
+    if isinstance(results, NotMeasurable):
+        return f"**Text-to-motion with and without the composed set**: {results.reason}."
+    return (f"**(1) Shared-concept test — the rule's test** ({len(test)} clips)\n\n"
+            + rows_markdown(results["t2m"], T2M_COLUMNS)
+            + "\n\n**(2) Held-out composed texts (pairs never seen together in training)**"
+            "\n\n" + rows_markdown(results["held_out"], HELD_OUT_COLUMNS))
+
+
+def results_text(results: Study) -> str:
+    """Per test and row the per-seed R@3, FID and oracle accuracy."""
+    if isinstance(results, NotMeasurable):
+        return f"EMG-8: {results.reason}"
+    return "\n".join(
+        f"{part:8s} {row:10s} R@3 {np.round(values['r_precision_top3'], 3).tolist()} "
+        f"FID {np.round(values['fid'], 3).tolist()} oracle "
+        f"{np.round(values['oracle_accuracy'], 3).tolist()}"
+        for part in ("t2m", "held_out") for row, values in
+        ((row, results[part][row]) for row in ROWS))
+
+
+def seconds_text(results: Study) -> str:
+    """Seconds per seed of every stage of the study (none when not measurable)."""
+    if isinstance(results, NotMeasurable):
+        return "none (EMG-8 not measurable on this data)"
+    return str({k: np.round(v, 1).tolist() for k, v in results["seconds"].items()})

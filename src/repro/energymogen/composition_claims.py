@@ -187,13 +187,19 @@ def _table(results: Results) -> dict[str, dict[str, Any]]:
     return {key: {metric: values for metric, values in results[key].items()} for key in results}
 
 
-def emg5_result(results: Results, timelines: Results, settings: SEFAblationSettings,
-                seeds: Sequence[int], *, three_concepts: Results, three_concepts_control: Results,
-                controls: Controls, models: Models, figures: Figures) -> ClaimResult:
+def emg5_result(results: Results, timelines: Results | NotMeasurable,
+                settings: SEFAblationSettings, seeds: Sequence[int], *,
+                three_concepts: Results | NotMeasurable,
+                three_concepts_control: Results | NotMeasurable, controls: Controls | None,
+                models: Models, figures: Figures) -> ClaimResult:
     """EMG-5 from the Table 7 rows of ``studies.run_rows`` (``results``: row → metric →
     per-seed list, R@3 on the held-out pairs) and ``studies.timeline_rows`` (``timelines``:
     the transitions at the MTT-style timelines' boundaries); the sets of three
-    (``three_concepts``, outside the rules) and their two-concept control kept beside."""
+    (``three_concepts``, outside the rules) and their two-concept control kept beside. On a
+    data folder (``timelines`` a ``data.NotMeasurable``: the λ rows compose concepts) not
+    measurable on real data (``claims.result.not_measurable_result``)."""
+    if isinstance(timelines, NotMeasurable):
+        return not_measurable_result("EMG-5", timelines.reason, seeds, models=models)
     t7_keys = [lambda_key(lam) for lam in TABLE7_LAMBDAS]
     r3 = {key: results[key]["r_precision_top3"] for key in t7_keys}
     trans_all = {key: results[key]["transition_distance"] for key in t7_keys}
@@ -225,10 +231,13 @@ def emg5_result(results: Results, timelines: Results, settings: SEFAblationSetti
 
 def emg4_result(results: Results, agd_change: Mapping[str, float],
                 settings: SEFAblationSettings, seeds: Sequence[int], *, controls: Controls,
-                models: Models, figures: Figures) -> ClaimResult:
+                models: Models, figures: Figures,
+                data_dir: str | os.PathLike | None = None) -> ClaimResult:
     """EMG-4 from the Table 9 rows of ``studies.run_rows`` (``results``, single-text
     generation with AGD) and ``studies.agd_relative_change`` (``agd_change``: γ row → the
-    text embedding's relative change, the first seed's model)."""
+    text embedding's relative change, the first seed's model). ``data_dir``: the run's data
+    folder (None: the stand-in set), whose test windows and captions the rows then used
+    (the notes say so)."""
     gkeys = [gamma_key(g) for g in TABLE9_GAMMAS]
     table = _table(results)
     headline = ("R@3 by [γattn, γreg]: " + ", ".join(
@@ -239,6 +248,12 @@ def emg4_result(results: Results, agd_change: Mapping[str, float],
         "encoder's embedding at every step). Our text embedding's scale differs from CLIP's, "
         "so γ values are not directly comparable: relative embedding change per row (first "
         "seed's model) is in extra.")
+    if data_dir is not None:
+        notes += (f" Data folder {data_dir} (real data): the rows generate from the captions of "
+                  "its test windows (data.energy_view_items: one caption per window, as many "
+                  "windows as the pairs' items, at most all), R@3 against those windows in "
+                  "batches of 32, FID against all its test windows; no held-out pair, timeline "
+                  "or oracle is read (EMG-5's compositions are not measurable there).")
     extra = {"agd_relative_embedding_change": agd_change, "paper_table9": PAPER_TABLE9,
              "table": {k: table[k] for k in gkeys}, "control_calibration": controls.planted}
     return ClaimResult("EMG-4", {"r_precision_top3": {key: results[key]["r_precision_top3"]

@@ -38,6 +38,7 @@ from repro.energymogen.config import LOWER_CONCEPTS
 from repro.energymogen.data import (
     NotMeasurable,
     composition_items,
+    energy_view_items,
     negation_items,
     stand_in_clips_of,
 )
@@ -312,6 +313,12 @@ def row_measurements(pipe: EnergyMoGenPipeline, features: np.ndarray, items: Any
             "transition_distance": transition_distance_cm(features)}
 
 
+def _swap_groups(items: Any) -> np.ndarray:
+    """Whose motions a swap takes: another held-out pair's (``studies.pair_index``); on a data
+    folder's items (its test windows, no concepts) any other item's."""
+    return pair_index(items) if any(items.concepts) else np.arange(len(items))
+
+
 def _swap_fraction(clean: float, swapped: float, target: float) -> float:
     """The swap fraction whose expected R@3 is ``target`` (linear between the endpoints)."""
     if clean - swapped <= 0:
@@ -327,8 +334,8 @@ def _row_plan(source: PipelineSource, seeds: Sequence[int], claim: int,
     calibration: dict[str, list[Any]] = {}
     for seed in seeds:
         pipe = pipeline_for(source, seed)
-        items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
-        groups = pair_index(items)
+        items = energy_view_items(pipe.data, seed, pipe.config.items_per_pair)
+        groups = _swap_groups(items)
         for kind in KINDS:
             rng = _rng(seed, claim, kind)
             plan = rows(pipe, items, seed, kind)
@@ -347,7 +354,7 @@ def _endpoints(pipe: EnergyMoGenPipeline, items: Any, seed: int, movement: float
                ) -> tuple[float, float]:
     """R@3 of the ground truth (moved by ``movement``) clean and with every motion swapped, on
     a calibration draw of its own."""
-    groups = pair_index(items)
+    groups = _swap_groups(items)
     moved = scale_movement(items.gt_features, movement)
     clean = row_measurements(pipe, moved, items, seed)["r_precision_top3"]
     rng = np.random.default_rng([CONTROL_STREAM, 99, seed])
@@ -365,7 +372,9 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
     Positive: [0.001, 0.002] clean (R₀); every other row at R₀/1.035 (the claimed best exceeds
     it by δ = 3.5 % of the other row); [0.1, 0.2] at (1 − 0.417) of γ = 0's (δ: half the
     paper's 83.5 % drop). Null: every row at R₀/1.035, independent swaps. Swap fractions
-    from R₀ and the all-swapped R@3 measured per seed (a linear scale factor)."""
+    from R₀ and the all-swapped R@3 measured per seed (a linear scale factor). On a data
+    folder the rows are its test windows (``data.energy_view_items``, as ``run_rows``), a swap
+    takes any other window's motion."""
     best, large = "0.001,0.002", "0.1,0.2"
 
     def rows(pipe: EnergyMoGenPipeline, items: Any, seed: int, kind: str
@@ -390,7 +399,7 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
 
 
 def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float = 1.0,
-                 timeline_items_per_seed: int = 16) -> Controls:
+                 timeline_items_per_seed: int = 16) -> Controls | None:
     """EMG-5's controls: R@3 on the seed's ground-truth composition motions (held-out pairs)
     with a fraction swapped (:func:`swap_motions`, R@3 linear in it; movement scaled with
     :func:`scale_movement` as before, for the all-frames distance kept as context); the
@@ -403,7 +412,9 @@ def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float =
     planted exactly (:func:`plant_transitions`); R@3 SEF clean at its movement (R₀), latent
     R₀/1.2143 (SEF − latent = 21.43 % of latent), semantic 1.2015 × latent's target. Null:
     all three rows clean (independent draws), movement 1 and the latent row's swap
-    fraction."""
+    fraction. None on a data folder (EMG-5 composes concepts: not measurable there)."""
+    if not pipeline_for(source, seeds[0]).data.labelled:
+        return None
     lat, sem, sef = "1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"
 
     def rows(pipe: EnergyMoGenPipeline, items: Any, seed: int, kind: str
@@ -517,8 +528,8 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 
 # --- EMG-8: R@3 and FID of the text-to-motion test -----------------------------------------
 
-def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
-                          seeds: Sequence[int], *, scale: float = 1.0) -> Controls:
+def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest | NotMeasurable,
+                          seeds: Sequence[int], *, scale: float = 1.0) -> Controls | None:
     """EMG-8's controls: "generations" of the baseline and the augmented model are the test
     clips with feature noise and a fraction of their motions passed round
     (:func:`permute_motions`: R@3 falls, FID does not move), measured
@@ -528,7 +539,10 @@ def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
     floors). Positive: the augmented arm's noise read off the FID curve for 0.9 × the
     baseline's FID (δ: 10 % of it; :class:`FidCurve`) and its permuted fraction for R@3 + 0.01
     (δ: one percentage point; R@3 clean and fully permuted at that noise, measured on a
-    calibration draw, linear in between). Null: both arms alike."""
+    calibration draw, linear in between). Null: both arms alike. None for a ``NotMeasurable``
+    test (a data folder: no shared-concept test, EMG-8 not measurable)."""
+    if isinstance(test, NotMeasurable):
+        return None
     reference = reference_embeddings(pipe, test)
     curve = fid_curve(pipe, test, reference)
     rng_cal = np.random.default_rng([CONTROL_STREAM, 88])

@@ -539,9 +539,10 @@ def composition_items(data: StandInData, seed: int, per_pair: int,
 
 def energy_view_items(data: StandInData, seed: int, per_pair: int) -> CompositionItems:
     """The test latents' draws of EMG-1's model identities (``energy.energy_view_study``,
-    ``gradient_field.gradient_field_study``): on the stand-in set :func:`composition_items`
-    (``per_pair`` items per held-out pair, unchanged); on a data folder, which has no
-    concepts to compose, as many test windows (at most all) drawn with ``seed``, each with one
+    ``gradient_field.gradient_field_study``) and of notebook 05's rows (``studies.run_rows``,
+    EMG-4's controls; a folder: single-text rows only): on the stand-in set
+    :func:`composition_items` (``per_pair`` per held-out pair, unchanged); on a data folder (no
+    concepts to compose) as many test windows (at most all) drawn with ``seed``, each with one
     of its captions as the joined text and as the first "concept", the next item's caption as
     the second: Eq. 5–7's identities hold for any two conditions, so only the texts differ."""
     if data.labelled:

@@ -35,8 +35,10 @@ __all__ = [
     "agd_step_size_figure", "augmentation_figure", "composed_examples_figure",
     "composition_examples_figure", "composition_oracle_figure", "energy_maps_figure",
     "jacobian_asymmetry_figure", "latent_count_figure", "map_similarity_figure",
-    "reconstructions_figure", "save_composition_figures", "save_energy_map_figures",
-    "sef_tradeoff_figure", "three_concepts_figure", "transition_measures_figure",
+    "reconstructions_figure", "save_augmentation_figure", "save_composed_examples_figure",
+    "save_composition_figures", "save_energy_map_figures", "save_sef_figures",
+    "save_three_concepts_figure", "sef_tradeoff_figure", "three_concepts_figure",
+    "transition_measures_figure",
 ]
 
 Results = Mapping[str, Mapping[str, Sequence[float]]]
@@ -224,6 +226,32 @@ def map_similarity_figure(measured: Mapping[str, Sequence[float]]) -> Figure:
 # ----------------------------------------------------------------------------------------------
 
 
+def save_three_concepts_figure(rows: Sequence[tuple[str, str]], pairs: Results,
+                               threes: Results | NotMeasurable,
+                               control: Results | NotMeasurable,
+                               figure_path: Callable[[str], Path]) -> list[Path]:
+    """Notebook 05's :func:`three_concepts_figure` saved under ``figure_path(name)`` (its path
+    in a list); none when the sets of three are not measurable (a data folder)."""
+    if isinstance(threes, NotMeasurable) or isinstance(control, NotMeasurable):
+        return []
+    return [save_figure(three_concepts_figure(rows, pairs, threes, control),
+                        figure_path("emg5_three_concepts.png"))]
+
+
+def save_sef_figures(results: Results, timelines: Results | NotMeasurable,
+                     rows: Sequence[tuple[str, str]], figure_path: Callable[[str], Path]
+                     ) -> list[Path]:
+    """Notebook 05's EMG-5 figures saved under ``figure_path(name)``:
+    :func:`sef_tradeoff_figure` and :func:`transition_measures_figure` of ``rows`` (their
+    paths, in that order); none when not measurable (a data folder)."""
+    if isinstance(timelines, NotMeasurable):
+        return []
+    return [save_figure(sef_tradeoff_figure(results, timelines),
+                        figure_path("emg5_sef_tradeoff.png")),
+            save_figure(transition_measures_figure(timelines, rows),
+                        figure_path("emg5_transitions.png"))]
+
+
 def three_concepts_figure(rows: Sequence[tuple[str, str]], pairs: Results, threes: Results,
                           control: Results) -> Figure:
     """Table 3's ``rows`` (label, key) on the held-out pairs, the sets of three and their
@@ -392,6 +420,30 @@ def reconstructions_figure(clip_joints: np.ndarray, caption: str,
 # ----------------------------------------------------------------------------------------------
 # Notebook 08: EMG-8
 # ----------------------------------------------------------------------------------------------
+
+
+def save_composed_examples_figure(results: Mapping[str, Any] | NotMeasurable,
+                                  figure_path: Callable[[str], Path]) -> list[Path]:
+    """Notebook 08's :func:`composed_examples_figure` of the study's example set (the first
+    seed's): its first composition on a held-out pair and its first on a trained pair, saved
+    under ``figure_path(name)`` (its path in a list); none when not measurable."""
+    if isinstance(results, NotMeasurable):
+        return []
+    example, held = results["example"], {frozenset(p) for p in HELD_OUT_PAIRS}
+    picks = [next(i for i, c in enumerate(example.concepts) if frozenset(c) in held),
+             next(i for i, c in enumerate(example.concepts) if frozenset(c) not in held)]
+    return [save_figure(composed_examples_figure(example, picks),
+                        figure_path("emg8_composed_examples.png"))]
+
+
+def save_augmentation_figure(results: Mapping[str, Any] | NotMeasurable, seeds: Sequence[int],
+                             figure_path: Callable[[str], Path]) -> list[Path]:
+    """Notebook 08's :func:`augmentation_figure` saved under ``figure_path(name)`` (its path
+    in a list); none when not measurable (a data folder)."""
+    if isinstance(results, NotMeasurable):
+        return []
+    return [save_figure(augmentation_figure(results, seeds),
+                        figure_path("emg8_composed_augmentation.png"))]
 
 
 def composed_examples_figure(example: ComposedSet, picks: Sequence[int]) -> Figure:

@@ -28,9 +28,11 @@ import numpy as np
 from repro.core import metrics
 from repro.energymogen.config import ARM_CONCEPTS, LOWER_CONCEPTS, PipelineConfig
 from repro.energymogen.data import (
+    NotMeasurable,
     StandInData,
     draw_clip_request,
     draw_training_like_clips,
+    not_measurable_reason,
     stand_in_clips,
     trained_pairs,
 )
@@ -41,8 +43,8 @@ from repro.standin.oracles import detect_concepts
 
 __all__ = [
     "R_PRECISION_BATCH", "TextToMotionTest", "build_shared_concept_test",
-    "build_text_to_motion_test", "folder_test", "generation_metrics", "ground_truth_r_precision",
-    "grouped_r_precision",
+    "build_text_to_motion_test", "clip_count", "folder_test", "generation_metrics",
+    "ground_truth_r_precision", "grouped_r_precision",
     "grouped_r_precision_metrics",
     "load_or_build_shared_concept_test", "load_or_build_text_to_motion_test", "oracle_accuracy",
     "shared_concept_anchors",
@@ -124,8 +126,14 @@ def build_shared_concept_test(config: PipelineConfig, count: int) -> TextToMotio
                             tuple(tuple(c) for _, _, c in clips), tuple(concepts), grouped=True)
 
 
-def load_or_build_shared_concept_test(config: PipelineConfig, count: int) -> TextToMotionTest:
-    """:func:`build_shared_concept_test` from ``cache_dir()/emg_shared_concept_test/<hash>/``."""
+def load_or_build_shared_concept_test(config: PipelineConfig, count: int,
+                                      data: StandInData | None = None
+                                      ) -> TextToMotionTest | NotMeasurable:
+    """:func:`build_shared_concept_test` from ``cache_dir()/emg_shared_concept_test/<hash>/``;
+    with the ``data`` of a data folder a ``data.NotMeasurable`` (its batches share a stand-in
+    concept: the folder's clips have none, and the generator's clips are not its data)."""
+    if data is not None and not data.labelled:
+        return NotMeasurable(not_measurable_reason(data))
     key = {"data": config.data_dict(), "count": count, "key_offset": _SHARED_KEY,
            "anchors": list(shared_concept_anchors(count)), "format": 1}
     return _load_or_build("emg_shared_concept_test", key,
@@ -171,6 +179,11 @@ def folder_test(data: StandInData, count: int) -> TextToMotionTest:
     return TextToMotionTest(data.test_features[keep],
                             tuple(tuple(data.test_captions[i]) for i in keep),
                             tuple(() for _ in keep))
+
+
+def clip_count(test: TextToMotionTest | NotMeasurable) -> int:
+    """The number of clips of ``test`` (0 for a ``NotMeasurable``: no test)."""
+    return 0 if isinstance(test, NotMeasurable) else len(test)
 
 
 def _load_or_build(kind: str, key: dict, build: Callable[[], TextToMotionTest], *,

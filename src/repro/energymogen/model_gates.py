@@ -38,6 +38,7 @@ from repro.core import fitness, metrics
 from repro.core.gates import model_record
 from repro.core.training import torch_threads
 from repro.energymogen.convergence import TrainingRecord
+from repro.energymogen.data import NotMeasurable
 from repro.energymogen.harness import TextToMotionTest, oracle_accuracy
 from repro.energymogen.latent_count import load_or_train_variant
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, pipeline_for
@@ -253,13 +254,15 @@ def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
 
 
 def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
-                         results: Mapping[str, Any], seeds: Sequence[int]
+                         results: Mapping[str, Any] | NotMeasurable, seeds: Sequence[int]
                          ) -> dict[str, list[dict[str, Any]]]:
     """EMG-8: per seed s, the records of the pretrained pipeline of s (``pipeline_for``: its
     VAE and denoiser measured here on ``gate_test``, the denoiser with :func:`gate_seed`) and
     of the control and augmented denoisers fine-tuned from it (the x̂0 error
     ``augmentation.augmentation_study`` measured on its own test at s, its training records).
-    Returns ``{"vae": [...], "pretrained": [...], "control": [...], "augmented": [...]}``."""
+    Returns ``{"vae": [...], "pretrained": [...], "control": [...], "augmented": [...]}``; for
+    a ``NotMeasurable`` study (a data folder: nothing fine-tuned) the pretrained models'
+    records only (``control`` and ``augmented`` empty)."""
     out: dict[str, list[dict[str, Any]]] = {"vae": [], "pretrained": [], "control": [],
                                             "augmented": []}
     for i, seed in enumerate(seeds):
@@ -268,6 +271,8 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
         vae, pretrained = pipeline_records(pipe, gate_test, real_recall)
         out["vae"].append(vae)
         out["pretrained"].append(pretrained)
+        if isinstance(results, NotMeasurable):
+            continue
         for row in ("control", "augmented"):
             out[row].append(denoiser_record(      # fine-tuned: the pretrained architecture
                 pipe, {"x0_error_vs_gaussian": results["fitness"][row][i]},

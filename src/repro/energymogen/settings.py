@@ -198,10 +198,14 @@ class SEFAblationSettings(_NotebookSettings):
     timeline items per seed on which EMG-5's transitions are measured (``timelines``; 64 at
     standard and paper, our choice: 1–3 boundaries each, about 150 transitions per row and seed, one
     item in eight of MTT's 500; 8 in quick runs) and the training plan (every EnergyMoGen
-    notebook's: one trained pipeline)."""
+    notebook's: one trained pipeline). On a data folder EMG-4 is measured (Table 9's
+    single-text rows with AGD, from the captions of the folder's test windows, R@3 and FID
+    against them); EMG-5 (the λ rows compose concepts; the timelines and the sets of three
+    are the stand-in's) is recorded as not measurable on real data."""
 
     NOTEBOOK: ClassVar[str] = "05_sef_ablation"
     GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts with held-out pairs"
+    FOLDER_READY: ClassVar[bool] = True
     scale: str
     pipeline: PipelineConfig
     plan: TrainingPlan
@@ -271,10 +275,14 @@ class AugmentationSettings(_NotebookSettings):
     of the pool (12), 64 clips (2 batches) in quick runs —, the random-batch test set on which
     the models' gates are measured (as notebook 07's: 256 clips, 64 quick), torch threads and
     the training plan (notebook 07's); the composed set's size and the fine-tuning follow from
-    the pipeline (``augmentation.composed_set_size``, ``augmentation.finetune_config``)."""
+    the pipeline (``augmentation.composed_set_size``, ``augmentation.finetune_config``).
+    On a data folder EMG-8 is recorded as not measurable on real data (its composed set
+    composes stand-in concept pairs, its test batches clips by concept); the pretrained
+    models, their gates and ground truth's R@3 on the folder's test windows still run."""
 
     NOTEBOOK: ClassVar[str] = "08_composed_augmentation"
     GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts"
+    FOLDER_READY: ClassVar[bool] = True
     scale: str
     pipeline: PipelineConfig
     seeds: int

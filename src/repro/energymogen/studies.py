@@ -38,6 +38,7 @@ from repro.energymogen.data import (
     CompositionItems,
     NotMeasurable,
     composition_items,
+    energy_view_items,
     load_or_build_test_pool,
     negation_items,
     not_measurable_reason,
@@ -45,11 +46,12 @@ from repro.energymogen.data import (
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
 from repro.energymogen.timelines import real_then_clips, timeline_items
 from repro.models.latent_denoiser import CrossAttentionControl
+from repro.standin.figures import NOT_MEASURABLE
 from repro.standin.oracles import detect_concepts
 
 __all__ = [
     "PAPER_TABLE3", "PAPER_TABLE7", "PAPER_TABLE9", "TABLE7_LAMBDAS", "TABLE9_GAMMAS",
-    "agd_relative_change", "composition_metrics", "composition_study", "gamma_key",
+    "add_timelines", "agd_relative_change", "composition_metrics", "composition_study", "gamma_key",
     "lambda_key", "markdown_table", "oracle_presence", "run_rows", "timeline_measurements",
     "timeline_rows", "timeline_table", "transition_distance_at_transitions_cm",
     "transition_distance_cm", "transition_distances_at_cm", "transition_speed_ratio",
@@ -219,7 +221,9 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
     :func:`transition_distance_cm`), foot skating (m/s), jitter (m/s²), oracle accuracy
     (fraction of (item, concept) present; ``oracle_accuracy_concept_i``: of the i-th concept
     of the items alone) and the rate of items with every concept present (``both_present``:
-    two of two, or three of three for sets of three).
+    two of two, or three of three for sets of three). Items without concepts (a data folder's
+    test windows, ``data.energy_view_items``): the oracle columns are NaN (not measurable on
+    real data).
     """
     evaluator = pipe.evaluator
     lengths = np.full(len(features), features.shape[1])
@@ -227,7 +231,6 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
     gen = evaluator.embed_motions(features, lengths)
     gt = evaluator.embed_motions(items.gt_features, lengths)
     r = metrics.r_precision(text, gen, 32, 3, seed)
-    presence = oracle_presence(joints, items.concepts)
     return {"r_precision_top1": 100.0 * float(r[0]), "r_precision_top3": 100.0 * float(r[2]),
             "tmr_m2t": metrics.tmr_score(gen, text), "tmr_m2m": metrics.tmr_score(gen, gt),
             "fid": metrics.fid(gen, pipe.reference_embeddings if reference is None
@@ -235,7 +238,15 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
             "transition_distance": transition_distance_cm(features),
             "foot_skating": metrics.foot_skating(joints),
             "jitter": metrics.jitter(joints).acceleration,
-            "oracle_accuracy": float(presence.mean()),
+            **_oracle_columns(joints, items.concepts)}
+
+
+def _oracle_columns(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> dict[str, float]:
+    """:func:`composition_metrics`' oracle columns; NaN without concepts (a data folder)."""
+    if not any(concepts):
+        return {"oracle_accuracy": float("nan"), "both_present": float("nan")}
+    presence = oracle_presence(joints, concepts)
+    return {"oracle_accuracy": float(presence.mean()),
             "both_present": float(presence.all(axis=1).mean()),
             **{f"oracle_accuracy_concept_{i + 1}": float(rate)
                for i, rate in enumerate(presence.mean(axis=0))}}
@@ -243,7 +254,7 @@ def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints:
 
 def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequence[int],
              log: Callable[[str], None] | None = None, *, test_set: str = "pairs"
-             ) -> dict[str, dict[str, list[float]]]:
+             ) -> dict[str, dict[str, list[float]]] | NotMeasurable:
     """Every row of a table on the composition items of every seed: row → metric → per-seed
     list. Seed s uses ``pipeline_for(source, s)`` (one pipeline, or one trained model per seed:
     :class:`SeedPipelines`). Within a seed all rows share the model, the items and the initial
@@ -254,13 +265,21 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
     ``pipe.reference_embeddings``) or a name of ``EXTRA_TEST_SETS`` (``"threes"``: the sets
     of three; ``"threes_as_pairs"``: their control; ``items_per_extra_set`` each; FID against
     that set's own ground-truth pool).
+
+    On a data folder (``data.labelled`` False) the items of ``"pairs"`` are its test windows
+    with their captions (``data.energy_view_items``; FID against all its test windows) and
+    only the rows of single-text samplers are measured (the text-to-motion rows: Table 9's
+    AGD steps); a row that composes texts stays empty (no concepts to compose) and every
+    other test set is a ``data.NotMeasurable`` (they compose the stand-in's concepts).
     """
+    if test_set != "pairs" and not pipeline_for(source, seeds[0]).data.labelled:
+        return NotMeasurable(not_measurable_reason(pipeline_for(source, seeds[0]).data))
     out: dict[str, dict[str, list[float]]] = {name: {} for name in [*rows, "real"]}
     for seed in seeds:
         pipe = pipeline_for(source, seed)
         reference = None
         if test_set == "pairs":
-            items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
+            items = energy_view_items(pipe.data, seed, pipe.config.items_per_pair)
         else:
             pool = load_or_build_test_pool(pipe.config, test_set)
             items = composition_items(pipe.data, seed, pipe.config.items_per_extra_set, pool)
@@ -270,14 +289,17 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
         start = time.perf_counter()
         for name, sampler in rows.items():
             key = sampler.canonical()
+            if not (pipe.data.labelled or key.mode == "single"):
+                continue   # a data folder: nothing to compose, the row stays empty
             if key not in done:
                 features = pipe.decode(pipe.sample_items(key, items, seed))
                 done[key] = composition_metrics(pipe, features, pipe.joints(features), items,
                                                 seed, reference)
             for metric, value in done[key].items():
                 out[name].setdefault(metric, []).append(value)
-        real = composition_metrics(pipe, items.gt_features, items.gt_joints, items, seed,
-                                   reference)
+        # a data folder's windows carry no joints of their own: recovered from the features
+        real_joints = items.gt_joints if pipe.data.labelled else pipe.joints(items.gt_features)
+        real = composition_metrics(pipe, items.gt_features, real_joints, items, seed, reference)
         for metric, value in real.items():
             out["real"].setdefault(metric, []).append(value)
         if log is not None:
@@ -287,7 +309,7 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
 
 def timeline_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequence[int],
                   *, items_per_seed: int, log: Callable[[str], None] | None = None
-                  ) -> dict[str, dict[str, list[float]]]:
+                  ) -> dict[str, dict[str, list[float]]] | NotMeasurable:
     """EMG-5's transition measurements on the MTT-style timelines (``timelines``): row →
     metric → per-seed list (:func:`timeline_measurements`).
 
@@ -296,7 +318,12 @@ def timeline_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Se
     Eq. 9) and the joined text (c_{1,n}), with the seed's model and noise, and is measured at
     the item's transition frames. Row ``"real"``: the generator's "then" clips of each item's
     A then B at the transitions their labels give (``timelines.real_then_clips``).
+
+    On a data folder a ``data.NotMeasurable``: the timelines compose the stand-in's concept
+    texts, and their real clips are the generator's.
     """
+    if not pipeline_for(source, seeds[0]).data.labelled:
+        return NotMeasurable(not_measurable_reason(pipeline_for(source, seeds[0]).data))
     out: dict[str, dict[str, list[float]]] = {name: {} for name in [*rows, "real"]}
     for seed in seeds:
         pipe = pipeline_for(source, seed)
@@ -318,6 +345,16 @@ def timeline_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Se
             log(f"seed {seed}: timelines, {len(done)} samplers in "
                 f"{time.perf_counter() - start:.1f} s")
     return out
+
+
+def add_timelines(results: dict[str, dict[str, list[float]]],
+                  timelines: Mapping[str, Mapping[str, list[float]]] | NotMeasurable) -> None:
+    """Notebook 05: the timelines' transition measurements (:func:`timeline_rows`) beside each
+    row's columns of :func:`run_rows` (in place); nothing for a ``NotMeasurable``."""
+    if isinstance(timelines, NotMeasurable):
+        return
+    for key, values in timelines.items():
+        results[key].update(values)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -483,15 +520,21 @@ def markdown_table(results: Mapping[str, Mapping[str, Sequence[float]]],
                        ("tmr_m2t", "M2T"), ("tmr_m2m", "M2M"), ("fid", "FID"),
                        ("transition_distance_at_transitions", "Trans. cm"))) -> str:
     """A markdown table: per row (label, key) ours (mean ± 95 % half-width over seeds; "—"
-    where the row or the measurement is absent) and the paper's value in brackets (the
-    transition distance at the boundaries beside the paper's transition distance)."""
+    where the row or the measurement is absent; "not measurable on real data" for a row
+    :func:`run_rows` left empty or a NaN value: a data folder's) and the paper's value in
+    brackets (the transition distance at the boundaries beside the paper's transition
+    distance)."""
     header = ["row"] + [f"{c} ours [paper]" for _, c in columns]
     body = []
     for label, key in rows:
         cells: list[object] = [label]
         for metric, _ in columns:
             values = results.get(key, {}).get(metric)
-            ours = interval_text(values) if values is not None else "—"
+            if (key in results and not results[key]) or (
+                    values is not None and np.isnan(np.asarray(values, dtype=float)).any()):
+                ours = NOT_MEASURABLE
+            else:
+                ours = interval_text(values) if values is not None else "—"
             paper_metric = _PAPER_COLUMN.get(metric, metric)
             theirs = paper.get(key, {}).get(paper_metric) if paper_metric else None
             cells.append(f"{ours} [{theirs if theirs is not None else '—'}]")
@@ -499,11 +542,13 @@ def markdown_table(results: Mapping[str, Mapping[str, Sequence[float]]],
     return tables.markdown_table(header, body)
 
 
-def timeline_table(timelines: Mapping[str, Mapping[str, Sequence[float]]],
+def timeline_table(timelines: Mapping[str, Mapping[str, Sequence[float]]] | NotMeasurable,
                    rows: Sequence[tuple[str, str]]) -> str:
     """EMG-5's transition measurements per row (``timeline_rows``), the real "then" clips'
     value beside every row: distance at the boundaries (cm), its ratio to the clip's mean
-    speed, and the mean speed (cm per frame)."""
+    speed, and the mean speed (cm per frame); a ``NotMeasurable``'s reason."""
+    if isinstance(timelines, NotMeasurable):
+        return timelines.reason + "."
     measurements = (("transition_distance_at_transitions", "Trans. at boundaries cm"),
                     ("transition_speed_ratio", "ratio to mean speed"),
                     ("mean_speed", "mean speed cm/frame"))

@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from repro.claims.result import ClaimResult, Controls
+from repro.claims.result import ClaimResult, Controls, not_measurable_result
+from repro.energymogen.data import NotMeasurable
 from repro.energymogen.latent_count import PAPER_TABLE8
 from repro.energymogen.settings import AugmentationSettings, LatentCountSettings
 
@@ -70,9 +71,9 @@ def emg7_result(results: Mapping[str, Any], settings: LatentCountSettings,
                        headline=headline, notes=notes, extra=extra)
 
 
-def emg8_result(results: Mapping[str, Any], settings: AugmentationSettings,
+def emg8_result(results: Mapping[str, Any] | NotMeasurable, settings: AugmentationSettings,
                 seeds: Sequence[int], *, test_clips: int,
-                ground_truth_r3: Mapping[str, Sequence[float]], controls: Controls,
+                ground_truth_r3: Mapping[str, Sequence[float]], controls: Controls | None,
                 models: Sequence[Mapping[str, Any]], figures: Sequence[str | os.PathLike]
                 ) -> ClaimResult:
     """EMG-8 as the ledger records it (Sec. 5.5: "the model's performance improves with
@@ -80,7 +81,11 @@ def emg8_result(results: Mapping[str, Any], settings: AugmentationSettings,
     control (the registered baseline) per seed on the shared-concept test, from
     ``augmentation.augmentation_study`` (``results``), the held-out composed texts, the
     composed set and the training runs beside them; ``test_clips`` the test's size,
-    ``ground_truth_r3`` test name → ground truth's R@3 per seed."""
+    ``ground_truth_r3`` test name → ground truth's R@3 per seed. On a data folder
+    (``results`` a ``data.NotMeasurable``) not measurable on real data
+    (``claims.result.not_measurable_result``; the models' gates are kept)."""
+    if isinstance(results, NotMeasurable):
+        return not_measurable_result("EMG-8", results.reason, seeds, models=models)
     config, plan, size = settings.pipeline, settings.plan, settings.composed_set_size
     t2m, held_out = results["t2m"], results["held_out"]
     finetune_steps = [r.steps for r in results["training"]["control"]]

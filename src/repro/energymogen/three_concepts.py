@@ -2,7 +2,8 @@
 Tables 3, 7 and 9 on ``config.THREE_CONCEPT_SETS`` (``studies.run_rows(...,
 test_set="threes")``), of the two-concept control on the same motions
 (``config.THREES_AS_PAIRS``, ``test_set="threes_as_pairs"``), and the summary's line on both.
-No number here enters a verdict.
+No number here enters a verdict. On a data folder the sets of three are not measurable (they
+compose the stand-in's concepts): every function here then says so (``data.NotMeasurable``).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from repro.energymogen.data import NotMeasurable
 from repro.energymogen.studies import (
     PAPER_TABLE7,
     PAPER_TABLE9,
@@ -25,6 +27,7 @@ from repro.energymogen.studies import (
 __all__ = ["control_markdown", "summary_line", "threes_markdown"]
 
 Results = Mapping[str, Mapping[str, Any]]
+Study = Results | NotMeasurable
 Rows = Sequence[tuple[str, str]]
 
 _REAL = [("real (ground truth)", "real")]
@@ -39,10 +42,12 @@ _CONTROL_COLUMNS = [("oracle_accuracy", "oracle acc."), ("both_present", "both f
                     ("r_precision_top3", "R@3 %"), ("fid", "FID")]
 
 
-def threes_markdown(results3: Results, t3_rows: Rows, paper3: Mapping[str, Any]) -> str:
+def threes_markdown(results3: Study, t3_rows: Rows, paper3: Mapping[str, Any]) -> str:
     """The sets of three's tables: Table 3's rows (``t3_rows``: label, row key; ``paper3``: the
     paper's values by row key), Table 7's λ grid, Table 9's step sizes and the columns beyond
     the paper's."""
+    if isinstance(results3, NotMeasurable):
+        return f"**Sets of three**: {results3.reason}."
     t7_rows = [(f"({lambda_key(lam)})", lambda_key(lam)) for lam in TABLE7_LAMBDAS]
     t9_keys = [gamma_key(g) for g in TABLE9_GAMMAS]
     return "\n\n".join([
@@ -59,16 +64,20 @@ def threes_markdown(results3: Results, t3_rows: Rows, paper3: Mapping[str, Any])
         + markdown_table(results3, list(t3_rows) + _REAL, {}, _THREE_COLUMNS)])
 
 
-def control_markdown(results3_control: Results, t3_rows: Rows) -> str:
+def control_markdown(results3_control: Study, t3_rows: Rows) -> str:
     """The control's table: the same motions named as two concepts (lower + wave_both)."""
+    if isinstance(results3_control, NotMeasurable):
+        return f"**Control of the sets of three**: {results3_control.reason}."
     return ("**Control: the same motions as two concepts (lower + wave_both)**\n\n"
             + markdown_table(results3_control, list(t3_rows) + _REAL, {}, _CONTROL_COLUMNS))
 
 
-def summary_line(results: Results, results3: Results, results3_control: Results,
+def summary_line(results: Results, results3: Study, results3_control: Study,
                  t3_rows: Rows) -> str:
     """The summary's line on the sets of three: all three found per Table 3 row, the same
     motions as lower + wave_both, and the held-out pairs' both-found rate."""
+    if isinstance(results3, NotMeasurable):
+        return f"- Sets of three (outside the rules): {results3.reason}."
 
     def rates(found: Results) -> str:
         return ", ".join(f"{label} {np.mean(found[key]['both_present']):.0%}"

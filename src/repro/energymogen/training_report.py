@@ -14,8 +14,11 @@ from matplotlib.figure import Figure
 
 from repro.core.tables import markdown_table
 from repro.energymogen.convergence import TrainingRecord
+from repro.energymogen.data import NotMeasurable
+from repro.energymogen.pipeline import PipelineSource, pipeline_for
 
-__all__ = ["latent_count_training", "training_markdown", "validation_curves_figure"]
+__all__ = ["augmentation_training", "latent_count_training", "training_markdown",
+           "validation_curves_figure"]
 
 Record = TrainingRecord | Mapping[str, Any]
 
@@ -60,6 +63,22 @@ def latent_count_training(results: Mapping[str, Any], counts: Sequence[int],
         for i, seed in enumerate(seeds):
             for part, record in results["training"][str(n)][i].items():
                 rows.append((f"{part} N={n} seed {seed}", record))
+    return rows
+
+
+def augmentation_training(source: PipelineSource, results: Mapping[str, Any] | NotMeasurable,
+                          seeds: Sequence[int]) -> list[tuple[str, Record]]:
+    """Notebook 08's training records as (name, record) rows: per seed the pretrained VAE and
+    denoiser of ``pipeline_for(source, seed)``, then the control and augmented fine-tuning
+    runs of ``augmentation.augmentation_study`` (none when it is not measurable)."""
+    rows: list[tuple[str, Record]] = []
+    for i, s in enumerate(seeds):
+        seed_pipe = pipeline_for(source, s)
+        rows += [(f"vae train seed {seed_pipe.train_seed}", seed_pipe.training["vae"]),
+                 (f"denoiser train seed {seed_pipe.train_seed}", seed_pipe.training["denoiser"])]
+        if not isinstance(results, NotMeasurable):
+            rows += [(f"{row} fine-tuning seed {s}", results["training"][row][i])
+                     for row in ("control", "augmented")]
     return rows
 
 
