@@ -1,5 +1,6 @@
 """Notebooks only call the library (issue #34): no code cell over 25 lines, no cell that
-branches on the run's parameters or its scale, every claim recorded through ``record``."""
+branches on the run's parameters or its scale, every claim recorded through ``record``; every
+notebook names itself to ``setup_notebook`` (issue #33)."""
 
 from __future__ import annotations
 
@@ -34,3 +35,12 @@ def test_cells_only_call_the_library(name: str) -> None:
     direct = [i for i, src in _code_cells(name) if "record_claim(" in src]
     assert not direct, (f"{name}: cells {direct} call record_claim; return a ClaimResult and "
                         "record it")
+
+
+@pytest.mark.parametrize("name", runner.available_notebooks())
+def test_every_notebook_names_itself_to_setup(name: str) -> None:
+    """A notebook run by hand checks its data folder against its own family's needs
+    (``setup_notebook(notebook=...)``), so each passes its own name."""
+    calls = [src for _, src in _code_cells(name) if "setup_notebook(" in src and "ctx =" in src]
+    assert len(calls) == 1, f"{name}: {len(calls)} cells set up the run (one expected)"
+    assert f'notebook="{name}"' in calls[0], f"{name}: setup_notebook(...) does not name it"
