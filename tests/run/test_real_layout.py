@@ -1,27 +1,21 @@
 """A folder in the real HumanML3D layout, without the stand-in's ``labels/`` (issue #33): the
-validator and the parameter check accept it and reject what the notebooks cannot use, and
-notebooks 00 and 04 run on it at the quick scale, reading "not measurable on real data" where
-they would compare against labels.
+validator and the parameter check accept it and reject what the notebooks cannot use, and the
+notebooks run on it at the quick scale, reading "not measurable on real data" where they would
+compare against labels.
 
-The folder is a small stand-in set with ``labels/`` dropped, plus the shared real HumanML3D
+The folders are small stand-in sets with ``labels/`` dropped, plus the shared real HumanML3D
 clips (../shared/humanml3d_sample) where they fit the loader's 40 ≤ T < 200 frames (skipped
-when that folder is absent). Notebook 00 is executed on it: the GMD notebooks (01, 02, 03,
-06) read ``data_dir`` through ``gmd.windows.DataConfig`` alone and take minutes each at the
-quick scale (train their models), too long for ``make test``; their windows are loaded here
-instead. The EnergyMoGen notebooks cut 64-frame windows and need more of them
+when that folder is absent). Notebook 00 is executed on the 60-clip folder: the GMD notebooks
+(01, 02, 03, 06) read ``data_dir`` through ``gmd.windows.DataConfig`` alone and take minutes
+each at the quick scale (train their models), too long for ``make test``; their windows are
+loaded here instead. The EnergyMoGen notebooks cut 64-frame windows and need more of them
 (``energymogen.settings.folder_needs``: the plan's validation clips and 32 training windows
-besides, 32 test windows), which this 60-clip folder does not give — the validator and
-notebook 04's parameter check both say so; a 200-clip folder without labels serves them, and
-notebook 04 runs on it (≈ 40 s alone: its tiny pipeline trains on the folder's windows;
-EMG-1 and EMG-9 are measured, EMG-2, 3 and 6 — compositions of the stand-in's labelled
-concepts — are recorded as not measurable on real data). Notebooks 05, 07 and 08 run on such
-a folder too (run by hand at the quick scale; each takes tens of seconds to minutes more, too
-long for ``make test``), so their real-data pieces are checked here directly, on conftest's
-tiny pipeline trained on the folder: 07's oracle columns read not measurable (EMG-7
-measured); 05 measures EMG-4 (Table 9's single-text rows on the folder's test windows, its
-controls on them) and records EMG-5 as not measurable (the λ compositions, timelines and
-sets of three); 08 measures the pretrained models' gates and ground truth's R@3 on the test
-windows and records EMG-8 as not measurable (nothing composed, nothing fine-tuned).
+besides, 32 test windows), which the 60-clip folder does not give — the validator and the
+parameter check both say so; a 200-clip folder serves them, and all four (04, 05, 07, 08) are
+executed on it in one run (≈ 95 s: the tiny pipeline trains once on the folder's windows).
+EMG-1, 4, 7 and 9 are measured; EMG-2, 3, 5, 6 (compositions of the stand-in's labelled
+concepts) and EMG-8 (fine-tuning on composed stand-in data) are recorded as not measurable
+on real data.
 """
 
 from __future__ import annotations
@@ -32,26 +26,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from conftest import TINY_PIPELINE
 
 from repro.claims.ledger import load_sidecars
-from repro.claims.result import record
-from repro.energymogen import augmentation as ag
-from repro.energymogen import composition_claims as cc
-from repro.energymogen import controls as em_controls
-from repro.energymogen import figures as em_figures
-from repro.energymogen import model_gates, t2m_claims, three_concepts, training_report
 from repro.energymogen import studies as em_studies
 from repro.energymogen.config import FRAMES, pipeline_config
-from repro.energymogen.data import NotMeasurable, build_folder_data, composition_items
-from repro.energymogen.harness import (
-    clip_count,
-    load_or_build_shared_concept_test,
-    load_or_build_text_to_motion_test,
-    oracle_accuracy,
-)
+from repro.energymogen.data import build_folder_data, composition_items
+from repro.energymogen.harness import oracle_accuracy
 from repro.energymogen.latent_count import table8_markdown
-from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, load_pipeline
 from repro.energymogen.settings import (
     AugmentationSettings,
     EnergyViewSettings,
@@ -69,6 +50,9 @@ from repro.run import runner
 from repro.run.params import check_standard_parameters, forget_checks, validate_parameters
 from repro.standin.dataset import write_dataset
 
+#: the EnergyMoGen notebooks, run on the 200-clip folder
+EMG_NOTEBOOKS = ["04_energy_contour_maps", "05_sef_ablation", "07_latent_count",
+                 "08_composed_augmentation"]
 #: the shared real clips and the split each joins (012314 is a train clip of HumanML3D,
 #: 000612 a test clip)
 REAL_CLIPS = {"012314": ("new_joint_vecs/012314.npy", "train"),
@@ -81,13 +65,9 @@ def _append(path: Path, clip: str) -> None:
                     encoding="utf-8")
 
 
-@pytest.fixture(scope="module")
-def real_layout(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A stand-in set without ``labels/`` (and its ``dataset.json``), with the shared real
-    clips added where present."""
-    root = write_dataset(tmp_path_factory.mktemp("real_layout"), n_clips=60, seed=7)
-    shutil.rmtree(root / "labels")
-    (root / "dataset.json").unlink(missing_ok=True)
+def _add_real_clips(root: Path) -> None:
+    """The shared real clips join ``root``'s splits where present and where they fit the
+    loader's 40 ≤ T < 200 frames (their joints: HumanML3D's, else recovered from features)."""
     sample = paths.humanml3d_sample_dir()
     for clip, (source, split) in REAL_CLIPS.items():
         if not (sample / source).is_file():
@@ -96,13 +76,28 @@ def real_layout(tmp_path_factory: pytest.TempPathFactory) -> Path:
         if not 40 <= len(features) < 200:
             continue
         np.save(root / "new_joint_vecs" / f"{clip}.npy", features)
-        joints = sample / "new_joints" / f"{clip}.npy"   # HumanML3D's: recovered from features
+        joints = sample / "new_joints" / f"{clip}.npy"
         np.save(root / "new_joints" / f"{clip}.npy", np.load(joints) if joints.is_file() else
                 features_to_joints(features.astype(np.float64)).astype(np.float32))
         (root / "texts" / f"{clip}.txt").write_text(
             "a person moves.#a/DET person/NOUN move/VERB#0.0#0.0\n", encoding="utf-8")
         _append(root / f"{split}.txt", clip)
+
+
+def _without_labels(parent: Path, n_clips: int) -> Path:
+    """A stand-in set of ``n_clips`` without ``labels/`` (and its ``dataset.json``), with the
+    shared real clips added where present."""
+    root = write_dataset(parent, n_clips=n_clips, seed=7)
+    shutil.rmtree(root / "labels")
+    (root / "dataset.json").unlink(missing_ok=True)
+    _add_real_clips(root)
     return root
+
+
+@pytest.fixture(scope="module")
+def real_layout(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The GMD notebooks' folder: 60 stand-in clips without labels, the real clips added."""
+    return _without_labels(tmp_path_factory.mktemp("real_layout"), 60)
 
 
 def _copy(root: Path, tmp_path: Path) -> Path:
@@ -201,12 +196,9 @@ def test_validate_dataset_checks_the_windows_of_the_scale_it_is_given(
 
 @pytest.fixture(scope="module")
 def emg_layout(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A 200-clip stand-in set without ``labels/``: enough 64-frame windows for the
-    EnergyMoGen notebooks at the quick scale (184 train, 33 test)."""
-    root = write_dataset(tmp_path_factory.mktemp("emg_layout"), n_clips=200, seed=7)
-    shutil.rmtree(root / "labels")
-    (root / "dataset.json").unlink(missing_ok=True)
-    return root
+    """The EnergyMoGen notebooks' folder: 200 stand-in clips without labels, the real clips
+    added — enough 64-frame windows at the quick scale (about 185 train, 34 test)."""
+    return _without_labels(tmp_path_factory.mktemp("emg_layout"), 200)
 
 
 def test_the_emg_notebooks_check_the_folder_for_their_windows(real_layout: Path,
@@ -238,91 +230,6 @@ def test_every_emg_notebook_takes_the_folder(settings: type, emg_layout: Path,
     assert settings.for_run(_folder_context(emg_layout, tmp_path)) == settings.for_scale("quick")
 
 
-@pytest.fixture(scope="module")
-def folder_pipe(emg_layout: Path, emg_cache: Path) -> EnergyMoGenPipeline:
-    """conftest's tiny pipeline trained on the folder's windows (seconds)."""
-    return load_pipeline(TINY_PIPELINE, log=None, data_dir=str(emg_layout))
-
-
-def test_notebook_05_on_the_folder_measures_emg4_and_not_emg5(
-        folder_pipe: EnergyMoGenPipeline, emg_layout: Path, tmp_path: Path) -> None:
-    gammas = {em_studies.gamma_key(g): Sampler("single", gammas=g)
-              for g in em_studies.TABLE9_GAMMAS}
-    lambdas = {em_studies.lambda_key(lam): Sampler("sef", lambdas=lam)
-               for lam in ((1.0, 0.0, 0.0), (0.1, 0.7, 0.2), (0.0, 0.0, 1.0))}
-    rows = {**gammas, **lambdas}
-    results = em_studies.run_rows(folder_pipe, rows, [0])
-    # the test windows with their captions: single-text rows measured, compositions empty
-    assert results["1.0,0.0,0.0"] == {} and results["0.1,0.7,0.2"] == {}
-    assert all(len(results[key]["r_precision_top3"]) == 1 for key in [*gammas, "0.0,0.0,1.0"])
-    assert np.isnan(results["real"]["oracle_accuracy"][0])
-    assert np.isfinite(results["real"]["fid"][0]) and np.isfinite(results["real"]["jitter"][0])
-    table = em_studies.markdown_table(results, [("SEF", "0.1,0.7,0.2"), ("γ", "0.001,0.002")],
-                                      {}, [("r_precision_top3", "R@3"), ("both_present", "b")])
-    assert table.count("not measurable on real data") == 3 and "nan" not in table
-    timelines = em_studies.timeline_rows(folder_pipe, rows, [0], items_per_seed=4)
-    threes = em_studies.run_rows(folder_pipe, rows, [0], test_set="threes")
-    assert isinstance(timelines, NotMeasurable) and isinstance(threes, NotMeasurable)
-    em_studies.add_timelines(results, timelines)
-    ctx = _folder_context(emg_layout, tmp_path)
-    assert em_figures.save_sef_figures(results, timelines, [], ctx.figure_path) == []
-    assert em_figures.save_three_concepts_figure([], results, threes, threes,
-                                                 ctx.figure_path) == []
-    for text in (em_studies.timeline_table(timelines, []),
-                 three_concepts.threes_markdown(threes, [], {}),
-                 three_concepts.control_markdown(threes, []),
-                 three_concepts.summary_line(results, threes, threes, [])):
-        assert "not measurable on real data" in text
-    assert em_controls.sef_controls(folder_pipe, [0]) is None
-    controls4 = em_controls.step_size_controls(folder_pipe, [0], list(gammas))
-    agd = {key: em_studies.agd_relative_change(folder_pipe, ["a person walks."], sampler.gammas)
-           for key, sampler in gammas.items()}
-    settings = SEFAblationSettings.for_scale("quick")
-    record(ctx, cc.emg4_result(results, agd, settings, [0], controls=controls4, models=[],
-                               figures=[], data_dir=emg_layout))
-    record(ctx, cc.emg5_result(results, timelines, settings, [0], three_concepts=threes,
-                               three_concepts_control=threes, controls=None, models=[],
-                               figures=[]))
-    claims = load_sidecars(ctx.claims_dir)
-    assert "not_measurable" not in claims["EMG-4"]
-    assert len(claims["EMG-4"]["measured"]["r_precision_top3"]) == len(gammas)
-    assert f"Data folder {emg_layout}" in claims["EMG-4"]["notes"]
-    assert claims["EMG-5"]["not_measurable"].startswith("not measurable on real data")
-    assert claims["EMG-5"]["measured"] == {} and claims["EMG-5"]["verdict"] == "inconclusive"
-
-
-def test_notebook_08_on_the_folder_records_emg8_as_not_measurable(
-        folder_pipe: EnergyMoGenPipeline, emg_layout: Path, tmp_path: Path) -> None:
-    test = load_or_build_shared_concept_test(TINY_PIPELINE, 64, data=folder_pipe.data)
-    gate_test = load_or_build_text_to_motion_test(TINY_PIPELINE, 64, data=folder_pipe.data)
-    assert isinstance(test, NotMeasurable) and clip_count(test) == 0 and len(gate_test) >= 32
-    tests = {"shared": test, "random": gate_test}
-    ceiling = ag.ground_truth_ceiling(folder_pipe, tests, [0])
-    assert list(ceiling) == ["random"] and 0.0 <= ceiling["random"][0] <= 1.0
-    assert "not measurable on real data" in ag.ceiling_markdown(ceiling, tests)
-    results = ag.augmentation_study(folder_pipe, test, [0], size=4)
-    assert isinstance(results, NotMeasurable) and "EMG-8" in results.reason
-    for text in (ag.composed_markdown(results), ag.results_markdown(results, test),
-                 ag.results_text(results), ag.study_text(results, 1e-4)):
-        assert "not measurable on real data" in text
-    records = model_gates.augmentation_records(folder_pipe, gate_test, results, [0])
-    assert records["control"] == records["augmented"] == [] and len(records["pretrained"]) == 1
-    rows = training_report.augmentation_training(folder_pipe, results, [0])
-    assert [name.split()[0] for name, _ in rows] == ["vae", "denoiser"]
-    ctx = _folder_context(emg_layout, tmp_path)
-    assert em_figures.save_composed_examples_figure(results, ctx.figure_path) == []
-    assert em_figures.save_augmentation_figure(results, [0], ctx.figure_path) == []
-    assert em_controls.augmentation_controls(folder_pipe, test, [0]) is None
-    models = [m for part in records.values() for m in part]
-    record(ctx, t2m_claims.emg8_result(results, AugmentationSettings.for_scale("quick"), [0],
-                                       test_clips=clip_count(test), ground_truth_r3=ceiling,
-                                       controls=None, models=models, figures=[]))
-    sidecar = load_sidecars(ctx.claims_dir)["EMG-8"]
-    assert sidecar["not_measurable"].startswith("not measurable on real data")
-    assert sidecar["measured"] == {} and sidecar["verdict"] == "inconclusive"
-    assert len(sidecar["models"]) == len(models) == 2
-
-
 def test_the_emg_pipeline_data_come_from_the_folder(emg_layout: Path) -> None:
     config = pipeline_config("quick")
     data = build_folder_data(config, str(emg_layout), validation_clips=16)
@@ -345,23 +252,33 @@ def test_the_oracle_columns_of_a_folder_read_not_measurable() -> None:
     table = table8_markdown(results, (5,), extra=(("oracle_accuracy", "oracle acc."),))
     assert table.count("not measurable on real data") == 3 and "nan" not in table
     assert LatentCountSettings.FOLDER_READY
+    # notebook 05's tables: a row run_rows left empty (it composes texts) and a NaN column
+    rows = {"0.1,0.7,0.2": {}, "0.001,0.002": {"r_precision_top3": [12.5],
+                                               "both_present": [float("nan")]}}
+    table = em_studies.markdown_table(rows, [("SEF", "0.1,0.7,0.2"), ("γ", "0.001,0.002")], {},
+                                      [("r_precision_top3", "R@3"), ("both_present", "both")])
+    assert table.count("not measurable on real data") == 3 and "12.5" in table
 
 
 @pytest.mark.notebook
-def test_notebook_04_runs_on_the_folder(emg_layout: Path, tmp_path: Path,
-                                        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_emg_notebooks_run_on_the_folder(emg_layout: Path, tmp_path: Path,
+                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    """Notebooks 04, 05, 07 and 08 in one quick run (≈ 95 s alone: 04 trains the tiny
+    pipeline on the folder's windows, the others reuse it; 07 trains its N variants)."""
     monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
     # one torch thread: make test runs two pytest workers on two cores (two threads each
     # measured 4× slower there)
-    [result] = runner.run_notebooks(["04_energy_contour_maps"], scale="quick", threads=1,
-                                    extra_parameters={"data_dir": str(emg_layout)},
-                                    log=lambda *_: None)
-    assert result.ok, result.error
-    text = Path(result.output).read_text(encoding="utf-8")
+    results = runner.run_notebooks(EMG_NOTEBOOKS, scale="quick", threads=1,
+                                   extra_parameters={"data_dir": str(emg_layout)},
+                                   log=lambda *_: None)
+    assert [r.ok for r in results] == [True] * len(EMG_NOTEBOOKS), [r.error for r in results]
+    text = Path(results[0].output).read_text(encoding="utf-8")
     assert text.count("not measurable on real data") >= 3
     claims = load_sidecars(tmp_path / "build" / "quick" / "claims")
-    for claim in ("EMG-2", "EMG-3", "EMG-6"):
+    for claim in ("EMG-2", "EMG-3", "EMG-5", "EMG-6", "EMG-8"):   # compositions, composed data
         assert claims[claim]["not_measurable"].startswith("not measurable on real data")
         assert claims[claim]["measured"] == {} and claims[claim]["verdict"] == "inconclusive"
-    for claim in ("EMG-1", "EMG-9"):   # the model identities and the FID check are measured
+    for claim in ("EMG-1", "EMG-4", "EMG-7", "EMG-9"):   # what needs no concept is measured
         assert "not_measurable" not in claims[claim] and claims[claim]["measured"]
+    assert f"Data folder {emg_layout}" in claims["EMG-4"]["notes"]
+    assert len(claims["EMG-8"]["models"]) == 3   # the pretrained VAE, denoiser, evaluator
