@@ -160,7 +160,6 @@ def test_a_run_gets_its_scales_settings_and_a_data_folder_is_checked(
     folder does not: tests/run/test_real_layout.py uses one that does)."""
     ctx = make_context(tmp_path, scale="standard")
     assert settings.for_run(ctx) == settings.for_scale("standard")
-    refusal = ("cannot be used at the standard scale" if settings.FOLDER_READY
-               else "data_dir must be None")
-    with pytest.raises(ValueError, match=rf"^{settings.NOTEBOOK}.*{refusal}"):
+    with pytest.raises(ValueError,
+                       match=rf"^{settings.NOTEBOOK}.*cannot be used at the standard scale"):
         settings.for_run(dataclasses.replace(ctx, data_dir=tmp_path))

@@ -226,7 +226,6 @@ def _folder_context(emg_layout: Path, tmp_path: Path) -> RunContext:
                                       LatentCountSettings, AugmentationSettings])
 def test_every_emg_notebook_takes_the_folder(settings: type, emg_layout: Path,
                                              tmp_path: Path) -> None:
-    assert settings.FOLDER_READY
     assert settings.for_run(_folder_context(emg_layout, tmp_path)) == settings.for_scale("quick")
 
 
@@ -251,7 +250,6 @@ def test_the_oracle_columns_of_a_folder_read_not_measurable() -> None:
     results = {"reconstruction": {"5": row}, "generation": {"5": row}, "real": row}
     table = table8_markdown(results, (5,), extra=(("oracle_accuracy", "oracle acc."),))
     assert table.count("not measurable on real data") == 3 and "nan" not in table
-    assert LatentCountSettings.FOLDER_READY
     # notebook 05's tables: a row run_rows left empty (it composes texts) and a NaN column
     rows = {"0.1,0.7,0.2": {}, "0.001,0.002": {"r_precision_top3": [12.5],
                                                "both_present": [float("nan")]}}

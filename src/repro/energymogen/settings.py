@@ -106,14 +106,11 @@ def folder_problems(data_dir: str, scale: str) -> list[str]:
 
 
 class _NotebookSettings:
-    """What the settings of every EnergyMoGen notebook share: the notebook they belong to,
-    whether it runs on a data folder (``FOLDER_READY``: its measurements that need the
-    stand-in's labelled concepts then read "not measurable on real data", every other runs)
-    and, where it does not, why it runs on the generated stand-in set only."""
+    """What the settings of every EnergyMoGen notebook share: the notebook they belong to and
+    the check of a data folder (every notebook runs on one: its measurements that need the
+    stand-in's labelled concepts then read "not measurable on real data", every other runs)."""
 
     NOTEBOOK: ClassVar[str]
-    GENERATED_ONLY: ClassVar[str]
-    FOLDER_READY: ClassVar[bool] = False
 
     @classmethod
     def for_scale(cls, scale: str) -> Self:
@@ -121,13 +118,10 @@ class _NotebookSettings:
 
     @classmethod
     def for_run(cls, ctx: RunContext) -> Self:
-        """The settings of ``ctx``'s scale. With a data folder: a ValueError when this notebook
-        does not run on one, or when the folder gives too few windows for the scale
-        (:func:`folder_problems`, what ``validate-dataset --scale`` reports)."""
+        """The settings of ``ctx``'s scale. With a data folder: a ValueError when the folder
+        gives too few windows for the scale (:func:`folder_problems`, what
+        ``validate-dataset --scale`` reports)."""
         if ctx.data_dir is not None:
-            if not cls.FOLDER_READY:
-                raise ValueError(f"{cls.NOTEBOOK} {cls.GENERATED_ONLY}; it runs on the generated "
-                                 "set only (data_dir must be None)")
             problems = folder_problems(str(ctx.data_dir), ctx.scale)
             if problems:
                 raise ValueError(f"{cls.NOTEBOOK}: data_dir {ctx.data_dir} cannot be used at "
@@ -155,8 +149,6 @@ class EnergyViewSettings(_NotebookSettings):
     """
 
     NOTEBOOK: ClassVar[str] = "04_energy_contour_maps"
-    GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts with held-out pairs"
-    FOLDER_READY: ClassVar[bool] = True
     scale: str
     pipeline: PipelineConfig
     plan: TrainingPlan
@@ -204,8 +196,6 @@ class SEFAblationSettings(_NotebookSettings):
     are the stand-in's) is recorded as not measurable on real data."""
 
     NOTEBOOK: ClassVar[str] = "05_sef_ablation"
-    GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts with held-out pairs"
-    FOLDER_READY: ClassVar[bool] = True
     scale: str
     pipeline: PipelineConfig
     plan: TrainingPlan
@@ -235,9 +225,6 @@ class LatentCountSettings(_NotebookSettings):
     against the folder's test windows); its oracle columns read not measurable on real data."""
 
     NOTEBOOK: ClassVar[str] = "07_latent_count"
-    FOLDER_READY: ClassVar[bool] = True
-    GENERATED_ONLY: ClassVar[str] = (
-        "trains on the labelled stand-in set of the EnergyMoGen pipeline")
     scale: str
     pipeline: PipelineConfig
     seeds: int
@@ -281,8 +268,6 @@ class AugmentationSettings(_NotebookSettings):
     models, their gates and ground truth's R@3 on the folder's test windows still run."""
 
     NOTEBOOK: ClassVar[str] = "08_composed_augmentation"
-    GENERATED_ONLY: ClassVar[str] = "composes labelled stand-in concepts"
-    FOLDER_READY: ClassVar[bool] = True
     scale: str
     pipeline: PipelineConfig
     seeds: int
