@@ -12,7 +12,9 @@ import torch
 from conftest import bimodal_mixture
 from torch import nn
 
+from repro.core import training
 from repro.core.diffusion import GaussianDiffusion, cosine_betas
+from repro.core.train_config import WARMUP_SHARE, learning_rate_factor
 from repro.core.training import (
     TrainConfig,
     TrainResult,
@@ -20,6 +22,7 @@ from repro.core.training import (
     ema_decay_at,
     make_adamw,
     train_diffusion,
+    train_loop,
 )
 from repro.infra import cache
 from repro.infra.cache import cached_artifact_dir, config_hash, load_or_train
@@ -232,6 +235,43 @@ def test_opt_in_levers_enter_the_cache_key_only_when_set():
     assert TrainConfig().autocast_dtype is None
     with pytest.raises(ValueError, match="autocast must be one of"):
         TrainConfig(autocast="float16")
+    cosine = TrainConfig(lr_schedule="cosine").to_config()
+    assert cosine["lr_schedule"] == "cosine" and "lr_schedule" not in default
+    assert config_hash(cosine) not in hashes
+    with pytest.raises(ValueError, match="lr_schedule must be one of"):
+        TrainConfig(lr_schedule="step")
+
+
+def test_cosine_schedule_warms_up_then_decays_to_zero():
+    steps = 200
+    factors = [learning_rate_factor("cosine", k, steps) for k in range(steps)]
+    warmup = math.ceil(WARMUP_SHARE * steps)
+    assert factors[0] == pytest.approx(1 / warmup) and factors[warmup - 1] == pytest.approx(1.0)
+    after = factors[warmup - 1:]
+    assert all(a >= b for a, b in zip(after, after[1:], strict=False))
+    assert factors[-1] < 1e-3
+    assert all(learning_rate_factor(None, k, steps) == 1.0 for k in (0, 100, 199))
+
+
+def test_cosine_schedule_sets_the_optimiser_learning_rate(monkeypatch):
+    made = []
+
+    def recording_adamw(*args, **kwargs):
+        made.append(make_adamw(*args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(training, "make_adamw", recording_adamw)
+    model, seen = nn.Linear(2, 1), []
+
+    def loss_fn(batch):
+        seen.append(made[0].param_groups[0]["lr"])
+        return model(batch).pow(2).mean()
+
+    steps = 40
+    config = TrainConfig(steps=steps, batch_size=4, lr=1e-2, lr_schedule="cosine")
+    train_loop(model, loss_fn, iter([torch.randn(4, 2)] * steps), config, ema=False)
+    assert seen == pytest.approx([1e-2 * learning_rate_factor("cosine", k, steps)
+                                  for k in range(steps)])
 
 
 def test_bf16_autocast_training_tracks_fp32_losses():

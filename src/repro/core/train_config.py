@@ -12,18 +12,43 @@ when set, and the convergence fields (``validate_every``, ``patience``, ``min_de
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import torch
 
-__all__ = ["AUTOCAST_DTYPES", "TRAIN_CONFIG_FIELDS", "TrainConfig", "check_autocast",
-           "check_convergence_fields", "drop_unset_convergence_fields", "fixed_steps_patience",
-           "replace_with_training"]
+__all__ = ["AUTOCAST_DTYPES", "LR_SCHEDULES", "TRAIN_CONFIG_FIELDS", "TrainConfig",
+           "check_autocast", "check_convergence_fields", "drop_unset_convergence_fields",
+           "fixed_steps_patience", "learning_rate_factor", "replace_with_training"]
 
 #: the ``TrainConfig.autocast`` values and the dtype each runs the matrix products in
 AUTOCAST_DTYPES: dict[str | None, torch.dtype | None] = {None: None, "bfloat16": torch.bfloat16}
-_OPT_IN_DEFAULTS: dict[str, Any] = {"autocast": None, "fused_adamw": False}
+_OPT_IN_DEFAULTS: dict[str, Any] = {"autocast": None, "fused_adamw": False,
+                                     "lr_schedule": None}
+#: the ``TrainConfig.lr_schedule`` values: None (constant ``lr``) or "cosine"
+#: (:func:`learning_rate_factor`)
+LR_SCHEDULES = (None, "cosine")
+#: the linear warm-up of the "cosine" schedule: this share of the steps (at least one step)
+WARMUP_SHARE = 0.05
+
+
+def learning_rate_factor(schedule: str | None, step: int, steps: int) -> float:
+    """The multiplier of ``lr`` at optimiser step ``step`` (0-based) of ``steps``.
+
+    None: 1. "cosine": a linear warm-up over the first w = max(1, ⌈WARMUP_SHARE·steps⌉) steps,
+    (step + 1)/w, then half a cosine from 1 to 0 over the rest (Loshchilov & Hutter's SGDR
+    without restarts): ½(1 + cos(π·(step − w)/(steps − w))). A short run ends with small steps,
+    which averages the weights as an EMA would, without the EMA's lag.
+    """
+    if schedule not in LR_SCHEDULES:
+        raise ValueError(f"lr_schedule must be one of {LR_SCHEDULES}, got {schedule!r}")
+    if schedule is None:
+        return 1.0
+    warmup = max(1, math.ceil(WARMUP_SHARE * steps))
+    if step < warmup:
+        return (step + 1) / warmup
+    return 0.5 * (1.0 + math.cos(math.pi * (step - warmup) / max(1, steps - warmup)))
 #: the convergence fields: in ``to_config`` (as a group) only when ``validate_every`` is set
 _CONVERGENCE_DEFAULTS: dict[str, Any] = {"validate_every": None, "patience": 5,
                                          "min_delta": 0.01, "validation_timesteps": 10}
@@ -94,6 +119,8 @@ class TrainConfig:
     autocast: str | None = None
     #: the fused AdamW kernel (float-noise differences from the loop; opt-in; in the key)
     fused_adamw: bool = False
+    #: None (constant ``lr``) or "cosine" (``learning_rate_factor``; opt-in; in the key)
+    lr_schedule: str | None = None
     #: evaluate the EMA weights on the validation set every this many steps (None: never;
     #: the convergence fields below enter the key only when this is set)
     validate_every: int | None = None
@@ -120,6 +147,9 @@ class TrainConfig:
             object.__setattr__(self, "feature_weights",
                                tuple(float(w) for w in self.feature_weights))
         check_autocast(self.autocast)
+        if self.lr_schedule not in LR_SCHEDULES:
+            raise ValueError(f"lr_schedule must be one of {LR_SCHEDULES}, got "
+                             f"{self.lr_schedule!r}")
         check_convergence_fields(self)
 
     def to_config(self) -> dict[str, Any]:

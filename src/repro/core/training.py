@@ -63,6 +63,7 @@ from repro.core.train_config import (
     check_convergence_fields,
     drop_unset_convergence_fields,
     fixed_steps_patience,
+    learning_rate_factor,
     replace_with_training,
 )
 from repro.infra import progress as run_progress
@@ -334,6 +335,8 @@ def train_loop(model: nn.Module, loss_fn: Callable[[Any], Tensor], batches: Iter
     ema_model = copy.deepcopy(model).eval().requires_grad_(False) if ema else model
     optimizer = make_adamw(model.parameters(), lr=config.lr, weight_decay=config.weight_decay,
                            fused=config.fused_adamw)
+    schedule = None if config.lr_schedule is None else torch.optim.lr_scheduler.LambdaLR(
+        optimizer, lambda step: learning_rate_factor(config.lr_schedule, step, config.steps))
     autocast_dtype = config.autocast_dtype
     plateau = PlateauCriterion(config.patience, config.min_delta)
     curve: list[tuple[int, float]] = []
@@ -373,6 +376,8 @@ def train_loop(model: nn.Module, loss_fn: Callable[[Any], Tensor], batches: Iter
             if config.grad_clip is not None:
                 nn.utils.clip_grad_norm_(model.parameters(), config.grad_clip, foreach=True)
             optimizer.step()
+            if schedule is not None:
+                schedule.step()
             if ema:
                 _update_ema(ema_model, model,
                             ema_decay_at(step, config.ema_decay, config.ema_warmup))
