@@ -16,8 +16,9 @@ from pathlib import Path
 
 from repro.infra import paths
 
-FIELDS = ("Paper", "Printed", "Correction", "Open question", "Status", "Shown by")
-REQUIRED = ("Paper", "Printed", "Status", "Shown by")
+FIELDS = ("Paper", "Printed", "Numbers", "Inconsistency", "Correction", "Open question",
+          "Claim impact", "Status", "Shown by")
+REQUIRED = ("Paper", "Printed", "Claim impact", "Status", "Shown by")
 STATUSES = ("corrected", "open question")
 _FIELD = re.compile(r"^- \*\*(?P<name>[^*]+?):\*\*\s*(?P<text>.*)$")
 _CLAIM_ID = re.compile(r"\b(?:GMD-[A-F]\d|EMG-\d)\b")
@@ -41,7 +42,9 @@ class Erratum:
 
     @property
     def claim_ids(self) -> list[str]:
-        return _CLAIM_ID.findall(self.fields.get("Shown by", ""))
+        """The claims the entry names as showing it or as affected by it."""
+        named = self.fields.get("Shown by", "") + " " + self.fields.get("Claim impact", "")
+        return list(dict.fromkeys(_CLAIM_ID.findall(named)))
 
     @property
     def tests(self) -> list[tuple[str, str]]:
@@ -59,8 +62,8 @@ def errata_path() -> Path:
 
 
 def parse_errata(text: str) -> list[Erratum]:
-    """The entries of an ERRATA.md text; raises ValueError naming an entry with a missing or
-    unknown field, or an unknown status."""
+    """The entries of an ERRATA.md text (up to the first level-1 heading after an entry);
+    raises ValueError naming an entry with a missing or unknown field, or an unknown status."""
     entries: list[Erratum] = []
     title: str | None = None
     fields: dict[str, str] = {}
@@ -80,6 +83,8 @@ def parse_errata(text: str) -> list[Erratum]:
         entries.append(Erratum(title, dict(fields)))
 
     for line in text.splitlines():
+        if line.startswith("# ") and (title is not None or entries):
+            break
         if line.startswith("## "):
             close()
             title, fields, current = line[3:].strip(), {}, None
@@ -122,12 +127,16 @@ def errata_markdown(entries: list[Erratum] | None, docs: str = "../docs") -> lis
     lines = ["", "## Paper errata", "",
              f"{len(entries)} discrepancies in the papers' printed text "
              f"({sum(e.is_open for e in entries)} of them open questions); the source is "
-             f"[docs/ERRATA.md]({docs}/ERRATA.md).", ""]
+             f"[docs/ERRATA.md]({docs}/ERRATA.md), which also says, table by table, what the "
+             "audit read and found consistent.", ""]
     for e in entries:
         head = "Open question" if e.is_open else "Correction"
+        inconsistency = (f"*Inconsistency:* {_sentence(e.fields['Inconsistency'])} "
+                         if "Inconsistency" in e.fields else "")
         lines += [f"- **{e.title}** ({e.fields['Paper']}). Printed: "
-                  f"{_sentence(e.fields['Printed'])} *{head}:* {_sentence(e.resolution)} "
-                  f"*Shown by:* {e.fields['Shown by']}"]
+                  f"{_sentence(e.fields['Printed'])} {inconsistency}*{head}:* "
+                  f"{_sentence(e.resolution)} *Claim impact:* "
+                  f"{_sentence(e.fields['Claim impact'])} *Shown by:* {e.fields['Shown by']}"]
     return lines + [""]
 
 
@@ -139,9 +148,12 @@ def errata_html(entries: list[Erratum] | None) -> str:
     items = []
     for e in entries:
         head = "Open question" if e.is_open else "Correction"
+        inconsistency = (f"<i>Inconsistency:</i> {esc(_sentence(e.fields['Inconsistency']))} "
+                         if "Inconsistency" in e.fields else "")
         items.append(f"<li><b>{esc(e.title)}</b> ({esc(e.fields['Paper'])}). Printed: "
-                     f"{esc(_sentence(e.fields['Printed']))} <i>{head}:</i> "
-                     f"{esc(_sentence(e.resolution))} "
+                     f"{esc(_sentence(e.fields['Printed']))} {inconsistency}<i>{head}:</i> "
+                     f"{esc(_sentence(e.resolution))} <i>Claim impact:</i> "
+                     f"{esc(_sentence(e.fields['Claim impact']))} "
                      f"<i>Shown by:</i> {esc(e.fields['Shown by'])}</li>")
-    return ("<h2>Paper errata</h2><p>Source: docs/ERRATA.md.</p><ul>" + "".join(items)
-            + "</ul>")
+    return ("<h2>Paper errata</h2><p>Source: docs/ERRATA.md, which also says, table by table, "
+            "what the audit read and found consistent.</p><ul>" + "".join(items) + "</ul>")

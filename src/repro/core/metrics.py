@@ -162,7 +162,8 @@ def r_precision(text_emb: np.ndarray, motion_emb: np.ndarray, batch_size: int = 
 
 
 def mm_distance(text_emb: np.ndarray, motion_emb: np.ndarray) -> float:
-    """MM-Dist (EnergyMoGen Eq. 13; Guo's "matching score"): mean ‖t_i − m_i‖ over pairs."""
+    """MM-Dist (Guo's "matching score"): mean ‖t_i − m_i‖ over text–motion pairs; EnergyMoGen
+    Eq. 13 with the text's feature t_i where it prints the real motion's (docs/ERRATA.md)."""
     text_emb, motion_emb = _paired("text_emb", text_emb, "motion_emb", motion_emb)
     return float(np.linalg.norm(text_emb - motion_emb, axis=1).mean())
 
