@@ -226,3 +226,49 @@ def test_table_9_runner_up_margin_is_smaller_than_the_gamma_0_margin() -> None:
                if r != "0.001,0.002"}
     assert min(margins, key=margins.get) == "0.005,0.005"
     assert margins["0.005,0.005"] == 2.7 and margins["0.0,0.0"] == 3.5
+
+
+def test_the_audit_notes_on_layout_and_best_rows_hold() -> None:
+    # Table 4's header prints Top-1, Top-3, Top-2; every row rises in the printed order, so the
+    # columns are Top-1, Top-2, Top-3 (R@k never falls with k)
+    for table in ("Table 2", "Table 4", "Table 8 reconstruction", "Table 8 generation"):
+        t = get_table(EMG, table)
+        for row in t.rows:
+            name = t.row_name(row)
+            assert t.value(name, "R@1") < t.value(name, "R@2") < t.value(name, "R@3"), name
+    # Table 6's interleaved line: each pair's first member is the row without AGD
+    t6 = get_table(EMG, "Table 6")
+    assert t6.value("ENERGYMOGEN (skeleton)", "R@3") < t6.value("ENERGYMOGEN (skeleton) + AGD",
+                                                                "R@3")
+    # Table 7: "the middle five rows" (λm = 0, neither end row) and "the last 4 rows" (λm > 0)
+    t7 = get_table(EMG, "Table 7")
+    middle = [r for r in t7.rows[3:] if float(r.cells[2]) == 0.0]
+    last = [r for r in t7.rows[3:] if float(r.cells[2]) > 0.0]
+    assert len(middle) == 5 and len(last) == 4 and t7.rows[3:] == (*middle, *last)
+    sef = "0.1,0.7,0.2"
+    for column, goal in t7.columns[3:]:
+        pick = max if goal == "max" else min
+        assert t7.value(sef, column) == pick(t7.value(t7.row_name(r), column) for r in last)
+        best_last = pick(t7.value(t7.row_name(r), column) for r in last)
+        best_middle = pick(t7.value(t7.row_name(r), column) for r in middle)
+        assert (best_last == pick(best_last, best_middle)) == (column != "Transition"), column
+    for column in ("R@1", "R@3", "M2T", "M2M"):
+        assert t7.value(sef, column) == max(t7.column(column).values()), column
+    assert min(t7.column("FID"), key=t7.column("FID").get) == "0.0,1.0,0.0"
+    # Table 5 (appendix B.2): best on R-Precision and MM-Dist, closest Diversity; FID second
+    t5 = get_table(EMG, "Table 5")
+    methods = [t5.row_name(r) for r in t5.rows if t5.row_name(r) != "Ground Truth"]
+    assert max(methods, key=lambda m: t5.value(m, "R@3")) == "Ours"
+    assert min(methods, key=lambda m: t5.value(m, "MM-Dist")) == "Ours"
+    real = t5.value("Ground Truth", "Diversity")
+    assert min(methods, key=lambda m: abs(t5.value(m, "Diversity") - real)) == "Ours"
+    assert sorted(methods, key=lambda m: t5.value(m, "FID"))[:2] == ["ReMoDiffuse [70]", "Ours"]
+    assert t5.value("Ground Truth", "FID") == pytest.approx(1.6e-3)
+    # Sec. 5.5 Q1's "1.3% and 0.9%" are points: relative they would be 10.2 % and 3.5 %
+    t3 = get_table(EMG, "Table 3")
+    assert [round(100 * (t3.value("Ours + AGD", c) / t3.value("Ours", c) - 1), 1)
+            for c in ("R@1", "R@3")] == [10.2, 3.5]
+    # Table 2: the four latent methods are the rows marked *
+    t2 = get_table(EMG, "Table 2")
+    assert [r.label for r in t2.rows if "*" in r.label] == [
+        "MLD^*[64]", "GUESS $*$ [13]", "MotionMamba $*$ [73]", "ENERGYMOGEN*"]
