@@ -85,9 +85,10 @@ def test_a_model_that_fails_its_gate_makes_the_parts_that_read_it_inconclusive(
 
     claim = get_claim("GMD-A4")
     measured = claim.planted_example(np.random.default_rng(0))
-    good = model_record(name="x0 motion", family="evaluator",
+    good = model_record(name="x0 motion", family="evaluator", role="reference",
                         values={"r_precision_top3": 0.9, "trivial_fid_ratio": 5.0})
-    bad = model_record(name="eps motion", family="evaluator", values={"r_precision_top3": 0.2})
+    bad = model_record(name="eps motion", family="evaluator", role="reference",
+                       values={"r_precision_top3": 0.2})
     ctx = make_context(tmp_path, scale="standard")
     passed = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good])
     failed = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good, bad])

@@ -252,3 +252,17 @@ def test_mean_and_ci95_by_hand():
         metrics.summarise_replications([{"fid": 1.0}, {"r1": 1.0}])
     with pytest.raises(ValueError, match="at least one"):
         metrics.mean_and_ci95([])
+
+
+def test_mean_speeds_of_a_body_walking_at_a_known_speed():
+    frames, speed, fps = 30, 1.5, 20.0
+    joints = np.zeros((2, frames, 22, 3))
+    joints[..., 1] = np.linspace(0.0, 1.6, 22)              # a standing body ...
+    joints[..., list(metrics.FOOT_JOINTS_FOR_SKATING), 1] = 0.0  # ... its feet on the floor
+    joints[..., 2] += (np.arange(frames) * speed / fps)[None, :, None]
+    joint_speed, root_speed = metrics.mean_speeds(joints, fps)
+    assert joint_speed == pytest.approx(speed) and root_speed == pytest.approx(speed)
+    still = metrics.motion_statistics(np.zeros((1, 8, 22, 3)) + joints[:1, :1], fps)
+    assert still["joint_speed"] == 0.0 and still["joint_jerk"] == 0.0
+    sliding = metrics.motion_statistics(joints, fps)
+    assert sliding["foot_skating"] == pytest.approx(speed)   # the feet slide with the body

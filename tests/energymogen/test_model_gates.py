@@ -41,12 +41,14 @@ def test_the_data_passes_its_own_vae_gate_and_a_constant_fails(tiny) -> None:
     assert set(identity) == {"concept_preservation"}
     assert identity["concept_preservation"] == pytest.approx(real)
     reference = {"concept_preservation": real}
-    assert all(g["passed"] for g in gate_results("vae", identity, reference).values())
+    assert all(g["passed"] for g in gate_results("vae", identity, reference,
+                                                role="treatment").values())
 
     mean = test.features.mean(axis=0, keepdims=True)
     constant = mg.vae_gate_values(
         _autoencoder(pipe, lambda z: np.repeat(mean, len(z), axis=0)), test)
-    assert not any(g["passed"] for g in gate_results("vae", constant, reference).values())
+    assert not any(g["passed"] for g in gate_results("vae", constant, reference,
+                                                    role="treatment").values())
 
 
 class _Knows(torch.nn.Module):
@@ -76,8 +78,9 @@ def test_a_denoiser_that_knows_the_held_out_latents_passes_and_a_trivial_one_fai
     trivial = mg.denoiser_gate_values(pipe, test, 0, denoiser=_Knows(z0, alphas, constant=True))
     assert knows["x0_error_vs_gaussian"] < 0.9
     assert trivial["x0_error_vs_gaussian"] > 1.0
-    assert gate_results("latent_denoiser", knows)["x0_error_vs_gaussian"]["passed"]
-    assert not gate_results("latent_denoiser", trivial)["x0_error_vs_gaussian"]["passed"]
+    assert gate_results("latent_denoiser", knows, role="treatment")["x0_error_vs_gaussian"]["passed"]
+    assert not gate_results("latent_denoiser", trivial, role="treatment")[
+        "x0_error_vs_gaussian"]["passed"]
 
 
 def test_denoiser_gate_of_the_pipeline_keeps_the_rng_and_follows_the_seed(tiny) -> None:
@@ -89,9 +92,9 @@ def test_denoiser_gate_of_the_pipeline_keeps_the_rng_and_follows_the_seed(tiny) 
         "x0_error_vs_gaussian"]
 
 
-def test_no_gate_of_a_family_measures_what_a_claim_resting_on_it_compares() -> None:
-    """Issue #31: every measurement an EnergyMoGen claim's parts read has its quantity in
-    COMPARED, and no family whose records the claim's notebook passes measures one of them."""
+def test_no_gate_of_a_treatment_arm_measures_what_a_claim_resting_on_it_compares() -> None:
+    """Every measurement an EnergyMoGen claim's parts read has its quantity in COMPARED, and
+    no gate that a family's treatment arms pass measures one of them."""
     emg_claims = {cid: claim for cid, claim in CLAIMS.items()
                   if cid.startswith("EMG-") and claim.parts}
     assert set(emg_claims) <= set(mg.FAMILIES_READ)
@@ -116,7 +119,7 @@ def test_evaluator_gate_separates_a_perfect_from_a_noise_evaluator(tiny) -> None
         embed_motions=lambda motions, lengths: rng.normal(size=(len(motions), 8))))
     values = mg.evaluator_gate_values(noise, test)
     assert values["r_precision_top3"] < 0.8
-    gates = gate_results("evaluator", values)
+    gates = gate_results("evaluator", values, role="reference")
     assert not gates["r_precision_top3"]["passed"]
     assert not gates["trivial_fid_ratio"]["passed"]   # noise cannot tell fakes from motion
 
@@ -130,8 +133,12 @@ def test_the_trained_evaluator_tells_trivial_fakes_from_motion(tiny) -> None:
 
 def test_records_come_from_the_pipeline(tiny) -> None:
     pipe, test = tiny
-    real = mg.real_concept_recall(pipe, test)
-    vae, denoiser = mg.pipeline_records(pipe, test, real, reads=["n5_generates_best"])
+    vae, denoiser = mg.pipeline_records(pipe, test, reads=["n5_generates_best"])
+    assert vae["role"] == denoiser["role"] == "reference"
+    for metric in ("joint_jerk", "foot_skating"):
+        assert vae["gate"][metric]["data"] == pytest.approx(
+            mg.data_sample_values(pipe, test)[metric])
+    assert set(denoiser["gate"]) >= {"joint_speed", "root_speed", "concept_recall"}
     assert vae["reads"] == denoiser["reads"] == ["n5_generates_best"]
     assert vae["family"] == "vae" and denoiser["family"] == "latent_denoiser"
     assert vae["steps"] == TINY_PIPELINE.vae_training.steps == pipe.training["vae"].steps
@@ -159,10 +166,10 @@ def test_the_gate_record_is_the_pipelines_training_record(tiny) -> None:
                           losses=(1.0,))
     other = replace(pipe, training={"vae": said, "denoiser": said})
     values = {"concept_preservation": 1.0}
-    record = mg.vae_record(other, values, 1.0)
+    record = mg.vae_record(other, values, {"concept_preservation": 1.0}, role="treatment")
     assert (record["steps"], record["train_seconds"], record["converged"]) == (7, 1.5, True)
     assert record["validation_curve"] == [2.0, 1.0] and record["training"]["step_cap"] == 9
-    denoiser = mg.denoiser_record(other, {"x0_error_vs_gaussian": 0.5})
+    denoiser = mg.denoiser_record(other, {"x0_error_vs_gaussian": 0.5}, role="treatment")
     assert denoiser["steps"] == 7 and denoiser["training"]["stop_reason"] == "plateau"
 
 
@@ -193,3 +200,29 @@ def test_fine_tuned_denoisers_carry_their_own_training(emg_cache: object) -> Non
         assert record["steps"] == steps and record["train_seconds"] > 0
         value = record["gate"]["x0_error_vs_gaussian"]["value"]
         assert value == results["fitness"][row][0]
+
+
+def test_sample_gates_pass_the_data_and_fail_a_jittering_decoder(tiny) -> None:
+    """The VAE's reference-arm gates on the test clips themselves (an identity autoencoder)
+    pass; a decoder that adds frame-to-frame noise fails the jerk gate."""
+    pipe, test = tiny
+    reference = mg.data_sample_values(pipe, test)
+    identity = _autoencoder(pipe, lambda z: z)
+    values = {**mg.vae_gate_values(identity, test), **mg.vae_sample_values(identity, test)}
+    assert all(g["passed"] for g in gate_results("vae", values, reference,
+                                                 role="reference").values())
+    rng = np.random.default_rng(0)
+    jitter = _autoencoder(pipe, lambda z: z + 0.05 * rng.normal(size=z.shape))
+    noisy = {**values, **mg.vae_sample_values(jitter, test)}
+    gates = gate_results("vae", noisy, reference, role="reference")
+    assert not gates["joint_jerk"]["passed"]
+    assert "joint_jerk" not in gate_results("vae", noisy, reference, role="treatment")
+
+
+def test_denoiser_sample_values_measure_decoded_samples_for_the_test_captions(tiny) -> None:
+    pipe, test = tiny
+    values = mg.denoiser_sample_values(pipe, test, seed=0)
+    assert set(values) == {"joint_speed", "root_speed", "joint_jerk", "foot_skating",
+                           "concept_recall"}
+    assert values == mg.denoiser_sample_values(pipe, test, seed=0)
+    assert 0.0 <= values["concept_recall"] <= 1.0

@@ -89,9 +89,10 @@ def test_a_model_that_knows_the_held_out_windows_passes_and_a_constant_fails(
     assert learned["x0_error_vs_gaussian"] < 0.1   # a near neighbour picked at high noise
     assert trivial["x0_error_vs_gaussian"] > 1.0
     path = {"path_length": 1.0}
-    assert gate_results(family, {**learned, **path}, path)["x0_error_vs_gaussian"]["passed"]
-    assert not gate_results(family, {**trivial, **path}, path)["x0_error_vs_gaussian"][
-        "passed"]
+    assert gate_results(family, {**learned, **path}, path, role="treatment")[
+        "x0_error_vs_gaussian"]["passed"]
+    assert not gate_results(family, {**trivial, **path}, path, role="treatment")[
+        "x0_error_vs_gaussian"]["passed"]
     assert measured(True) == trivial  # the same windows and noise for the same seed
 
 
@@ -103,18 +104,25 @@ def test_the_path_length_gate_passes_the_data_and_fails_a_model_that_stands_stil
     assert data_path["path_length"] > 0
     fit = {"x0_error_vs_gaussian": 0.5}
     assert all(g["passed"] for g in gate_results("gmd_trajectory", {**fit, **data_path},
-                                                 data_path).values())
+                                                 data_path, role="reference").values())
     # a model that always returns the mean window stands still: no path
     still = mg.trajectory_gate_values(trajectory, torch.zeros_like(test.trajectory()))
     assert still["path_length"] == pytest.approx(0.0, abs=1e-6)
-    assert not gate_results("gmd_trajectory", {**fit, **still}, data_path)["path_length"][
-        "passed"]
+    assert not gate_results("gmd_trajectory", {**fit, **still}, data_path,
+                            role="treatment")["path_length"]["passed"]
+    # noise on the path: its length may pass, its jerk does not (a reference arm's gate)
+    noisy = mg.trajectory_gate_values(trajectory, test.trajectory()
+                                      + 0.3 * torch.randn_like(test.trajectory()))
+    assert noisy["root_jerk"] > 2 * data_path["root_jerk"]
+    assert not gate_results("gmd_trajectory", {**fit, **noisy}, data_path,
+                            role="reference")["root_jerk"]["passed"]
 
 
-def test_no_gate_of_a_family_measures_what_a_claim_resting_on_it_compares() -> None:
-    """Issue #31: a gate on an outcome makes the claim inconclusive by construction. Every
-    measurement a GMD claim's parts read has its quantity in COMPARED, and no family whose
-    records the claim's notebook passes measures one of them."""
+def test_no_gate_of_a_treatment_arm_measures_what_a_claim_resting_on_it_compares() -> None:
+    """A gate on a treatment arm's outcome makes the claim inconclusive by construction. Every
+    measurement a GMD claim's parts read has its quantity in COMPARED, and no gate that a
+    family's treatment arms pass measures one of them (the reference arm's sample gates
+    bound where a comparison starts, not its sign)."""
     gmd_claims = {cid: claim for cid, claim in CLAIMS.items()
                   if cid.startswith("GMD-") and claim.parts}
     assert set(mg.FAMILIES_READ) == set(gmd_claims)
@@ -170,19 +178,21 @@ def test_gmd_model_record_reads_the_cache_metrics(cache, small_spec, windows) ->
     reference = mg.trajectory_gate_values(test.space("trajectory"), test.trajectory())
     values = {**reference, "x0_error_vs_gaussian": 0.5}
     record = mg.gmd_model_record(trained, family="gmd_trajectory", values=values,
-                                 reference=reference, reads=["eps_reaches_goal_better"])
+                                 reference=reference, reads=["eps_reaches_goal_better"],
+                                 role="reference")
     assert record["steps"] == 3 and record["passed"] and record["precision"] == "fp32"
     assert record["reads"] == ["eps_reaches_goal_better"]
     assert record["train_seconds"] == trained.metrics["seconds"]
     assert record["validation_curve"] == pytest.approx(trained.metrics["losses"])
     assert trained.cache_key[:10] in record["name"] and "seed 0" in record["name"]
     failing = mg.gmd_model_record(trained, family="gmd_trajectory",
-                                  values={"x0_error_vs_gaussian": 1.2}, reference=reference)
+                                  values={"x0_error_vs_gaussian": 1.2}, reference=reference,
+                                  role="treatment")
     assert not failing["passed"] and failing["gate"]["path_length"]["value"] is None
     assert failing["reads"] is None
     assert "**fail**" in gates_markdown([record, failing])
     with pytest.raises(ValueError, match="family"):
-        mg.gmd_model_record(trained, family="vae", values={}, reference={})
+        mg.gmd_model_record(trained, family="vae", values={}, reference={}, role="treatment")
 
 
 def test_emphasis_study_records_measure_each_variant_in_its_own_space(

@@ -23,9 +23,9 @@ def test_budget_table_reports_steps_stops_and_gates(cache, small_spec, small_con
     values = mg.denoising_gate_values(longer, test, train, seed=0)
     assert set(values) == {"x0_error_vs_gaussian"}
     assert values == mg.denoising_gate_values(longer, test, train, seed=0)
-    passing = mg.gmd_model_record(longer, family="gmd_motion",
+    passing = mg.gmd_model_record(longer, family="gmd_motion", role="treatment",
                                   values={"x0_error_vs_gaussian": 0.5})
-    failing = mg.gmd_model_record(short, family="gmd_motion",
+    failing = mg.gmd_model_record(short, family="gmd_motion", role="treatment",
                                   values={"x0_error_vs_gaussian": 1.5})
     table = mg.budget_markdown({"ε": [short], "ε, 2× cap": [longer]},
                                {"ε": [failing], "ε, 2× cap": [passing]})

@@ -120,7 +120,7 @@ def test_a_model_trained_with_validation_records_its_convergence(small_spec,
     assert [step for step, _ in convergence["validation"]][:2] == [0, 2]
     values = {"x0_error_vs_gaussian": 0.5, "path_length": 1.0}
     record = model_gates.gmd_model_record(trained, family="gmd_trajectory", values=values,
-                                          reference={"path_length": 1.0})
+                                          reference={"path_length": 1.0}, role="treatment")
     assert record["steps"] == convergence["steps_used"]
     assert record["converged"] is convergence["converged"]
     assert record["validation_curve"] == [loss for _, loss in convergence["validation"]]

@@ -110,25 +110,33 @@ def _controls_line(sidecar: dict[str, Any]) -> str:
 
 
 def models_of(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
-    """Every model behind a recorded claim, once, with the claim IDs that use it
-    (``results/models.json``: ``family``, ``claims``, ``gate``, ``passed``, …)."""
-    models: dict[str, dict[str, Any]] = {}
+    """Every model behind a recorded claim, once per role it was judged in (a model can be one
+    claim's treatment arm and another's reference, ``core.gates``), with the claim IDs that
+    use it so (``results/models.json``: ``family``, ``role``, ``claims``, ``gate``,
+    ``passed``, …)."""
+    models: dict[tuple[str, str], dict[str, Any]] = {}
     for claim_id, sidecar in sidecars.items():
         for record in sidecar.get("models", []):
-            entry = models.setdefault(record["name"], {**record, "claims": []})
+            key = (record["name"], str(record.get("role", "")))
+            entry = models.setdefault(key, {**record, "claims": []})
             entry["claims"].append(claim_id)
-    return [models[name] for name in sorted(models)]
+    return [models[key] for key in sorted(models)]
 
 
 def _gate_text(gate: dict[str, Any]) -> str:
-    """``metric value (wanted range) ✓/✗`` for each gate of one model."""
+    """``metric value (wanted range; the data's value) ✓/✗`` for each gate of one model."""
     cells = []
     for metric, result in gate.items():
+        if result.get("applies") is False:
+            cells.append(f"{metric} not measurable on this data")
+            continue
         low, high = result["at_least"], result["at_most"]
         wanted = (f"{low:.3g}–{high:.3g}" if low is not None and high is not None
                   else f"≤ {high:.3g}" if high is not None else f"≥ {low:.3g}")
         value = "not measured" if result["value"] is None else f"{result['value']:.3g}"
-        cells.append(f"{metric} {value} (want {wanted}) {'✓' if result['passed'] else '✗'}")
+        data = "" if result.get("data") is None else f"; data {result['data']:.3g}"
+        cells.append(f"{metric} {value} (want {wanted}{data}) "
+                     f"{'✓' if result['passed'] else '✗'}")
     return "; ".join(cells)
 
 
@@ -139,11 +147,12 @@ def models_markdown(models: list[dict[str, Any]]) -> list[str]:
         return lines + ["No notebook of this run recorded its models' quality gates yet, so no "
                         "verdict here is backed by a model known to work (gates: "
                         "`repro.core.gates`).", ""]
-    lines += ["| model | family | claims | steps | training s | gate (value, wanted range) | "
-              "passed |", "|---|---|---|---|---|---|---|"]
+    lines += ["| model | family (role) | claims | steps | training s | gate (value, wanted "
+              "range; the data's value) | passed |", "|---|---|---|---|---|---|---|"]
     for m in models:
         seconds = "—" if m.get("train_seconds") is None else f"{m['train_seconds']:.0f}"
-        cells = [m["name"], m["family"], ", ".join(m["claims"]), str(m.get("steps") or "—"),
+        family = f"{m['family']} ({m['role']})" if m.get("role") else m["family"]
+        cells = [m["name"], family, ", ".join(m["claims"]), str(m.get("steps") or "—"),
                  seconds, _gate_text(m["gate"]), "yes" if m["passed"] else "**no**"]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     return lines + [""]

@@ -1,4 +1,4 @@
-"""Fitness gates: what a trained model must have learned before a verdict may rest on it.
+"""Gates: what a trained model must have learned before a verdict may rest on it.
 
 Registered before the models are trained as results (issue "Models that work"); never lowered
 to let a model pass. Since gates version 3 (issue #31) every gate is a *fitness* gate: it asks
@@ -10,6 +10,17 @@ what it measures (``Gate.measures``), so the paper packages can check that again
 claims compare (``gmd.model_gates.COMPARED``, ``energymogen.model_gates.COMPARED``). A model
 passes when every gate of its family passes; a model that fails makes inconclusive the parts
 of a claim that read it (``model_record(reads=...)``, ``repro.claims.ledger.record_claim``).
+
+Gates version 4 adds *sample* gates (``Gate.role`` "reference"): a model is judged on what it
+generates, against the data measured the same way in the same run — it moves as much as the
+data (mean joint and root speed within ½–2×), its joints are no more jagged (jerk ≤ 2×) and
+its feet slide no more (foot skating ≤ 3×) than a small multiple of the data's, and a
+conditioned model's samples show the asked-for concept (oracle recall ≥ 0.7× the data's).
+They apply to the *reference arm* of a comparison (``model_record(role="reference")``: the
+model a claim's other arm is compared against, or the one model both arms of a claim
+sample), never to a *treatment arm* (role "treatment"), which passes the fitness gates
+only: a band on the reference arm bounds where the comparison starts, not its sign, while a
+gate on the treatment arm's compared quantity would decide the claim.
 """
 
 from __future__ import annotations
@@ -24,12 +35,16 @@ from repro.core.tables import markdown_table
 __all__ = ["GATES", "GATES_VERSION", "Gate", "family_measures", "gate_results",
            "gates_markdown", "model_record", "reading"]
 
-#: 3: fitness gates (issue #31): held-out x̂0 error against the Gaussian denoiser for every
+#: 4: sample gates on the reference arm (``Gate.role``; docs/REGISTRY_CHANGELOG.md "Gates
+#: version 4"). 3: fitness gates: held-out x̂0 error against the Gaussian denoiser for every
 #: diffusion model, the evaluator's R@3 of real data and its FID of trivial fakes; no gate on
 #: a compared quantity (foot skating, jerk, FID of samples, reconstruction MPJPE, oracle
 #: accuracy of samples). 2: the ``gmd_motion`` FID gate's reference was the training windows'
 #: mean FID over 64 draws. docs/REGISTRY_CHANGELOG.md "Gates version 2" and "Gates version 3".
-GATES_VERSION = 3
+GATES_VERSION = 4
+#: the roles of a model in a claim (``model_record(role=...)``): "reference" passes every gate
+#: of its family, "treatment" only the gates whose ``role`` is "any" (the fitness gates)
+ROLES = ("reference", "treatment")
 
 
 @dataclass(frozen=True)
@@ -37,7 +52,9 @@ class Gate:
     """``metric`` of the model within [``at_least``, ``at_most``] (either may be None): bounds
     in units of the data's own value of the metric when ``relative``, else absolute.
     ``measures``: the quantity in words, as the claims' tables of compared quantities name
-    theirs (``gmd.model_gates.COMPARED``, ``energymogen.model_gates.COMPARED``)."""
+    theirs (``gmd.model_gates.COMPARED``, ``energymogen.model_gates.COMPARED``). ``role``
+    "any": every model of the family (a fitness gate); "reference": only a model in the
+    reference role (a sample gate, :data:`ROLES`)."""
 
     metric: str
     measures: str
@@ -45,6 +62,7 @@ class Gate:
     at_most: float | None = None
     at_least: float | None = None
     relative: bool = True
+    role: str = "any"
 
     def bounds(self, reference: Mapping[str, float]) -> tuple[float | None, float | None]:
         """(lowest allowed, highest allowed) value of the model's metric."""
@@ -75,6 +93,42 @@ _X0_REASON = (
     "every held-out {unit} and three levels, no sampling draw. No claim compares x̂0 errors: "
     "{claims}")
 
+#: what the sample gates measure, and why each bound (gates version 4)
+JOINT_SPEED = "mean joint speed of samples"
+ROOT_SPEED = "mean root speed of samples"
+JOINT_JERK = "joint jerk of samples"
+FOOT_SKATING = "foot skating of samples"
+CONCEPT_RECALL = "oracle concept recall of samples"
+
+
+def _sample_gates(*, recall: bool, root: bool = True) -> tuple[Gate, ...]:
+    """The reference arm's sample gates, each relative to the data's own value measured the
+    same way in the same run (test windows against as many samples)."""
+    moves = ("within ½–2× the data's: a model that stands still has low jerk and no foot "
+             "skating, so the two ceilings below need a floor on movement; the mean motion "
+             "of the data (an untrained x0 model) moves at about half the data's speed")
+    gates = [Gate("joint_speed", JOINT_SPEED, f"mean joint speed (m/s) {moves}",
+                  at_least=0.5, at_most=2.0, role="reference")]
+    if root:
+        gates.append(Gate("root_speed", ROOT_SPEED, f"mean horizontal root speed (m/s) "
+                          f"{moves}", at_least=0.5, at_most=2.0, role="reference"))
+    gates += [
+        Gate("joint_jerk", JOINT_JERK, "mean joint jerk (m/s³) ≤ 2× the data's: white noise "
+             "left in a sample's positions shows in its third difference, amplified by fps³; "
+             "twice the data's is jagged motion the eye sees", at_most=2.0, role="reference"),
+        Gate("foot_skating", FOOT_SKATING, "mean horizontal foot speed in contact (m/s) ≤ 3× "
+             "the data's: feet that slide while planted are motion the data never has; the "
+             "multiple allows for a tiny model's root and limbs agreeing less well than the "
+             "generator's solver makes them", at_most=3.0, role="reference")]
+    if recall:
+        gates.append(Gate("concept_recall", CONCEPT_RECALL, "the concept oracles find the "
+                          "captioned concepts in samples generated for test captions at ≥ 0.7× "
+                          "their rate on the test windows themselves: the model makes what the "
+                          "text asks for, which every reading by concept, R@3 and FID of "
+                          "conditioned samples needs", at_least=0.7, role="reference"))
+    return tuple(gates)
+
+
 #: family → gates. Families: the GMD UNets (``gmd_motion``, ``gmd_trajectory``), the MLD-style
 #: VAE (``vae``), the latent denoiser (``latent_denoiser``), the evaluator (``evaluator``).
 GATES: dict[str, tuple[Gate, ...]] = {
@@ -85,6 +139,7 @@ GATES: dict[str, tuple[Gate, ...]] = {
                    "of samples, C4 and F1 foot skating and joint jerk of samples, so the old "
                    "gates on foot skating, jerk and FID sat on their outcomes"),
              at_most=0.9, relative=False),
+        *_sample_gates(recall=True),
     ),
     "gmd_trajectory": (
         Gate("x0_error_vs_gaussian", X0_ERROR, _X0_REASON.format(
@@ -97,6 +152,9 @@ GATES: dict[str, tuple[Gate, ...]] = {
              "not learnt the data's speed, which every goal and location error needs; no claim "
              "compares path lengths (the goal errors it bounds are of guided samples)",
              at_least=0.5, at_most=2.0),
+        Gate("root_jerk", "root jerk of unguided samples", "mean root jerk (m/s³) of unguided "
+             "samples ≤ 2× the test windows': a path that wobbles frame to frame is not the "
+             "data's locomotion, whatever its length", at_most=2.0, role="reference"),
     ),
     "vae": (
         Gate("concept_preservation", "oracle concept recall of reconstructions", "oracle "
@@ -106,6 +164,14 @@ GATES: dict[str, tuple[Gate, ...]] = {
              "sat on EMG-7's outcome (reconstruction error by N); no claim compares the recall "
              "of reconstructions (EMG-2/3 read the oracles on generated samples)",
              at_least=0.9),
+        Gate("joint_jerk", "joint jerk of reconstructions", "mean joint jerk (m/s³) of "
+             "reconstructions of held-out clips ≤ 2× the clips' own: every decoded sample "
+             "passes through the decoder, so a decoder that adds jitter makes every sample "
+             "jagged", at_most=2.0, role="reference"),
+        Gate("foot_skating", "foot skating of reconstructions", "mean horizontal foot speed in "
+             "contact (m/s) of reconstructions of held-out clips ≤ 3× the clips' own: a "
+             "decoder whose feet slide makes every decoded sample slide", at_most=3.0,
+             role="reference"),
     ),
     "latent_denoiser": (
         Gate("x0_error_vs_gaussian", X0_ERROR, _X0_REASON.format(
@@ -115,6 +181,7 @@ GATES: dict[str, tuple[Gate, ...]] = {
                    "transition distances, EMG-6 the correlation of energy maps, EMG-7/8 FID of "
                    "samples"),
              at_most=0.9, relative=False),
+        *_sample_gates(recall=True),
     ),
     "evaluator": (
         Gate("r_precision_top3", "R-precision of held-out real data", "R@3 of held-out real "
@@ -133,24 +200,49 @@ GATES: dict[str, tuple[Gate, ...]] = {
 }
 
 
-def family_measures(family: str) -> set[str]:
-    """The quantities (``Gate.measures``) the gates of ``family`` measure."""
-    return {gate.measures for gate in GATES[family]}
+def check_role(role: str) -> None:
+    if role not in ROLES:
+        raise ValueError(f"role must be one of {ROLES}, got {role!r}")
+
+
+def gates_for(family: str, role: str) -> tuple[Gate, ...]:
+    """The gates of ``family`` a model in ``role`` must pass: all of them for the reference
+    arm, the fitness gates (``role`` "any") for a treatment arm."""
+    if family not in GATES:
+        raise ValueError(f"unknown model family {family!r}; have {sorted(GATES)}")
+    check_role(role)
+    return tuple(g for g in GATES[family] if role == "reference" or g.role == "any")
+
+
+def family_measures(family: str, role: str = "treatment") -> set[str]:
+    """The quantities (``Gate.measures``) the gates of ``family`` measure for a model in
+    ``role`` (a treatment arm by default: the gates that must never measure what a claim
+    compares)."""
+    return {gate.measures for gate in gates_for(family, role)}
 
 
 def gate_results(family: str, values: Mapping[str, float],
-                 reference: Mapping[str, float] | None = None) -> dict[str, dict[str, Any]]:
-    """Per gate of ``family``: the model's value, the allowed range, passed and the reason.
-    A gate whose value was not measured fails, saying so."""
-    if family not in GATES:
-        raise ValueError(f"unknown model family {family!r}; have {sorted(GATES)}")
+                 reference: Mapping[str, float] | None = None, *,
+                 role: str) -> dict[str, dict[str, Any]]:
+    """Per gate of ``family`` that a model in ``role`` must pass (:func:`gates_for`): the
+    model's value, the allowed range, passed and the reason. A gate whose value was not
+    measured fails, saying so."""
     reference = dict(reference or {})
     results = {}
-    for gate in GATES[family]:
-        low, high = gate.bounds(reference)
+    for gate in gates_for(family, role):
         value = values.get(gate.metric)
+        data = float(reference.get(gate.metric, math.nan)) if gate.relative else None
+        if data is not None and gate.metric in reference and math.isnan(data):
+            # the data hold no value to compare with (e.g. concept recall without labels)
+            results[gate.metric] = {
+                "value": None if value is None else float(value), "at_least": None,
+                "at_most": None, "data": None, "passed": True, "applies": False,
+                "reason": f"not measurable on this data — {gate.reason}"}
+            continue
+        low, high = gate.bounds(reference)
         results[gate.metric] = {
             "value": None if value is None else float(value), "at_least": low, "at_most": high,
+            "data": data,
             "passed": value is not None and gate.passes(float(value), reference),
             "reason": gate.reason if value is not None else f"not measured — {gate.reason}"}
     return results
@@ -161,26 +253,42 @@ def model_record(*, name: str, family: str, values: Mapping[str, float],
                  steps: int | None = None, train_seconds: float | None = None,
                  validation_curve: list[float] | None = None,
                  converged: bool | None = None,
-                 reads: Sequence[str] | None = None) -> dict[str, Any]:
+                 reads: Sequence[str] | None = None, role: str) -> dict[str, Any]:
     """What the report's "Models" section and ``models.json`` show of one trained model.
 
     ``reads``: the names of the claim's parts that rest on this model (None: every part); a
-    model that fails its gate makes only those inconclusive (issue #31: "a model that fails
-    its gate makes inconclusive only the parts that read it")."""
-    gates = gate_results(family, values, reference)
-    return {"name": name, "family": family, "gates_version": GATES_VERSION,
+    model that fails its gate makes only those inconclusive. ``role``: "reference" (every
+    gate of the family) or "treatment" (its fitness gates only, :func:`gates_for`). The
+    record keeps the measured ``values`` and the data's ``reference`` values, so
+    :func:`reading` can judge the same model in another role."""
+    check_role(role)
+    gates = gate_results(family, values, reference, role=role)
+    return {"name": name, "family": family, "gates_version": GATES_VERSION, "role": role,
             "reads": None if reads is None else [str(part) for part in reads],
             "parameters": parameters, "steps": steps, "train_seconds": train_seconds,
             "converged": converged, "validation_curve": list(validation_curve or []),
+            "values": {k: float(v) for k, v in values.items()},
+            "reference": {k: float(v) for k, v in (reference or {}).items()},
             "gate": gates, "passed": all(g["passed"] for g in gates.values())}
 
 
-def reading(records: Sequence[Mapping[str, Any]],
-            parts: Sequence[str] | None) -> list[dict[str, Any]]:
-    """Copies of ``records`` whose ``reads`` are ``parts`` (None: every part of the claim): for
-    a notebook that passes the same models to claims whose parts rest on them differently."""
-    return [{**record, "reads": None if parts is None else [str(p) for p in parts]}
-            for record in records]
+def reading(records: Sequence[Mapping[str, Any]], parts: Sequence[str] | None, *,
+            role: str | None = None) -> list[dict[str, Any]]:
+    """Copies of ``records`` whose ``reads`` are ``parts`` (None: every part of the claim) and,
+    with ``role``, judged in that role (the gates recomputed from the record's values): for a
+    notebook that passes the same models to claims that rest on them differently — the
+    absolute-root motion model is GMD-B3's treatment arm and the one model both arms of
+    GMD-F1's second stage sample."""
+    out = []
+    for record in records:
+        copy = {**record, "reads": None if parts is None else [str(p) for p in parts]}
+        if role is not None and role != record.get("role"):
+            gates = gate_results(record["family"], record["values"], record["reference"],
+                                 role=role)
+            copy.update(role=role, gate=gates,
+                        passed=all(g["passed"] for g in gates.values()))
+        out.append(copy)
+    return out
 
 
 def _number(value: float | None) -> str:
@@ -188,21 +296,23 @@ def _number(value: float | None) -> str:
 
 
 def gates_markdown(records: list[dict[str, Any]] | tuple[dict[str, Any], ...]) -> str:
-    r"""One row per (model, gate) of :func:`model_record`\ s: the model's family, size, steps
-    and training time, the gate's value, its allowed range and pass/fail; then how many pass."""
+    r"""One row per (model, gate) of :func:`model_record`\ s: the model's family and role,
+    size, steps and training time, the gate's value, the data's own value (for a gate
+    relative to it), its allowed range and pass/fail; then how many pass."""
     rows = []
     for record in records:
         for k, (metric, gate) in enumerate(record["gate"].items()):
-            head = ([record["name"], record["family"], _number(record["parameters"]),
-                     _number(record["steps"]), _number(record["train_seconds"])]
+            head = ([record["name"], f"{record['family']} ({record.get('role', '—')})",
+                     _number(record["parameters"]), _number(record["steps"]),
+                     _number(record["train_seconds"])]
                     if k == 0 else ["", "", "", "", ""])
             value = "not measured" if gate["value"] is None else _number(gate["value"])
-            rows.append([*head, metric, value,
+            rows.append([*head, metric, value, _number(gate.get("data")),
                          f"[{_number(gate['at_least'])}, {_number(gate['at_most'])}]",
                          "pass" if gate["passed"] else "**fail**"])
     passed = sum(bool(r["passed"]) for r in records)
-    return (markdown_table(["model", "family", "parameters", "steps", "training s", "gate",
-                            "value", "allowed", ""], rows)
+    return (markdown_table(["model", "family (role)", "parameters", "steps", "training s",
+                            "gate", "value", "data", "allowed", ""], rows)
             + f"\n\n{passed} of {len(records)} models pass their registered gates "
             "(`repro.core.gates`); a verdict resting on a model that fails its gate is "
             "inconclusive.")

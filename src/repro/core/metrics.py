@@ -339,6 +339,24 @@ def jitter(joints: np.ndarray, fps: float = 20.0,
     return Jitter(*values)
 
 
+def mean_speeds(joints: np.ndarray, fps: float = 20.0) -> tuple[float, float]:
+    """(mean joint speed, mean horizontal root speed) in m/s of joints (B, T, 22, 3):
+    ‖x_{t+1} − x_t‖·fps averaged over joints and frames, and the same of the root's x/z."""
+    joints = _joints(joints, min_frames=2)
+    step = np.linalg.norm(np.diff(joints, axis=1), axis=-1) * fps
+    root = np.linalg.norm(np.diff(joints[:, :, 0, [0, 2]], axis=1), axis=-1) * fps
+    return float(step.mean()), float(root.mean())
+
+
+def motion_statistics(joints: np.ndarray, fps: float = 20.0) -> dict[str, float]:
+    """What the sample gates compare between samples and data (``core.gates``, version 4):
+    ``joint_speed`` and ``root_speed`` (:func:`mean_speeds`), ``joint_jerk`` (:func:`jitter`)
+    and ``foot_skating`` (:func:`foot_skating`) of joints (B, T, 22, 3) in metres."""
+    joint_speed, root_speed = mean_speeds(joints, fps)
+    return {"joint_speed": joint_speed, "root_speed": root_speed,
+            "joint_jerk": jitter(joints, fps).jerk, "foot_skating": foot_skating(joints, fps)}
+
+
 # --- replications ------------------------------------------------------------------------
 
 

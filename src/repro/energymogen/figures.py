@@ -20,7 +20,9 @@ from repro.core.diffusion import GaussianDiffusion
 from repro.energymogen.augmentation import ROWS, ComposedSet
 from repro.energymogen.config import HELD_OUT_PAIRS, NEGATION_CASES
 from repro.energymogen.data import NotMeasurable
+from repro.energymogen.harness import TextToMotionTest
 from repro.energymogen.latent_count import PAPER_TABLE8
+from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler
 from repro.energymogen.studies import (
     PAPER_TABLE7,
     PAPER_TABLE9,
@@ -29,7 +31,7 @@ from repro.energymogen.studies import (
     gamma_key,
     lambda_key,
 )
-from repro.motion.plotting import filmstrip, save_figure
+from repro.motion.plotting import animate_side_by_side, filmstrip, save_figure
 
 __all__ = [
     "agd_step_size_figure", "augmentation_figure", "composed_examples_figure",
@@ -483,3 +485,26 @@ def augmentation_figure(results: Mapping[str, Any], seeds: Sequence[int]) -> Fig
                  "baseline) vs with the composed set (augmented)", fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def animate_samples(pipes: Mapping[str, EnergyMoGenPipeline], test: TextToMotionTest,
+                    path: str | Path, *, seed: int, count: int = 2) -> Path:
+    """A GIF of the first ``count`` test clips beside each pipeline's decoded sample for the
+    same caption (single-text guidance, DDIM from ``pipe.noise(seed)``, as the denoiser's
+    sample gates draw them: ``model_gates.denoiser_sample_values``), each in its own world
+    frame (``motion.plotting.animate_side_by_side``)."""
+    count = min(count, len(test))
+    texts = test.texts(seed)[:count]
+    first = next(iter(pipes.values()))
+    clips = {f"data: {_short(t)}": joints
+             for t, joints in zip(texts, first.joints(test.features[:count]), strict=True)}
+    for label, pipe in pipes.items():
+        joints = pipe.joints(pipe.decode(pipe.sample(Sampler("single"), [], texts, seed,
+                                                     batch=count)))
+        for t, clip in zip(texts, joints, strict=True):
+            clips[f"{label}: {_short(t)}"] = clip
+    return animate_side_by_side(clips, path, columns=count)
+
+
+def _short(caption: str, width: int = 28) -> str:
+    return caption if len(caption) <= width else caption[: width - 1] + "…"

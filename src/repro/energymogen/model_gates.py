@@ -1,4 +1,4 @@
-"""The fitness gates of the EnergyMoGen pipeline's trained models (``repro.core.gates``).
+"""The gates of the EnergyMoGen pipeline's trained models (``repro.core.gates``).
 
 One measurement function per model family, each on the held-out **text-to-motion test set**
 (``harness.TextToMotionTest``: clips drawn as the training clips, with keys no model or the
@@ -15,6 +15,15 @@ gates version 3 (issue #31) measures no quantity an EnergyMoGen claim compares (
   test clips themselves, batches of 32 (``core.metrics.r_precision``, the mean over
   :data:`R_PRECISION_SHUFFLES` shuffles), and the FID of trivial fakes over the training clips'
   FID against the test clips (``core.fitness.trivial_fid_ratio``).
+
+Gates version 4 adds the reference arm's sample gates (``core.gates``): the VAE's
+reconstructions of the test clips (:func:`vae_sample_values`: joint jerk and foot skating)
+and the denoiser's decoded samples for the test captions (:func:`denoiser_sample_values`:
+mean joint and root speed, joint jerk, foot skating, the oracles' concept recall), each
+against the test clips themselves measured the same way (:func:`data_sample_values`). The
+reference arm is the pipeline every composition and guidance arm samples (notebooks 04 and
+05), the paper's N = 5 among EMG-7's latent counts, and the pretrained pipeline of EMG-8;
+N = 1, 3, 7 and the fine-tuned denoisers are treatment arms, judged on their fitness only.
 
 Our choice: a model is measured with seed ``train_seed − data_seed`` (the evaluation seed whose
 model it is, ``pipeline.train_seed_for``), so one model gets one gate value in every notebook.
@@ -41,17 +50,25 @@ from repro.energymogen.convergence import TrainingRecord
 from repro.energymogen.data import NotMeasurable
 from repro.energymogen.harness import TextToMotionTest, oracle_accuracy
 from repro.energymogen.latent_count import load_or_train_variant
-from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, pipeline_for
+from repro.energymogen.pipeline import (
+    EnergyMoGenPipeline,
+    PipelineSource,
+    Sampler,
+    pipeline_for,
+)
 
 __all__ = [
-    "COMPARED", "FAMILIES_READ", "R_PRECISION_SHUFFLES", "augmentation_records",
-    "denoiser_gate_values", "denoiser_record", "evaluator_gate_values", "evaluator_record",
-    "gate_seed", "latent_count_records", "parameter_count", "pipeline_records",
-    "real_concept_recall", "vae_gate_values", "vae_record",
+    "COMPARED", "FAMILIES_READ", "REFERENCE_LATENT_COUNT", "R_PRECISION_SHUFFLES",
+    "augmentation_records", "data_sample_values", "denoiser_gate_values", "denoiser_record",
+    "denoiser_sample_values", "evaluator_gate_values", "evaluator_record", "gate_seed",
+    "latent_count_records", "parameter_count", "pipeline_records", "real_concept_recall",
+    "vae_gate_values", "vae_record", "vae_sample_values",
 ]
 
 #: shuffles of the R-precision batches whose mean R@3 is the ``evaluator`` gate's value
 R_PRECISION_SHUFFLES = 8
+#: EMG-7's reference arm: the paper's number of latent vectors (Table 8; the pipeline's N)
+REFERENCE_LATENT_COUNT = 5
 
 #: the quantity behind each measurement the EnergyMoGen claims' parts read (``Part.needs`` in
 #: ``claims.registry_energymogen``), in the words of ``core.gates.Gate.measures``
@@ -138,6 +155,37 @@ def denoiser_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest, seed
     return {"x0_error_vs_gaussian": ratio}
 
 
+def data_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dict[str, float]:
+    """The sample gates' reference: ``metrics.motion_statistics`` of the test clips' joints
+    and the oracles' recall of their concepts (:func:`real_concept_recall`; NaN on a data
+    folder, where the recall gate does not apply)."""
+    return {**metrics.motion_statistics(pipe.joints(test.features)),
+            "concept_recall": real_concept_recall(pipe, test),
+            "concept_preservation": real_concept_recall(pipe, test)}
+
+
+@torch.no_grad()
+def vae_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dict[str, float]:
+    """The ``vae`` sample gates' values: joint jerk and foot skating of decode(μ(x)) of the test
+    clips (every decoded sample passes through this decoder)."""
+    stats = metrics.motion_statistics(pipe.joints(pipe.decode(pipe.encode_motion(
+        test.features))))
+    return {"joint_jerk": stats["joint_jerk"], "foot_skating": stats["foot_skating"]}
+
+
+def denoiser_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
+                           seed: int) -> dict[str, float]:
+    """The ``latent_denoiser`` sample gates' values: one sample per test clip for its caption
+    drawn with ``seed`` (single-text classifier-free guidance at the pipeline's scale, DDIM
+    from ``pipe.noise(seed)``, decoded): ``metrics.motion_statistics`` of their joints and
+    the oracles' recall of each clip's concepts (``harness.oracle_accuracy``)."""
+    texts = test.texts(seed)
+    features = pipe.decode(pipe.sample(Sampler("single"), [], texts, seed, batch=len(texts)))
+    joints = pipe.joints(features)
+    return {**metrics.motion_statistics(joints),
+            "concept_recall": oracle_accuracy(joints, test.concepts)}
+
+
 def evaluator_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
                           seed: int = 0) -> dict[str, float]:
     """Gate ``evaluator``: ``r_precision_top3`` (fraction) of one caption per test clip
@@ -164,9 +212,10 @@ def evaluator_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 
 def _record(*, name: str, family: str, values: Mapping[str, float],
             reference: Mapping[str, float], model: nn.Module,
-            training: TrainingRecord | None, reads: Sequence[str] | None) -> dict[str, Any]:
+            training: TrainingRecord | None, reads: Sequence[str] | None,
+            role: str) -> dict[str, Any]:
     record = model_record(
-        name=name, family=family, values=values, reference=reference,
+        name=name, family=family, values=values, reference=reference, role=role,
         parameters=parameter_count(model), steps=None if training is None else training.steps,
         train_seconds=None if training is None else training.train_seconds,
         validation_curve=[] if training is None else [v for _, v in training.validation_curve],
@@ -176,32 +225,34 @@ def _record(*, name: str, family: str, values: Mapping[str, float],
     return record
 
 
-def vae_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float], real_recall: float, *,
+def vae_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float],
+               reference: Mapping[str, float], *, role: str,
                reads: Sequence[str] | None = None) -> dict[str, Any]:
     """The ``vae`` record of ``pipe.vae`` (N latents, training seed): ``values`` of
-    :func:`vae_gate_values` (or the same measurement from a study), reference
-    ``concept_preservation`` = ``real_recall`` (:func:`real_concept_recall`); training from
-    ``pipe.training["vae"]``; ``reads`` the claim's parts resting on it (None: all)."""
+    :func:`vae_gate_values` (or the same measurement from a study) and, in the reference
+    ``role``, :func:`vae_sample_values`; ``reference`` the test clips' own values
+    (:func:`data_sample_values`); training from ``pipe.training["vae"]``; ``reads`` the
+    claim's parts resting on it (None: all)."""
     return _record(name=f"EMG VAE N={pipe.config.latent_count} train seed {pipe.train_seed}",
-                   family="vae", values=values,
-                   reference={"concept_preservation": real_recall}, model=pipe.vae,
-                   training=pipe.training.get("vae"), reads=reads)
+                   family="vae", values=values, reference=reference, model=pipe.vae,
+                   training=pipe.training.get("vae"), reads=reads, role=role)
 
 
-def denoiser_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float], *,
-                    name: str | None = None, denoiser: nn.Module | None = None,
-                    training: TrainingRecord | None = None,
+def denoiser_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float], *, role: str,
+                    reference: Mapping[str, float] | None = None, name: str | None = None,
+                    denoiser: nn.Module | None = None, training: TrainingRecord | None = None,
                     reads: Sequence[str] | None = None) -> dict[str, Any]:
     """The ``latent_denoiser`` record of ``pipe.denoiser`` (training from
     ``pipe.training["denoiser"]``), or of a fine-tuned ``denoiser`` (EMG-8) with its own
-    ``name`` and ``training``: ``values`` of :func:`denoiser_gate_values`; ``reads`` the
-    claim's parts resting on it (None: all)."""
+    ``name`` and ``training``: ``values`` of :func:`denoiser_gate_values` and, in the
+    reference ``role``, :func:`denoiser_sample_values` against ``reference``
+    (:func:`data_sample_values`); ``reads`` the claim's parts resting on it (None: all)."""
     if denoiser is None:
         denoiser, training = pipe.denoiser, pipe.training.get("denoiser")
     return _record(name=name or (f"EMG latent denoiser N={pipe.config.latent_count} train seed "
                                  f"{pipe.train_seed}"),
-                   family="latent_denoiser", values=values, reference={}, model=denoiser,
-                   training=training, reads=reads)
+                   family="latent_denoiser", values=values, reference=reference or {},
+                   model=denoiser, training=training, reads=reads, role=role)
 
 
 def evaluator_record(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
@@ -214,17 +265,27 @@ def evaluator_record(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
                           values=evaluator_gate_values(pipe, test), reference={},
                           parameters=parameter_count(pipe.evaluator),
                           steps=pipe.evaluator.config.training.steps, train_seconds=None,
-                          reads=reads)
+                          reads=reads, role="reference")
     record["training_losses"] = [float(v) for v in pipe.evaluator.losses]
     return record
 
 
-def pipeline_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest, real_recall: float, *,
+def pipeline_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
+                     role: str = "reference",
                      reads: Sequence[str] | None = None) -> list[dict[str, Any]]:
     """[``vae`` record, ``latent_denoiser`` record] of one pipeline, both measured here
-    (the denoiser with :func:`gate_seed`), both with ``reads``."""
-    return [vae_record(pipe, vae_gate_values(pipe, test), real_recall, reads=reads),
-            denoiser_record(pipe, denoiser_gate_values(pipe, test, gate_seed(pipe)),
+    (the denoiser with :func:`gate_seed`), both with ``reads``; in the reference ``role`` (the
+    pipeline every arm of a composition or guidance comparison samples) with their sample
+    gates against the test clips."""
+    reference = data_sample_values(pipe, test)
+    seed = gate_seed(pipe)
+    vae_values = vae_gate_values(pipe, test)
+    denoiser_values = denoiser_gate_values(pipe, test, seed)
+    if role == "reference":
+        vae_values.update(vae_sample_values(pipe, test))
+        denoiser_values.update(denoiser_sample_values(pipe, test, seed))
+    return [vae_record(pipe, vae_values, reference, role=role, reads=reads),
+            denoiser_record(pipe, denoiser_values, reference=reference, role=role,
                             reads=reads)]
 
 
@@ -237,19 +298,29 @@ def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
     study measured it (its reconstructions' ``oracle_accuracy`` against the real clips'), the
     denoiser's x̂0 error measured here on ``test`` (:func:`denoiser_gate_values`,
     :func:`gate_seed`); the models are reloaded from the cache
-    (``latent_count.load_or_train_variant``). On a data folder the oracles' recall is NaN
-    and the VAE gate reads "not measured"."""
+    (``latent_count.load_or_train_variant``). N = :data:`REFERENCE_LATENT_COUNT` is the
+    reference arm (its sample gates measured here too), every other N a treatment arm. On a
+    data folder the oracles' recall is NaN and the VAE gate reads "not measured"."""
     records = []
+    reference = data_sample_values(pipe, test)
     for i, seed in enumerate(seeds):
         real_recall = float(results["real"]["oracle_accuracy"][i])
         for n in counts:
+            role = "reference" if n == REFERENCE_LATENT_COUNT else "treatment"
             with torch_threads(threads):     # the study's threads: the same cache entries
                 variant = load_or_train_variant(pipe, n, seed, threads=threads)
                 fit = denoiser_gate_values(variant, test, gate_seed(variant))
+                if role == "reference":
+                    fit.update(denoiser_sample_values(variant, test, gate_seed(variant)))
             recall = results["reconstruction"][str(n)]["oracle_accuracy"][i]
             values = {} if np.isnan(recall) else {"concept_preservation": recall}  # NaN: real
-            records.append(vae_record(variant, values, real_recall, reads=reads))
-            records.append(denoiser_record(variant, fit, reads=reads))
+            if role == "reference":
+                values.update(vae_sample_values(variant, test))
+            records.append(vae_record(variant, values,
+                                      {**reference, "concept_preservation": real_recall},
+                                      role=role, reads=reads))
+            records.append(denoiser_record(variant, fit, reference=reference, role=role,
+                                           reads=reads))
     return records
 
 
@@ -267,15 +338,14 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
                                             "augmented": []}
     for i, seed in enumerate(seeds):
         pipe = pipeline_for(source, seed)
-        real_recall = real_concept_recall(pipe, gate_test)
-        vae, pretrained = pipeline_records(pipe, gate_test, real_recall)
+        vae, pretrained = pipeline_records(pipe, gate_test, role="reference")
         out["vae"].append(vae)
         out["pretrained"].append(pretrained)
         if isinstance(results, NotMeasurable):
             continue
         for row in ("control", "augmented"):
             out[row].append(denoiser_record(      # fine-tuned: the pretrained architecture
-                pipe, {"x0_error_vs_gaussian": results["fitness"][row][i]},
+                pipe, {"x0_error_vs_gaussian": results["fitness"][row][i]}, role="treatment",
                 name=f"EMG {row} denoiser (fine-tuned from train seed {pipe.train_seed}, "
                      f"seed {seed})",
                 denoiser=pipe.denoiser, training=results["training"][row][i]))

@@ -6,14 +6,18 @@ the notebook saves the figure with ``repro.motion.plotting.save_figure``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
+from repro.gmd.guidance import sample
 from repro.gmd.guidance_schedule import ObstacleArm, ObstacleSet, StrengthSweep, strength_key
 from repro.gmd.location_imputation import METHODS, ImputationRun, LocationTask
+from repro.gmd.model_gates import SampleGateData
 from repro.gmd.models import TrainedGMD
 from repro.gmd.root_representation import (
     ROOT_PARAMETERS,
@@ -22,9 +26,16 @@ from repro.gmd.root_representation import (
     global_root_xz,
     root_jacobian,
 )
-from repro.gmd.table_b1 import NOT_MEASURABLE, PAPER_TABLE_B1, TABLE_METRICS, measurable
+from repro.gmd.table_b1 import (
+    NOT_MEASURABLE,
+    PAPER_TABLE_B1,
+    TABLE_METRICS,
+    generate_for_captions,
+    measurable,
+)
 from repro.gmd.windows import FeatureSpace, short_label
-from repro.motion.features import relative_to_absolute_root
+from repro.motion.features import features_to_joints, relative_to_absolute_root
+from repro.motion.plotting import animate_side_by_side
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -547,3 +558,33 @@ def plot_obstacles(space: FeatureSpace, arms: Sequence[ObstacleArm], obstacles: 
                  f"{seed}, s = {strength:g}; bars: mean over seeds, dots: seeds", fontsize=9)
     fig.tight_layout()
     return fig
+
+
+# ------------------------------------------------------------- every notebook: samples move
+
+def animate_samples(models: Mapping[str, TrainedGMD], data: SampleGateData,
+                    path: str | os.PathLike, *, seed: int, count: int = 2) -> Path:
+    """A GIF of ``count`` test windows of the sample gates' data beside each model's sample
+    for the same caption (``model_gates.motion_sample_values``' sampler: classifier-free
+    guidance at GMD's scale for a text-conditioned model, else unconditional with ``seed``),
+    each in its own world frame (``motion.plotting.animate_side_by_side``): a reader sees
+    whether a model's bodies move as the data's do before reading any number."""
+    evaluation = data.evaluation
+    count = min(count, len(evaluation))
+    captions = evaluation.captions[:count]
+    clips = {f"data: {_short(c)}": features_to_joints(evaluation.features[k].astype(np.float64))
+             for k, c in enumerate(captions)}
+    for label, model in models.items():
+        if model.vocabulary is not None:
+            features = generate_for_captions(model, captions, seed=seed)
+        else:
+            with torch.no_grad():
+                features = model.space.relative_features(
+                    sample(model, count, seed=seed)).numpy()
+        for k, c in enumerate(captions):
+            clips[f"{label}: {_short(c)}"] = features_to_joints(features[k].astype(np.float64))
+    return animate_side_by_side(clips, path, columns=count)
+
+
+def _short(caption: str, width: int = 28) -> str:
+    return caption if len(caption) <= width else caption[: width - 1] + "…"

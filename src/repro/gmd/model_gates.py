@@ -36,13 +36,18 @@ from torch import Tensor
 from repro.core import fitness, metrics
 from repro.core.gates import model_record
 from repro.core.tables import markdown_table
+from repro.gmd import table_b1
+from repro.gmd.guidance import sample
 from repro.gmd.measurements import evaluator_inputs
 from repro.gmd.models import TrainedGMD, bag_of_words, parameter_count
 from repro.gmd.windows import FeatureSpace, MotionWindows
 from repro.infra import cache
 from repro.models.evaluator import Evaluator, EvaluatorConfig, load_or_train_evaluator
+from repro.motion.features import FPS, features_to_joints
+from repro.motion.skeleton import NUM_JOINTS
 
 __all__ = ["COMPARED", "CURVE_POINTS", "FAMILIES_READ", "FITNESS_WINDOWS", "MotionEvaluation",
+           "SAMPLE_GATE_WINDOWS", "SampleGateData", "motion_sample_values", "sample_gate_data",
            "R_PRECISION_SHUFFLES", "REFERENCE_FID_DRAWS", "budget_markdown",
            "denoising_gate_values", "emphasis_study_records", "evaluator_gate_values",
            "evaluator_model_record", "gmd_model_name", "gmd_model_record", "loss_curve",
@@ -162,13 +167,65 @@ def path_length(root_positions: np.ndarray | Tensor) -> np.ndarray:
 
 
 def trajectory_gate_values(space: TrainedGMD | FeatureSpace, x: Tensor) -> dict[str, float]:
-    """``path_length``: the mean horizontal root path length (m, :func:`path_length`) of
+    """``path_length``: the mean horizontal root path length (m, :func:`path_length`), and
+    ``root_jerk``: the mean root jerk (m/s³, ``metrics.jitter`` of the root path), of
     model-space windows (B, C, T) in ``space`` — a trajectory model's unguided samples, or the
-    test windows (the ``gmd_trajectory`` path-length gate's reference)."""
+    test windows (the ``gmd_trajectory`` gates' reference)."""
     space = space.space if isinstance(space, TrainedGMD) else space
     with torch.no_grad():
-        root = space.root_positions(x.detach())
-    return {"path_length": float(path_length(root).mean())}
+        root = space.root_positions(x.detach()).cpu().double().numpy()
+    as_joints = np.repeat(root[:, :, None, :], NUM_JOINTS, axis=2)   # the root's own jerk
+    return {"path_length": float(path_length(root).mean()),
+            "root_jerk": float(metrics.jitter(as_joints, fps=FPS).jerk)}
+
+
+#: test windows a motion model's sample gates generate for, one sample per window's caption
+SAMPLE_GATE_WINDOWS = 64
+
+
+@dataclass(frozen=True)
+class SampleGateData:
+    """The data side of the ``gmd_motion`` sample gates (``core.gates``, version 4):
+    ``evaluation`` — :data:`SAMPLE_GATE_WINDOWS` relative-root test windows with one caption
+    each and their labelled concepts (``table_b1.evaluation_set``) — and ``values``, the
+    windows' own ``metrics.motion_statistics`` and the oracles' recall of their concepts
+    (NaN without the stand-in's labels: the recall gate is then not measurable)."""
+
+    evaluation: table_b1.EvaluationSet
+    values: dict[str, float]
+
+
+def sample_gate_data(test: MotionWindows, *, seed: int,
+                     n: int = SAMPLE_GATE_WINDOWS) -> SampleGateData:
+    """:class:`SampleGateData` of ``n`` of the relative-root ``test`` windows, drawn with
+    ``seed``."""
+    evaluation = table_b1.evaluation_set(test, n, seed=seed)
+    joints = features_to_joints(evaluation.features.astype(np.float64))
+    values = {**metrics.motion_statistics(joints, fps=FPS),
+              "concept_recall": table_b1.concept_recall(evaluation.features, evaluation.truth)}
+    return SampleGateData(evaluation, values)
+
+
+def motion_sample_values(trained: TrainedGMD, data: SampleGateData, *,
+                         seed: int) -> dict[str, float]:
+    """The sample gates' values of a motion model: one sample per caption of ``data``'s
+    windows (classifier-free guidance at GMD's scale for a text-conditioned model, as Table
+    B.1 generates; unconditional samples otherwise), their ``metrics.motion_statistics`` and,
+    for a text-conditioned model, the oracles' recall of each window's concepts."""
+    if trained.spec.task != "motion":
+        raise ValueError(f"need a motion model, got a {trained.spec.task} model")
+    captions = data.evaluation.captions
+    if trained.vocabulary is not None:
+        features = table_b1.generate_for_captions(trained, captions, seed=seed)
+    else:
+        with torch.no_grad():
+            x = sample(trained, len(captions), seed=seed)
+            features = trained.space.relative_features(x).cpu().numpy().astype(np.float32)
+    values = metrics.motion_statistics(features_to_joints(features.astype(np.float64)),
+                                       fps=FPS)
+    if trained.vocabulary is not None:
+        values["concept_recall"] = table_b1.concept_recall(features, data.evaluation.truth)
+    return values
 
 
 def model_space_windows(trained: TrainedGMD, windows: MotionWindows) -> Tensor:
@@ -263,8 +320,8 @@ def gmd_model_name(trained: TrainedGMD, label: str = "") -> str:
 
 
 def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, float],
-                     reference: Mapping[str, float] | None = None, label: str = "",
-                     reads: Sequence[str] | None = None) -> dict[str, Any]:
+                     role: str, reference: Mapping[str, float] | None = None,
+                     label: str = "", reads: Sequence[str] | None = None) -> dict[str, Any]:
     """``core.gates.model_record`` of a tiny GMD model: parameters counted, steps and training
     seconds from the cache's metrics.json. A model trained to convergence (``GMDModelSpec.
     validate_every``) brings its record (``TrainResult.metrics()["convergence"]``): steps
@@ -272,7 +329,8 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
     the curve; an older model gives its *training* loss (online weights, per step) as the
     curve and ``converged`` None (unknown). ``precision`` is "fp32" or the autocast dtype it
     was trained under (``GMDModelSpec.autocast``). ``reads``: the claim's parts that rest on
-    the model (``core.gates.model_record``; None: every part)."""
+    the model (``core.gates.model_record``; None: every part); ``role``: "reference" (every
+    gate, the sample gates included) or "treatment" (the fitness gates)."""
     if family not in ("gmd_motion", "gmd_trajectory"):
         raise ValueError(f"a GMD model's family is gmd_motion or gmd_trajectory, not {family!r}")
     convergence = trained.metrics.get("convergence")
@@ -283,7 +341,7 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
                           reference=reference, parameters=parameter_count(trained),
                           steps=int(summary["steps_used"]),
                           train_seconds=trained.metrics.get("seconds"), validation_curve=curve,
-                          converged=summary["converged"], reads=reads)
+                          converged=summary["converged"], reads=reads, role=role)
     record["precision"] = trained.spec.training.autocast or "fp32"
     if convergence:
         record["convergence"] = {"step_cap": convergence["step_cap"],
@@ -346,7 +404,7 @@ def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float],
                         parameters=sum(p.numel() for p in evaluator.parameters()),
                         steps=len(evaluator.losses) or evaluator.config.training.steps,
                         train_seconds=None, validation_curve=loss_curve(evaluator.losses),
-                        converged=None, reads=reads)
+                        converged=None, reads=reads, role="reference")
 
 
 def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
@@ -368,5 +426,6 @@ def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
             reads = None if parts is None else list(parts.get(variant.value, ()))
             records.append(gmd_model_record(
                 trained, family="gmd_motion", label=variant.label, reads=reads,
+                role="treatment",
                 values=denoising_gate_values(trained, test, train, seed=seed)))
     return records

@@ -43,11 +43,16 @@ from repro.infra.context import RunContext
 from repro.models.evaluator import Evaluator, load_or_train_evaluator
 from repro.motion.plotting import save_figure
 
-__all__ = ["LINEARISATION_DELTAS", "REAL_CLIP", "B1Study", "B3Evaluation", "b1_figures",
+__all__ = ["LINEARISATION_DELTAS", "REAL_CLIP", "REPRESENTATION_ROLES", "B1Study",
+           "B3Evaluation", "b1_figures",
            "b1_reading", "b1_result", "b1_study", "b2_model_records", "b2_result", "b2_runs",
            "b2_table_markdown", "b3_evaluation", "b3_model_records", "b3_result", "b3_rows",
            "load_or_train_per_representation", "real_clip_file", "round_trip_markdown"]
 
+#: each root representation's role in GMD-B2 and B3 (``core.gates.ROLES``): HumanML3D's
+#: relative root is what GMD's ablations start from and the absolute root what they compare
+#: against it, so the sample gates judge the relative-root models only
+REPRESENTATION_ROLES = {"relative": "reference", "absolute": "treatment"}
 #: the real HumanML3D clip B1 also measures, where ``paths.humanml3d_sample_dir`` holds it
 REAL_CLIP = "012314"
 #: the rotation changes δω whose first-order (Jacobian) prediction B1 checks
@@ -254,7 +259,7 @@ def b2_model_records(trajectory_models: Mapping[str, Mapping[int, TrainedGMD]],
         for rep in REPRESENTATIONS}
     return [model_gates.gmd_model_record(
         trajectory_models[rep][s], family="gmd_trajectory", reference=reference[rep],
-        label=rep,
+        label=rep, role=REPRESENTATION_ROLES[rep],
         values={**model_gates.trajectory_gate_values(
             trajectory_models[rep][s], runs[s][f"{short_label(rep)}_unguided"].samples),
             **model_gates.denoising_gate_values(trajectory_models[rep][s],
@@ -348,10 +353,19 @@ def b3_model_records(motion_models: Mapping[str, Mapping[int, TrainedGMD]], b3: 
     """The motion models' ``gmd_motion`` records (held-out x̂0 error) and then the evaluator's
     (R@3 of the evaluation windows with their captions, trivial fakes' FID); every part of
     GMD-B3 reads every one."""
+    samples = model_gates.sample_gate_data(windows["relative"]["test"], seed=seed)
+
+    def values(rep: str, s: int) -> dict[str, float]:
+        model = motion_models[rep][s]
+        found = model_gates.denoising_gate_values(model, windows[rep]["test"],
+                                                  windows[rep]["train"], seed=s)
+        if REPRESENTATION_ROLES[rep] == "reference":
+            found.update(model_gates.motion_sample_values(model, samples, seed=s))
+        return found
+
     records = [model_gates.gmd_model_record(
-        motion_models[rep][s], family="gmd_motion", label=rep,
-        values=model_gates.denoising_gate_values(motion_models[rep][s], windows[rep]["test"],
-                                                 windows[rep]["train"], seed=s))
+        motion_models[rep][s], family="gmd_motion", label=rep, role=REPRESENTATION_ROLES[rep],
+        reference=samples.values, values=values(rep, s))
         for rep in REPRESENTATIONS for s in seeds]
     evaluation = b3.evaluation
     evaluator_record = model_gates.evaluator_model_record(

@@ -21,15 +21,52 @@ import torch
 
 from repro.claims.result import ClaimResult, Controls
 from repro.gmd import guidance_schedule as gs
+from repro.gmd import model_gates
 from repro.gmd.coefficients import schedule_diffusion
 from repro.gmd.guidance import guidance_parameters
 from repro.gmd.models import GMDModelSpec, TrainedGMD, describe, is_cached, load_or_train_many
 from repro.gmd.windows import DataDir, MotionWindows, goal_targets, load_windows
 
 __all__ = ["ObstacleStudy", "ScheduleModels", "SecondStage", "StopReading", "Sweeps",
-           "f1_result", "load_models", "obstacle_study", "run_sweeps", "second_stage"]
+           "f1_result", "load_models", "motion_records", "obstacle_study", "run_sweeps",
+           "second_stage", "trajectory_records"]
 
 key = gs.strength_key
+
+
+def trajectory_records(trained: ScheduleModels, sweeps: Sweeps,
+                       seeds: Sequence[int]) -> list[dict[str, Any]]:
+    """The trajectory ε models' ``gmd_trajectory`` records, each in the reference role (every
+    arm of GMD-F1 samples the same model, so the sample gate bounds where all start, not their
+    difference): held-out x̂0 error, and the path length and root jerk of its unguided
+    samples (the strength sweep's s = 0, same noise) against the test windows'. Every part
+    of GMD-F1 rests on them (reads: None)."""
+    test, train = trained.test, trained.train
+    reference = model_gates.trajectory_gate_values(test.space("trajectory"), test.trajectory())
+    sweep = sweeps.sweep
+    return [model_gates.gmd_model_record(
+        trained.models[s], family="gmd_trajectory", reference=reference, role="reference",
+        values={**model_gates.trajectory_gate_values(trained.models[s],
+                                                     sweep[s].samples[sweep[s].index(0)]),
+                **model_gates.denoising_gate_values(trained.models[s], test, train, seed=s)})
+        for s in seeds]
+
+
+def motion_records(trained: ScheduleModels, seeds: Sequence[int], *,
+                   seed: int) -> list[dict[str, Any]]:
+    """The second stage's absolute-root x0 motion models' ``gmd_motion`` records, each in the
+    reference role (both stop arms sample it): held-out x̂0 error and the sample gates
+    against ``model_gates.SAMPLE_GATE_WINDOWS`` test windows (drawn with ``seed``). Only
+    the whole-body part reads them."""
+    test, train = trained.test, trained.train
+    samples = model_gates.sample_gate_data(test, seed=seed)
+    return [model_gates.gmd_model_record(
+        trained.motion_models[s], family="gmd_motion", reads=["stop_at_20_more_coherent"],
+        role="reference", reference=samples.values,
+        values={**model_gates.denoising_gate_values(trained.motion_models[s], test, train,
+                                                    seed=s),
+                **model_gates.motion_sample_values(trained.motion_models[s], samples, seed=s)})
+        for s in seeds]
 
 
 @dataclass

@@ -100,16 +100,16 @@ def _window_labels(root: Path, window_id: str, frames: int) -> set[str]:
 
 
 def evaluation_set(test_windows: MotionWindows, n: int, *, seed: int) -> EvaluationSet:
-    """n relative-root test windows drawn with ``seed`` (in window order), one caption each."""
-    if test_windows.config.representation != "relative":
-        raise ValueError("the evaluation set is built from relative-root test windows")
+    """n test windows drawn with ``seed`` (in window order), one caption each, as
+    relative-root features (absolute-root windows are converted: the same motions)."""
     n = min(n, len(test_windows))
     rng = np.random.default_rng(seed)
     picks = np.sort(rng.choice(len(test_windows), n, replace=False))
     captions = [test_windows.captions[i][rng.integers(len(test_windows.captions[i]))]
                 for i in picks]
     with torch.no_grad():
-        features = test_windows.features()[torch.from_numpy(picks)].numpy()
+        features = test_windows.space("motion").relative_features(
+            test_windows.x[torch.from_numpy(picks)]).numpy()
     ids = [test_windows.ids[i] for i in picks]
     truth = [_window_labels(test_windows.root, i, test_windows.frames) for i in ids]
     return EvaluationSet(ids, captions, features.astype(np.float32), truth)

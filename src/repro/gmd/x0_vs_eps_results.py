@@ -164,8 +164,16 @@ def a3_study(guided_models: dict[tuple[str, int], TrainedGMD], test: MotionWindo
     return A3Study(runs, list(seeds), parameters)
 
 
+#: each prediction's role in GMD-A3 and A4 (``core.gates.ROLES``): GMD's trajectory model
+#: predicts ε and its motion model x0, so those are the reference arms the other is compared
+#: against (and the only arms the sample gates judge)
+TRAJECTORY_ROLES = {"epsilon": "reference", "x0": "treatment"}
+MOTION_ROLES = {"x0": "reference", "epsilon": "treatment"}
+
+
 def trajectory_reference(test: MotionWindows) -> dict[str, float]:
-    """The ``gmd_trajectory`` gate's reference: the test windows' own path length."""
+    """The ``gmd_trajectory`` gates' reference: the test windows' own path length and root
+    jerk."""
     return model_gates.trajectory_gate_values(test.space("trajectory"), test.trajectory())
 
 
@@ -184,6 +192,7 @@ def a3_model_records(study: A3Study, guided_models: dict[tuple[str, int], Traine
     reference = trajectory_reference(test)
     return [model_gates.gmd_model_record(
         guided_models[(p, s)], family="gmd_trajectory", reference=reference,
+        role=TRAJECTORY_ROLES[p],
         values=trajectory_model_values(guided_models[(p, s)], study.runs[(p, s)].unguided,
                                        test, train, s))
         for p in PREDICTIONS for s in study.seeds]
@@ -310,17 +319,25 @@ def a4_model_records(models: Mapping[tuple[str, str, int], TrainedGMD],
     trivial-fake FIDs; ``motion`` and ``trajectory`` are each task's (train, test) windows."""
     motion_train, motion_test = motion
     train, test = trajectory
+    samples = model_gates.sample_gate_data(motion_test, seed=seed)
+
+    def motion_values(p: str, s: int) -> dict[str, float]:
+        model = models[("motion", p, s)]
+        values = model_gates.denoising_gate_values(model, motion_test, motion_train, seed=s)
+        if MOTION_ROLES[p] == "reference":
+            values.update(model_gates.motion_sample_values(model, samples, seed=s))
+        return values
+
     motion_records = {
         (p, s): model_gates.gmd_model_record(
             models[("motion", p, s)], family="gmd_motion", reads=A4_READS[("motion", p)],
-            values=model_gates.denoising_gate_values(models[("motion", p, s)], motion_test,
-                                                     motion_train, seed=s))
+            role=MOTION_ROLES[p], reference=samples.values, values=motion_values(p, s))
         for p in PREDICTIONS for s in seeds}
     reference = trajectory_reference(test)
     trajectory_records = {
         (p, s): model_gates.gmd_model_record(
             models[("trajectory", p, s)], family="gmd_trajectory",
-            reads=A4_READS[("trajectory", p)], reference=reference,
+            reads=A4_READS[("trajectory", p)], reference=reference, role=TRAJECTORY_ROLES[p],
             values=trajectory_model_values(models[("trajectory", p, s)], sample(
                 models[("trajectory", p, s)], settings.goals, seed=s), test, train, s))
         for p in PREDICTIONS for s in seeds}
@@ -332,7 +349,7 @@ def a4_model_records(models: Mapping[tuple[str, str, int], TrainedGMD],
             samples=settings.generated, real_fid=evaluation.reference_fid))
     long_eps_records = {
         s: model_gates.gmd_model_record(
-            long_eps[s], family="gmd_motion", label="2× cap",
+            long_eps[s], family="gmd_motion", label="2× cap", role="treatment",
             values=model_gates.denoising_gate_values(long_eps[s], motion_test, motion_train,
                                                      seed=s))
         for s in long_eps}

@@ -1,5 +1,5 @@
-"""Pictures of motion: skeleton filmstrips, top-down root trajectories, short GIFs, and
-per-feature statistics.
+"""Pictures of motion: skeleton filmstrips, top-down root trajectories, short GIFs (one clip,
+or several side by side for a notebook page), and per-feature statistics.
 
 Joints are (T, 22, 3) with Y up (HumanML3D); the side view plots x (right) against y (up),
 the top-down view x against z (the body faces +Z at frame 0).
@@ -7,8 +7,9 @@ the top-down view x against z (the body faces +Z at frame 0).
 
 from __future__ import annotations
 
+import base64
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import matplotlib
@@ -113,6 +114,66 @@ def animate(joints: np.ndarray, path: str | os.PathLike, *, fps: int = 20,
     os.replace(tmp, path)
     plt.close(fig)
     return path
+
+
+def animate_side_by_side(clips: Mapping[str, np.ndarray], path: str | os.PathLike, *,
+                         fps: int = 20, view: str = "side", stride: int = 2,
+                         columns: int = 4) -> Path:
+    """A GIF of several clips (label → joints (T, 22, 3)) in a grid, each in its own world
+    frame with a fixed camera over its whole root path: a body that walks crosses its panel,
+    one that stands stays put, and a foot that slides while planted is seen sliding (the
+    floor is drawn, and a foot below 5 cm is marked on it)."""
+    items = [(label, _check_joints(joints)) for label, joints in clips.items()]
+    if not items:
+        raise ValueError("no clips to animate")
+    frames = min(len(joints) for _, joints in items)
+    rows = -(-len(items) // columns)
+    cols = min(columns, len(items))
+    fig, axes = plt.subplots(rows, cols, figsize=(2.4 * cols, 2.4 * rows), squeeze=False)
+    horizontal = 0 if view == "front" else 2
+    spans = []
+    for _, joints in items:
+        low = float(joints[:frames, :, horizontal].min()) - 0.3
+        high = float(joints[:frames, :, horizontal].max()) + 0.3
+        centre, half = (low + high) / 2, max(1.0, (high - low) / 2)
+        spans.append((centre - half, centre + half))
+    feet = [10, 11]
+
+    def update(frame: int) -> None:
+        for k, ax in enumerate(axes.flat):
+            ax.clear()
+            ax.set_axis_off()
+            if k >= len(items):
+                continue
+            label, joints = items[k]
+            pose = joints[frame]
+            draw_skeleton(ax, pose, view=view)
+            planted = pose[feet][pose[feet, 1] < 0.05]
+            ax.plot(planted[:, horizontal], np.zeros(len(planted)), "v", color="tab:purple",
+                    ms=4)
+            ax.axhline(0.0, color="grey", lw=0.6)
+            ax.set_xlim(*spans[k])
+            ax.set_ylim(-0.1, 2.0)
+            ax.set_aspect("equal")
+            ax.set_title(label, fontsize=8)
+        fig.suptitle(f"frame {frame} of {frames}", fontsize=8)
+
+    animation = FuncAnimation(fig, update, frames=range(0, frames, stride))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp.gif")
+    animation.save(tmp, writer=PillowWriter(fps=max(1, fps // stride)))
+    os.replace(tmp, path)
+    plt.close(fig)
+    return path
+
+
+def gif_html(path: str | os.PathLike, *, width: int | None = None) -> str:
+    """An ``<img>`` tag holding the GIF at ``path`` inline (base64), so an executed notebook
+    and its HTML rendering carry the animation without the file beside them."""
+    data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
+    size = f' width="{int(width)}"' if width else ""
+    return f'<img src="data:image/gif;base64,{data}"{size} alt="{Path(path).name}">'
 
 
 def feature_statistics(mean: np.ndarray, std: np.ndarray, *, label: str = "stand-in",
