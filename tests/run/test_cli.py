@@ -31,6 +31,14 @@ def test_validate_dataset_missing_folder(tmp_path: Path,
     assert "dataset folder not found" in capsys.readouterr().out
 
 
+def test_validate_dataset_names_a_file_given_as_the_folder(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "Mean.npy").write_bytes(b"")
+    assert main(["validate-dataset", str(tmp_path / "Mean.npy")]) == 1
+    out = capsys.readouterr().out
+    assert "is a file, not a folder" in out and "not found" not in out
+
+
 def test_validate_dataset_names_missing_parts(tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "new_joint_vecs").mkdir()

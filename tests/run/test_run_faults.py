@@ -176,13 +176,17 @@ BAD_VALUES = [
     (["-p", "n_seeds=true"], "parameter n_seeds must be int"),
     (["-p", "guidance=\"big\""], "parameter guidance must be float or int"),
     (["-p", "stepz=3"], "has no parameter(s) ['stepz']"),
-    (["--seed", "-1"], "parameter seed=-1 must be between 0 and 2^48 - 1 = 281474976710655"),
+    (["--seed", "-1"], "parameter seed=-1 is negative: a base seed is a whole number from 0 "
+                       "to 2^48 - 1 = 281474976710655 (e.g. --seed 0)"),
     # issue #35 case 1: 2^64 - 1 used to fail inside the kernels of notebooks 05 and 06
     (["--seed", str(2**64 - 1)], "parameter seed=18446744073709551615 must be between 0 and "
                                  "2^48 - 1 = 281474976710655"),
     (["--device", "cuda:0"], "names CUDA, which is not available here"),
     (["--device", "gpu"], "parameter device='gpu' is not a torch device"),
     (["-p", 'data_dir="/no/such/folder"'], "is not a folder (/no/such/folder does not exist)"),
+    (["-p", f'data_dir="{paths.REPO_ROOT / "pyproject.toml"}"'],
+     f"is a file, not a folder ({paths.REPO_ROOT / 'pyproject.toml'}): give the "
+     "HumanML3D-layout folder"),
     (["--only", "99_nope"], "unknown notebook or claim ID '99_nope'"),
     (["--only", "XYZ-9"], "unknown notebook or claim ID 'XYZ-9'"),
 ]
@@ -198,7 +202,9 @@ def test_bad_input_is_refused_before_any_kernel_starts(
         pytest.skip("CUDA is available here")
     runs_before = sorted((sandbox / "build" / "quick" / "runs").glob("*"))
     assert main(["reproduce", "--quick", *arguments]) == 2
-    assert message in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert message in err
+    assert "pick a smaller one" not in err or "18446744073709551615" in arguments
     assert sorted((sandbox / "build" / "quick" / "runs").glob("*")) == runs_before  # no run
     assert guarded()
 

@@ -80,8 +80,11 @@ def _dataset_problem(resolved: str) -> str | None:
     from repro.motion.humanml3d import format_problems, validate_dataset
 
     folder = Path(resolved)
+    if folder.exists() and not folder.is_dir():
+        return (f"is a file, not a folder ({folder}): give the HumanML3D-layout folder that "
+                "holds new_joint_vecs/, texts/ and the split files")
     if not folder.is_dir():
-        return f"is not a folder ({folder.resolve()} does not exist)"
+        return f"is not a folder ({folder} does not exist)"
     try:
         problems = [p for p in validate_dataset(folder) if p.severity == "error"]
     except Exception as error:  # the validator names every file it can read; not this one
