@@ -44,3 +44,13 @@ def test_every_notebook_names_itself_to_setup(name: str) -> None:
     calls = [src for _, src in _code_cells(name) if "setup_notebook(" in src and "ctx =" in src]
     assert len(calls) == 1, f"{name}: {len(calls)} cells set up the run (one expected)"
     assert f'notebook="{name}"' in calls[0], f"{name}: setup_notebook(...) does not name it"
+
+
+@pytest.mark.parametrize("name", runner.available_notebooks())
+def test_every_notebook_names_the_repro_kernel(name: str) -> None:
+    """The kernel ``make setup`` installs into .venv, as README and ``make lab`` name it."""
+    notebook = json.loads(Path(paths.REPO_ROOT, "notebooks", f"{name}.ipynb").read_text())
+    makefile = Path(paths.REPO_ROOT, "Makefile").read_text(encoding="utf-8")
+    spec = notebook["metadata"]["kernelspec"]
+    assert f'--name {spec["name"]} --display-name "{spec["display_name"]}"' in makefile
+    assert (spec["name"], spec["display_name"]) == ("repro", "repro (.venv)")
