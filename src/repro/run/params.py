@@ -68,6 +68,17 @@ def _device_problem(value: Any) -> str | None:
     return None
 
 
+def resolve_device(device: str) -> str:
+    """``--device``'s value as the notebooks take it: ``auto`` is ``cuda`` when torch sees a
+    GPU on this machine, else ``cpu`` (decided where the run happens: a workflow job on a
+    GPU node or on a laptop); any other value as given, checked with the parameters."""
+    if device != "auto":
+        return device
+    import torch
+
+    return "cuda" if torch.cuda.is_available() else "cpu"
+
+
 def _data_dir_problem(value: Any) -> str | None:
     if value is None:
         return None
