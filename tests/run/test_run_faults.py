@@ -336,6 +336,54 @@ def test_a_garbled_claim_sidecar_is_named(sandbox: Path, guarded,
     assert (quick / "report" / "REPORT.md").read_bytes() == report_before
 
 
+def test_a_garbled_sidecar_is_named_before_any_kernel_starts(
+        sandbox: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A sidecar the report after the run would refuse stops the run before it starts, not
+    after its notebooks ran; so does one of another scale."""
+    from conftest import make_context
+
+    from repro.claims.ledger import record_claim
+
+    claims = sandbox / "build" / "quick" / "claims"
+    claims.mkdir(parents=True)
+    (claims / "GMD-B1.json").write_text('{"id": "GMD-B1", "verdict": ')
+    assert main(["reproduce", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert f"the claim sidecar {claims / 'GMD-B1.json'} is not valid JSON" in err
+    assert err.rstrip().endswith("nothing ran") and "Traceback" not in err
+    assert not (sandbox / "build" / "quick" / "runs").exists()   # no run, no kernel
+    (claims / "GMD-B1.json").unlink()
+    record_claim(make_context(claims.parent, scale="standard", run_id="r"), "GMD-A1",
+                 {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5},
+                 seeds=[0])
+    assert main(["reproduce", "--quick"]) == 2
+    assert f"the claim sidecar {claims / 'GMD-A1.json'} is of the 'standard' scale" in \
+        capsys.readouterr().err
+
+
+def test_a_garbled_sidecar_the_run_records_anew_does_not_stop_it(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
+    claims = tmp_path / "build" / "quick" / "claims"
+    claims.mkdir(parents=True)
+    (claims / "GMD-F1.json").write_text("garbled")           # notebook 06 records it anew
+    runner.preflight(["06_guidance_schedule"], "quick")
+    with pytest.raises(ValueError, match="GMD-F1.json is not valid JSON"):
+        runner.preflight(["01_x0_vs_eps"], "quick")
+
+
+def test_a_disk_without_room_is_named_before_any_kernel_starts(
+        sandbox: Path, guarded, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(runner, "free_bytes", lambda _: 3 * 2**20)
+    assert main(["reproduce", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert (f"the disk holding the build folder {sandbox / 'build' / 'quick'} has 3.0 MiB "
+            "free; a quick-scale run needs about 128 MiB there: free space on it") in err
+    assert not list((sandbox / "build" / "quick" / "runs").glob("*"))
+    assert guarded()
+
+
 def test_a_full_disk_is_named_before_and_during_a_run(
         sandbox: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
