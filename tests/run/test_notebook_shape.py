@@ -54,3 +54,14 @@ def test_every_notebook_names_the_repro_kernel(name: str) -> None:
     spec = notebook["metadata"]["kernelspec"]
     assert f'--name {spec["name"]} --display-name "{spec["display_name"]}"' in makefile
     assert (spec["name"], spec["display_name"]) == ("repro", "repro (.venv)")
+
+
+def test_notebook_05_shows_a_figure_before_its_long_tables() -> None:
+    """Its first figure (EMG-5's trade-off, EMG-4's step sizes) comes right after the rows
+    are measured and Table 3, before the gates, Table 7 and the sets of three."""
+    cells = _code_cells("05_sef_ablation")
+    first_figure = next(i for i, src in cells if "plt.show()" in src)
+    table7 = next(i for i, src in cells if "PAPER_TABLE7" in src)
+    gates = next(i for i, src in cells if "gates_markdown(" in src)
+    measured = next(i for i, src in cells if "run_rows(pipes, rows, seeds, log=print)" in src)
+    assert measured < first_figure < min(gates, table7)
