@@ -384,6 +384,24 @@ def test_a_disk_without_room_is_named_before_any_kernel_starts(
     assert guarded()
 
 
+def test_a_damaged_cache_entry_is_set_aside_before_any_kernel_starts(
+        sandbox: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    entry = sandbox / "cache" / "gmd_motion" / "abc"
+    entry.mkdir(parents=True)
+    (entry / "metrics.json").write_text('{"losses": [0.5, ', encoding="utf-8")
+    lines: list[str] = []
+
+    def no_kernel(*_: object, **__: object) -> None:
+        raise RuntimeError("no kernel in this test")
+
+    monkeypatch.setattr(runner, "_start", no_kernel)
+    with pytest.raises(RuntimeError, match="no kernel"):
+        runner.run_notebooks(["01_two_claims"], scale="quick", log=lines.append)
+    [warning] = [line for line in lines if line.startswith("warning: cache:")]
+    assert f"{entry / 'metrics.json'} cannot be read" in warning
+    assert not (entry / "metrics.json").exists() and list(entry.glob("metrics.json.corrupt-*"))
+
+
 def test_a_full_disk_is_named_before_and_during_a_run(
         sandbox: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:

@@ -324,6 +324,7 @@ def run_notebooks(targets: Iterable[str], *, scale: str, seed: int = 0, device: 
     timeout = timeout or (600 if scale == "quick" else 3600 if scale == "standard" else 86400)
     try:
         removed = cache.clean_cache()
+        damaged = cache.check_entries()
         run = transaction.new_run(scale=scale, seed=seed, device=device, targets=targets,
                                   parameters=parameters)
     except OSError as error:  # a read-only or full build/ or cache: refused before any kernel
@@ -331,6 +332,8 @@ def run_notebooks(targets: Iterable[str], *, scale: str, seed: int = 0, device: 
     if removed:
         log(f"cache: removed {len(removed)} leftover(s) of failed runs (lock-only folders, "
             "interrupted writes)")
+    for message in damaged:
+        log(f"warning: {message}")
     log(f"run {run.run_id}: {len(targets)} notebook(s) ({run.scale} scale, {workers} at a "
         f"time, {threads} thread(s) each); staging {run.staging}, publishing into "
         f"{run.build_dir}")
