@@ -148,10 +148,15 @@ def test_damaged_entries_are_found_before_a_run_reads_them(cache_root: Path) -> 
     busy = cache.cached_artifact_dir("busy", {"n": 2})
     (busy / "meta.json").write_text("garbled", encoding="utf-8")
 
+    beside = cache.cached_artifact_dir("beside", {"n": 3})      # a sound model, garbled metrics
+    cache.load_or_train("beside", {"n": 3}, lambda: nn.Linear(3, 3), train)
+    (beside / "metrics.json").write_text("[", encoding="utf-8")
+
     with open(busy / ".lock", "w") as held:
         fcntl.flock(held, fcntl.LOCK_EX)
         messages = cache.check_entries()
-    assert len(messages) == 4 and all("before the run, which rebuilds it" in m for m in messages)
+    assert len(messages) == 6 and all("before the run, which rebuilds it" in m for m in messages)
+    assert not (beside / "model.pt").exists()                   # retrained, metrics rewritten
     assert any(f"{weights} is 100 bytes, but" in m for m in messages)
     assert any(f"{data / 'meta.json'} cannot be read" in m for m in messages)
     assert any(f"{clip} cannot be read" in m for m in messages)
@@ -163,4 +168,4 @@ def test_damaged_entries_are_found_before_a_run_reads_them(cache_root: Path) -> 
     [later] = cache.check_entries()                             # its lock released
     assert f"{busy / 'meta.json'} cannot be read" in later and cache.check_entries() == []
     model = cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
-    assert calls == [1, 1] and float(model.weight[0, 0].detach()) == 2.0   # retrained
+    assert calls == [1, 1, 1] and float(model.weight[0, 0].detach()) == 3.0   # retrained

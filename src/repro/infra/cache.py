@@ -290,11 +290,11 @@ def _entry_problems(directory: Path) -> list[tuple[Path, str]]:
 def check_entries(root: Path | None = None) -> list[str]:
     """Damaged files of the cache's complete entries, found before a run reads them (the
     runner calls this before any kernel starts): each is moved aside (``<name>.corrupt-<UTC
-    time>``, kept for inspection) so that the run rebuilds what it held — a model is
-    retrained, a data entry rebuilt, a generated data set (its ``dataset.json`` moved aside
-    too) generated again. An entry whose lock is held (being written now) and a data set
-    without its ``dataset.json`` (incomplete: generated again anyway) are left alone.
-    Returns one message per file moved aside."""
+    time>``, kept for inspection) so that the run rebuilds the entry — a model retrained
+    (its ``model.pt`` moved aside too), a data entry rebuilt, a generated data set (its
+    ``dataset.json`` moved aside too) generated again. An entry whose lock is held (being
+    written now) and a data set without its ``dataset.json`` (incomplete: generated again
+    anyway) are left alone. Returns one message per file moved aside."""
     root = Path(root) if root is not None else paths.cache_dir()
     messages: list[str] = []
     for directory in sorted(p for p in root.glob("*/*") if p.is_dir()) if root.is_dir() else []:
@@ -312,8 +312,10 @@ def check_entries(root: Path | None = None) -> list[str]:
             problems = _entry_problems(directory)
             for path, problem in problems:
                 messages.append(_set_aside(path, problem))
-            marker = directory / "dataset.json"
-            if dataset and problems and marker.is_file():
+            # what makes the entry rebuilt whole (its metrics.json beside a sound model, a
+            # data set's other clips): the model retrained, the data set generated again
+            marker = directory / ("dataset.json" if dataset else "model.pt")
+            if problems and marker.is_file():
                 messages.append(_set_aside(marker, f"{directory} holds damaged files"))
     return messages
 
