@@ -243,6 +243,16 @@ def _sidecar_problems(claims_dir: Path, scale: str, rewritten: set[str]) -> list
     return problems
 
 
+def _disk_of(folder: Path) -> int:
+    """The device id of the disk holding ``folder`` (its nearest existing folder)."""
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        return os.stat(folder).st_dev
+    except OSError:
+        return -1
+
+
 def _disk_problems(scale: str) -> list[str]:
     """The build folder's and the model cache's disks, each with less free space than a run
     of ``scale`` needs (:data:`MIN_FREE_BYTES`)."""
@@ -250,9 +260,9 @@ def _disk_problems(scale: str) -> list[str]:
     problems, seen = [], set()
     for what, folder in (("build folder", paths.run_build_dir(scale)),
                          ("model cache", paths.cache_dir())):
-        free = free_bytes(folder)
-        if 0 <= free < need and free not in seen:
-            seen.add(free)
+        free, disk = free_bytes(folder), _disk_of(folder)
+        if 0 <= free < need and disk not in seen:
+            seen.add(disk)
             problems.append(f"the disk holding the {what} {folder} has {free / 2**20:.1f} MiB "
                             f"free; a {scale}-scale run needs about {need // 2**20} MiB there: "
                             "free space on it, or point REPRO_BUILD_ROOT (and REPRO_CACHE_DIR) "
