@@ -44,8 +44,11 @@ $(FLOW): $(STAMP) requirements-workflow.txt
 
 setup: $(STAMP) $(LAB) $(FLOW)  ## create or refresh .venv (pinned requirements, kernel "repro", JupyterLab, Snakemake)
 
-lab: $(LAB)  ## open the notebooks in JupyterLab
-	$(VENV)/bin/jupyter lab notebooks
+# Jupyter refuses to start as root (containers, CI images) without --allow-root.
+ROOT_FLAG := $(if $(filter 0,$(shell id -u 2>/dev/null)),--allow-root)
+
+lab: $(LAB)  ## open the notebooks in JupyterLab (ARGS="--no-browser --port 8899"; as root, --allow-root)
+	$(VENV)/bin/jupyter lab notebooks $(ROOT_FLAG) $(ARGS)
 
 unit: $(STAMP)  ## unit tests only (no notebooks)
 	$(PY) -m pytest -q -n $(JOBS) --dist loadfile -m "not notebook"

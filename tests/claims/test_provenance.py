@@ -4,6 +4,7 @@ every executed notebook rendered to HTML with its figures, linked from REPORT.md
 from __future__ import annotations
 
 import base64
+import re
 from pathlib import Path
 
 import nbformat
@@ -67,6 +68,49 @@ def test_executed_notebooks_render_to_html_with_their_figures(tmp_path: Path) ->
     assert (tmp_path / "snapshot" / "notebooks" / "notebook.css").stat().st_size > 1000
     section = notebooks_section(pages, tmp_path / "snapshot")
     assert "- [01_x0_vs_eps](notebooks/01_x0_vs_eps.html)" in section
+
+
+def test_rendered_notebooks_name_no_path_of_the_machine_that_ran_them(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The injected ``build_dir`` and printed folders read relative to the clone (or as the
+    variable that moved them); the executed notebook itself is left as it ran."""
+    pytest.importorskip("nbconvert")
+    from repro.infra import paths
+
+    monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path / "models"))
+    staging = paths.REPO_ROOT / "build" / "runs" / "RUN" / "00_stand_in_data"
+    parameters = nbformat.v4.new_code_cell(f'build_dir = "{staging}"')
+    printed = nbformat.v4.new_code_cell("print(dataset)")
+    printed.outputs = [nbformat.v4.new_output(
+        "stream", name="stdout", text=f"dataset: {tmp_path / 'models' / 'datasets' / 'ab'}\n"
+                                      f"{paths.REPO_ROOT / 'data_stubs'}: no problems\n")]
+    notebook = nbformat.v4.new_notebook(cells=[parameters, printed])
+    (tmp_path / "executed").mkdir()
+    nbformat.write(notebook, tmp_path / "executed" / "00_stand_in_data.ipynb")
+    [page] = render_notebooks(tmp_path / "executed", tmp_path / "snapshot")
+    text = page.read_text(encoding="utf-8")
+    assert str(paths.REPO_ROOT) not in text and str(tmp_path) not in text
+    assert "build/runs/RUN/00_stand_in_data" in text
+    assert "dataset: $REPRO_CACHE_DIR/datasets/ab" in text and "data_stubs: no problems" in text
+    assert str(staging) in (tmp_path / "executed" / "00_stand_in_data.ipynb").read_text()
+
+
+#: an absolute path of a machine: a folder under one of the usual roots
+MACHINE_PATH = re.compile(r"(?<![\w.:/-])/(?:tmp|work|home|root|Users|mnt|srv|scratch|var)/"
+                          r"[\w.-]+")
+
+
+def test_the_committed_rendered_notebooks_name_no_machine_path() -> None:
+    """results/notebooks/*.html (and the snapshot's claims and reports) carry relative build
+    paths only, whoever's machine ran them."""
+    from repro.infra import paths
+
+    results = paths.results_dir()
+    found = {page.relative_to(results).as_posix(): sorted(set(MACHINE_PATH.findall(
+        page.read_text(encoding="utf-8"))))[:3]
+        for page in [*results.glob("notebooks/*.html"), *results.glob("REPORT.*"),
+                     results / "claims.json"]}
+    assert {name: hits for name, hits in found.items() if hits} == {}
 
 
 def test_the_snapshot_holds_the_rendered_notebooks_linked_from_the_report(

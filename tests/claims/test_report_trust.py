@@ -86,6 +86,42 @@ def test_power_limits_say_what_the_run_could_see(tmp_path: Path) -> None:
     assert power_short({"parts": [{"name": "x", "outcome": "supported"}]}) == ""
 
 
+def test_a_value_the_run_did_not_measure_and_a_single_seed_read_in_words(
+        tmp_path: Path) -> None:
+    """GMD-C4 at the standard scale runs k = 10 on one seed only: its row names the part not
+    measured by its measurement, and the one-seed part without an "inf× δ"."""
+    measured = {"values": [10], "foot_skating_loss_scaling": {"10": [0.57]},
+                "foot_skating_emphasis": {"10": [20.7]}}
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-C4", measured, seeds=[0])
+    sidecar = load_sidecars(tmp_path / "claims")["GMD-C4"]
+    reasons = {p["name"]: p["reason"] for p in sidecar["parts"]}
+    assert reasons["emphasis_less_foot_skating_at_2"] == (
+        "measurement foot_skating_loss_scaling[2] not recorded")
+    limits = trust.limits_text(CLAIMS["GMD-C4"], sidecar)
+    assert "inf" not in limits
+    assert limits.startswith("not measured by this run (emphasis_less_foot_skating_at_2); "
+                             "power (1 of 2 parts: one part on one seed, which decides no "
+                             "direction)")
+
+
+def test_an_exact_check_of_a_trained_model_does_not_say_no_trained_model(
+        tmp_path: Path) -> None:
+    """EMG-1's rule is exact, but it measures the trained denoiser: beside its passing gates
+    the row says so, not "no trained model"; a failing gate is a limit too."""
+    exact_of_model = {"registry_version": REGISTRY_VERSION, "parts": [],
+                      "models": [{"name": "denoiser", "passed": True}],
+                      "quality_gates": {"evaluator": True}}
+    claim = CLAIMS["EMG-1"]
+    assert trust.gates_text(claim, exact_of_model) == "2/2 pass"
+    limits = trust.limits_text(claim, exact_of_model)
+    assert "no trained model" not in limits and "exact measurement of trained models" in limits
+    failing = {**exact_of_model, "quality_gates": {"evaluator": False}}
+    assert "quality gates" in trust.limits_text(claim, failing)
+    no_model = {"registry_version": REGISTRY_VERSION, "parts": []}
+    assert trust.limits_text(CLAIMS["GMD-A1"], no_model) == (
+        "none (an exact computation, no trained model)")
+
+
 def test_verdict_changes_cite_the_changelog(tmp_path: Path,
                                             monkeypatch: pytest.MonkeyPatch) -> None:
     snapshot = tmp_path / "results" / "claims.json"

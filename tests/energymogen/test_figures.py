@@ -67,6 +67,17 @@ def test_notebook_05_figures() -> None:
     timelines = _rows(keys + ["real"], ("transition_distance_at_transitions",))
     fig = figures.sef_tradeoff_figure(results, timelines)
     assert len(fig.axes) == 3                                  # two panels and the colour bar
+    fig.canvas.draw()   # every named point's label inside its panel ("single text" sits at
+    renderer = fig.canvas.get_renderer()   # the paper panel's right edge)
+    for ax in fig.axes[:2]:
+        box = ax.get_window_extent(renderer)
+        labels = [t for t in ax.texts if t.get_text()]
+        assert {t.get_text() for t in labels} == {"latent only", "semantic only",
+                                                  "single text", "SEF"}
+        for label in labels:
+            extent = label.get_window_extent(renderer)
+            assert box.x0 <= extent.x0 and extent.x1 <= box.x1, label.get_text()
+    plt.close(fig)
     fig = figures.transition_measures_figure(
         _rows(keys + ["real"], ("transition_distance_at_transitions", "transition_speed_ratio")),
         [("SEF", "0.1,0.7,0.2"), ("latent only", "1.0,0.0,0.0")])

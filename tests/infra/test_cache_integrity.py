@@ -121,3 +121,51 @@ def test_the_move_aside_warning_is_sent_to_the_runner(cache_root: Path, tmp_path
         cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
     [notice] = progress.notices(stage)
     assert notice.startswith(f"cache: {_entry() / 'model.pt'}") and "retraining" in notice
+
+
+def test_damaged_entries_are_found_before_a_run_reads_them(cache_root: Path) -> None:
+    """``check_entries`` (the runner's, before any kernel starts): a truncated model, garbled
+    JSON and a generated data set's cut clip are moved aside, so the run rebuilds them; an
+    entry being written (its lock held) and clean entries are left alone."""
+    import fcntl
+
+    import numpy as np
+
+    calls, train = _train_counter()
+    cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    weights = _entry() / "model.pt"
+    weights.write_bytes(weights.read_bytes()[:100])
+    data = cache.cached_artifact_dir("emg_like", {"n": 1})
+    (data / "meta.json").write_text('{"captions": [', encoding="utf-8")
+    np.save(data / "features.npy", np.zeros((4, 3), dtype=np.float32))
+    dataset = cache_root / "datasets" / "abc"
+    (dataset / "new_joint_vecs").mkdir(parents=True)
+    np.save(dataset / "new_joint_vecs" / "000000.npy", np.zeros((40, 263), dtype=np.float32))
+    clip = dataset / "new_joint_vecs" / "000001.npy"
+    np.save(clip, np.zeros((40, 263), dtype=np.float32))
+    clip.write_bytes(clip.read_bytes()[:500])
+    (dataset / "dataset.json").write_text("{}", encoding="utf-8")
+    busy = cache.cached_artifact_dir("busy", {"n": 2})
+    (busy / "meta.json").write_text("garbled", encoding="utf-8")
+
+    beside = cache.cached_artifact_dir("beside", {"n": 3})      # a sound model, garbled metrics
+    cache.load_or_train("beside", {"n": 3}, lambda: nn.Linear(3, 3), train)
+    (beside / "metrics.json").write_text("[", encoding="utf-8")
+
+    with open(busy / ".lock", "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        messages = cache.check_entries()
+    assert len(messages) == 6 and all("before the run, which rebuilds it" in m for m in messages)
+    assert not (beside / "model.pt").exists()                   # retrained, metrics rewritten
+    assert any(f"{weights} is 100 bytes, but" in m for m in messages)
+    assert any(f"{data / 'meta.json'} cannot be read" in m for m in messages)
+    assert any(f"{clip} cannot be read" in m for m in messages)
+    assert not weights.exists() and not (data / "meta.json").exists() and not clip.exists()
+    assert (data / "features.npy").exists()
+    assert (dataset / "new_joint_vecs" / "000000.npy").exists()
+    assert not (dataset / "dataset.json").exists()            # the data set is generated again
+    assert (busy / "meta.json").exists()                        # being written: left alone
+    [later] = cache.check_entries()                             # its lock released
+    assert f"{busy / 'meta.json'} cannot be read" in later and cache.check_entries() == []
+    model = cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
+    assert calls == [1, 1, 1] and float(model.weight[0, 0].detach()) == 3.0   # retrained

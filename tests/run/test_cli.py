@@ -31,6 +31,14 @@ def test_validate_dataset_missing_folder(tmp_path: Path,
     assert "dataset folder not found" in capsys.readouterr().out
 
 
+def test_validate_dataset_names_a_file_given_as_the_folder(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "Mean.npy").write_bytes(b"")
+    assert main(["validate-dataset", str(tmp_path / "Mean.npy")]) == 1
+    out = capsys.readouterr().out
+    assert "is a file, not a folder" in out and "not found" not in out
+
+
 def test_validate_dataset_names_missing_parts(tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "new_joint_vecs").mkdir()
@@ -109,3 +117,22 @@ def test_the_scale_is_one_of_three_and_quick_is_its_shorthand(
         main(["reproduce", "--scale", "full"])
     assert "invalid choice: 'full'" in capsys.readouterr().err
     assert main(["report", "--scale", "paper", "--quick"]) == 2
+
+
+def test_make_lab_takes_arguments_and_runs_as_root() -> None:
+    """Jupyter refuses root without --allow-root (containers, CI images): ``make lab`` adds it
+    for root and passes ``ARGS`` on."""
+    import os
+    import shutil
+    import subprocess
+
+    from repro.infra import paths
+
+    if shutil.which("make") is None:
+        pytest.skip("make is not installed")
+    dry = subprocess.run(["make", "-n", "lab",
+                          "ARGS=--no-browser --port 8899"], cwd=paths.REPO_ROOT,
+                         capture_output=True, text=True, check=True).stdout
+    [command] = [line for line in dry.splitlines() if "jupyter lab" in line]
+    assert command.endswith("--no-browser --port 8899")
+    assert ("--allow-root" in command) == (os.getuid() == 0)

@@ -34,7 +34,7 @@ def by_hand(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
 @pytest.mark.parametrize(("changed", "message"), [
     ({"scale": "full"}, "parameter scale='full' must be one of quick, standard, paper"),
     ({"seed": True}, "parameter seed must be int, got True (bool)"),
-    ({"seed": -1}, "parameter seed=-1 must be between 0 and 2"),
+    ({"seed": -1}, "parameter seed=-1 is negative: a base seed is a whole number from 0"),
     ({"device": "meta"}, "parameter device='meta' must be cpu, cuda or cuda:N"),
     ({"data_dir": "no/such/folder"}, "parameter data_dir='no/such/folder' is not a folder"),
 ])

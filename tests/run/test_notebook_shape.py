@@ -44,3 +44,24 @@ def test_every_notebook_names_itself_to_setup(name: str) -> None:
     calls = [src for _, src in _code_cells(name) if "setup_notebook(" in src and "ctx =" in src]
     assert len(calls) == 1, f"{name}: {len(calls)} cells set up the run (one expected)"
     assert f'notebook="{name}"' in calls[0], f"{name}: setup_notebook(...) does not name it"
+
+
+@pytest.mark.parametrize("name", runner.available_notebooks())
+def test_every_notebook_names_the_repro_kernel(name: str) -> None:
+    """The kernel ``make setup`` installs into .venv, as README and ``make lab`` name it."""
+    notebook = json.loads(Path(paths.REPO_ROOT, "notebooks", f"{name}.ipynb").read_text())
+    makefile = Path(paths.REPO_ROOT, "Makefile").read_text(encoding="utf-8")
+    spec = notebook["metadata"]["kernelspec"]
+    assert f'--name {spec["name"]} --display-name "{spec["display_name"]}"' in makefile
+    assert (spec["name"], spec["display_name"]) == ("repro", "repro (.venv)")
+
+
+def test_notebook_05_shows_a_figure_before_its_long_tables() -> None:
+    """Its first figure (EMG-5's trade-off, EMG-4's step sizes) comes right after the rows
+    are measured and Table 3, before the gates, Table 7 and the sets of three."""
+    cells = _code_cells("05_sef_ablation")
+    first_figure = next(i for i, src in cells if "plt.show()" in src)
+    table7 = next(i for i, src in cells if "PAPER_TABLE7" in src)
+    gates = next(i for i, src in cells if "gates_markdown(" in src)
+    measured = next(i for i, src in cells if "run_rows(pipes, rows, seeds, log=print)" in src)
+    assert measured < first_figure < min(gates, table7)

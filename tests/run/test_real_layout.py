@@ -5,7 +5,8 @@ compare against labels.
 
 The folders are small stand-in sets with ``labels/`` dropped, plus the shared real HumanML3D
 clips (../shared/humanml3d_sample) where they fit the loader's 40 ≤ T < 200 frames (skipped
-when that folder is absent). Notebook 00 is executed on the 60-clip folder: the GMD notebooks
+when that folder is absent). Notebook 00 is executed on the 60-clip folder without its
+``new_joints/`` (optional in the layout): the GMD notebooks
 (01, 02, 03, 06) read ``data_dir`` through ``gmd.windows.DataConfig`` alone and take minutes
 each at the quick scale (train their models), too long for ``make test``; their windows are
 loaded here instead. The EnergyMoGen notebooks cut 64-frame windows and need more of them
@@ -169,15 +170,22 @@ def test_the_gmd_windows_load_from_the_folder(real_layout: Path) -> None:
 
 
 @pytest.mark.notebook
-def test_notebook_00_runs_on_the_folder(real_layout: Path, tmp_path: Path,
-                                        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_notebook_00_runs_on_the_folder_without_new_joints(
+        real_layout: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``new_joints/`` is optional: the validator accepts the folder without it, and notebook
+    00 lists its clips from the features and recovers their joints."""
+    root = _copy(real_layout, tmp_path)
+    shutil.rmtree(root / "new_joints")
+    forget_checks()
+    check_standard_parameters(_parameters(root))
     monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
     [result] = runner.run_notebooks(["00_stand_in_data"], scale="quick",
-                                    extra_parameters={"data_dir": str(real_layout)},
+                                    extra_parameters={"data_dir": str(root)},
                                     log=lambda *_: None)
     assert result.ok, result.error
     text = Path(result.output).read_text(encoding="utf-8")
     assert text.count("not measurable on real data") >= 2
+    assert f"{len(list((root / 'new_joint_vecs').glob('*.npy')))} clips; " in text
 
 
 def test_validate_dataset_checks_the_windows_of_the_scale_it_is_given(

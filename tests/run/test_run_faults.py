@@ -176,13 +176,17 @@ BAD_VALUES = [
     (["-p", "n_seeds=true"], "parameter n_seeds must be int"),
     (["-p", "guidance=\"big\""], "parameter guidance must be float or int"),
     (["-p", "stepz=3"], "has no parameter(s) ['stepz']"),
-    (["--seed", "-1"], "parameter seed=-1 must be between 0 and 2^48 - 1 = 281474976710655"),
+    (["--seed", "-1"], "parameter seed=-1 is negative: a base seed is a whole number from 0 "
+                       "to 2^48 - 1 = 281474976710655 (e.g. --seed 0)"),
     # issue #35 case 1: 2^64 - 1 used to fail inside the kernels of notebooks 05 and 06
     (["--seed", str(2**64 - 1)], "parameter seed=18446744073709551615 must be between 0 and "
                                  "2^48 - 1 = 281474976710655"),
     (["--device", "cuda:0"], "names CUDA, which is not available here"),
     (["--device", "gpu"], "parameter device='gpu' is not a torch device"),
     (["-p", 'data_dir="/no/such/folder"'], "is not a folder (/no/such/folder does not exist)"),
+    (["-p", f'data_dir="{paths.REPO_ROOT / "pyproject.toml"}"'],
+     f"is a file, not a folder ({paths.REPO_ROOT / 'pyproject.toml'}): give the "
+     "HumanML3D-layout folder"),
     (["--only", "99_nope"], "unknown notebook or claim ID '99_nope'"),
     (["--only", "XYZ-9"], "unknown notebook or claim ID 'XYZ-9'"),
 ]
@@ -198,7 +202,9 @@ def test_bad_input_is_refused_before_any_kernel_starts(
         pytest.skip("CUDA is available here")
     runs_before = sorted((sandbox / "build" / "quick" / "runs").glob("*"))
     assert main(["reproduce", "--quick", *arguments]) == 2
-    assert message in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert message in err
+    assert "pick a smaller one" not in err or "18446744073709551615" in arguments
     assert sorted((sandbox / "build" / "quick" / "runs").glob("*")) == runs_before  # no run
     assert guarded()
 
@@ -328,6 +334,72 @@ def test_a_garbled_claim_sidecar_is_named(sandbox: Path, guarded,
     assert "python -m repro reproduce --only GMD-A2" in err and "Traceback" not in err
     assert "the last good report" in err
     assert (quick / "report" / "REPORT.md").read_bytes() == report_before
+
+
+def test_a_garbled_sidecar_is_named_before_any_kernel_starts(
+        sandbox: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A sidecar the report after the run would refuse stops the run before it starts, not
+    after its notebooks ran; so does one of another scale."""
+    from conftest import make_context
+
+    from repro.claims.ledger import record_claim
+
+    claims = sandbox / "build" / "quick" / "claims"
+    claims.mkdir(parents=True)
+    (claims / "GMD-B1.json").write_text('{"id": "GMD-B1", "verdict": ')
+    assert main(["reproduce", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert f"the claim sidecar {claims / 'GMD-B1.json'} is not valid JSON" in err
+    assert err.rstrip().endswith("nothing ran") and "Traceback" not in err
+    assert not (sandbox / "build" / "quick" / "runs").exists()   # no run, no kernel
+    (claims / "GMD-B1.json").unlink()
+    record_claim(make_context(claims.parent, scale="standard", run_id="r"), "GMD-A1",
+                 {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5},
+                 seeds=[0])
+    assert main(["reproduce", "--quick"]) == 2
+    assert f"the claim sidecar {claims / 'GMD-A1.json'} is of the 'standard' scale" in \
+        capsys.readouterr().err
+
+
+def test_a_garbled_sidecar_the_run_records_anew_does_not_stop_it(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path / "build"))
+    claims = tmp_path / "build" / "quick" / "claims"
+    claims.mkdir(parents=True)
+    (claims / "GMD-F1.json").write_text("garbled")           # notebook 06 records it anew
+    runner.preflight(["06_guidance_schedule"], "quick")
+    with pytest.raises(ValueError, match="GMD-F1.json is not valid JSON"):
+        runner.preflight(["01_x0_vs_eps"], "quick")
+
+
+def test_a_disk_without_room_is_named_before_any_kernel_starts(
+        sandbox: Path, guarded, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(runner, "free_bytes", lambda _: 3 * 2**20)
+    assert main(["reproduce", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert (f"the disk holding the build folder {sandbox / 'build' / 'quick'} has 3.0 MiB "
+            "free; a quick-scale run needs about 128 MiB there: free space on it") in err
+    assert not list((sandbox / "build" / "quick" / "runs").glob("*"))
+    assert guarded()
+
+
+def test_a_damaged_cache_entry_is_set_aside_before_any_kernel_starts(
+        sandbox: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    entry = sandbox / "cache" / "gmd_motion" / "abc"
+    entry.mkdir(parents=True)
+    (entry / "metrics.json").write_text('{"losses": [0.5, ', encoding="utf-8")
+    lines: list[str] = []
+
+    def no_kernel(*_: object, **__: object) -> None:
+        raise RuntimeError("no kernel in this test")
+
+    monkeypatch.setattr(runner, "_start", no_kernel)
+    with pytest.raises(RuntimeError, match="no kernel"):
+        runner.run_notebooks(["01_two_claims"], scale="quick", log=lines.append)
+    [warning] = [line for line in lines if line.startswith("warning: cache:")]
+    assert f"{entry / 'metrics.json'} cannot be read" in warning
+    assert not (entry / "metrics.json").exists() and list(entry.glob("metrics.json.corrupt-*"))
 
 
 def test_a_full_disk_is_named_before_and_during_a_run(

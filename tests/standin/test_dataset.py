@@ -104,3 +104,13 @@ def test_read_clip_gives_back_what_was_written(dataset) -> None:
     assert clip.labels == storage.read_json(dataset / "labels" / "000003.json")
     lines = (dataset / "texts" / "000003.txt").read_text().splitlines()
     assert clip.captions == tuple(line.split("#")[0] for line in lines) and len(lines) == 3
+
+
+def test_clips_are_listed_from_the_features_and_need_no_new_joints(dataset, tmp_path) -> None:
+    import shutil
+
+    copy = shutil.copytree(dataset, tmp_path / "copy")
+    shutil.rmtree(copy / "new_joints")
+    assert d.clip_ids(copy) == d.clip_ids(dataset)
+    recovered = d.clip_joints(copy, "000003")
+    assert np.abs(recovered - np.load(dataset / "new_joints" / "000003.npy")).max() < 1e-4

@@ -34,7 +34,8 @@ def test_shown_clips_are_single_concept_examples_in_order_of_appearance() -> Non
 def test_a_folder_without_labels_shows_its_first_clips(tmp_path) -> None:
     stubs = data_stubs_dir()
     for clip_id in ("000000", "000001", "000002"):
-        for folder, suffix in (("new_joints", "npy"), ("texts", "txt")):
+        for folder, suffix in (("new_joint_vecs", "npy"), ("new_joints", "npy"),
+                               ("texts", "txt")):
             (tmp_path / folder).mkdir(exist_ok=True)
             (tmp_path / folder / f"{clip_id}.{suffix}").write_bytes(
                 (stubs / folder / f"{clip_id}.{suffix}").read_bytes())
@@ -44,6 +45,23 @@ def test_a_folder_without_labels_shows_its_first_clips(tmp_path) -> None:
     fig = figures.concept_filmstrips(shown, frames=3)
     assert "unlabelled (000000)" in fig.axes[0].get_title()
     plt.close(fig)
+
+
+def test_a_folder_without_new_joints_shows_clips_from_its_features(tmp_path) -> None:
+    """``new_joints/`` is optional in HumanML3D's layout: the clips come from the features
+    and their joints are recovered from them (notebook 00 on such a folder)."""
+    stubs = data_stubs_dir()
+    for clip_id in ("000000", "000001"):
+        for folder, suffix in (("new_joint_vecs", "npy"), ("texts", "txt")):
+            (tmp_path / folder).mkdir(exist_ok=True)
+            (tmp_path / folder / f"{clip_id}.{suffix}").write_bytes(
+                (stubs / folder / f"{clip_id}.{suffix}").read_bytes())
+    shown, _ = figures.shown_clips(tmp_path, 2)
+    assert [c.clip_id for c in shown] == ["000000", "000001"]
+    stored = np.load(stubs / "new_joints" / "000000.npy")
+    assert shown[0].joints.shape == stored.shape and shown[0].joints.dtype == np.float32
+    assert np.abs(shown[0].joints - stored).max() < 1e-4
+    plt.close(figures.concept_filmstrips(shown, frames=3))
 
 
 def test_first_composed_clip_and_the_figures() -> None:

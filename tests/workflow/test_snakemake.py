@@ -97,8 +97,9 @@ def test_dry_run_lists_every_notebook_and_seed_with_its_request(scale: str,
 
 def test_dry_run_on_slurm_asks_for_a_gpu_model_and_the_shell_runs_reproduce(
         tmp_path: Path) -> None:
+    # a dry run without --cores plans for one core (Snakemake's default), a cluster run not
     done = _snakemake(tmp_path, "--dry-run", "--printshellcmds", "--profile",
-                      str(PROFILES / "slurm"),
+                      str(PROFILES / "slurm"), "--cores", "8",
                       config=["scale=paper", "seeds=[2]", "notebooks=[00,GMD-C4]",
                               "gpu_model=h100", f"out={tmp_path / 'out'}"])
     output = done.stdout + done.stderr
@@ -112,7 +113,20 @@ def test_dry_run_on_slurm_asks_for_a_gpu_model_and_the_shell_runs_reproduce(
     root = workflow.job_root(tmp_path / "out", "03_emphasis_projection", 2)
     assert (f"REPRO_BUILD_ROOT={root} REPRO_CACHE_DIR={tmp_path / 'out' / 'cache'}") in output
     assert ("-m repro reproduce --only 03_emphasis_projection --scale paper --seed 2 --jobs 1 "
-            "--threads 4 --device cuda") in output
+            "--threads 4 --device auto") in output
+
+
+def test_a_local_job_runs_with_the_threads_it_is_granted(tmp_path: Path) -> None:
+    """On a machine of 2 cores a paper job asking for 4 threads is granted 2 by the local
+    profile, and its command passes 2 (not its request); its device is decided where it
+    runs (``--device auto``: cpu here without a GPU), so a CPU-only machine runs it."""
+    done = _snakemake(tmp_path, "--dry-run", "--printshellcmds", "--profile",
+                      str(PROFILES / "local"), "--cores", "2",
+                      config=["scale=paper", "notebooks=[GMD-C4]", f"out={tmp_path / 'out'}"])
+    output = done.stdout + done.stderr
+    [fields] = [fields for rule, fields in _jobs(output) if rule == "notebook"]
+    assert fields["threads"] == "2"
+    assert "--scale paper --seed 0 --jobs 1 --threads 2 --device auto" in output
 
 
 def test_a_wrong_config_stops_before_any_job(tmp_path: Path) -> None:

@@ -75,12 +75,16 @@ class Claim:
 
 
 def value(measured: Measured, path: Path) -> Any:
-    """``measured[path]``, or ``measured[a][b]`` for a path ``(a, b)`` (KeyError if absent)."""
+    """``measured[path]``, or ``measured[a][b]`` for a path ``(a, b)``; KeyError naming the
+    path down to the missing key (``a[b]``: what a part reports as not recorded)."""
     if isinstance(path, str):
         return measured[path]
     out: Any = measured
-    for key in path:
-        out = out[key]
+    for depth, key in enumerate(path):
+        try:
+            out = out[key]
+        except KeyError:
+            raise KeyError(path[0] + "".join(f"[{k}]" for k in path[1:depth + 1])) from None
     return out
 
 

@@ -201,10 +201,10 @@ def load_sidecars(directory: str | os.PathLike) -> dict[str, dict[str, Any]]:
     folder = Path(directory)
     if not folder.is_dir():
         return {}
-    return {p.stem: _read_sidecar(p) for p in sorted(folder.glob("*.json"))}
+    return {p.stem: read_sidecar(p) for p in sorted(folder.glob("*.json"))}
 
 
-def _read_sidecar(path: Path) -> dict[str, Any]:
+def read_sidecar(path: Path) -> dict[str, Any]:
     """One sidecar; a garbled one raises :class:`ReportError` naming it and the fix."""
     try:
         sidecar = read_json(path)

@@ -5,7 +5,8 @@
   mode, or no sidecar at all are errors; ``allow_mixed`` lets several runs through and the
   provenance then names every run and its claims.
 - :func:`render_notebooks`: each executed notebook as a self-contained HTML page (nbconvert;
-  the figures are the notebook's PNG outputs, embedded) for the ``results/`` snapshot.
+  the figures are the notebook's PNG outputs, embedded) for the ``results/`` snapshot, its
+  text naming no path of the machine that ran it (:func:`portable_strings`).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from repro.infra.paths import portable
 from repro.infra.storage import write_text
 
 NO_RUN_ID = "(no run ID: recorded outside the runner)"
@@ -72,6 +74,20 @@ def check_runs(sidecars: Mapping[str, Mapping[str, Any]], *, scale: str, folder:
     return f"Run {next(iter(runs))}."
 
 
+def portable_strings(value: Any) -> Any:
+    """``value`` (JSON-like: a notebook, a sidecar) with every string written by
+    ``paths.portable`` — no absolute path of this machine —, images (``image/*`` outputs)
+    left as they are."""
+    if isinstance(value, str):
+        return portable(value)
+    if isinstance(value, list):
+        return [portable_strings(item) for item in value]
+    if isinstance(value, dict):
+        return type(value)({key: item if str(key).startswith("image/")
+                            else portable_strings(item) for key, item in value.items()})
+    return value
+
+
 SHARED_STYLE = "notebook.css"
 _STYLE_BLOCK = re.compile(r"<style[^>]*>(.*?)</style>", re.S)
 
@@ -81,7 +97,9 @@ def render_notebooks(source: Path, target: Path) -> list[Path]:
     template, figures embedded as PNG data URIs); returns the pages written.
 
     The template's style sheet (about 260 kB, the same for every page) is written once to
-    ``target/notebook.css`` and linked, which keeps the snapshot small."""
+    ``target/notebook.css`` and linked, which keeps the snapshot small. Paths of this
+    machine (the injected ``build_dir``, printed folders) are written relative to the clone
+    or as their variable (:func:`portable_strings`)."""
     import nbformat
     from nbconvert import HTMLExporter
 
@@ -91,7 +109,7 @@ def render_notebooks(source: Path, target: Path) -> list[Path]:
     target.mkdir(parents=True, exist_ok=True)
     style = ""
     for notebook_path in sorted(Path(source).glob("*.ipynb")):
-        notebook = nbformat.read(notebook_path, as_version=4)
+        notebook = portable_strings(nbformat.read(notebook_path, as_version=4))
         body, _ = exporter.from_notebook_node(
             notebook, resources={"metadata": {"name": notebook_path.stem}})
         blocks = _STYLE_BLOCK.findall(body)

@@ -39,12 +39,14 @@ from repro.claims.provenance import (
     check_runs,
     is_result,
     notebooks_section,
+    portable_strings,
     render_notebooks,
     scale_of,
 )
 from repro.claims.readme import replace_block
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.infra import paths
+from repro.infra.paths import portable
 from repro.infra.storage import read_json, write_json, write_text
 
 
@@ -369,6 +371,7 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     both reports), and the README's verdict table with the same verdicts and its budgets
     block with the run's times (``claims.budgets``; ``timings``: the ``make bench`` totals in
     build/bench); ``results/STABILITY.md`` is kept (:data:`KEPT_FROM_PREVIOUS_SNAPSHOT`).
+    What it writes names no path of the machine that ran the run (``paths.portable``).
     ``slowest_seconds`` keeps the slowest wall time of each notebook over the snapshots
     (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's)."""
     report_dir = Path(build_dir) / "report"
@@ -380,14 +383,14 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
                           "standard --snapshot)")
     staging = Path(tempfile.mkdtemp(prefix=".results.", dir=target.parent))
     report_text = (report_dir / "REPORT.md").read_text(encoding="utf-8")
-    write_text(staging / "REPORT.md", report_text.replace(f"]({docs_link(report_dir)}/",
-                                                          f"]({docs_link(target)}/"))
+    write_text(staging / "REPORT.md", portable(report_text.replace(
+        f"]({docs_link(report_dir)}/", f"]({docs_link(target)}/")))
     before = target / "claims.json"
     same_scale = before.is_file() and read_json(before).get("scale") == "standard"
     claims["slowest_seconds"] = slowest_of(slowest_seconds(before) if same_scale else {},
                                          slowest_seconds(report_dir / "claims.json"))
     claims["timings"] = bench_timings(paths.build_root() / "bench" / "bench.json")
-    write_json(staging / "claims.json", claims)
+    write_json(staging / "claims.json", portable_strings(claims))
     shutil.copy2(report_dir / "models.json", staging / "models.json")
     (staging / "figures").mkdir()
     for figure in (report_dir / "figures").glob("*.png"):
@@ -398,8 +401,8 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     links = "".join(f"<li><a href='{html.escape(os.path.relpath(page, staging))}'>"
                     f"{html.escape(page.stem)}</a></li>" for page in pages)
     page_text = (report_dir / "index.html").read_text(encoding="utf-8")
-    write_text(staging / "REPORT.html", page_text + "\n<h2>Executed notebooks</h2><ul>"
-               + links + "</ul>")
+    write_text(staging / "REPORT.html", portable(page_text) + "\n<h2>Executed notebooks</h2>"
+               "<ul>" + links + "</ul>")
     for kept in KEPT_FROM_PREVIOUS_SNAPSHOT:  # written by other commands, not by this run
         if (target / kept).is_file():
             shutil.copy2(target / kept, staging / kept)

@@ -13,6 +13,7 @@ written), with the registry changelog's reasons for the versions in between.
 from __future__ import annotations
 
 import html
+import math
 import os
 from collections import Counter
 from collections.abc import Mapping
@@ -84,23 +85,38 @@ def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
 
 def power_short(sidecar: Mapping[str, Any]) -> str:
     """"power (k of n parts: this run could see 2.1–40× δ)" over the inconclusive parts whose
-    minimum detectable effect (recorded per comparison) exceeds δ; "" if none."""
-    ratios = []
+    minimum detectable effect (recorded per comparison) exceeds δ, a part measured on one
+    seed (no interval: nothing it could see) as "one seed"; "" if none."""
+    ratios, single = [], 0
     for part in sidecar.get("parts", []):
         if part["outcome"] != INCONCLUSIVE:
             continue
-        rows = [r for r in (part.get("numbers") or {}).values()
-                if isinstance(r, dict) and r.get("smallest_effect")]
-        seen = [r["minimum_detectable_effect"] / abs(r["smallest_effect"]) for r in rows
-                if "minimum_detectable_effect" in r]
-        if seen and max(seen) > 1.0:
+        rows = [r for r in (part.get("numbers") or {}).values() if isinstance(r, dict)
+                and r.get("smallest_effect") and "minimum_detectable_effect" in r]
+        seen = [r["minimum_detectable_effect"] / abs(r["smallest_effect"]) for r in rows]
+        if not all(map(math.isfinite, seen)):   # fewer than two seeds: no interval
+            single += 1
+        elif seen and max(seen) > 1.0:
             ratios.append(max(seen))
-    if not ratios:
+    if not ratios and not single:
         return ""
-    low, high = f"{min(ratios):.2g}", f"{max(ratios):.2g}"
-    span = low if low == high else f"{low}–{high}"
-    return (f"power ({len(ratios)} of {len(sidecar.get('parts', []))} parts: this run could "
-            f"see {span}× δ)")
+    words = []
+    if ratios:
+        low, high = f"{min(ratios):.2g}", f"{max(ratios):.2g}"
+        words.append(f"this run could see {low if low == high else f'{low}–{high}'}× δ")
+    if single:
+        words.append(f"{'one part' if single == 1 else f'{single} parts'} on one seed, "
+                     "which decides no direction")
+    return (f"power ({len(ratios) + single} of {len(sidecar.get('parts', []))} parts: "
+            f"{'; '.join(words)})")
+
+
+def unmeasured_short(sidecar: Mapping[str, Any]) -> str:
+    """"not measured by this run (part, ...)" over the parts whose measurement the run did
+    not record (a value its scale does not run); "" if none."""
+    missing = [p["name"] for p in sidecar.get("parts", [])
+               if p["outcome"] == INCONCLUSIVE and "not recorded" in p.get("reason", "")]
+    return f"not measured by this run ({', '.join(missing)})" if missing else ""
 
 
 def _controls_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
@@ -110,11 +126,17 @@ def _controls_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
         (controls.get(kind) or {}).get("status") != "passed" for kind in ("positive", "null"))
 
 
-def _gates_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
-    """A measured claim with no gate recorded, or with a gate (or model) that failed."""
+def _gates(sidecar: Mapping[str, Any]) -> dict[str, bool]:
     gates = dict(sidecar.get("quality_gates") or {})
     gates.update({m["name"]: bool(m["passed"]) for m in sidecar.get("models", [])})
-    return claim.rests_on_effects and (not gates or not all(gates.values()))
+    return gates
+
+
+def _gates_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
+    """A measured claim with no gate recorded; any claim with a gate (or model) that
+    failed."""
+    gates = _gates(sidecar)
+    return (claim.rests_on_effects and not gates) or not all(gates.values())
 
 
 def limits_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
@@ -124,6 +146,8 @@ def limits_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
     version = int(sidecar.get("registry_version", 1))
     if version != REGISTRY_VERSION:
         limits.append(f"decided under registry v{version}, not v{REGISTRY_VERSION}")
+    if unmeasured_short(sidecar):
+        limits.append(unmeasured_short(sidecar))
     if power_short(sidecar):
         limits.append(power_short(sidecar))
     below = [p["name"] for p in sidecar.get("parts", []) if p["outcome"] == BELOW_RESOLUTION]
@@ -133,8 +157,12 @@ def limits_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
         limits.append("controls")
     if _gates_short(claim, sidecar):
         limits.append("quality gates")
-    limits.append("stand-in data, tiny models" if claim.rests_on_effects
-                  else "none (an exact computation, no trained model)")
+    if claim.rests_on_effects:
+        limits.append("stand-in data, tiny models")
+    elif _gates(sidecar):
+        limits.append("stand-in data, tiny models (an exact measurement of trained models)")
+    else:
+        limits.append("none (an exact computation, no trained model)")
     return "; ".join(limits)
 
 

@@ -287,6 +287,17 @@ def _mean_sem(results: Results, key: str, metric: str) -> tuple[float, float]:
     return float(values.mean()), float(half)
 
 
+def _name_points(ax: plt.Axes, named: Sequence[tuple[str, float, float]]) -> None:
+    """Bold labels beside points, on the side facing the middle of the axes (a point in
+    the right half is named to its left), so that no label runs past the axes' edge."""
+    low, high = ax.get_xlim()
+    for text, x, y in named:
+        left = x > (low + high) / 2
+        ax.annotate(text, (x, y), fontsize=8, xytext=(-4 if left else 4, 3),
+                    textcoords="offset points", fontweight="bold",
+                    ha="right" if left else "left")
+
+
 def sef_tradeoff_figure(results: Results, timelines: Results) -> Figure:
     """EMG-5: R@3 (``results``: the held-out pairs) against the transition distance at the
     MTT-style timelines' boundaries (``timelines``: ``studies.timeline_rows``, its ``real``
@@ -297,6 +308,7 @@ def sef_tradeoff_figure(results: Results, timelines: Results) -> Figure:
              "0.0,0.0,1.0": "single text", "0.1,0.7,0.2": "SEF"}
     cmap = plt.get_cmap("viridis")
     for ax, source in zip(axes, ("ours", "paper"), strict=True):
+        named = []
         for key, lam in zip(keys, TABLE7_LAMBDAS, strict=True):
             colour = cmap(lam[1])
             if source == "ours":
@@ -308,8 +320,8 @@ def sef_tradeoff_figure(results: Results, timelines: Results) -> Figure:
                         PAPER_TABLE7[key]["r_precision_top3"])
                 ax.plot(x, y, "o", color=colour, ms=7)
             if key in marks:
-                ax.annotate(marks[key], (x, y), fontsize=8, xytext=(4, 3),
-                            textcoords="offset points", fontweight="bold")
+                named.append((marks[key], x, y))
+        _name_points(ax, named)
         if source == "ours" and "real" in timelines:
             ax.axvline(float(np.mean(timelines["real"]["transition_distance_at_transitions"])),
                        color="k", ls="--", lw=0.8, label="real \"then\" clips")

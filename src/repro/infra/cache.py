@@ -23,6 +23,7 @@ import os
 import re
 import time
 import warnings
+import zipfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -34,8 +35,8 @@ from torch import Tensor, nn
 from repro.infra import paths, progress, storage
 
 __all__ = ["CHECKSUMS", "CorruptArtifactError", "artifact_lock", "cached_artifact_dir",
-           "canonical_json", "clean_cache", "config_hash", "file_checksum", "fingerprint",
-           "load_or_train", "verify_checksum", "write_checksum"]
+           "canonical_json", "check_entries", "clean_cache", "config_hash", "file_checksum",
+           "fingerprint", "load_or_train", "verify_checksum", "write_checksum"]
 
 CHECKSUMS = "checksums.json"
 
@@ -224,6 +225,107 @@ def clean_cache(root: Path | None = None, *, tmp_age_s: float = 600.0) -> list[P
                     directory.rmdir()
                 removed.append(directory)
     return removed
+
+
+#: the files a complete entry of the dataset kind is checked by (its clips' arrays too)
+_DATASET_FOLDERS = ("new_joint_vecs", "new_joints")
+
+
+def _npy_complete(path: Path, size: int) -> bool:
+    """Whether ``path`` starts with a ``.npy`` header and is as long as that header says."""
+    try:
+        with open(path, "rb") as handle:
+            version = np.lib.format.read_magic(handle)
+            read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                    else np.lib.format.read_array_header_2_0)
+            shape, _, dtype = read(handle)
+            start = handle.tell()
+    except (ValueError, OSError, EOFError):
+        return False
+    return not dtype.hasobject and size == start + dtype.itemsize * int(np.prod(shape))
+
+
+def _file_problem(path: Path, recorded: Any = None) -> str | None:
+    """What is wrong with cache file ``path`` that its size and head tell — a size other
+    than ``recorded`` (its checksums.json row), JSON that does not parse, a ``.npy`` whose
+    header or length is wrong, a zip (``.npz``, ``.pt``) whose directory is gone —; None if
+    nothing. The full checksum is verified when the file is loaded."""
+    try:
+        size = path.stat().st_size
+    except OSError as error:
+        return f"{path} cannot be read ({error.strerror})"
+    if isinstance(recorded, dict) and recorded.get("bytes") not in (None, size):
+        return (f"{path} is {size} bytes, but {recorded['bytes']} were written (truncated or "
+                "changed)")
+    try:
+        if path.suffix == ".json":
+            storage.read_json(path)
+        elif path.suffix == ".npy" and not _npy_complete(path, size):
+            storage.read_npy(path)   # raises, naming what is wrong
+        elif path.suffix in (".npz", ".pt"):
+            with zipfile.ZipFile(path):
+                pass
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
+        return f"{path} cannot be read ({type(error).__name__}: {error})"
+    return None
+
+
+def _entry_problems(directory: Path) -> list[tuple[Path, str]]:
+    """(file, problem) of one complete entry: its own files and, for a generated data set,
+    its clips' arrays."""
+    recorded = _read_checksums(directory) or {}
+    files = [p for p in sorted(directory.iterdir()) if p.is_file() and not p.name.startswith(".")
+             and ".corrupt-" not in p.name]
+    if directory.parent.name == "datasets":
+        files += [p for folder in _DATASET_FOLDERS for p in sorted((directory / folder).glob(
+            "*.npy"))]
+    problems = []
+    for path in files:
+        problem = _file_problem(path, recorded.get(path.name))
+        if problem:
+            problems.append((path, problem))
+    return problems
+
+
+def check_entries(root: Path | None = None) -> list[str]:
+    """Damaged files of the cache's complete entries, found before a run reads them (the
+    runner calls this before any kernel starts): each is moved aside (``<name>.corrupt-<UTC
+    time>``, kept for inspection) so that the run rebuilds the entry — a model retrained
+    (its ``model.pt`` moved aside too), a data entry rebuilt, a generated data set (its
+    ``dataset.json`` moved aside too) generated again. An entry whose lock is held (being
+    written now) and a data set without its ``dataset.json`` (incomplete: generated again
+    anyway) are left alone. Returns one message per file moved aside."""
+    root = Path(root) if root is not None else paths.cache_dir()
+    messages: list[str] = []
+    for directory in sorted(p for p in root.glob("*/*") if p.is_dir()) if root.is_dir() else []:
+        dataset = directory.parent.name == "datasets"
+        if dataset and not (directory / "dataset.json").is_file():
+            continue
+        with contextlib.ExitStack() as stack:
+            lock = directory / ".lock"
+            if lock.exists():
+                handle = stack.enter_context(open(lock, "a"))
+                try:
+                    fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except BlockingIOError:
+                    continue  # being trained or written now
+            problems = _entry_problems(directory)
+            for path, problem in problems:
+                messages.append(_set_aside(path, problem))
+            # what makes the entry rebuilt whole (its metrics.json beside a sound model, a
+            # data set's other clips): the model retrained, the data set generated again
+            marker = directory / ("dataset.json" if dataset else "model.pt")
+            if problems and marker.is_file():
+                messages.append(_set_aside(marker, f"{directory} holds damaged files"))
+    return messages
+
+
+def _set_aside(path: Path, problem: str) -> str:
+    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y%m%dT%H%M%SZ")
+    aside = path.with_name(f"{path.name}.corrupt-{stamp}")
+    os.replace(path, aside)
+    return (f"cache: {problem}; moved it aside to {aside} before the run, which rebuilds it "
+            "(delete that file once inspected)")
 
 
 def load_or_train(kind: str, config: dict[str, Any], build_model: Callable[[], nn.Module],

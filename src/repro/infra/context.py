@@ -52,7 +52,10 @@ def seed_problem(seed: object) -> str | None:
     None when it can."""
     if not isinstance(seed, int) or isinstance(seed, bool):
         return f"must be an integer, got {type(seed).__name__}"
-    if not 0 <= seed <= MAX_SEED:
+    if seed < 0:
+        return (f"is negative: a base seed is a whole number from 0 to 2^48 - 1 = {MAX_SEED} "
+                "(e.g. --seed 0)")
+    if seed > MAX_SEED:
         return (f"must be between 0 and 2^48 - 1 = {MAX_SEED} (every seed a notebook derives "
                 "from it, up to 10000 x seed, must fit a 64-bit integer); pick a smaller one")
     return None

@@ -509,6 +509,9 @@ def validate_dataset(root: str | os.PathLike) -> list[Problem]:
     usable (``motion.usability``: no split is empty, train and test keep a clip).
     """
     root = Path(root)
+    if root.exists() and not root.is_dir():
+        return [Problem(root, "missing", "is a file, not a folder: give the HumanML3D-layout "
+                                         "folder that holds new_joint_vecs/ and texts/")]
     if not root.is_dir():
         return [Problem(root, "missing", "dataset folder not found")]
     problems = [Problem(root / name, "missing", "required folder not found")

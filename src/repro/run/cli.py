@@ -52,12 +52,14 @@ def _add_scale(parser: argparse.ArgumentParser, what: str) -> None:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from repro.run.params import resolve_device
     from repro.run.runner import reproduce
 
     extra = dict(args.parameter or [])
     try:
         return reproduce(scale=_scale(args), only=args.only, jobs=args.jobs, seed=args.seed,
-                         device=args.device, snapshot=args.snapshot, extra_parameters=extra,
+                         device=resolve_device(args.device), snapshot=args.snapshot,
+                         extra_parameters=extra,
                          threads=args.threads, allow_mixed=args.allow_mixed)
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
@@ -251,7 +253,8 @@ def main(argv: list[str] | None = None) -> int:
     rep.add_argument("--seed", type=int, default=0, help="base seed passed to every notebook")
     rep.add_argument("--threads", type=int, help="torch threads per notebook (default: the "
                      "cores shared among --jobs; 1 when other work shares the cores)")
-    rep.add_argument("--device", default="cpu", help="torch device, e.g. cuda")
+    rep.add_argument("--device", default="cpu", help="torch device, e.g. cuda; auto: cuda "
+                     "when this machine has one, else cpu (what a workflow job passes)")
     rep.add_argument("-p", "--parameter", action="append", type=_parse_parameter,
                      metavar="NAME=VALUE", help="extra notebook parameter (JSON value), "
                      "checked against the notebook's parameters cell before any kernel "

@@ -68,6 +68,17 @@ def _device_problem(value: Any) -> str | None:
     return None
 
 
+def resolve_device(device: str) -> str:
+    """``--device``'s value as the notebooks take it: ``auto`` is ``cuda`` when torch sees a
+    GPU on this machine, else ``cpu`` (decided where the run happens: a workflow job on a
+    GPU node or on a laptop); any other value as given, checked with the parameters."""
+    if device != "auto":
+        return device
+    import torch
+
+    return "cuda" if torch.cuda.is_available() else "cpu"
+
+
 def _data_dir_problem(value: Any) -> str | None:
     if value is None:
         return None
@@ -80,8 +91,11 @@ def _dataset_problem(resolved: str) -> str | None:
     from repro.motion.humanml3d import format_problems, validate_dataset
 
     folder = Path(resolved)
+    if folder.exists() and not folder.is_dir():
+        return (f"is a file, not a folder ({folder}): give the HumanML3D-layout folder that "
+                "holds new_joint_vecs/, texts/ and the split files")
     if not folder.is_dir():
-        return f"is not a folder ({folder.resolve()} does not exist)"
+        return f"is not a folder ({folder} does not exist)"
     try:
         problems = [p for p in validate_dataset(folder) if p.severity == "error"]
     except Exception as error:  # the validator names every file it can read; not this one

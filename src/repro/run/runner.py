@@ -38,8 +38,8 @@ from repro.run.params import STANDARD_PARAMETERS, validate_parameters
 from repro.run.progress_view import ProgressView
 
 __all__ = ["STANDARD_PARAMETERS", "NotebookResult", "RunInterrupted", "available_notebooks",
-           "known_seconds", "longest_first", "reproduce", "resolve_targets", "run_notebooks",
-           "validate_parameters"]
+           "known_seconds", "longest_first", "preflight", "reproduce", "resolve_targets",
+           "run_notebooks", "validate_parameters"]
 
 
 class RunInterrupted(Exception):
@@ -212,6 +212,77 @@ def _result(run: transaction.Run, job: _Running) -> NotebookResult:
 #: below this many free bytes, a worker that left no result and no log met a full disk
 FULL_DISK_BYTES = 16 * 2**20
 
+#: the least free space a run of each scale needs on the disks of its build folder and of
+#: the model cache: about what a cold run writes (the standard scale: two generated data
+#: sets of about 120 MB, the models, executed notebooks and figures of about 12 MB)
+MIN_FREE_BYTES: dict[str, int] = {"quick": 128 * 2**20, "standard": 512 * 2**20,
+                                  "paper": 2048 * 2**20}
+
+
+def _sidecar_problems(claims_dir: Path, scale: str, rewritten: set[str]) -> list[str]:
+    """The claim sidecars in ``claims_dir`` the report after this run would refuse — garbled
+    or of another scale — but those this run's notebooks record anew (their files are
+    replaced when they publish)."""
+    from repro.claims.ledger import read_sidecar
+    from repro.claims.provenance import ReportError
+
+    problems = []
+    for path in sorted(claims_dir.glob("*.json")) if claims_dir.is_dir() else []:
+        if path.stem in rewritten:
+            continue
+        try:
+            sidecar = read_sidecar(path)
+        except ReportError as error:
+            problems.append(str(error))
+            continue
+        if sidecar.get("scale") != scale:
+            problems.append(f"the claim sidecar {path} is of the {sidecar.get('scale')!r} "
+                            f"scale, in the {scale} scale's folder: remove it and rerun its "
+                            f"notebook (python -m repro reproduce --only {path.stem} --scale "
+                            f"{scale})")
+    return problems
+
+
+def _disk_of(folder: Path) -> int:
+    """The device id of the disk holding ``folder`` (its nearest existing folder)."""
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        return os.stat(folder).st_dev
+    except OSError:
+        return -1
+
+
+def _disk_problems(scale: str) -> list[str]:
+    """The build folder's and the model cache's disks, each with less free space than a run
+    of ``scale`` needs (:data:`MIN_FREE_BYTES`)."""
+    need = MIN_FREE_BYTES[scale]
+    problems, seen = [], set()
+    for what, folder in (("build folder", paths.run_build_dir(scale)),
+                         ("model cache", paths.cache_dir())):
+        free, disk = free_bytes(folder), _disk_of(folder)
+        if 0 <= free < need and disk not in seen:
+            seen.add(disk)
+            problems.append(f"the disk holding the {what} {folder} has {free / 2**20:.1f} MiB "
+                            f"free; a {scale}-scale run needs about {need // 2**20} MiB there: "
+                            "free space on it, or point REPRO_BUILD_ROOT (and REPRO_CACHE_DIR) "
+                            "at a disk with room")
+    return problems
+
+
+def preflight(targets: Sequence[str], scale: str) -> None:
+    """What a run of ``targets`` needs beyond its parameters, checked before any kernel
+    starts; raises ValueError naming every problem: a claim sidecar in the scale's
+    ``claims/`` that the report would refuse (garbled, or of another scale) and that this
+    run does not record anew, and a disk without room for the run."""
+    from repro.claims.registry import claims_for_notebook
+
+    rewritten = {claim.id for name in targets for claim in claims_for_notebook(name)}
+    problems = _sidecar_problems(paths.run_build_dir(scale) / "claims", scale, rewritten)
+    problems += _disk_problems(scale)
+    if problems:
+        raise ValueError("; ".join(problems) + "; nothing ran")
+
 
 def _no_result(job: _Running, folder: Path) -> str:
     """Why a worker left no ``result.json``: the last line of its log, else a full disk or
@@ -257,11 +328,13 @@ def run_notebooks(targets: Iterable[str], *, scale: str, seed: int = 0, device: 
     params.forget_checks()
     for name in targets:  # validate everything before running anything
         validate_parameters(name, parameters)
+    preflight(targets, scale)
     workers = min(jobs, len(targets)) or 1
     threads = threads or max(1, (os.cpu_count() or 1) // workers)
     timeout = timeout or (600 if scale == "quick" else 3600 if scale == "standard" else 86400)
     try:
         removed = cache.clean_cache()
+        damaged = cache.check_entries()
         run = transaction.new_run(scale=scale, seed=seed, device=device, targets=targets,
                                   parameters=parameters)
     except OSError as error:  # a read-only or full build/ or cache: refused before any kernel
@@ -269,6 +342,8 @@ def run_notebooks(targets: Iterable[str], *, scale: str, seed: int = 0, device: 
     if removed:
         log(f"cache: removed {len(removed)} leftover(s) of failed runs (lock-only folders, "
             "interrupted writes)")
+    for message in damaged:
+        log(f"warning: {message}")
     log(f"run {run.run_id}: {len(targets)} notebook(s) ({run.scale} scale, {workers} at a "
         f"time, {threads} thread(s) each); staging {run.staging}, publishing into "
         f"{run.build_dir}")

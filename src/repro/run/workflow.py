@@ -115,13 +115,14 @@ def _cpu_minutes(notebook: str, scale: str) -> float:
 
 
 def job_device(notebook: str, scale: str, device: str = "auto") -> str:
-    """The torch device a job passes to ``reproduce``: ``auto`` is cuda at the paper scale and
-    cpu at the others; notebook 00 (no model: its ``device`` is unused) always runs on cpu, so
-    it never asks for a GPU."""
+    """The device a job passes to ``reproduce``: ``auto`` stays ``auto`` at the paper scale —
+    ``reproduce --device auto`` takes cuda where the job runs on a GPU, cpu on a machine
+    without one (``run.params.resolve_device``) — and is cpu at the others; notebook 00 (no
+    model: its ``device`` is unused) always runs on cpu, so it never asks for a GPU."""
     if notebook.startswith("00_"):
         return "cpu"
     if device == "auto":
-        return "cuda" if check_scale(scale) == "paper" else "cpu"
+        return "auto" if check_scale(scale) == "paper" else "cpu"
     return device
 
 
@@ -134,7 +135,9 @@ def job_resources(notebook: str, scale: str, *, device: str = "auto",
     :data:`RUNTIME_MARGIN`, at least :data:`MIN_RUNTIME_MIN`; an upper bound on a GPU or with
     more threads, whose speed-up no run has measured yet. mem_mb: the standard scale's peak
     × :data:`MEMORY_FACTOR`, in steps of 512, at least :data:`MIN_MEM_MB`. gpu: 1 when the
-    job's device is cuda.
+    job's device is cuda or auto (a GPU is asked for; where none is, the job runs on cpu).
+    threads: the cores asked for; the job runs with what Snakemake grants (the local
+    profile's cores cap it), :meth:`WorkflowConfig.arguments`.
     """
     check_scale(scale)
     if notebook not in plan.STANDARD_PLAN_MINUTES:
@@ -146,7 +149,7 @@ def job_resources(notebook: str, scale: str, *, device: str = "auto",
     threads = THREADS[scale] if threads is None else threads
     if threads < 1:
         raise ValueError(f"threads must be at least 1, got {threads}")
-    gpu = int(job_device(notebook, scale, device).startswith("cuda"))
+    gpu = int(job_device(notebook, scale, device).startswith(("cuda", "auto")))
     return JobResources(runtime=runtime, mem_mb=mem_mb, threads=threads, gpu=gpu)
 
 
@@ -185,7 +188,8 @@ def report_path(out: str | Path, seed: int | str, scale: str) -> Path:
 def reproduce_arguments(notebook: str, scale: str, seed: int, *, device: str = "auto",
                         threads: int | None = None, data_dir: str | None = None) -> str:
     """``reproduce``'s arguments for one job, shell-quoted: one notebook, one worker, the
-    job's threads and device, and ``-p data_dir=...`` when a data folder is given."""
+    job's threads (those Snakemake granted, else its request) and device, and ``-p
+    data_dir=...`` when a data folder is given."""
     resources = job_resources(notebook, scale, device=device, threads=threads)
     arguments = ["reproduce", "--only", notebook, "--scale", scale, "--seed", str(seed),
                  "--jobs", "1", "--threads", str(resources.threads),
@@ -255,10 +259,12 @@ class WorkflowConfig:
         """:func:`job_resources` of ``notebook`` under this configuration."""
         return job_resources(notebook, self.scale, device=self.device, threads=self.threads)
 
-    def arguments(self, notebook: str, seed: int | str) -> str:
-        """:func:`reproduce_arguments` of one job under this configuration."""
+    def arguments(self, notebook: str, seed: int | str, threads: int | None = None) -> str:
+        """:func:`reproduce_arguments` of one job under this configuration, with the
+        ``threads`` Snakemake granted it (its request constrained by the profile's cores);
+        None: its request."""
         return reproduce_arguments(notebook, self.scale, int(seed), device=self.device,
-                                   threads=self.threads, data_dir=self.data_dir)
+                                   threads=threads or self.threads, data_dir=self.data_dir)
 
     def claim_notebooks(self) -> tuple[str, ...]:
         """The chosen notebooks that record claims (what a report can be written from)."""

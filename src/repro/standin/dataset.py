@@ -14,7 +14,7 @@ import torch
 
 from repro.infra import paths, storage
 from repro.infra.cache import config_hash
-from repro.motion.features import FEATURE_DIM, FPS
+from repro.motion.features import FEATURE_DIM, FPS, features_to_joints
 from repro.motion.humanml3d import block_averaged_std
 from repro.standin.concepts import check_concept
 from repro.standin.generator import (
@@ -27,8 +27,8 @@ from repro.standin.generator import (
     sample_clip_spec,
 )
 
-__all__ = ["DATASET_MARKER", "SPLITS", "DatasetConfig", "StoredClip", "clip_ids", "ensure_dataset",
-           "read_clip", "regenerate_stubs", "write_dataset"]
+__all__ = ["DATASET_MARKER", "SPLITS", "DatasetConfig", "StoredClip", "clip_ids", "clip_joints",
+           "ensure_dataset", "read_clip", "regenerate_stubs", "write_dataset"]
 
 SPLITS = ("train", "val", "test")
 #: written last by :func:`write_dataset`: its presence means the folder is complete.
@@ -198,7 +198,7 @@ def ensure_dataset(config: DatasetConfig | None = None) -> Path:
 
 @dataclass(frozen=True)
 class StoredClip:
-    """One clip of a HumanML3D-layout folder: ``new_joints`` (T, 22, 3), its labels
+    """One clip of a HumanML3D-layout folder: its joints (T, 22, 3), its labels
     (``labels/ID.json``, empty where the folder has none, as real HumanML3D) and captions."""
 
     clip_id: str
@@ -208,20 +208,35 @@ class StoredClip:
 
 
 def clip_ids(root: str | Path) -> list[str]:
-    """The IDs of every clip with ``new_joints`` in ``root``, sorted."""
-    return sorted(p.stem for p in (Path(root) / "new_joints").glob("*.npy"))
+    """The IDs of every clip of ``root`` with features (``new_joint_vecs/ID.npy``) and a text
+    file, sorted. ``new_joints/`` is optional in HumanML3D's layout, so it lists nothing."""
+    root = Path(root)
+    return sorted(p.stem for p in (root / "new_joint_vecs").glob("*.npy")
+                  if (root / "texts" / f"{p.stem}.txt").is_file())
+
+
+def clip_joints(root: str | Path, clip_id: str) -> np.ndarray:
+    """Clip ``clip_id``'s joints (T, 22, 3) float32: ``new_joints/ID.npy`` when the folder has
+    it, else recovered from its features (``features_to_joints``, which the validator holds
+    to ``new_joints`` within 1e-4 m where both exist)."""
+    root = Path(root)
+    stored = root / "new_joints" / f"{clip_id}.npy"
+    if stored.is_file():
+        return np.load(stored)
+    features = np.load(root / "new_joint_vecs" / f"{clip_id}.npy").astype(np.float64)
+    return features_to_joints(features).astype(np.float32)
 
 
 def read_clip(root: str | Path, clip_id: str) -> StoredClip:
-    """Read clip ``clip_id`` of ``root``: joints, labels if present, and the caption part of
-    each ``texts/ID.txt`` line (``caption#tokens#start#end``)."""
+    """Read clip ``clip_id`` of ``root``: joints (:func:`clip_joints`), labels if present, and
+    the caption part of each ``texts/ID.txt`` line (``caption#tokens#start#end``)."""
     root = Path(root)
     labels_file = root / "labels" / f"{clip_id}.json"
     labels = storage.read_json(labels_file) if labels_file.exists() else {}
     text = (root / "texts" / f"{clip_id}.txt").read_text()
     captions = tuple(line.split("#")[0] for line in text.splitlines())
-    return StoredClip(clip_id=clip_id, joints=np.load(root / "new_joints" / f"{clip_id}.npy"),
-                      labels=labels, captions=captions)
+    return StoredClip(clip_id=clip_id, joints=clip_joints(root, clip_id), labels=labels,
+                      captions=captions)
 
 #: the committed stand-in set: the first seed (counting from 0) whose 44 clips include every
 #: concept at least once and stay under 5 MB.

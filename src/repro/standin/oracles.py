@@ -39,6 +39,7 @@ import torch
 from repro.infra import storage
 from repro.motion.features import FPS
 from repro.motion.skeleton import JOINT_INDEX, NUM_JOINTS
+from repro.standin.dataset import clip_joints
 
 #: name → (threshold, meaning). Physical, fixed before looking at any generated clip.
 THRESHOLDS: dict[str, tuple[float, str]] = {
@@ -350,7 +351,7 @@ def _iter_dataset(directory: Path, split: str | None) -> Iterable[tuple[np.ndarr
         raise ValueError(f"no labelled clips found in {directory}")
     for clip_id in ids:
         labels = storage.read_json(directory / "labels" / f"{clip_id}.json")
-        yield np.load(directory / "new_joints" / f"{clip_id}.npy"), labels
+        yield clip_joints(directory, clip_id), labels
 
 
 def _ratio(numerator: int, denominator: int) -> float | None:
