@@ -78,7 +78,8 @@ def test_a_denoiser_that_knows_the_held_out_latents_passes_and_a_trivial_one_fai
     trivial = mg.denoiser_gate_values(pipe, test, 0, denoiser=_Knows(z0, alphas, constant=True))
     assert knows["x0_error_vs_gaussian"] < 0.9
     assert trivial["x0_error_vs_gaussian"] > 1.0
-    assert gate_results("latent_denoiser", knows, role="treatment")["x0_error_vs_gaussian"]["passed"]
+    assert gate_results("latent_denoiser", knows, role="treatment")["x0_error_vs_gaussian"][
+        "passed"]
     assert not gate_results("latent_denoiser", trivial, role="treatment")[
         "x0_error_vs_gaussian"]["passed"]
 
