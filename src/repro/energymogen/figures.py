@@ -518,5 +518,5 @@ def animate_samples(pipes: Mapping[str, EnergyMoGenPipeline], test: TextToMotion
     return animate_side_by_side(clips, path, columns=count)
 
 
-def _short(caption: str, width: int = 28) -> str:
+def _short(caption: str, width: int = 44) -> str:
     return caption if len(caption) <= width else caption[: width - 1] + "…"

@@ -17,7 +17,6 @@ import torch
 from repro.gmd.guidance import sample
 from repro.gmd.guidance_schedule import ObstacleArm, ObstacleSet, StrengthSweep, strength_key
 from repro.gmd.location_imputation import METHODS, ImputationRun, LocationTask
-from repro.gmd.model_gates import SampleGateData
 from repro.gmd.models import TrainedGMD
 from repro.gmd.root_representation import (
     ROOT_PARAMETERS,
@@ -30,10 +29,11 @@ from repro.gmd.table_b1 import (
     NOT_MEASURABLE,
     PAPER_TABLE_B1,
     TABLE_METRICS,
+    evaluation_set,
     generate_for_captions,
     measurable,
 )
-from repro.gmd.windows import FeatureSpace, short_label
+from repro.gmd.windows import FeatureSpace, MotionWindows, short_label
 from repro.motion.features import features_to_joints, relative_to_absolute_root
 from repro.motion.plotting import animate_side_by_side
 
@@ -562,15 +562,16 @@ def plot_obstacles(space: FeatureSpace, arms: Sequence[ObstacleArm], obstacles: 
 
 # ------------------------------------------------------------- every notebook: samples move
 
-def animate_samples(models: Mapping[str, TrainedGMD], data: SampleGateData,
+def animate_samples(models: Mapping[str, TrainedGMD], test: MotionWindows,
                     path: str | os.PathLike, *, seed: int, count: int = 2) -> Path:
-    """A GIF of ``count`` test windows of the sample gates' data beside each model's sample
-    for the same caption (``model_gates.motion_sample_values``' sampler: classifier-free
-    guidance at GMD's scale for a text-conditioned model, else unconditional with ``seed``),
-    each in its own world frame (``motion.plotting.animate_side_by_side``): a reader sees
-    whether a model's bodies move as the data's do before reading any number."""
-    evaluation = data.evaluation
-    count = min(count, len(evaluation))
+    """A GIF of ``count`` test windows (drawn with ``seed``, one caption each, as the sample
+    gates draw theirs: ``model_gates.sample_gate_data``) beside each model's sample for the
+    same caption (``model_gates.motion_sample_values``' sampler: classifier-free guidance at
+    GMD's scale for a text-conditioned model, else unconditional with ``seed``), each in its
+    own world frame (``motion.plotting.animate_side_by_side``): a reader sees whether a
+    model's bodies move as the data's do before reading any number."""
+    evaluation = evaluation_set(test, count, seed=seed)
+    count = len(evaluation)
     captions = evaluation.captions[:count]
     clips = {f"data: {_short(c)}": features_to_joints(evaluation.features[k].astype(np.float64))
              for k, c in enumerate(captions)}
@@ -586,5 +587,5 @@ def animate_samples(models: Mapping[str, TrainedGMD], data: SampleGateData,
     return animate_side_by_side(clips, path, columns=count)
 
 
-def _short(caption: str, width: int = 28) -> str:
+def _short(caption: str, width: int = 44) -> str:
     return caption if len(caption) <= width else caption[: width - 1] + "…"

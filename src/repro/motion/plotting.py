@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import base64
 import os
+import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -119,25 +120,19 @@ def animate(joints: np.ndarray, path: str | os.PathLike, *, fps: int = 20,
 def animate_side_by_side(clips: Mapping[str, np.ndarray], path: str | os.PathLike, *,
                          fps: int = 20, view: str = "side", stride: int = 2,
                          columns: int = 4) -> Path:
-    """A GIF of several clips (label → joints (T, 22, 3)) in a grid, each in its own world
-    frame with a fixed camera over its whole root path: a body that walks crosses its panel,
-    one that stands stays put, and a foot that slides while planted is seen sliding (the
-    floor is drawn, and a foot below 5 cm is marked on it)."""
+    """A GIF of several clips (label → joints (T, 22, 3)) in a grid. Each panel's camera
+    follows its root over a floor marked every 25 cm in the world, so a body that walks
+    passes the marks, one that stands keeps still over them, and a foot that slides while
+    planted (a purple mark: a foot below 5 cm) is seen sliding against them."""
     items = [(label, _check_joints(joints)) for label, joints in clips.items()]
     if not items:
         raise ValueError("no clips to animate")
     frames = min(len(joints) for _, joints in items)
     rows = -(-len(items) // columns)
     cols = min(columns, len(items))
-    fig, axes = plt.subplots(rows, cols, figsize=(2.4 * cols, 2.4 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(2.3 * cols, 2.5 * rows), squeeze=False)
     horizontal = 0 if view == "front" else 2
-    spans = []
-    for _, joints in items:
-        low = float(joints[:frames, :, horizontal].min()) - 0.3
-        high = float(joints[:frames, :, horizontal].max()) + 0.3
-        centre, half = (low + high) / 2, max(1.0, (high - low) / 2)
-        spans.append((centre - half, centre + half))
-    feet = [10, 11]
+    feet, half = [10, 11], 1.2
 
     def update(frame: int) -> None:
         for k, ax in enumerate(axes.flat):
@@ -147,15 +142,19 @@ def animate_side_by_side(clips: Mapping[str, np.ndarray], path: str | os.PathLik
                 continue
             label, joints = items[k]
             pose = joints[frame]
+            centre = float(pose[0, horizontal])
+            marks = np.arange(np.floor((centre - half) / 0.25), np.ceil((centre + half) / 0.25)
+                              + 1) * 0.25
+            ax.plot(marks, np.zeros_like(marks), "|", color="grey", ms=5)
+            ax.axhline(0.0, color="grey", lw=0.6)
             draw_skeleton(ax, pose, view=view)
             planted = pose[feet][pose[feet, 1] < 0.05]
             ax.plot(planted[:, horizontal], np.zeros(len(planted)), "v", color="tab:purple",
                     ms=4)
-            ax.axhline(0.0, color="grey", lw=0.6)
-            ax.set_xlim(*spans[k])
+            ax.set_xlim(centre - half, centre + half)
             ax.set_ylim(-0.1, 2.0)
             ax.set_aspect("equal")
-            ax.set_title(label, fontsize=8)
+            ax.set_title(textwrap.fill(label, 26), fontsize=7)
         fig.suptitle(f"frame {frame} of {frames}", fontsize=8)
 
     animation = FuncAnimation(fig, update, frames=range(0, frames, stride))
