@@ -175,15 +175,64 @@ def test_zero_spread_is_decided_by_the_resolution() -> None:
     assert outcome([-2.0, -2.0, -2.0, -2.0, -2.0]) == CONTRADICTED
 
 
-def test_controls_and_gates_make_a_claim_inconclusive() -> None:
+def test_a_fired_null_control_and_a_failed_gate_make_a_claim_inconclusive() -> None:
     good = Decision(REPRODUCED, "fine")
     assert apply_controls(good, {"positive": good, "null": None}) is good
-    failed = apply_controls(good, {"positive": Decision(INCONCLUSIVE, ""), "null": None})
-    assert failed.verdict == INCONCLUSIVE and "cannot see an effect" in failed.reason
     fired = apply_controls(good, {"positive": None, "null": Decision(PARTIAL, "")})
     assert fired.verdict == INCONCLUSIVE and "null control fired" in fired.reason
     gated = apply_controls(good, {}, {"denoiser_fid_below_1": False})
     assert gated.verdict == INCONCLUSIVE and "denoiser_fid_below_1" in gated.reason
+
+
+def _decided(*outcomes: str) -> tuple[list[Part], Decision]:
+    """A claim whose parts came out ``outcomes`` (one part per outcome)."""
+    parts = [_part(f"p{i}") for i in range(len(outcomes))]
+    results = [PartResult(f"p{i}", o, f"why {i}") for i, o in enumerate(outcomes)]
+    return parts, Decision(combine(results, parts), "", {r.name: r.outcome for r in results},
+                           results)
+
+
+MISSED = {"positive": Decision(INCONCLUSIVE, "the planted δ was not seen"), "null": None}
+
+
+@pytest.mark.parametrize(("outcomes", "after", "verdict"), [
+    ((SUPPORTED, SUPPORTED), (SUPPORTED, SUPPORTED), REPRODUCED),
+    ((SUPPORTED, ABSENT), (SUPPORTED, INCONCLUSIVE), PARTIAL),
+    ((CONTRADICTED, CONTRADICTED), (CONTRADICTED, CONTRADICTED), NOT_REPRODUCED),
+    ((ABSENT, CONTRADICTED), (INCONCLUSIVE, CONTRADICTED), INCONCLUSIVE),
+    ((ABSENT, ABSENT), (INCONCLUSIVE, INCONCLUSIVE), INCONCLUSIVE),
+    ((BELOW_RESOLUTION, SUPPORTED), (BELOW_RESOLUTION, SUPPORTED), PARTIAL),
+])
+def test_a_missed_positive_control_undoes_only_the_parts_that_were_not_significant(
+        outcomes: tuple[str, ...], after: tuple[str, ...], verdict: str) -> None:
+    """The positive control guards false negatives: a significant part (supported or
+    contradicted after Holm) stands whatever it did; absent and inconclusive parts become
+    inconclusive, each saying why and what it was."""
+    parts, decision = _decided(*outcomes)
+    controlled = apply_controls(decision, MISSED, parts=parts)
+    assert [p.outcome for p in controlled.parts] == list(after)
+    assert controlled.verdict == verdict
+    assert controlled.reason.startswith("failed positive control (control: inconclusive)")
+    for before, part in zip(outcomes, controlled.parts, strict=True):
+        if before in (ABSENT, INCONCLUSIVE):
+            assert "the positive control missed" in part.reason
+            assert f"without it: {before}" in part.reason
+
+
+def test_a_fired_null_control_overrides_even_significant_parts() -> None:
+    parts, decision = _decided(SUPPORTED, SUPPORTED)
+    fired = apply_controls(decision, {"positive": MISSED["positive"],
+                                      "null": Decision(REPRODUCED, "")}, parts=parts)
+    assert fired.verdict == INCONCLUSIVE
+    assert "null control fired" in fired.reason and "positive control missed" in fired.reason
+
+
+def test_a_missed_control_and_a_failed_gate_both_say_so() -> None:
+    parts, decision = _decided(SUPPORTED, ABSENT)
+    both = apply_controls(decision, MISSED, {"model m": False}, {"model m": ["p0"]}, parts)
+    assert [p.outcome for p in both.parts] == [INCONCLUSIVE, INCONCLUSIVE]
+    assert both.verdict == INCONCLUSIVE
+    assert "failed positive control" in both.reason and "model m" in both.reason
 
 
 def test_a_failed_gate_makes_only_the_parts_that_read_its_model_inconclusive() -> None:
