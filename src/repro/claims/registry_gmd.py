@@ -388,6 +388,7 @@ CLAIMS: list[Claim] = [
                       text="|log jitter ratio| motion − trajectory > 0, per seed",
                       needs=("motion_jitter_eps", "motion_jitter_x0", "trajectory_jitter_eps",
                              "trajectory_jitter_x0"), compare=_log_ratio_gap,
+                      scale="log ratio",
                       smallest_effect_reason="a 10 % jitter ratio (log 1.1)")),
           measurements={"motion_jitter_eps": SEEDS, "motion_jitter_x0": SEEDS,
                         "motion_fid_eps": SEEDS, "motion_fid_x0": SEEDS,
