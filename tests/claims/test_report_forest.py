@@ -72,9 +72,23 @@ def test_part_rows_say_what_the_run_could_see_and_the_seeds_that_would_see_delta
     expected = seeds_to_see(numbers["smallest_effect"], numbers["spread"], alpha=ALPHA / 2)
     assert numbers["seeds_to_see_delta"] == expected
     shown = {r[0]: r[6] for r in parts_rows(sidecars["GMD-A3"])}
-    assert shown[undecided[0]["name"]] == (str(expected) if expected else "more than 100 000")
+    assert shown[undecided[0]["name"]] == (str(expected) if expected else "more than 100,000")
+    assert (f"{expected} seeds would see δ at this spread" if expected else
+            "no seed count up to 100,000") in undecided[0]["reason"]
     assert {r[6] for r in parts_rows(sidecars["GMD-F1"])} == {"—"}   # decided: no seeds
     assert {r[3] for r in parts_rows(sidecars["GMD-F1"])} == {"log ratio"}
     text = write_report(build, scale="standard").read_text(encoding="utf-8")
     assert "| this run could see (80 % power) / δ | seeds that would see δ at this spread |" \
         in text
+
+
+def test_one_seed_says_plainly_that_it_can_see_nothing(tmp_path: Path) -> None:
+    """GMD-C4 at one seed: the MDE is infinite and no spread says how many seeds would do."""
+    c4 = get_claim("GMD-C4").example_at(np.random.default_rng(0), 0.0, 1)
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-C4", c4,
+                 settings=run_settings("GMD-C4"), seeds=[0])
+    sidecar = load_sidecars(tmp_path / "claims")["GMD-C4"]
+    rows = parts_rows(sidecar)
+    assert rows and all(r[5] == "∞ (one seed)" for r in rows)
+    assert all(r[6].startswith("unknown: no spread measured") for r in rows)
+    assert all(p["outcome"] == "inconclusive" for p in sidecar["parts"])

@@ -193,15 +193,13 @@ def ratio_part(*, name: str, text: str, numerator: Path, denominator: Path, frac
     (``verdicts.log_resolution``). Values that are not positive raise a ValueError: a ratio
     of a signed quantity is not a ratio."""
     delta = log_margin(fraction, of=of, factor=numerator_factor, kind=kind)
-    label = f"{name}: log({numerator_factor:g}·{_path_text(numerator)} / "\
-            f"{_path_text(denominator)})" if numerator_factor != 1.0 else \
-            f"{name}: log({_path_text(numerator)} / {_path_text(denominator)})"
+    factor = f"{numerator_factor:g}·" if numerator_factor != 1.0 else ""
+    label = f"{name}: log({factor}{_path_text(numerator)} / {_path_text(denominator)})"
 
     def compare(m: Measured) -> list[Comparison]:
         a, b = value(m, numerator), value(m, denominator)
         ratios = log_ratios(a, b, factor=numerator_factor, offset=step / 2, what=label)
-        return [Comparison("", ratios, delta,
-                           log_resolution(a, b, step, factor=numerator_factor))]
+        return [Comparison("", ratios, delta, log_resolution(a, b, step))]
 
     needs = tuple(sorted({p if isinstance(p, str) else p[0] for p in (numerator, denominator)}))
     return Part(name=name, text=text, needs=needs, compare=compare,

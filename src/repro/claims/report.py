@@ -43,6 +43,7 @@ from repro.claims.figures import (
     forest_plot,
 )
 from repro.claims.ledger import load_sidecars, part_outcomes
+from repro.claims.power import MOST_SEEDS
 from repro.claims.provenance import (
     ReportError,
     check_runs,
@@ -124,12 +125,19 @@ PARTS_HEADER = ["part", "outcome", "effect / δ [95 % interval]", "tested on", "
 
 
 def _seeds_text(row: dict[str, Any], outcome: str) -> str:
-    if outcome != INCONCLUSIVE:
+    """The seeds that would see δ, for an inconclusive part ("—" for a decided one)."""
+    if outcome != INCONCLUSIVE or "seeds_to_see_delta" not in row:
         return "—"
-    seeds = row.get("seeds_to_see_delta")
-    if seeds is None and "seeds_to_see_delta" in row:
-        return "more than 100 000"
-    return "—" if seeds is None else str(seeds)
+    if row.get("spread_unknown"):
+        return "unknown: no spread measured (one seed, or no spread)"
+    seeds = row["seeds_to_see_delta"]
+    return f"more than {MOST_SEEDS:,}" if seeds is None else str(seeds)
+
+
+def _over_delta(value: float | None, delta: float) -> str:
+    if value is None:
+        return "—"
+    return "∞ (one seed)" if value == float("inf") else f"{value / delta:.2f}"
 
 
 def parts_rows(sidecar: dict[str, Any]) -> list[list[str]]:
@@ -155,7 +163,7 @@ def parts_rows(sidecar: dict[str, Any]) -> list[list[str]]:
                 f"{row['mean'] / delta:+.2f} [{row['low'] / delta:+.2f}, "
                 f"{row['high'] / delta:+.2f}] (n = {row['n']})", scale,
                 f"{row['smallest_effect']:.3g}",
-                "—" if mde is None else f"{mde / delta:.2f}", _seeds_text(row, part["outcome"])])
+                _over_delta(mde, delta), _seeds_text(row, part["outcome"])])
     return rows
 
 

@@ -54,7 +54,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy import stats
 
-from repro.claims.power import ALPHA, minimum_detectable_effect, seeds_to_see
+from repro.claims.power import ALPHA, MOST_SEEDS, minimum_detectable_effect, seeds_to_see
 from repro.core.stats import t_interval
 
 SUPPORTED = "supported"
@@ -272,8 +272,8 @@ def log_ratios(numerator: Sequence[Any], denominator: Sequence[Any], *, factor: 
     return out
 
 
-def log_resolution(numerator: Sequence[Any], denominator: Sequence[Any], step: float, *,
-                   factor: float = 1.0) -> float:
+def log_resolution(numerator: Sequence[Any], denominator: Sequence[Any], step: float
+                   ) -> float:
     """The resolution of a log ratio of counted measurements: one item (``step``) at the
     lower arm's mean level m, log(1 + step/(m + step/2)) — the most one item moves the log
     ratio; 0 for a continuous measurement (``step`` 0)."""
@@ -305,7 +305,8 @@ def _part_numbers(part: Part, comparisons: list[Comparison], parts_tested: int
                   ) -> dict[str, Any]:
     """Per comparison: mean, 95 % interval, n, δ, the spread tested with, the resolution, the
     minimum detectable effect at this run's n and spread (80 % power at α/parts: Holm's
-    first step) and the seeds that would see δ at that spread (``power.seeds_to_see``)."""
+    first step) and the seeds that would see δ at that spread (``power.seeds_to_see``; None
+    and ``spread_unknown`` with one seed or no spread: nothing to plan from)."""
     numbers: dict[str, Any] = {"resolution": part.resolution, "scale": part.scale}
     alpha = ALPHA / max(parts_tested, 1)
     for c in comparisons:
@@ -317,7 +318,10 @@ def _part_numbers(part: Part, comparisons: list[Comparison], parts_tested: int
             "resolution": _resolution(c, part),
             "minimum_detectable_effect": minimum_detectable_effect(interval.n, spread,
                                                                    alpha=alpha),
-            "seeds_to_see_delta": seeds_to_see(c.smallest_effect, spread, alpha=alpha)}
+            "seeds_to_see_delta": (None if interval.n < 2 or spread == 0.0 else
+                                   seeds_to_see(c.smallest_effect, spread, alpha=alpha))}
+        if interval.n < 2 or spread == 0.0:   # no spread measured: nothing to plan seeds from
+            numbers[c.label or "difference"]["spread_unknown"] = True
     return numbers
 
 
@@ -376,13 +380,20 @@ def _units(part: Part) -> str:
 
 
 def _could_see(comparisons: list[Comparison], numbers: Mapping[str, Any]) -> str:
-    """"this run could see X (80 % power, n seeds, its own spread); δ is Y" per comparison."""
+    """"this run could see X (80 % power, n seeds, its own spread); δ is Y; N seeds would see
+    δ at this spread" per comparison."""
     words = []
     for c in comparisons:
         row = numbers[c.label or "difference"]
         label = f"{c.label}: " if c.label else ""
+        seeds = row.get("seeds_to_see_delta")
+        needed = ("no spread measured to say how many seeds would see δ"
+                  if row.get("spread_unknown") else
+                  f"{seeds} seeds would see δ at this spread" if seeds is not None
+                  else f"no seed count up to {MOST_SEEDS:,} would see δ at this spread")
         words.append(f"{label}this run could see {row['minimum_detectable_effect']:.3g} (80 % "
-                     f"power, {row['n']} seeds, its own spread); δ is {c.smallest_effect:.3g}")
+                     f"power, {row['n']} seeds, its own spread); δ is {c.smallest_effect:.3g}; "
+                     f"{needed}")
     return "; ".join(words)
 
 
