@@ -152,7 +152,7 @@ def forest_plot(sidecars: Mapping[str, Mapping[str, Any]], path: str | os.PathLi
     rows = forest_rows(sidecars)
     results = any(is_result(s) for s in sidecars.values())
     fig, ax = plt.subplots(figsize=(9.0, 0.2 * len(rows) + 1.6), dpi=90)
-    ax.axvspan(-1, 1, color="#e0e0e0", zorder=0)
+    ax.axvspan(-1, 1, color="#d6d6d6", alpha=0.8, zorder=0.5)   # ±δ, over the claims' shading
     ax.axvline(0, color="#757575", lw=0.8, zorder=1)
     shade, previous = False, None
     for y, row in enumerate(rows):
@@ -175,6 +175,7 @@ def forest_plot(sidecars: Mapping[str, Mapping[str, Any]], path: str | os.PathLi
     ax.set_yticks(range(len(rows)), labels, fontsize=6.5)
     ax.set_ylim(len(rows) - 0.5, -0.5)
     ax.set_xscale("symlog", linthresh=3.0)
+    ax.margins(x=0.04)
     ax.set_xlabel("mean per-seed effect (difference or log ratio) / δ, with its 95 % interval; "
                   "grey band: ±δ", fontsize=7.5)
     ax.tick_params(axis="x", labelsize=7)
