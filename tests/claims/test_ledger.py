@@ -7,11 +7,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import make_context
+from conftest import make_context, run_settings
 
 from repro.claims.ledger import load_sidecars, record_claim, verdict_markdown
-from repro.claims.registry import get_claim
+from repro.claims.registry import REGISTRY_VERSION, get_claim
 from repro.claims.verdicts import INCONCLUSIVE, PARTIAL, REPRODUCED, SUPPORTED
+
+A3_RUN = run_settings("GMD-A3")
+A4_RUN = run_settings("GMD-A4")
 
 A3_GOOD = {"goal_error_x0": [0.5, 0.6, 0.55, 0.52, 0.58],
            "goal_error_eps": [0.1, 0.12, 0.11, 0.1, 0.13],
@@ -24,9 +27,9 @@ A3_GOOD = {"goal_error_x0": [0.5, 0.6, 0.55, 0.52, 0.58],
 def test_sidecar_carries_parts_with_what_the_run_could_see_and_missing_controls(
         tmp_path: Path) -> None:
     decision = record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", A3_GOOD,
-                            seeds=[0, 1, 2, 3, 4])
+                            settings=A3_RUN, seeds=[0, 1, 2, 3, 4])
     sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
-    assert sidecar["registry_version"] == 4
+    assert sidecar["registry_version"] == REGISTRY_VERSION == 5
     assert sidecar["verdict"] == decision.verdict == REPRODUCED
     assert "v1" not in sidecar and "power_note" not in sidecar
     assert [p["name"] for p in sidecar["parts"]] == ["eps_reaches_goal_better",
@@ -35,8 +38,11 @@ def test_sidecar_carries_parts_with_what_the_run_could_see_and_missing_controls(
     assert numbers["n"] == 5 and numbers["minimum_detectable_effect"] > 0
     assert sidecar["controls"]["positive"]["status"] == "missing"
     assert sidecar["controls"]["null"]["status"] == "missing"
-    text = verdict_markdown(make_context(tmp_path, scale="standard"), "GMD-A3", decision)
-    assert "registry v4" in text and "**GMD-A3 — reproduced**" in text
+    text = verdict_markdown(make_context(tmp_path, scale="standard"), "GMD-A3", decision,
+                            sidecar["rule"])
+    assert "registry v5" in text and "**GMD-A3 — reproduced**" in text
+    assert sidecar["rule"] in text and "T = 100 cosine" in sidecar["rule"]
+    assert sidecar["settings"] == {**A3_RUN, "seeds": 5}
 
 
 def test_controls_are_decided_by_the_same_rule(tmp_path: Path) -> None:
@@ -44,27 +50,37 @@ def test_controls_are_decided_by_the_same_rule(tmp_path: Path) -> None:
     ctx = make_context(tmp_path, scale="standard")
     planted, null = claim.planted_example(rng), claim.null_example(rng)
     seeds = list(range(len(planted["goal_error_x0"])))
-    decision = record_claim(ctx, "GMD-A3", planted, seeds=seeds,
+    decision = record_claim(ctx, "GMD-A3", planted, settings=A3_RUN, seeds=seeds,
                             controls={"positive": planted, "null": null})
     assert decision.verdict == REPRODUCED
     stored = load_sidecars(tmp_path / "claims")["GMD-A3"]["controls"]
     assert stored["positive"]["status"] == "passed" and stored["null"]["status"] == "passed"
-    # a positive control that shows nothing: the measurement cannot see the effect
-    failed = record_claim(ctx, "GMD-A3", planted, seeds=[0],
+    # a positive control that shows nothing: the significant parts stand ...
+    failed = record_claim(ctx, "GMD-A3", planted, settings=A3_RUN, seeds=seeds,
                           controls={"positive": null, "null": null})
-    assert failed.verdict == INCONCLUSIVE and "failed positive control" in failed.reason
+    assert failed.verdict == REPRODUCED and "failed positive control" in failed.reason
+    # ... and the parts that were not significant become inconclusive, saying why
+    undecided = record_claim(ctx, "GMD-A3", null, settings=A3_RUN, seeds=seeds,
+                             controls={"positive": null, "null": null})
+    assert undecided.verdict == INCONCLUSIVE
+    assert all("positive control missed" in p.reason for p in undecided.parts
+               if p.outcome == INCONCLUSIVE)
+    assert {p.outcome for p in undecided.parts} <= {INCONCLUSIVE, "contradicted"}
     # a null control that fires
-    fired = record_claim(ctx, "GMD-A3", planted, seeds=[0], controls={"null": planted})
+    fired = record_claim(ctx, "GMD-A3", planted, settings=A3_RUN,
+                         seeds=[0], controls={"null": planted})
     assert fired.verdict == INCONCLUSIVE and "null control fired" in fired.reason
     stored = load_sidecars(tmp_path / "claims")["GMD-A3"]["controls"]
     assert stored["null"]["status"] == "failed" and stored["positive"]["status"] == "missing"
     with pytest.raises(ValueError, match="controls are"):
-        record_claim(ctx, "GMD-A3", planted, seeds=[0], controls={"oracle": planted})
+        record_claim(ctx, "GMD-A3", planted, settings=A3_RUN, seeds=[0],
+                     controls={"oracle": planted})
 
 
 def test_quality_gate_and_new_measurements(tmp_path: Path) -> None:
     ctx = make_context(tmp_path)
-    gated = record_claim(ctx, "GMD-A3", A3_GOOD, seeds=[0], quality_gates={"x0_model_fid": False})
+    gated = record_claim(ctx, "GMD-A3", A3_GOOD, settings=A3_RUN, seeds=[0],
+                         quality_gates={"x0_model_fid": False})
     assert gated.verdict == INCONCLUSIVE and "x0_model_fid" in gated.reason
     # a measurement only later versions read, not recorded: inconclusive, not an error
     emg9 = record_claim(ctx, "EMG-9", {"fid_vs_closed_form_relative_error": 1e-15,
@@ -90,19 +106,22 @@ def test_a_model_that_fails_its_gate_makes_the_parts_that_read_it_inconclusive(
     bad = model_record(name="eps motion", family="evaluator", role="reference",
                        values={"r_precision_top3": 0.2})
     ctx = make_context(tmp_path, scale="standard")
-    passed = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good])
-    failed = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good, bad])
+    passed = record_claim(ctx, "GMD-A4", measured, settings=A4_RUN, seeds=[0, 1, 2],
+                          models=[good])
+    failed = record_claim(ctx, "GMD-A4", measured, settings=A4_RUN, seeds=[0, 1, 2],
+                          models=[good, bad])
     assert passed.verdict == "reproduced"
     assert failed.verdict == "inconclusive" and "model eps motion" in failed.reason
     # the same model read by one part only: the others keep their outcomes
     one_part = dict(bad, reads=["eps_motion_worse_fid"])
-    partial = record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[good, one_part])
+    partial = record_claim(ctx, "GMD-A4", measured, settings=A4_RUN, seeds=[0, 1, 2],
+                           models=[good, one_part])
     assert partial.verdict == PARTIAL
     assert partial.checks == {"eps_motion_more_jagged": SUPPORTED,
                               "eps_motion_worse_fid": INCONCLUSIVE,
                               "choice_matters_less_for_trajectories": SUPPORTED}
     with pytest.raises(ValueError, match="reads parts"):
-        record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2],
+        record_claim(ctx, "GMD-A4", measured, settings=A4_RUN, seeds=[0, 1, 2],
                      models=[dict(bad, reads=["no_such_part"])])
     sidecars = {"GMD-A4": read_json(tmp_path / "claims" / "GMD-A4.json")}
     models = models_of(sidecars)
@@ -110,4 +129,5 @@ def test_a_model_that_fails_its_gate_makes_the_parts_that_read_it_inconclusive(
     assert models[0]["claims"] == ["GMD-A4"] and not models[0]["passed"]
     assert "**no**" in "\n".join(models_markdown(models))
     with pytest.raises(ValueError, match="model_record"):
-        record_claim(ctx, "GMD-A4", measured, seeds=[0, 1, 2], models=[{"name": "x"}])
+        record_claim(ctx, "GMD-A4", measured, settings=A4_RUN, seeds=[0, 1, 2],
+                     models=[{"name": "x"}])

@@ -1,4 +1,5 @@
-"""The power calculation and the minimum detectable effect each part reports (registry v4)."""
+"""The power calculation, the minimum detectable effect each part reports and the seeds that
+would see δ (registry v5)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from repro.claims.power import ALPHA, minimum_detectable_effect, power_of
+from repro.claims.power import ALPHA, minimum_detectable_effect, power_of, seeds_to_see
 from repro.claims.verdicts import Comparison, Part, decide_parts
 
 
@@ -43,3 +44,13 @@ def test_the_reported_mde_is_the_power_the_run_had() -> None:
     hits = sum(decide_parts([_part()], {"x": (mde + spread * rng.standard_normal(n)).tolist()})
                [0].outcome == "supported" for _ in range(2000))
     assert hits / 2000 == pytest.approx(0.8, abs=0.03)
+
+
+def test_seeds_to_see_is_the_fewest_seeds_with_80_percent_power() -> None:
+    n = seeds_to_see(1.0, 2.0)
+    assert n is not None and power_of(n, 1.0, 2.0) >= 0.8 > power_of(n - 1, 1.0, 2.0)
+    assert seeds_to_see(1.0, 2.0, alpha=ALPHA / 3) > n          # Holm's first step asks more
+    assert seeds_to_see(1.0, 0.0) == 2                           # no spread: two seeds
+    assert seeds_to_see(0.0, 1.0) is None                        # no effect to see
+    assert seeds_to_see(1.0, 1e4) is None                        # beyond MOST_SEEDS
+    assert minimum_detectable_effect(n, 2.0) <= 1.0 < minimum_detectable_effect(n - 1, 2.0)

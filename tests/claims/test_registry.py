@@ -1,4 +1,4 @@
-"""Registry version 4: every claim registered once, and the exact rules reach the verdicts
+"""Registry version 5: every claim registered once, and the exact rules reach the verdicts
 their text promises (constructed measurements), including the ones where the paper is wrong."""
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ def test_registry_matches_claims_md() -> None:
     assert sorted(ids) == sorted(CLAIMS)
 
 
-def test_version_4_registers_21_claims_with_disjoint_measurement_names() -> None:
-    assert REGISTRY_VERSION == 4
+def test_version_5_registers_21_claims_with_disjoint_measurement_names() -> None:
+    assert REGISTRY_VERSION == 5
     assert len(CLAIMS) == 21
     for claim in CLAIMS.values():
         assert not set(claim.new_measurements) & set(claim.measurements), claim.id

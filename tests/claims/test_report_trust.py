@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import make_context
+from conftest import make_context, run_settings
 
 from repro.claims import trust
 from repro.claims.changelog import EVERY_CLAIM, claim_changes, ids_in, parse_changelog
@@ -18,6 +18,8 @@ from repro.claims.report import docs_link, write_report
 from repro.claims.trust import power_short, previous_snapshot, trust_rows, verdict_changes
 from repro.infra.storage import write_json
 
+A3_RUN = run_settings("GMD-A3")
+
 A3 = CLAIMS["GMD-A3"]
 FAILED_MODEL = {"name": "trajectory-eps", "family": "gmd_trajectory", "gate": {},
                 "passed": False}
@@ -26,7 +28,7 @@ FAILED_MODEL = {"name": "trajectory-eps", "family": "gmd_trajectory", "gate": {}
 def _record_a3_with_controls(build: Path, *, models: list[dict]) -> None:
     rng = np.random.default_rng(0)
     record_claim(make_context(build, scale="standard"), "GMD-A3", A3.planted_example(rng),
-                 seeds=list(range(5)), models=models,
+                 settings=A3_RUN, seeds=list(range(5)), models=models,
                  controls={"positive": A3.planted_example(rng), "null": A3.null_example(rng)})
 
 
@@ -61,7 +63,7 @@ def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> No
 def test_passing_models_and_missing_controls_read_as_such(tmp_path: Path) -> None:
     rng = np.random.default_rng(1)
     record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", A3.planted_example(rng),
-                 seeds=list(range(5)), models=[{**FAILED_MODEL, "passed": True}])
+                 settings=A3_RUN, seeds=list(range(5)), models=[{**FAILED_MODEL, "passed": True}])
     row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
     assert row.verdict != "quick run (not a result)"
     assert row.controls == "no positive control, no null control"
@@ -76,7 +78,8 @@ def test_power_limits_say_what_the_run_could_see(tmp_path: Path) -> None:
              "best_gain_survival_eps": [0.9, 0.3, 0.7], "best_gain_survival_x0": [0.5, 0.8, 0.4],
              "guided_change_survival_eps": [0.9, 0.3, 0.7],
              "guided_change_survival_x0": [0.5, 0.8, 0.4]}
-    record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", noisy, seeds=[0, 1, 2])
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", noisy, settings=A3_RUN,
+                 seeds=[0, 1, 2])
     sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
     undecided = [p for p in sidecar["parts"] if p["outcome"] == "inconclusive"]
     assert undecided, "the null example should leave a part undecided"
@@ -92,7 +95,8 @@ def test_a_value_the_run_did_not_measure_and_a_single_seed_read_in_words(
     measured by its measurement, and the one-seed part without an "inf× δ"."""
     measured = {"values": [10], "foot_skating_loss_scaling": {"10": [0.57]},
                 "foot_skating_emphasis": {"10": [20.7]}}
-    record_claim(make_context(tmp_path, scale="standard"), "GMD-C4", measured, seeds=[0])
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-C4", measured, seeds=[0],
+                 settings=run_settings("GMD-C4"))
     sidecar = load_sidecars(tmp_path / "claims")["GMD-C4"]
     reasons = {p["name"]: p["reason"] for p in sidecar["parts"]}
     assert reasons["emphasis_less_foot_skating_at_2"] == (
@@ -131,7 +135,8 @@ def test_verdict_changes_cite_the_changelog(tmp_path: Path,
     monkeypatch.setattr(trust.paths, "results_dir", lambda: snapshot.parent)
     assert set(previous_snapshot()) == {"GMD-A3"}          # quick sidecars are no snapshot
     record_claim(make_context(tmp_path, scale="standard"), "GMD-A3",
-                 A3.example_at(np.random.default_rng(0), -3.0, 3), seeds=[0, 1, 2])
+                 A3.example_at(np.random.default_rng(0), -3.0, 3), settings=A3_RUN,
+                 seeds=[0, 1, 2])
     sidecars = load_sidecars(tmp_path / "claims")
     changes = verdict_changes(sidecars, previous_snapshot(), claim_changes())
     assert [(c.claim_id, c.previous, c.previous_version, c.current) for c in changes] == [
@@ -242,7 +247,7 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
 def test_a_quick_run_shows_its_machinery_never_its_verdict(tmp_path: Path) -> None:
     rng = np.random.default_rng(2)
     record_claim(make_context(tmp_path, scale="quick"), "GMD-A3", A3.planted_example(rng),
-                 seeds=[0], models=[FAILED_MODEL])
+                 settings=run_settings("GMD-A3", "quick"), seeds=[0], models=[FAILED_MODEL])
     row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
     assert row.verdict == "quick run (not a result)"
     assert row.models == "**1 of 1 fail** (see Models)" and row.parts != "—"

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import make_context
+from conftest import make_context, run_settings
 
 from repro.claims.ledger import load_sidecars
 from repro.claims.result import (
@@ -18,6 +18,9 @@ from repro.claims.result import (
     summary_markdown,
 )
 from repro.claims.verdicts import INCONCLUSIVE, REPRODUCED
+
+EMG2_RUN = run_settings("EMG-2")
+A3_RUN = run_settings("GMD-A3")
 
 A3_EPS = {"goal_error_eps": [0.1, 0.12, 0.11, 0.1, 0.13],
           "best_gain_survival_eps": [0.9, 0.95, 0.92, 0.93, 0.91],
@@ -32,7 +35,8 @@ A3_NONE = {**A3_EPS, "goal_error_x0": A3_EPS["goal_error_eps"],
 
 def test_a_result_is_recorded_with_its_controls_and_rendered_once(tmp_path: Path) -> None:
     ctx = make_context(tmp_path, scale="standard")
-    result = ClaimResult("GMD-A3", A3_GOOD, seeds=[0, 1, 2, 3, 4], headline="x0 0.55 m",
+    result = ClaimResult("GMD-A3", A3_GOOD, settings=A3_RUN, seeds=[0, 1, 2, 3, 4],
+                         headline="x0 0.55 m",
                          controls=Controls(null=A3_NONE, positive=A3_GOOD,
                                            null_text="one model twice"),
                          extra={"strength": 100.0})
@@ -49,12 +53,19 @@ def test_a_result_is_recorded_with_its_controls_and_rendered_once(tmp_path: Path
     assert summary_markdown(ctx, [recorded]).startswith("### Summary\n\n- **GMD-A3**: reproduced")
 
 
-def test_a_positive_control_that_misses_makes_the_claim_inconclusive(tmp_path: Path) -> None:
+def test_a_positive_control_that_misses_undoes_only_what_was_not_significant(
+        tmp_path: Path) -> None:
+    """A missed positive control says the measurement could not see δ: a significant part
+    stands, a non-significant one is inconclusive."""
     ctx = make_context(tmp_path, scale="quick")
-    recorded = record(ctx, ClaimResult("GMD-A3", A3_GOOD, seeds=[0, 1, 2, 3, 4],
+    recorded = record(ctx, ClaimResult("GMD-A3", A3_GOOD, settings=A3_RUN, seeds=[0, 1, 2, 3, 4],
                                        controls=Controls(null=A3_NONE, positive=A3_NONE)))
     assert recorded.controls["positive"]["status"] == "failed"
-    assert recorded.verdict == INCONCLUSIVE
+    assert recorded.verdict == REPRODUCED
+    no_effect = record(ctx, ClaimResult("GMD-A3", A3_NONE, settings=A3_RUN,
+                                        seeds=[0, 1, 2, 3, 4],
+                                        controls=Controls(null=A3_NONE, positive=A3_NONE)))
+    assert no_effect.verdict == INCONCLUSIVE and "failed positive control" in no_effect.reason
     assert "| positive | the registered δ planted | reproduced |" in recorded_markdown(
         ctx, recorded)
     assert "(quick run: not a result)" in summary_markdown(ctx, [recorded])
@@ -62,7 +73,7 @@ def test_a_positive_control_that_misses_makes_the_claim_inconclusive(tmp_path: P
 
 def test_a_claim_without_controls_shows_no_controls_table(tmp_path: Path) -> None:
     ctx = make_context(tmp_path, scale="standard")
-    recorded = record(ctx, ClaimResult("GMD-A3", A3_GOOD, seeds=[0, 1, 2, 3, 4]))
+    recorded = record(ctx, ClaimResult("GMD-A3", A3_GOOD, settings=A3_RUN, seeds=[0, 1, 2, 3, 4]))
     assert recorded.controls["null"]["status"] == "missing"
     assert "controls**" not in recorded_markdown(ctx, recorded)
 
@@ -72,7 +83,7 @@ def test_a_claim_not_measurable_on_the_data_is_recorded_as_such(tmp_path: Path) 
     nothing measured or made up, every part and the verdict inconclusive with the reason."""
     ctx = make_context(tmp_path)
     reason = "not measurable on real data: the folder has no stand-in concept labels"
-    recorded = record(ctx, not_measurable_result("EMG-2", reason, [0]))
+    recorded = record(ctx, not_measurable_result("EMG-2", reason, [0], settings=EMG2_RUN))
     assert recorded.verdict == INCONCLUSIVE and recorded.reason == reason
     sidecar = load_sidecars(ctx.claims_dir)["EMG-2"]
     assert sidecar["not_measurable"] == reason and sidecar["measured"] == {}
@@ -81,4 +92,4 @@ def test_a_claim_not_measurable_on_the_data_is_recorded_as_such(tmp_path: Path) 
     assert {c["status"] for c in sidecar["controls"].values()} == {"missing"}
     assert reason in recorded_markdown(ctx, recorded)
     with pytest.raises(ValueError, match="the rule needs measurements"):   # never silently
-        record(ctx, ClaimResult("EMG-2", {}, seeds=[0]))
+        record(ctx, ClaimResult("EMG-2", {}, seeds=[0], settings=EMG2_RUN))

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import make_context
+from conftest import make_context, run_settings
 
 from repro.claims.ledger import record_claim
 from repro.claims.stability import (
@@ -15,6 +15,8 @@ from repro.claims.stability import (
     stability_markdown,
 )
 from repro.run.cli import main
+
+A3_RUN = run_settings("GMD-A3")
 
 
 def _record(build: Path, monkeypatch: pytest.MonkeyPatch, printed_error: float, seeds: list[int],
@@ -65,14 +67,14 @@ def test_nested_measurements_are_compared_per_row() -> None:
 
 
 def test_not_reproduced_claims_show_their_parts(tmp_path: Path) -> None:
-    a3 = {"goal_error_x0": [0.5, 0.6, 0.55], "goal_error_eps": [0.1, 0.12, 0.11],
+    a3 = {"goal_error_x0": [0.5, 0.6, 0.55], "goal_error_eps": [0.1, 0.13, 0.11],
           "best_gain_survival_eps": [0.9, 0.95, 0.92],
           "guided_change_survival_eps": [0.9, 0.95, 0.92],
           "best_gain_survival_x0": [0.95, 0.99, 0.97],
           "guided_change_survival_x0": [0.95, 0.99, 0.97]}
     for label in ("a", "b"):
         record_claim(make_context(tmp_path / label, scale="standard"), "GMD-A3", a3,
-                     seeds=[0, 1, 2])
+                     settings=A3_RUN, seeds=[0, 1, 2])
     rows = compare_runs({"a": load_scale_sidecars(tmp_path / "a"),
                          "b": load_scale_sidecars(tmp_path / "b")})
     text = stability_markdown(rows, ["a", "b"])

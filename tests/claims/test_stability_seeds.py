@@ -8,12 +8,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import make_context
+from conftest import make_context, run_settings
 
 from repro.claims.ledger import record_claim
 from repro.claims.registry import CLAIMS
 from repro.claims.stability import base_seed_of, seed_build_dir
 from repro.run import cli
+
+A3_RUN = run_settings("GMD-A3")
 
 A3 = CLAIMS["GMD-A3"]
 A2_MEASURED = {"cosine_x0_share_argmax_fraction": 0.0, "cosine_eps_share_argmax_fraction": 1.0}
@@ -35,7 +37,7 @@ def _run(base_seed: int, *, planted: bool, scale: str = "standard", folder: Path
     rng = np.random.default_rng(base_seed)
     a3 = A3.planted_example(rng) if planted else A3.null_example(rng)
     a3 = {k: v[:n_seeds] if isinstance(v, list) else v for k, v in a3.items()}
-    record_claim(ctx, "GMD-A3", a3, seeds=seeds)
+    record_claim(ctx, "GMD-A3", a3, settings=A3_RUN, seeds=seeds)
     record_claim(ctx, "GMD-A2", A2_MEASURED, seeds=[base_seed])
     (build / "notebooks").mkdir(parents=True, exist_ok=True)
     (build / "notebooks" / "01_x0_vs_eps.ipynb").write_text("{}", encoding="utf-8")

@@ -30,6 +30,9 @@ from repro.claims.verdicts import (
     decide_parts,
     equivalent,
     holm,
+    log_margin,
+    log_ratios,
+    log_resolution,
     one_sided_p,
     spread_floor,
 )
@@ -175,15 +178,64 @@ def test_zero_spread_is_decided_by_the_resolution() -> None:
     assert outcome([-2.0, -2.0, -2.0, -2.0, -2.0]) == CONTRADICTED
 
 
-def test_controls_and_gates_make_a_claim_inconclusive() -> None:
+def test_a_fired_null_control_and_a_failed_gate_make_a_claim_inconclusive() -> None:
     good = Decision(REPRODUCED, "fine")
     assert apply_controls(good, {"positive": good, "null": None}) is good
-    failed = apply_controls(good, {"positive": Decision(INCONCLUSIVE, ""), "null": None})
-    assert failed.verdict == INCONCLUSIVE and "cannot see an effect" in failed.reason
     fired = apply_controls(good, {"positive": None, "null": Decision(PARTIAL, "")})
     assert fired.verdict == INCONCLUSIVE and "null control fired" in fired.reason
     gated = apply_controls(good, {}, {"denoiser_fid_below_1": False})
     assert gated.verdict == INCONCLUSIVE and "denoiser_fid_below_1" in gated.reason
+
+
+def _decided(*outcomes: str) -> tuple[list[Part], Decision]:
+    """A claim whose parts came out ``outcomes`` (one part per outcome)."""
+    parts = [_part(f"p{i}") for i in range(len(outcomes))]
+    results = [PartResult(f"p{i}", o, f"why {i}") for i, o in enumerate(outcomes)]
+    return parts, Decision(combine(results, parts), "", {r.name: r.outcome for r in results},
+                           results)
+
+
+MISSED = {"positive": Decision(INCONCLUSIVE, "the planted δ was not seen"), "null": None}
+
+
+@pytest.mark.parametrize(("outcomes", "after", "verdict"), [
+    ((SUPPORTED, SUPPORTED), (SUPPORTED, SUPPORTED), REPRODUCED),
+    ((SUPPORTED, ABSENT), (SUPPORTED, INCONCLUSIVE), PARTIAL),
+    ((CONTRADICTED, CONTRADICTED), (CONTRADICTED, CONTRADICTED), NOT_REPRODUCED),
+    ((ABSENT, CONTRADICTED), (INCONCLUSIVE, CONTRADICTED), INCONCLUSIVE),
+    ((ABSENT, ABSENT), (INCONCLUSIVE, INCONCLUSIVE), INCONCLUSIVE),
+    ((BELOW_RESOLUTION, SUPPORTED), (BELOW_RESOLUTION, SUPPORTED), PARTIAL),
+])
+def test_a_missed_positive_control_undoes_only_the_parts_that_were_not_significant(
+        outcomes: tuple[str, ...], after: tuple[str, ...], verdict: str) -> None:
+    """The positive control guards false negatives: a significant part (supported or
+    contradicted after Holm) stands whatever it did; absent and inconclusive parts become
+    inconclusive, each saying why and what it was."""
+    parts, decision = _decided(*outcomes)
+    controlled = apply_controls(decision, MISSED, parts=parts)
+    assert [p.outcome for p in controlled.parts] == list(after)
+    assert controlled.verdict == verdict
+    assert controlled.reason.startswith("failed positive control (control: inconclusive)")
+    for before, part in zip(outcomes, controlled.parts, strict=True):
+        if before in (ABSENT, INCONCLUSIVE):
+            assert "the positive control missed" in part.reason
+            assert f"without it: {before}" in part.reason
+
+
+def test_a_fired_null_control_overrides_even_significant_parts() -> None:
+    parts, decision = _decided(SUPPORTED, SUPPORTED)
+    fired = apply_controls(decision, {"positive": MISSED["positive"],
+                                      "null": Decision(REPRODUCED, "")}, parts=parts)
+    assert fired.verdict == INCONCLUSIVE
+    assert "null control fired" in fired.reason and "positive control missed" in fired.reason
+
+
+def test_a_missed_control_and_a_failed_gate_both_say_so() -> None:
+    parts, decision = _decided(SUPPORTED, ABSENT)
+    both = apply_controls(decision, MISSED, {"model m": False}, {"model m": ["p0"]}, parts)
+    assert [p.outcome for p in both.parts] == [INCONCLUSIVE, INCONCLUSIVE]
+    assert both.verdict == INCONCLUSIVE
+    assert "failed positive control" in both.reason and "model m" in both.reason
 
 
 def test_a_failed_gate_makes_only_the_parts_that_read_its_model_inconclusive() -> None:
@@ -226,3 +278,84 @@ def test_a_tie_does_not_hide_a_better_option() -> None:
                 compare=lambda m: best_option("claimed", m["r"], lower_is_better=False,
                                               fraction=0.035), resolution=100 / 64)
     assert decide_parts([part], {"r": rows})[0].outcome == CONTRADICTED
+
+
+@pytest.mark.parametrize(("fraction", "of", "factor", "kind"), [
+    (0.1, "denominator", 1.0, "effect"), (0.1, "numerator", 1.0, "effect"),
+    (0.05, "numerator", 0.5, "effect"), (0.1, "numerator", 1.5, "effect"),
+    (0.1, "denominator", 2.0, "effect"), (0.05, "denominator", 1.0, "non-inferiority"),
+    (0.05, "numerator", 1.0, "non-inferiority")])
+def test_a_log_margin_is_the_registered_delta_at_the_same_boundary(
+        fraction: float, of: str, factor: float, kind: str) -> None:
+    """At arms exactly on the registered boundary (f·a − b = ±φ·arm), the log ratio
+    log(f·a/b) equals ±the log margin."""
+    b = 2.0
+    if kind == "effect":   # f·a − b = φ·(the arm)
+        a = (b * (1 + fraction) / factor if of == "denominator"
+             else b / (factor - fraction))
+    else:                  # f·a − b = −φ·(the arm)
+        a = (b * (1 - fraction) / factor if of == "denominator"
+             else b / (factor + fraction))
+    margin = log_margin(fraction, of=of, factor=factor, kind=kind)  # type: ignore[arg-type]
+    boundary = log_ratios([a], [b], factor=factor)[0]
+    assert boundary == pytest.approx(margin if kind == "effect" else -margin)
+    assert margin > 0
+
+
+def test_log_margins_of_the_registry() -> None:
+    assert log_margin(0.1, of="denominator") == pytest.approx(np.log(1.1))
+    assert log_margin(0.1, of="numerator") == pytest.approx(-np.log(0.9))
+    assert log_margin(0.1, of="numerator", factor=1.5) == pytest.approx(np.log(1.5 / 1.4))
+    assert log_margin(0.05, of="numerator", factor=1.2) == pytest.approx(np.log(1.2 / 1.15))
+    with pytest.raises(ValueError, match="0 < φ"):
+        log_margin(0.6, of="numerator", factor=0.5)
+
+
+def test_a_ratio_of_a_signed_quantity_is_an_error_naming_the_part_and_seed() -> None:
+    assert log_ratios([2.0, None, 3.0], [1.0, 1.0, 3.0]) == pytest.approx([np.log(2), 0.0])
+    with pytest.raises(ValueError, match=r"my part: seed 1 has -0.5 and 1.*signed quantity"):
+        log_ratios([2.0, -0.5], [1.0, 1.0], what="my part")
+    with pytest.raises(ValueError, match="seed 0"):
+        log_ratios([0.0], [1.0])                     # a continuous zero: no ratio
+    # a count of zero keeps a ratio with half an item on both sides
+    assert log_ratios([0.0], [0.5], offset=0.005) == pytest.approx([np.log(0.005 / 0.505)])
+    with pytest.raises(ValueError, match="signed"):
+        log_ratios([-0.01], [0.5], offset=0.005)
+
+
+def test_log_resolution_is_one_item_at_the_lower_arm() -> None:
+    assert log_resolution([0.5, 0.5], [0.25, 0.25], 0.0) == 0.0
+    assert log_resolution([0.5, 0.5], [0.25, 0.25], 0.01) == pytest.approx(
+        np.log1p(0.01 / 0.255))
+
+
+def test_a_log_ratio_part_sees_a_steady_ratio_that_a_difference_misses() -> None:
+    """Arms whose level varies 3× across seeds while their ratio stays 1.3: the difference
+    test carries the level's spread, the log ratio does not."""
+    from repro.claims.claim import difference_part, ratio_part
+
+    level = np.array([1.0, 3.0, 0.6])
+    measured = {"a": (1.3 * level * np.array([1.01, 0.99, 1.0])).tolist(),
+                "b": level.tolist()}
+    as_ratio = ratio_part(name="r", text="", numerator="a", denominator="b", fraction=0.1,
+                          of="denominator", reason="test")
+    as_difference = difference_part(name="d", text="", minuend="a", subtrahend="b",
+                                    smallest_effect=0.1, relative_to="b", reason="test")
+    assert decide_parts([as_ratio], measured)[0].outcome == SUPPORTED
+    assert decide_parts([as_difference], measured)[0].outcome == INCONCLUSIVE
+    assert as_ratio.scale == "log ratio"
+    with pytest.raises(ValueError, match="r: log"):
+        decide_parts([as_ratio], {"a": [1.0, -1.0, 1.0], "b": [1.0, 1.0, 1.0]})
+
+
+def test_best_option_on_log_ratios() -> None:
+    rows = {"claimed": [0.1, 0.3, 0.05], "other": [0.2, 0.6, 0.1]}
+    [lower] = best_option("claimed", rows, lower_is_better=True, fraction=0.2, log_ratio=True)
+    assert lower.differences == pytest.approx([np.log(2)] * 3)
+    assert lower.smallest_effect == pytest.approx(-np.log(0.8))
+    [higher] = best_option("other", rows, lower_is_better=False, fraction=0.2, log_ratio=True)
+    assert higher.differences == pytest.approx([np.log(2)] * 3)
+    assert higher.smallest_effect == pytest.approx(np.log(1.2))
+    tie = best_option("claimed", {"claimed": [50.0, 60.0], "tie": [50.0, 60.0]},
+                      lower_is_better=False, fraction=0.035, log_ratio=True, step=1.5625)
+    assert tie[0].differences == [0.0, 0.0] and tie[0].resolution > 0

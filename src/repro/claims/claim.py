@@ -1,26 +1,45 @@
-"""A registered claim (registry version 4) and the helpers its entries are written with.
+"""A registered claim (registry version 5) and the helpers its entries are written with.
 
 An entry reads as a table row: keyword arguments, the rule's text beside the parts that
 implement it. Claims whose verdict rests on measured effects list ``parts`` (decided by
 ``repro.claims.verdicts.decide_effects``) and an ``example`` generator; exact checks of
 printed formulas give ``exact_rule`` instead.
+
+The rule's text is a template (``str.format`` fields such as ``{T}``, ``{stop_step}``,
+``{seeds}``): what a run used — its diffusion steps, stop step, guidance strength, seeds,
+items — is rendered into it from the settings the run's experiment returned
+(``ClaimResult.settings``), never typed, so the recorded rule says what the run did.
+
+A part tests either a per-seed difference (``difference_part``) or, where δ is a stated
+fraction of an arm's mean, a per-seed log ratio (``ratio_part``): "10 % of the arm" is a
+ratio, and a ratio steady across seeds whose level is not is seen through its log.
 """
 
 from __future__ import annotations
 
+import string
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
-from repro.claims.verdicts import Comparison, Decision, Part, decide_effects
+from repro.claims.verdicts import (
+    Comparison,
+    Decision,
+    Kind,
+    Part,
+    decide_effects,
+    log_margin,
+    log_ratios,
+    log_resolution,
+)
 
 Measured = Mapping[str, Any]
 Path = str | tuple[str, ...]
 Example = Callable[[np.random.Generator, float, int], dict[str, Any]]
 
-REGISTRY_VERSION = 4
+REGISTRY_VERSION = 5
 SEEDS = "per-seed list"
 
 
@@ -33,8 +52,10 @@ class Claim:
     that run it; a part whose measurement is missing comes out inconclusive, "measurement X
     not recorded"); ``example(rng, scale, n)``: a measurement dict shaped like the notebook's
     with ``n`` seeds, every part's effect at ``scale`` × its smallest effect of interest (0:
-    no effect, negative: the paper is wrong). How many seeds a run uses is the paper
-    package's run settings' business, not the claim's (registry v4)."""
+    no effect, negative: the paper is wrong; a log-ratio part's δ is on the log scale). How
+    many seeds a run uses is the paper package's run settings' business, not the claim's
+    (registry v4). ``rule`` is a template rendered by :meth:`render_rule` from the run's
+    settings."""
 
     id: str
     paper: str
@@ -58,6 +79,29 @@ class Claim:
     def rests_on_effects(self) -> bool:
         return bool(self.parts)
 
+    @property
+    def rule_fields(self) -> tuple[str, ...]:
+        """The settings the rule's template names (``{T}``, ``{seeds}``, ...), in order."""
+        names = [field_name for _, field_name, _, _ in string.Formatter().parse(self.rule)
+                 if field_name is not None]
+        return tuple(dict.fromkeys(names))
+
+    def render_rule(self, settings: Mapping[str, Any]) -> str:
+        """The rule's text with the run's ``settings`` in it (:func:`setting_text` for each);
+        a :class:`MissingRuleSetting` naming the claim and every field it lacks."""
+        missing = [name for name in self.rule_fields if name not in settings]
+        if missing:
+            raise MissingRuleSetting(
+                f"{self.id}: the rule quotes the run's {', '.join(missing)}, which the "
+                f"experiment's result did not give (ClaimResult.settings has "
+                f"{sorted(settings) or 'nothing'})")
+        return self.rule.format(**{name: setting_text(settings[name])
+                                   for name in self.rule_fields})
+
+    def rule_as_registered(self) -> str:
+        """The template with its fields shown as ⟨name⟩ (the rule before a run fills it)."""
+        return self.rule.format(**{name: f"⟨{name}⟩" for name in self.rule_fields})
+
     def null_example(self, rng: np.random.Generator, n: int = 5) -> dict[str, Any]:
         """Measurements of ``n`` seeds with no effect in any part."""
         return self.example_at(rng, 0.0, n)
@@ -72,6 +116,24 @@ class Claim:
             raise ValueError(f"{self.id} rests on exact checks, not on measured effects: it "
                              "has no examples")
         return self.example(rng, scale, n)
+
+
+class MissingRuleSetting(ValueError):
+    """A rule's template names a setting the run's result did not give."""
+
+
+def setting_text(setting: Any) -> str:
+    """A run setting as a rule quotes it: a number as written (1000, 2.5, 6), a sequence as
+    "{100, 150, 200}", anything else as its text."""
+    if isinstance(setting, bool):
+        return str(setting)
+    if isinstance(setting, float) and setting.is_integer():
+        return str(int(setting))
+    if isinstance(setting, float):
+        return f"{setting:g}"
+    if isinstance(setting, list | tuple | set | frozenset):
+        return "{" + ", ".join(setting_text(s) for s in setting) + "}"
+    return str(setting)
 
 
 def value(measured: Measured, path: Path) -> Any:
@@ -119,6 +181,38 @@ def difference_part(*, name: str, text: str, minuend: Path, subtrahend: Path,
     return Part(name=name, text=text, needs=needs, compare=compare,
                 smallest_effect_reason=reason, resolution=resolution,
                 resolution_reason=resolution_reason, kind=kind)  # type: ignore[arg-type]
+
+
+def ratio_part(*, name: str, text: str, numerator: Path, denominator: Path, fraction: float,
+               of: Literal["numerator", "denominator"], reason: str,
+               numerator_factor: float = 1.0, step: float = 0.0,
+               step_reason: str = "continuous measurement", kind: Kind = "effect") -> Part:
+    """A part testing the per-seed log ratio log(f·m[numerator] / m[denominator]) > 0
+    (non-inferiority: > −δ), f = ``numerator_factor``, where the registered δ is
+    ``fraction`` of the mean of one arm (``of``). The log δ is the registered one at the
+    boundary (``verdicts.log_margin``): f·a − b ≥ φ·b ⇔ log(f·a/b) ≥ log(1 + φ), and
+    f·a − b ≥ φ·a ⇔ log(f·a/b) ≥ −log(1 − φ/f). ``step``: one item of a counted
+    measurement (0: continuous); both compared quantities are then offset by half an item
+    (a zero count stays a ratio) and the resolution is one item at the lower arm's level
+    (``verdicts.log_resolution``). Values that are not positive raise a ValueError: a ratio
+    of a signed quantity is not a ratio."""
+    delta = log_margin(fraction, of=of, factor=numerator_factor, kind=kind)
+    factor = f"{numerator_factor:g}·" if numerator_factor != 1.0 else ""
+    label = f"{name}: log({factor}{_path_text(numerator)} / {_path_text(denominator)})"
+
+    def compare(m: Measured) -> list[Comparison]:
+        a, b = value(m, numerator), value(m, denominator)
+        ratios = log_ratios(a, b, factor=numerator_factor, offset=step / 2, what=label)
+        return [Comparison("", ratios, delta, log_resolution(a, b, step))]
+
+    needs = tuple(sorted({p if isinstance(p, str) else p[0] for p in (numerator, denominator)}))
+    return Part(name=name, text=text, needs=needs, compare=compare,
+                smallest_effect_reason=f"{reason}; on the log scale δ = {delta:.4g}",
+                resolution=step, resolution_reason=step_reason, kind=kind, scale="log ratio")
+
+
+def _path_text(path: Path) -> str:
+    return path if isinstance(path, str) else "[".join(path) + "]" * (len(path) - 1)
 
 
 def arm(rng: np.random.Generator, level: float, spread: float, n: int) -> list[float]:

@@ -3,12 +3,14 @@
 ``record_claim`` checks that every measurement the rules need is there, applies the
 registry's rule, decides the notebook's controls with the same rule, makes inconclusive the
 parts that read a model that failed its fitness gate, and writes ``build/claims/<ID>.json``
-atomically. The sidecar carries ``registry_version``, the verdict with its per-part outcomes
-(each with its interval and the effect the run could have seen), each control's outcome (or
-"missing") and the models; it names the run's scale (``quick``: a test of the code, never a
-result; ``standard`` or ``paper``), as does every model record in it. The previous
-snapshot's verdict is the report's business (``claims.trust``), read from the committed
-``results/claims.json``.
+atomically. The sidecar carries ``registry_version``, the rule rendered from the settings
+the run used (``Claim.render_rule``: the registered template with the run's T, stop step,
+strength, seeds, items, ...; ``settings`` beside it), the verdict with its per-part outcomes
+(each with its interval, the effect the run could have seen and the seeds that would see δ),
+each control's outcome (or "missing") and the models; it names the run's scale (``quick``: a
+test of the code, never a result; ``standard`` or ``paper``), as does every model record in
+it. The previous snapshot's verdict is the report's business (``claims.trust``), read from
+the committed ``results/claims.json``.
 """
 
 from __future__ import annotations
@@ -115,8 +117,23 @@ def record_claim(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], **
     return record_claim_and_controls(ctx, claim_id, measured, **kwargs)[0]
 
 
+def rule_settings(seeds: Sequence[int], settings: Mapping[str, Any] | None
+                  ) -> dict[str, Any]:
+    """The settings a rule is rendered from: the experiment's ``settings`` and, as
+    ``seeds``, how many seeds the run recorded (the seed list is what the run used)."""
+    return {**(settings or {}), "seeds": len(seeds)}
+
+
+def rendered_rule(claim_id: str, seeds: Sequence[int],
+                  settings: Mapping[str, Any] | None) -> str:
+    """``claim_id``'s rule with the run's settings in it (:func:`rule_settings`); a
+    ``claim.MissingRuleSetting`` when the template names a setting not given."""
+    return get_claim(claim_id).render_rule(rule_settings(seeds, settings))
+
+
 def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[str, Any], *,
                               seeds: Sequence[int],
+                              settings: Mapping[str, Any] | None = None,
                               controls: Mapping[str, Mapping[str, Any]] | None = None,
                               quality_gates: Mapping[str, bool] | None = None,
                               models: Sequence[Mapping[str, Any]] = (),
@@ -135,6 +152,10 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
         measured: every measurement the rules name (missing ones raise ValueError; a
             ``new_measurements`` one makes its part inconclusive instead).
         seeds: the seeds behind per-seed lists.
+        settings: what the run used that the rule's text quotes (``Claim.rule_fields``: T, the
+            stop step, the guidance strength, items, ...), read from the experiment's own
+            settings; the number of seeds is ``len(seeds)``. A field the template names and
+            ``settings`` lacks raises ``claim.MissingRuleSetting`` before anything is written.
         controls: ``{"positive": measured, "null": measured}`` from the notebook's control
             experiments (the registered effect planted / no effect), decided by the same
             rule: a positive control that is not reproduced or a null control that comes out
@@ -156,6 +177,7 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
             the sidecar then keeps it as ``not_measurable`` (absent otherwise).
     """
     claim = get_claim(claim_id)
+    rule = rendered_rule(claim_id, seeds, settings)
     models = [{**_checked_model(claim_id, m), "scale": ctx.scale} for m in models]
     gates = {**(quality_gates or {}), **{f"model {m['name']}": bool(m["passed"]) for m in models}}
     reads = {f"model {m['name']}": m.get("reads") for m in models}
@@ -170,7 +192,8 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
         "statement": claim.statement,
         "paper_value": claim.paper_value,
         "notebook": claim.notebook,
-        "rule": claim.rule,
+        "rule": rule,
+        "settings": rule_settings(seeds, settings),
         "verdict": decision.verdict,
         "reason": decision.reason,
         "checks": decision.checks,
@@ -227,11 +250,12 @@ def part_outcomes(sidecar: dict[str, Any], *, reasons: bool = True) -> str:
     return parts_in_words(sidecar["parts"], reasons=reasons)
 
 
-def verdict_markdown(ctx: RunContext, claim_id: str, decision: Decision) -> str:
-    """A short markdown block for the notebook's verdict cell."""
+def verdict_markdown(ctx: RunContext, claim_id: str, decision: Decision, rule: str) -> str:
+    """A short markdown block for the notebook's verdict cell; ``rule``: the rule as the run
+    rendered it (:func:`rendered_rule`)."""
     claim = get_claim(claim_id)
     mode = " *(quick run: a test of the code, not a result)*" if ctx.quick else ""
     lines = [f"**{claim.id} — {decision.verdict}**{mode}", "",
-             f"*Rule (registry v{REGISTRY_VERSION}, fixed before the run):* {claim.rule}", "",
-             f"*Why:* {decision.reason}"]
+             f"*Rule (registry v{REGISTRY_VERSION}, fixed before the run; this run's settings "
+             f"in it):* {rule}", "", f"*Why:* {decision.reason}"]
     return "\n".join(lines)

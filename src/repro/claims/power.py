@@ -7,7 +7,8 @@ another run's spread: each part states what *its own run* could have seen, the m
 detectable effect (MDE) — the true effect at which the run's n and its own spread give 80 %
 power — beside the smallest effect of interest δ. A part is tested at α/k here (Holm's first
 step over a claim's k parts), so the MDE is the one of the part Holm tests first and is
-conservative for the others.
+conservative for the others. Where a part stays undecided, :func:`seeds_to_see` says how
+many seeds would see δ at the run's own spread.
 """
 
 from __future__ import annotations
@@ -53,3 +54,31 @@ def minimum_detectable_effect(n: int, spread: float, *, alpha: float = ALPHA,
     if spread == 0.0:
         return 0.0
     return _noncentrality_for_power(n, alpha, power) * spread / math.sqrt(n)
+
+
+#: the most seeds :func:`seeds_to_see` looks at; beyond it a run "would need more"
+MOST_SEEDS = 100_000
+
+
+def seeds_to_see(effect: float, spread: float, *, alpha: float = ALPHA, power: float = POWER,
+                 most: int = MOST_SEEDS) -> int | None:
+    """The fewest seeds n ≥ 2 at which a true mean ``effect`` with per-seed spread ``spread``
+    reaches ``power`` (:func:`power_of`: noncentrality effect·√n/σ, n − 1 degrees of
+    freedom); 2 with no spread and a positive effect; None if no n up to ``most`` does (or the
+    effect is not positive). Power grows with n, so the search doubles n and then bisects."""
+    if effect <= 0 or not math.isfinite(spread):
+        return None
+    if power_of(2, effect, spread, alpha) >= power:
+        return 2
+    low, high = 2, 4
+    while power_of(high, effect, spread, alpha) < power:
+        if high >= most:
+            return None
+        low, high = high, min(2 * high, most)
+    while high - low > 1:
+        middle = (low + high) // 2
+        if power_of(middle, effect, spread, alpha) >= power:
+            high = middle
+        else:
+            low = middle
+    return high

@@ -1,8 +1,9 @@
-"""The claims registry, version 4: every claim of ../shared/CLAIMS.md with its verdict rule.
+"""The claims registry, version 5: every claim of ../shared/CLAIMS.md with its verdict rule.
 
 Each rule is written here *before* the experiment that feeds it, names the measurements it
-needs, and is never loosened after a run; what changed in each version and why, claim by
-claim: docs/REGISTRY_CHANGELOG.md. The entries live in ``registry_gmd`` and
+needs, and is never loosened after a run; its text is a template the run's settings are
+rendered into when the claim is recorded (``Claim.render_rule``). What changed in each version
+and why, claim by claim: docs/REGISTRY_CHANGELOG.md. The entries live in ``registry_gmd`` and
 ``registry_energymogen``; outcomes and verdicts in ``repro.claims.verdicts``; what a run
 could see in ``repro.claims.power``. Version 1's frozen rules were retired in version 4: the
 report shows the previous snapshot's verdict beside each new one (``claims.trust``).

@@ -1,10 +1,14 @@
-"""Registry version 4: the GMD appendix claims (seed 000), one keyword entry per claim with
+"""Registry version 5: the GMD appendix claims (seed 000), one keyword entry per claim with
 its rule text beside its parts.
 
 Smallest effects of interest (δ): half the paper's own relative effect where it prints one
 (Table B.1); otherwise a stated fraction of the measurement's own scale (the reference arm's
-mean), 10 % unless the entry says why not. How many seeds a run uses is in the paper
+mean), 10 % unless the entry says why not. A δ that is a fraction of an arm is a ratio, and
+its part tests the per-seed log ratio against the same boundary on the log scale
+(``claim.ratio_part``, ``verdicts.log_margin``). How many seeds a run uses is in the paper
 package's run settings (``repro.gmd.run_seeds``); each part states what its run could see.
+Each rule's text quotes the run's settings (``{T}``, ``{stop_step}``, ...: the fields of
+``repro.gmd``'s ``rule_settings``), rendered when the claim is recorded.
 """
 
 from __future__ import annotations
@@ -19,9 +23,8 @@ from repro.claims.claim import (
     Measured,
     arm,
     difference_part,
-    mean_of,
-    paired,
     quantise,
+    ratio_part,
     value,
 )
 from repro.claims.verdicts import (
@@ -33,6 +36,8 @@ from repro.claims.verdicts import (
     Decision,
     Part,
     exact_decision,
+    log_margin,
+    log_ratios,
 )
 
 Rng = np.random.Generator
@@ -133,8 +138,24 @@ def _pair(rng: Rng, level: float, delta: float, scale: float, n: int,
     return (a, b) if higher_first else (b, a)
 
 
+def _ratio_pair(rng: Rng, level: float, delta: float, scale: float, n: int
+                ) -> tuple[list[float], list[float]]:
+    """(a, b) with log(a/b) = scale·δ + noise of spread δ/4 (a seed level shared by both):
+    a log-ratio part's example."""
+    base = np.asarray(arm(rng, level, 0.05 * level, n))
+    b = base * np.exp(0.125 * delta * rng.standard_normal(n))
+    a = base * np.exp(scale * delta + 0.125 * delta * rng.standard_normal(n))
+    return a.tolist(), b.tolist()
+
+
+#: the log-scale δ of "10 % of the numerator arm" (x0 − ε ≥ 0.1·x0 ⇔ log(x0/ε) ≥ −log 0.9)
+TENTH_OF_NUMERATOR = log_margin(0.1, of="numerator")
+#: the log-scale δ of "10 % of the denominator arm" (ε − x0 ≥ 0.1·x0 ⇔ log(ε/x0) ≥ log 1.1)
+TENTH_OF_DENOMINATOR = log_margin(0.1, of="denominator")
+
+
 def _example_a3(rng: Rng, scale: float, n: int) -> dict[str, Any]:
-    x0, eps = _pair(rng, 1.0, 0.1, scale, n)
+    x0, eps = _ratio_pair(rng, 1.0, TENTH_OF_NUMERATOR, scale, n)
     s_eps, s_x0 = _pair(rng, 0.9, 0.1, scale, n)
     # v1's stop-step survival, recorded as context (no part reads it)
     stop_survival = arm(rng, 1.0, 0.01, n)
@@ -144,8 +165,8 @@ def _example_a3(rng: Rng, scale: float, n: int) -> dict[str, Any]:
 
 
 def _example_a4(rng: Rng, scale: float, n: int) -> dict[str, Any]:
-    jit_eps, jit_x0 = _pair(rng, 1000.0, 100.0, scale, n)
-    fid_eps, fid_x0 = _pair(rng, 0.5, 0.05, scale, n)
+    jit_eps, jit_x0 = _ratio_pair(rng, 1000.0, TENTH_OF_DENOMINATOR, scale, n)
+    fid_eps, fid_x0 = _ratio_pair(rng, 0.5, TENTH_OF_DENOMINATOR, scale, n)
     log_gap = np.log(np.asarray(jit_eps) / np.asarray(jit_x0))  # motion |log ratio| per seed
     # trajectory ratio: smaller |log ratio| than motion by scale·log 1.1 (+ noise)
     traj_log = np.abs(log_gap) - scale * np.log(1.1) + 0.025 * rng.standard_normal(n)
@@ -156,28 +177,31 @@ def _example_a4(rng: Rng, scale: float, n: int) -> dict[str, Any]:
 
 
 def _example_b2(rng: Rng, scale: float, n: int) -> dict[str, Any]:
+    delta = TENTH_OF_NUMERATOR
     abs_imputation = (0.1 - scale * 0.01 + 0.0025 * rng.standard_normal(n)).tolist()
-    rel_imputation = (np.asarray(abs_imputation) * (1 + scale * 0.1)
-                      + 0.0025 * rng.standard_normal(n)).tolist()
+    rel_imputation = (np.asarray(abs_imputation) * np.exp(
+        scale * delta + 0.25 * delta * rng.standard_normal(n))).tolist()
     abs_guidance = arm(rng, 1.0, 0.02, n)
-    rel_guidance = (np.asarray(abs_guidance) * (1 + scale * 0.1)
-                    + 0.02 * rng.standard_normal(n)).tolist()
+    rel_guidance = (np.asarray(abs_guidance) * np.exp(
+        scale * delta + 0.25 * delta * rng.standard_normal(n))).tolist()
     return {"abs_imputation_error": abs_imputation, "rel_imputation_error": rel_imputation,
             "abs_guidance_error": abs_guidance, "rel_guidance_error": rel_guidance,
             "abs_location_error": abs_imputation, "rel_location_error": rel_guidance}
 
 
 def _example_b3(rng: Rng, scale: float, n: int) -> dict[str, Any]:
-    fid_rel, fid_abs = _pair(rng, 0.5, 0.1525 * 0.5, scale, n)
+    fid_rel, fid_abs = _ratio_pair(rng, 0.5, _B3_FID, scale, n)
     real = 1.4
     gap_rel = 0.3
     div_rel = arm(rng, real - gap_rel, 0.01, n)
-    div_abs = (real - gap_rel * (1 - scale * 0.412)
-               + 0.25 * 0.412 * gap_rel * rng.standard_normal(n) / np.sqrt(2)).tolist()
+    # abs's gap a factor exp(−scale·δ) of rel's (above real: a gap is a distance)
+    gap_abs = gap_rel * np.exp(-scale * _B3_GAP + 0.125 * _B3_GAP * rng.standard_normal(n))
+    div_abs = (real + gap_abs).tolist()
     r3 = quantise(arm(rng, 0.2, 0.01, n), 1 / 256)
     # non-inferiority: a tie when the paper is right (scale ≥ 0), a loss of |scale|·δ if not
-    loss = min(scale, 0.0) * 0.05 * 0.2
-    r3_abs = quantise((np.asarray(r3) + loss + 0.0025 * rng.standard_normal(n)).tolist(), 1 / 256)
+    loss = min(scale, 0.0) * _B3_R3
+    r3_abs = quantise((np.asarray(r3) * np.exp(loss + 0.0125 * rng.standard_normal(n))).tolist(),
+                      1 / 256)
     return {"fid_rel": fid_rel, "fid_abs": fid_abs, "r_precision_top3_rel": r3,
             "r_precision_top3_abs": r3_abs, "diversity_rel": div_rel, "diversity_abs": div_abs,
             "diversity_real": real}
@@ -190,7 +214,7 @@ _C4_VALUES = ("2", "10")
 def _example_c4(rng: Rng, scale: float, n: int) -> dict[str, Any]:
     loss, emphasis = {}, {}
     for v in _C4_VALUES:
-        loss[v], emphasis[v] = _pair(rng, 1.0, 0.1, scale, n)
+        loss[v], emphasis[v] = _ratio_pair(rng, 1.0, TENTH_OF_NUMERATOR, scale, n)
     return {"values": [int(v) for v in _C4_VALUES], "foot_skating_loss_scaling": loss,
             "foot_skating_emphasis": emphasis}
 
@@ -203,18 +227,20 @@ def _example_f1(rng: Rng, scale: float, n: int) -> dict[str, Any]:
     jit_unguided = np.asarray(arm(rng, 3000.0, 150.0, n))
     goal = {"0": unguided.tolist()}
     jitter = {"0": jit_unguided.tolist()}
-    for s in _F1_STRENGTHS:  # at the thresholds (scale 0) or beyond them by scale·δ
-        goal[s] = (0.5 * unguided - scale * 0.05 * 4.0
-                   + 0.05 * rng.standard_normal(n)).tolist()
-        jitter[s] = (1.5 * jit_unguided - scale * 0.1 * 3000.0
-                     + 75.0 * rng.standard_normal(n)).tolist()
+    def beyond(level: np.ndarray, delta: float) -> list[float]:
+        """At the threshold ``level`` (scale 0) or beyond it by scale·δ on the log scale."""
+        return (level * np.exp(-scale * delta + 0.25 * delta * rng.standard_normal(n))).tolist()
+
+    for s in _F1_STRENGTHS:
+        goal[s] = beyond(0.5 * unguided, _F1_GOAL)
+        jitter[s] = beyond(1.5 * jit_unguided, _F1_JITTER)
     root_jerk = np.asarray(arm(rng, 100000.0, 5000.0, n))  # v1's, no v3 part reads it
     jerk_0 = np.asarray(arm(rng, 600.0, 30.0, n))
-    jerk_20 = jerk_0 * (1 - scale * 0.05) + 7.5 * rng.standard_normal(n)
+    jerk_20 = np.asarray(beyond(jerk_0, _F1_COHERENCE))
     skating_0 = np.asarray(arm(rng, 0.5, 0.025, n))
-    skating_20 = skating_0 * (1 - scale * 0.05) + 0.00625 * rng.standard_normal(n)
+    skating_20 = np.asarray(beyond(skating_0, _F1_COHERENCE))
     goal_0 = np.asarray(arm(rng, 2.0, 0.1, n))
-    goal_20 = 1.2 * goal_0 - scale * 0.05 * 2.0 + 0.025 * rng.standard_normal(n)
+    goal_20 = np.asarray(beyond(1.2 * goal_0, _F1_KEPT))
     return {"goal_error_unguided": unguided.tolist(), "jitter_unguided": jit_unguided.tolist(),
             "goal_error_by_strength": goal, "jitter_by_strength": jitter,
             "jitter_stop_0": root_jerk.tolist(), "jitter_stop_20": root_jerk.tolist(),
@@ -226,6 +252,18 @@ def _example_f1(rng: Rng, scale: float, n: int) -> dict[str, Any]:
 
 # --- parts that are not a plain difference of two measurements ------------------------------
 
+#: GMD-B3's log-scale δ: half the paper's 30.5 % FID drop and 82.4 % gap shrink of rel's
+#: (fractions of the numerator, rel), 5 % of rel's R@3 (non-inferiority, the denominator)
+_B3_FID = log_margin(0.1525, of="numerator")
+_B3_GAP = log_margin(0.412, of="numerator")
+_B3_R3 = log_margin(0.05, of="denominator", kind="non-inferiority")
+#: GMD-F1's: f·a − b ≥ φ·a ⇔ log(f·a/b) ≥ −log(1 − φ/f), φ of the unguided (or stop-0) arm
+_F1_GOAL = log_margin(0.05, of="numerator", factor=0.5)
+_F1_JITTER = log_margin(0.1, of="numerator", factor=1.5)
+_F1_COHERENCE = log_margin(0.05, of="numerator")
+_F1_KEPT = log_margin(0.05, of="numerator", factor=1.2)
+
+
 def _log_ratio_gap(m: Measured) -> list[Comparison]:
     motion = np.abs(np.log(np.asarray(m["motion_jitter_eps"]) / np.asarray(m["motion_jitter_x0"])))
     trajectory = np.abs(np.log(np.asarray(m["trajectory_jitter_eps"])
@@ -234,17 +272,19 @@ def _log_ratio_gap(m: Measured) -> list[Comparison]:
 
 
 def _diversity_gap(m: Measured) -> list[Comparison]:
+    """log(|Div rel − real| / |Div abs − real|): the gap's shrink, a ratio of distances."""
     gap_rel = np.abs(np.asarray(m["diversity_rel"]) - m["diversity_real"])
     gap_abs = np.abs(np.asarray(m["diversity_abs"]) - m["diversity_real"])
-    return [Comparison("", (gap_rel - gap_abs).tolist(), 0.412 * float(gap_rel.mean()))]
+    return [Comparison("", log_ratios(gap_rel.tolist(), gap_abs.tolist(),
+                                      what="abs_diversity_closer_to_real"), _B3_GAP)]
 
 
 def _c4_part(v: str) -> Part:
-    return difference_part(
+    return ratio_part(
         name=f"emphasis_less_foot_skating_at_{v}",
-        text=f"foot skating (loss scaling k={v}) − (emphasis c={v}) > 0",
-        minuend=("foot_skating_loss_scaling", v), subtrahend=("foot_skating_emphasis", v),
-        smallest_effect=0.1, relative_to=("foot_skating_loss_scaling", v), reason=TENTH)
+        text=f"log(foot skating (loss scaling k={v}) / (emphasis c={v})) > 0",
+        numerator=("foot_skating_loss_scaling", v), denominator=("foot_skating_emphasis", v),
+        fraction=0.1, of="numerator", reason=TENTH)
 
 
 def _worst_of(m: Measured, key: str, strengths: tuple[str, ...]) -> np.ndarray:
@@ -252,29 +292,32 @@ def _worst_of(m: Measured, key: str, strengths: tuple[str, ...]) -> np.ndarray:
 
 
 def _f1_goal(m: Measured) -> list[Comparison]:
-    unguided = np.asarray(m["goal_error_unguided"], dtype=np.float64)
+    """log(0.5·unguided / worst goal error of s 100–200) per seed, δ −log(1 − 0.05/0.5)."""
     worst = _worst_of(m, "goal_error_by_strength", _F1_STRENGTHS)
-    return [Comparison("", (0.5 * unguided - worst).tolist(), 0.05 * float(unguided.mean()))]
+    return [Comparison("", log_ratios(m["goal_error_unguided"], worst.tolist(), factor=0.5,
+                                      what="s_100_200_halves_goal_error"), _F1_GOAL)]
 
 
 def _f1_jitter(m: Measured) -> list[Comparison]:
-    unguided = np.asarray(m["jitter_unguided"], dtype=np.float64)
+    """log(1.5·unguided / worst jitter of s 100–200) per seed, δ log(1.5/1.4)."""
     worst = _worst_of(m, "jitter_by_strength", _F1_STRENGTHS)
-    return [Comparison("", (1.5 * unguided - worst).tolist(), 0.1 * float(unguided.mean()))]
+    return [Comparison("", log_ratios(m["jitter_unguided"], worst.tolist(), factor=1.5,
+                                      what="s_100_200_keeps_jitter"), _F1_JITTER)]
 
 
 def _f1_coherence(m: Measured) -> list[Comparison]:
-    """Whole-body coherence, stop 0 − stop 20 > 0 in joint jerk *and* in foot skating (an
-    intersection–union part), δ 5 % of each stop-0 arm."""
-    return [Comparison(name, paired(m[f"{name}_stop_0"], m[f"{name}_stop_20"]),
-                       0.05 * mean_of(m, f"{name}_stop_0"))
+    """Whole-body coherence, log(stop 0 / stop 20) > 0 in joint jerk *and* in foot skating
+    (an intersection–union part), δ −log 0.95 (5 % of each stop-0 arm)."""
+    return [Comparison(name, log_ratios(m[f"{name}_stop_0"], m[f"{name}_stop_20"],
+                                        what=f"stop_at_20_more_coherent: {name}"),
+                       _F1_COHERENCE)
             for name in ("joint_jerk", "foot_skating")]
 
 
 def _f1_goal_kept(m: Measured) -> list[Comparison]:
-    return [Comparison("", paired([1.2 * v for v in m["goal_error_stop_0"]],
-                                  m["goal_error_stop_20"]),
-                       0.05 * mean_of(m, "goal_error_stop_0"))]
+    """log(1.2·goal error stop 0 / stop 20) per seed, δ log(1.2/1.15)."""
+    return [Comparison("", log_ratios(m["goal_error_stop_0"], m["goal_error_stop_20"],
+                                      factor=1.2, what="stop_at_20_keeps_goal"), _F1_KEPT)]
 
 
 CLAIMS: list[Claim] = [
@@ -299,13 +342,15 @@ CLAIMS: list[Claim] = [
     Claim(id="GMD-A3", paper="GMD", section="A; main-paper Fig. 3",
           statement="an x0 model can undo guidance late in sampling while an ε model keeps it",
           paper_value="qualitative (Fig. 3)", notebook="01_x0_vs_eps",
-          rule="per seed, same guidance (GMD's: T = 1000 cosine, s = 100 while t ≥ 20, the ε "
-               "model's x̂0 clamped at ±6): goal error x0 − ε > 0 (δ 10 % of x0's goal error) "
-               "and best-gain survival ε − x0 > 0 (δ 0.1, a tenth of the best guided gain); "
-               "one-sided t-tests, Holm over the two parts",
-          parts=(difference_part(name="eps_reaches_goal_better", text="goal error x0 − ε > 0",
-                                 minuend="goal_error_x0", subtrahend="goal_error_eps",
-                                 smallest_effect=0.1, relative_to="goal_error_x0", reason=TENTH),
+          rule="per seed ({seeds} seeds, {goals} goals each), the same guidance for both models "
+               "(GMD's, as this run applied it: T = {T} cosine, s = {strength} while t ≥ "
+               "{stop_step} — GMD's stop at the same fraction, 2 %, of T —, the ε model's "
+               "x̂0 clamped at ±{x0_clamp}): log(goal error x0 / ε) > 0 (δ 10 % of x0's goal "
+               "error: −log 0.9) and best-gain survival ε − x0 > 0 (δ 0.1, a tenth of the "
+               "best guided gain); one-sided t-tests, Holm over the two parts",
+          parts=(ratio_part(name="eps_reaches_goal_better", text="log(goal error x0 / ε) > 0",
+                            numerator="goal_error_x0", denominator="goal_error_eps",
+                            fraction=0.1, of="numerator", reason=TENTH),
                  difference_part(name="eps_keeps_more_of_best_gain",
                                  text="best-gain survival ε − x0 > 0",
                                  minuend="best_gain_survival_eps",
@@ -329,20 +374,21 @@ CLAIMS: list[Claim] = [
           statement="predicting ε in the full 263×M space gives worse (jagged) motion than "
                     "predicting x0 with the same architecture; in trajectory space the choice "
                     "matters less", paper_value="qualitative", notebook="01_x0_vs_eps",
-          rule="over seeds: motion jitter ε − x0 > 0 and motion FID ε − x0 > 0 (δ 10 % of the "
-               "x0 arm), and |log(jitter ε/x0)| motion − trajectory > 0 per seed (δ log 1.1); "
-               "Holm over the three parts",
-          parts=(difference_part(name="eps_motion_more_jagged", text="motion jitter ε − x0 > 0",
-                                 minuend="motion_jitter_eps", subtrahend="motion_jitter_x0",
-                                 smallest_effect=0.1, relative_to="motion_jitter_x0",
-                                 reason=TENTH),
-                 difference_part(name="eps_motion_worse_fid", text="motion FID ε − x0 > 0",
-                                 minuend="motion_fid_eps", subtrahend="motion_fid_x0",
-                                 smallest_effect=0.1, relative_to="motion_fid_x0", reason=TENTH),
+          rule="over seeds ({seeds} seeds, {samples} unguided samples per model and seed, "
+               "models of T = {T}): log(motion jitter ε / x0) > 0 and log(motion FID ε / x0) "
+               "> 0 (δ 10 % of the x0 arm: log 1.1), and |log(jitter ε/x0)| motion − "
+               "trajectory > 0 per seed (δ log 1.1); Holm over the three parts",
+          parts=(ratio_part(name="eps_motion_more_jagged", text="log(motion jitter ε / x0) > 0",
+                            numerator="motion_jitter_eps", denominator="motion_jitter_x0",
+                            fraction=0.1, of="denominator", reason=TENTH),
+                 ratio_part(name="eps_motion_worse_fid", text="log(motion FID ε / x0) > 0",
+                            numerator="motion_fid_eps", denominator="motion_fid_x0",
+                            fraction=0.1, of="denominator", reason=TENTH),
                  Part(name="choice_matters_less_for_trajectories",
                       text="|log jitter ratio| motion − trajectory > 0, per seed",
                       needs=("motion_jitter_eps", "motion_jitter_x0", "trajectory_jitter_eps",
                              "trajectory_jitter_x0"), compare=_log_ratio_gap,
+                      scale="log ratio",
                       smallest_effect_reason="a 10 % jitter ratio (log 1.1)")),
           measurements={"motion_jitter_eps": SEEDS, "motion_jitter_x0": SEEDS,
                         "motion_fid_eps": SEEDS, "motion_fid_x0": SEEDS,
@@ -369,27 +415,26 @@ CLAIMS: list[Claim] = [
     Claim(id="GMD-B2", paper="GMD", section="B",
           statement="imputing a location is ill-posed in rel, a direct replacement in abs",
           paper_value="qualitative", notebook="02_root_representation",
-          rule="like for like, over seeds: imputation error rel − abs > 0 (δ 10 % of rel's "
-               "error) and 0.1 m − abs imputation error > 0 (δ 1 cm); guidance error rel − abs "
-               "> 0 (δ 10 % of rel's error); both mechanisms act while t ≥ 20 of T = 1000; "
-               "Holm over the three parts",
-          parts=(difference_part(name="abs_imputes_better",
-                                 text="imputation location error rel − abs > 0",
-                                 minuend="rel_imputation_error",
-                                 subtrahend="abs_imputation_error", smallest_effect=0.1,
-                                 relative_to="rel_imputation_error",
-                                 reason=TENTH),
+          rule="like for like, over seeds ({seeds} seeds, {targets} targets each): "
+               "log(imputation error rel / abs) > 0 (δ 10 % of rel's error: −log 0.9) and "
+               "0.1 m − abs imputation error > 0 (δ 1 cm); log(guidance error rel / abs) > 0 "
+               "(δ 10 % of rel's error); both mechanisms act while t ≥ {stop_step} of T = {T} "
+               "(GMD's stop at the same fraction, 2 %, of T), guidance s = {strength}, the "
+               "ε models' x̂0 clamped at ±{x0_clamp}; Holm over the three parts",
+          parts=(ratio_part(name="abs_imputes_better",
+                            text="log(imputation location error rel / abs) > 0",
+                            numerator="rel_imputation_error", denominator="abs_imputation_error",
+                            fraction=0.1, of="numerator", reason=TENTH),
                  Part(name="abs_imputation_below_10cm",
                       text="0.1 m − abs imputation location error > 0",
                       needs=("abs_imputation_error",),
                       compare=lambda m: [Comparison(
                           "", [0.1 - v for v in m["abs_imputation_error"]], 0.01)],
                       smallest_effect_reason="a tenth of the 10 cm threshold"),
-                 difference_part(name="abs_guides_better",
-                                 text="guidance location error rel − abs > 0",
-                                 minuend="rel_guidance_error", subtrahend="abs_guidance_error",
-                                 smallest_effect=0.1, relative_to="rel_guidance_error",
-                                 reason=TENTH)),
+                 ratio_part(name="abs_guides_better",
+                            text="log(guidance location error rel / abs) > 0",
+                            numerator="rel_guidance_error", denominator="abs_guidance_error",
+                            fraction=0.1, of="numerator", reason=TENTH)),
           measurements={"rel_location_error": f"{SEEDS} (m): rel guidance (v1's name and "
                                               "meaning, context)",
                         "abs_location_error": f"{SEEDS} (m): abs imputation (v1's name and "
@@ -405,31 +450,33 @@ CLAIMS: list[Claim] = [
           statement="retrained with abs instead of rel, quality changes with a trade-off",
           paper_value="Ours rel FID 0.305 R@3 0.666 Div 9.861; abs 0.212 0.670 9.440 (real Div "
                       "9.503)", notebook="02_root_representation",
-          rule="Table B.1 'Ours' per seed, samples drawn with classifier-free guidance at "
-               "GMD's scale 2.5: FID rel − abs > 0 (δ half the paper's 30.5 % drop of "
-               "rel's FID), diversity gap to real rel − abs > 0 (δ half the paper's 82.4 % "
-               "shrink of rel's gap), both effects; R@3 abs − rel > −δ (non-inferiority, δ 5 % "
-               "of rel's R@3), which alone never makes the claim partial; Holm over the parts",
-          parts=(difference_part(name="abs_lower_fid", text="FID rel − abs > 0",
-                                 minuend="fid_rel", subtrahend="fid_abs", smallest_effect=0.1525,
-                                 relative_to="fid_rel",
-                                 reason="half the paper's relative FID drop (0.305 → 0.212: "
-                                        "30.5 %) of our rel FID"),
+          rule="Table B.1 'Ours' per seed ({seeds} seeds, {samples} samples per model and "
+               "seed against {samples} test windows, models of T = {T}), samples drawn with "
+               "classifier-free guidance at scale {cfg_scale} (GMD's): log(FID rel / abs) > 0 "
+               "(δ half the paper's 30.5 % drop of rel's FID: −log(1 − 0.1525)), log(|Div rel "
+               "− real| / |Div abs − real|) > 0 (δ half the paper's 82.4 % shrink of rel's "
+               "gap: −log(1 − 0.412)), both effects; log(R@3 abs / rel) > −δ "
+               "(non-inferiority, δ 5 % of rel's R@3: −log 0.95), which alone never makes the "
+               "claim partial; Holm over the parts",
+          parts=(ratio_part(name="abs_lower_fid", text="log(FID rel / abs) > 0",
+                            numerator="fid_rel", denominator="fid_abs", fraction=0.1525,
+                            of="numerator",
+                            reason="half the paper's relative FID drop (0.305 → 0.212: "
+                                   "30.5 %) of our rel FID"),
                  Part(name="abs_diversity_closer_to_real",
-                      text="|Div rel − real| − |Div abs − real| > 0",
+                      text="log(|Div rel − real| / |Div abs − real|) > 0",
                       needs=("diversity_rel", "diversity_abs", "diversity_real"),
-                      compare=_diversity_gap,
-                      smallest_effect_reason="half the paper's relative shrink of the gap "
-                                             "(0.358 → 0.063: 82.4 %) of our rel gap"),
-                 difference_part(name="abs_r_precision_not_worse",
-                                 text="R@3 abs − rel > −δ (non-inferiority)",
-                                 minuend="r_precision_top3_abs",
-                                 subtrahend="r_precision_top3_rel", smallest_effect=0.05,
-                                 relative_to="r_precision_top3_rel",
-                                 kind="non-inferiority", resolution=1 / 256,
-                                 resolution_reason="one clip of the 256 test clips",
-                                 reason="the paper's tie is 0.6 %; a 5 % relative loss of R@3 "
-                                        "would be a real loss")),
+                      compare=_diversity_gap, scale="log ratio",
+                      smallest_effect_reason=f"half the paper's relative shrink of the gap "
+                                             f"(0.358 → 0.063: 82.4 %) of our rel gap; on "
+                                             f"the log scale δ = {_B3_GAP:.4g}"),
+                 ratio_part(name="abs_r_precision_not_worse",
+                            text="log(R@3 abs / rel) > −δ (non-inferiority)",
+                            numerator="r_precision_top3_abs", denominator="r_precision_top3_rel",
+                            fraction=0.05, of="denominator", kind="non-inferiority",
+                            step=1 / 256, step_reason="one clip of the 256 test clips",
+                            reason="the paper's tie is 0.6 %; a 5 % relative loss of R@3 "
+                                   "would be a real loss")),
           measurements={"fid_rel": SEEDS, "fid_abs": SEEDS, "r_precision_top3_rel": SEEDS,
                         "r_precision_top3_abs": SEEDS, "diversity_rel": SEEDS,
                         "diversity_abs": SEEDS,
@@ -473,11 +520,13 @@ CLAIMS: list[Claim] = [
           statement="loss scaling by k weighs the trajectory k²-fold like c = k; over k ∈ "
                     "{1,2,5,10} Emphasis projection beats loss scaling on motion coherence",
           paper_value="qualitative", notebook="03_emphasis_projection",
-          rule="at each matched value v ∈ {2,10}: foot skating (loss scaling k=v) − "
-               "(emphasis c=v, the paper's Gaussian matrix) > 0 over seeds (δ 10 % of loss "
-               "scaling's); Holm over the two values; reproduced if both supported (v3: two "
-               "values with 6 seeds instead of four with 3, from the power plan; the "
-               "orthogonal matrix and GMD's float32 construction are reported outside the rule)",
+          rule="at each matched value v ∈ {{2,10}} (this run measured v ∈ {values}: {seeds} "
+               "seed(s) of models of T = {T}, {samples} samples per arm): log(foot skating "
+               "(loss scaling k=v) / (emphasis c=v, the paper's Gaussian matrix)) > 0 over "
+               "seeds (δ 10 % of loss scaling's: −log 0.9); Holm over the two values; "
+               "reproduced if both supported (v3 chose two values over four, for power; the "
+               "orthogonal matrix and GMD's float32 construction are reported outside the "
+               "rule)",
           parts=tuple(_c4_part(v) for v in _C4_VALUES),
           measurements={"values": "the matched k = c values",
                         "foot_skating_loss_scaling": "value -> per-seed list",
@@ -487,31 +536,43 @@ CLAIMS: list[Claim] = [
           statement="guidance strength s in 100–200 works; stopping guidance at t = 20 slightly "
                     "improves coherence", paper_value="s = 100 used",
           notebook="06_guidance_schedule",
-          rule="per seed, worst of s ∈ {100,150,200}: 0.5·goal error unguided − goal error > 0 "
-               "(δ 5 % of unguided) and 1.5·jitter unguided − jitter > 0 (δ 10 % of unguided); "
-               "whole-body joint jerk and foot skating stop 0 − stop 20 > 0, both (δ 5 % each: "
-               "'slightly'; GMD's second stage: the x0 motion model with the guided "
-               "trajectory imputed) and 1.2·goal error stop 0 − stop 20 > 0 (δ 5 % of stop "
-               "0); T = 1000, stops at t = 0 and 20 of 1000; one-sided t-tests, Holm over the "
-               "four parts",
+          rule="per seed ({seeds} seeds, {goals} goals each), worst of s ∈ {strengths}: "
+               "log(0.5·goal error unguided / goal error) > 0 (δ 5 % of unguided: −log(1 − "
+               "0.05/0.5)) and log(1.5·jitter unguided / jitter) > 0 (δ 10 % of unguided: "
+               "log(1.5/1.4)); whole-body log(joint jerk stop 0 / stop {stop_step}) > 0 and "
+               "the same in foot skating, both (δ 5 % of each stop-0 arm: −log 0.95, "
+               "'slightly'; GMD's second stage: the x0 motion model with the guided trajectory "
+               "imputed) and log(1.2·goal error stop 0 / stop {stop_step}) > 0 (δ 5 % of stop "
+               "0: log(1.2/1.15)), at s = {strength}; T = {T}, stops at t = 0 and "
+               "{stop_step} of {T} (GMD's stop at the same fraction, 2 %, of T); one-sided "
+               "t-tests, Holm over the four parts",
           parts=(Part(name="s_100_200_halves_goal_error",
-                      text="0.5·unguided − worst goal error of s 100–200 > 0",
+                      text="log(0.5·unguided / worst goal error of s 100–200) > 0",
                       needs=("goal_error_unguided", "goal_error_by_strength"), compare=_f1_goal,
-                      smallest_effect_reason="a tenth of the halved error: 5 % of the "
-                                             "unguided goal error"),
+                      scale="log ratio",
+                      smallest_effect_reason=f"a tenth of the halved error: 5 % of the "
+                                             f"unguided goal error; on the log scale "
+                                             f"δ = {_F1_GOAL:.4g}"),
                  Part(name="s_100_200_keeps_jitter",
-                      text="1.5·unguided − worst jitter of s 100–200 > 0",
+                      text="log(1.5·unguided / worst jitter of s 100–200) > 0",
                       needs=("jitter_unguided", "jitter_by_strength"), compare=_f1_jitter,
-                      smallest_effect_reason="10 % of the unguided jitter"),
+                      scale="log ratio",
+                      smallest_effect_reason=f"10 % of the unguided jitter; on the log scale "
+                                             f"δ = {_F1_JITTER:.4g}"),
                  Part(name="stop_at_20_more_coherent",
-                      text="whole body, stop 0 − stop 20 > 0 in joint jerk and in foot skating",
+                      text="whole body, log(stop 0 / stop 20) > 0 in joint jerk and in foot "
+                           "skating",
                       needs=("joint_jerk_stop_0", "joint_jerk_stop_20", "foot_skating_stop_0",
-                             "foot_skating_stop_20"), compare=_f1_coherence,
-                      smallest_effect_reason="'slightly improves': 5 % of each without "
-                                             "stopping"),
-                 Part(name="stop_at_20_keeps_goal", text="1.2·goal error stop 0 − stop 20 > 0",
+                             "foot_skating_stop_20"), compare=_f1_coherence, scale="log ratio",
+                      smallest_effect_reason=f"'slightly improves': 5 % of each without "
+                                             f"stopping; on the log scale "
+                                             f"δ = {_F1_COHERENCE:.4g}"),
+                 Part(name="stop_at_20_keeps_goal",
+                      text="log(1.2·goal error stop 0 / stop 20) > 0",
                       needs=("goal_error_stop_0", "goal_error_stop_20"), compare=_f1_goal_kept,
-                      smallest_effect_reason="5 % of the goal error without stopping")),
+                      scale="log ratio",
+                      smallest_effect_reason=f"5 % of the goal error without stopping; on the "
+                                             f"log scale δ = {_F1_KEPT:.4g}")),
           measurements={"goal_error_unguided": SEEDS, "jitter_unguided": SEEDS,
                         "goal_error_by_strength": "s -> per-seed list",
                         "jitter_by_strength": "s -> list",
@@ -522,8 +583,8 @@ CLAIMS: list[Claim] = [
           new_measurements={"joint_jerk_stop_0": f"{SEEDS}: mean jerk (m/s³) of the recovered "
                                                  "joints of the second stage's motion, s = 100, "
                                                  "guidance and imputation while t ≥ 0",
-                            "joint_jerk_stop_20": f"{SEEDS}: the same, stopped at t = 20 of "
-                                                  "1000",
+                            "joint_jerk_stop_20": f"{SEEDS}: the same, guidance stopped at "
+                                                  "GMD's stop step (2 % of T)",
                             "foot_skating_stop_0": f"{SEEDS}: foot speed in contact (m/s), same "
                                                    "motions", "foot_skating_stop_20": SEEDS},
           example=_example_f1),

@@ -1,12 +1,15 @@
 """The report: REPORT.md and an HTML page built from the claim sidecars, and the committed
 ``results/`` snapshot.
 
-REPORT.md opens with one screen on trust (``claims.trust``: per claim its verdict, parts,
-controls, gates and limits) and the figure of the claims by outcome (``claims.figures``);
+REPORT.md opens with one screen on trust (``claims.trust``): the forest plot of every part in
+units of its δ (``claims.figures.forest_plot``), per claim its verdict, parts, controls, gates
+and limits, and the figure of the claims by outcome;
 then the verdict table beside the previous snapshot's verdicts (the committed
 ``results/claims.json`` when the report is written), the verdict changes since it with the
 changelog's reasons (``claims.changelog``), the papers' errata (``docs/ERRATA.md`` via
-``claims.errata``), the models, the run times and each claim in full. REPORT.html
+``claims.errata``), the models, the run times and each claim in full, its rule as the run
+rendered it and its part rows (:func:`parts_rows`: effect and interval over δ, what the run
+could see over δ, and for an undecided part the seeds that would see δ). REPORT.html
 (``index.html``) has the same.
 
 A quick run's verdicts are never presented as results: its table says "quick run" instead.
@@ -32,8 +35,15 @@ from repro.claims.budgets import (
     run_span_seconds,
     update_readme_budgets,
 )
-from repro.claims.figures import FIGURE_NAME, claims_by_outcome
+from repro.claims.figures import (
+    FIGURE_NAME,
+    FOREST_NAME,
+    claims_by_outcome,
+    comparisons_of,
+    forest_plot,
+)
 from repro.claims.ledger import load_sidecars, part_outcomes
+from repro.claims.power import MOST_SEEDS
 from repro.claims.provenance import (
     ReportError,
     check_runs,
@@ -45,6 +55,7 @@ from repro.claims.provenance import (
 )
 from repro.claims.readme import replace_block
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
+from repro.claims.verdicts import INCONCLUSIVE
 from repro.infra import paths
 from repro.infra.paths import portable
 from repro.infra.storage import read_json, write_json, write_text
@@ -109,6 +120,63 @@ def _controls_line(sidecar: dict[str, Any]) -> str:
         else:
             words.append(f"{kind}: {control['status']} ({control.get('verdict')})")
     return "; ".join(words)
+
+
+PARTS_HEADER = ["part", "outcome", "effect / δ [95 % interval]", "tested on", "δ",
+                "this run could see (80 % power) / δ", "seeds that would see δ at this spread"]
+
+
+def _seeds_text(row: dict[str, Any], outcome: str) -> str:
+    """The seeds that would see δ, for an inconclusive part ("—" for a decided one)."""
+    if outcome != INCONCLUSIVE or "seeds_to_see_delta" not in row:
+        return "—"
+    if row.get("spread_unknown"):
+        return "unknown: no spread measured (one seed, or no spread)"
+    seeds = row["seeds_to_see_delta"]
+    return f"more than {MOST_SEEDS:,}" if seeds is None else str(seeds)
+
+
+def _over_delta(value: float | None, delta: float) -> str:
+    if value is None:
+        return "—"
+    return "∞ (one seed)" if value == float("inf") else f"{value / delta:.2f}"
+
+
+def parts_rows(sidecar: dict[str, Any]) -> list[list[str]]:
+    """Each part's comparisons in units of δ, as the report's part rows: the outcome, the
+    effect and its interval over δ, the scale it is tested on, δ, the minimum detectable
+    effect over δ (``power.minimum_detectable_effect`` at the run's n and spread) and, for a
+    part left inconclusive, the seeds that would see δ at the run's spread
+    (``power.seeds_to_see``). A part without numbers (an exact check, a measurement not
+    recorded) gets its outcome and reason only."""
+    rows = []
+    for part in sidecar.get("parts") or []:
+        found = comparisons_of(part)
+        scale = (part.get("numbers") or {}).get("scale", "difference")
+        if not found:
+            rows.append([part["name"], part["outcome"], part["reason"], "—", "—", "—", "—"])
+            continue
+        for label, row in found:
+            delta = abs(float(row["smallest_effect"]))
+            name = part["name"] if label == "difference" else f"{part['name']}: {label}"
+            mde = row.get("minimum_detectable_effect")
+            rows.append([
+                name, part["outcome"],
+                f"{row['mean'] / delta:+.2f} [{row['low'] / delta:+.2f}, "
+                f"{row['high'] / delta:+.2f}] (n = {row['n']})", scale,
+                f"{row['smallest_effect']:.3g}",
+                _over_delta(mde, delta), _seeds_text(row, part["outcome"])])
+    return rows
+
+
+def parts_markdown(sidecar: dict[str, Any]) -> list[str]:
+    """:func:`parts_rows` as a Markdown table ([] for a sidecar without parts)."""
+    rows = parts_rows(sidecar)
+    if not rows:
+        return []
+    lines = ["", "| " + " | ".join(PARTS_HEADER) + " |", "|" + "---|" * len(PARTS_HEADER)]
+    lines += ["| " + " | ".join(c.replace("|", "\\|") for c in r) + " |" for r in rows]
+    return lines + [""]
 
 
 def models_of(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
@@ -178,7 +246,8 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], s
              "never the paper's absolute numbers.", ""]
     if provenance:
         lines += [f"**Provenance.** {provenance}", ""]
-    lines += trust.trust_markdown(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}")
+    lines += trust.trust_markdown(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}",
+                                  f"figures/{FOREST_NAME}")
     lines += ["## Verdicts", "",
               f"| claim | statement | paper | ours | verdict (registry v{REGISTRY_VERSION}) "
               "| previous snapshot | notebook |", "|---|---|---|---|---|---|---|"]
@@ -204,6 +273,7 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], s
                   f"- Why: {sidecar['reason']}"]
         if part_outcomes(sidecar) and part_outcomes(sidecar) not in sidecar["reason"]:
             lines.append(f"- Parts: {part_outcomes(sidecar)}")
+        lines += parts_markdown(sidecar)
         if claim_id in previous:
             lines.append(f"- Previous snapshot: {_previous_text(previous[claim_id])}")
         if _controls_line(sidecar):
@@ -225,7 +295,8 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
             "100%}</style>")
     title = " (QUICK run: not results)" if scale == "quick" else f" ({scale} scale)"
     body = [f"<h1>Reproduction report{title}</h1>",
-            trust.trust_html(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}"),
+            trust.trust_html(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}",
+                             f"figures/{FOREST_NAME}"),
             "<h2>Verdicts</h2><table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
             f"<th>verdict (registry v{REGISTRY_VERSION})</th><th>parts</th>"
             "<th>previous snapshot</th><th>notebook</th>"
@@ -244,10 +315,21 @@ def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any
                     f"({esc(str(scale_of(s)))} scale)</h2>"
                     f"<p><i>{esc(s['statement'])}</i></p><p>Rule: {esc(s['rule'])}</p>"
                     f"<p>Why: {esc(s['reason'])}</p>"
+                    + _parts_html(s)
                     + (f"<p>Previous snapshot: {esc(_previous_text(previous[claim_id]))}</p>"
                        if claim_id in previous else ""))
         body += [f"<img src='figures/{esc(n)}'>" for n in figure_names.get(claim_id, [])]
     return head + "\n".join(body)
+
+
+def _parts_html(sidecar: dict[str, Any]) -> str:
+    rows = parts_rows(sidecar)
+    if not rows:
+        return ""
+    esc = html.escape
+    return ("<table><tr>" + "".join(f"<th>{esc(h)}</th>" for h in PARTS_HEADER) + "</tr>"
+            + "".join("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>"
+                      for r in rows) + "</table>")
 
 
 @dataclass(frozen=True)
@@ -317,6 +399,7 @@ def write_report(build_dir: str | os.PathLike, *, scale: str,
                 shutil.copy2(source, figures_out / source.name)
                 figure_names.setdefault(claim_id, []).append(source.name)
     claims_by_outcome(sidecars, figures_out / FIGURE_NAME)
+    forest_plot(sidecars, figures_out / FOREST_NAME)
     previous = {} if scale == "quick" else trust.previous_snapshot()
     rows = _rows(sidecars, previous)
     write_json(report_dir / "claims.json", {"scale": scale,

@@ -15,7 +15,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from repro.claims.ledger import CONTROLS, record_claim_and_controls, verdict_markdown
+from repro.claims.ledger import (
+    CONTROLS,
+    record_claim_and_controls,
+    rendered_rule,
+    verdict_markdown,
+)
 from repro.claims.verdicts import Decision, parts_in_words
 from repro.core.tables import markdown_table
 from repro.infra.context import RunContext
@@ -48,11 +53,16 @@ class Controls:
 
 @dataclass
 class ClaimResult:
-    """One claim's experiment, as ``record_claim`` takes it (its arguments, by name)."""
+    """One claim's experiment, as ``record_claim`` takes it (its arguments, by name).
+
+    ``settings``: what the run used that the claim's rule quotes (T, the stop step, the
+    guidance strength, items, ...; ``Claim.rule_fields``), read from the experiment's own
+    settings object (the paper packages' ``rule_settings``), never typed."""
 
     claim_id: str
     measured: dict[str, Any]
     seeds: Sequence[int]
+    settings: Mapping[str, Any] = field(default_factory=dict)
     controls: Controls | None = None
     models: Sequence[Mapping[str, Any]] = ()
     figures: Sequence[str | os.PathLike] = ()
@@ -82,21 +92,24 @@ class Recorded:
 
 
 def not_measurable_result(claim_id: str, reason: str, seeds: Sequence[int], *,
-                          models: Sequence[Mapping[str, Any]] = ()) -> ClaimResult:
+                          settings: Mapping[str, Any], models: Sequence[Mapping[str, Any]] = ()
+                          ) -> ClaimResult:
     """A claim whose measurement cannot be made on the run's data (e.g. it needs the stand-in's
     concept labels and the run was given a real data folder): nothing measured, every part
     and the claim inconclusive with ``reason`` (which says "not measurable on real data" and
     why; also its headline and notes, and the sidecar's ``not_measurable``). No number is
-    made up."""
-    return ClaimResult(claim_id, {}, seeds=seeds, models=models, headline=reason, notes=reason,
-                       not_measurable=reason)
+    made up. ``settings``: the run's, as for a measured claim (its rule still says what the
+    run was set to do)."""
+    return ClaimResult(claim_id, {}, seeds=seeds, settings=settings, models=models,
+                       headline=reason, notes=reason, not_measurable=reason)
 
 
 def record(ctx: RunContext, result: ClaimResult) -> Recorded:
     """Decide ``result`` by its registered rule, controls and gates and write its sidecar."""
     controls = result.controls.as_controls() if result.controls is not None else None
     decision, stored = record_claim_and_controls(
-        ctx, result.claim_id, result.measured, seeds=result.seeds, controls=controls,
+        ctx, result.claim_id, result.measured, seeds=result.seeds, settings=result.settings,
+        controls=controls,
         quality_gates=result.quality_gates, models=result.models, figures=result.figures,
         notes=result.notes, headline=result.headline, extra=result.extra,
         not_measurable=result.not_measurable)
@@ -123,7 +136,8 @@ def recorded_markdown(ctx: RunContext, recorded: Recorded) -> str:
     """The notebook's verdict block: the verdict with its rule and reason, then the controls
     (a claim without a model-based measurement has none: its block ends with the reason)."""
     claim_id = recorded.result.claim_id
-    verdict = verdict_markdown(ctx, claim_id, recorded.decision)
+    rule = rendered_rule(claim_id, recorded.result.seeds, recorded.result.settings)
+    verdict = verdict_markdown(ctx, claim_id, recorded.decision, rule)
     if recorded.result.controls is None:
         return verdict
     return (verdict + "\n\n"

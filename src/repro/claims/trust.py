@@ -188,17 +188,28 @@ def verdict_counts(rows: list[TrustRow]) -> dict[str, int]:
     return {v: counts[v] for v in (*VERDICTS, QUICK, NOT_TESTED) if counts[v]}
 
 
-def trust_markdown(rows: list[TrustRow], figure: str | None = None) -> list[str]:
-    """The report's opening screen: counts, the per-claim trust table, the figure's link."""
+def trust_markdown(rows: list[TrustRow], figure: str | None = None,
+                   forest: str | None = None) -> list[str]:
+    """The report's opening screen: counts, the forest plot of every part (``forest``), the
+    per-claim trust table, the outcome figure's link."""
     counts = ", ".join(f"{n} {v}" for v, n in verdict_counts(rows).items())
     lines = ["## How far each verdict can be trusted", "",
-             f"{len(rows)} claims: {counts} (registry v{REGISTRY_VERSION}). Parts: each "
-             "registered part's outcome. Controls: the claim's own rule on a planted effect "
-             "(must be seen) and on no effect (must stay silent). Gates: the models behind the "
-             "measurements against their registered fitness gates. A missed control makes a "
-             "verdict inconclusive; a failed gate, the parts that read its model.", "",
-             "| claim | verdict | parts | controls | gates | limited by |",
-             "|---|---|---|---|---|---|"]
+             f"{len(rows)} claims: {counts} (registry v{REGISTRY_VERSION})."]
+    if forest:
+        lines += ["", f"![Every part's effect in units of its δ, with its interval]({forest})",
+                  "", "*Every part at a glance: its mean per-seed effect (a difference, or a "
+                  "log ratio where δ is a fraction of an arm) over its smallest effect of "
+                  "interest δ, with the 95 % interval; the grey band is ±δ; the colour is the "
+                  "part's outcome. Each claim's parts, with what the run could see, are in "
+                  "its section below.*"]
+    lines += ["", "Parts: each registered part's outcome. Controls: the claim's own rule on a "
+              "planted effect (must be seen) and on no effect (must stay silent). Gates: the "
+              "models behind the measurements against their registered fitness gates. A null "
+              "control that fires makes a verdict inconclusive; a missed positive control, "
+              "the parts that were not significant; a failed gate, the parts that read its "
+              "model.", "",
+              "| claim | verdict | parts | controls | gates | limited by |",
+              "|---|---|---|---|---|---|"]
     for r in rows:
         cells = [r.claim_id, f"**{r.verdict}**", r.parts, r.controls, r.models, r.limits]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
@@ -207,13 +218,17 @@ def trust_markdown(rows: list[TrustRow], figure: str | None = None) -> list[str]
     return lines + [""]
 
 
-def trust_html(rows: list[TrustRow], figure: str | None = None) -> str:
+def trust_html(rows: list[TrustRow], figure: str | None = None,
+               forest: str | None = None) -> str:
     esc = html.escape
     counts = ", ".join(f"{n} {v}" for v, n in verdict_counts(rows).items())
     body = [f"<h2>How far each verdict can be trusted</h2><p>{len(rows)} claims: "
-            f"{esc(counts)} (registry v{REGISTRY_VERSION}).</p><table><tr><th>claim</th>"
-            "<th>verdict</th><th>parts</th><th>controls</th><th>gates</th><th>limited by</th>"
-            "</tr>"]
+            f"{esc(counts)} (registry v{REGISTRY_VERSION}).</p>"]
+    if forest:
+        body.append(f"<p><img src='{esc(forest)}' alt='every part in units of its δ'></p>")
+    body += ["<table><tr><th>claim</th>"
+             "<th>verdict</th><th>parts</th><th>controls</th><th>gates</th><th>limited by</th>"
+             "</tr>"]
     for r in rows:
         cells = [r.claim_id, r.verdict, r.parts, r.controls, r.models, r.limits]
         body.append("<tr>" + "".join(f"<td>{esc(c.replace('**', ''))}</td>" for c in cells)

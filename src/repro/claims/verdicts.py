@@ -1,9 +1,13 @@
-"""Verdicts of registry version 4: five outcomes per part, five verdicts per claim.
+"""Verdicts of registry version 5: five outcomes per part, five verdicts per claim.
 
 A claim is decided from *parts*; each part is one or more per-seed paired differences
 (``Comparison``), oriented so that a positive difference is the paper's direction, each with
 the smallest effect of interest δ and the measurement's resolution r registered beside it.
 Every outcome comes from the run's own seeds: no seed count registered elsewhere changes it.
+Where δ is a stated fraction of an arm's mean, the per-seed "difference" is a log ratio of
+the two arms (``log_ratios``) and δ the same boundary on the log scale (``log_margin``): a
+relative effect that is steady across seeds while the arms' level is not has the spread of
+the ratio, not of the level.
 
 Per part (``decide_parts``):
 
@@ -34,8 +38,10 @@ at least one effect part is supported (a non-inferiority part — "not worse" �
 claim partial on its own); *not reproduced* if every effect part is absent or contradicted
 (a finding: the intersection–union test needs no correction); *inconclusive* otherwise,
 naming each undecided part and why; *discrepancy in the paper* for exact checks of printed
-formulas. A failed positive control or a null control that fires makes the claim
-inconclusive; a model that failed its fitness gate makes inconclusive the parts that read it
+formulas. A null control that fires (it guards false positives) makes the claim
+inconclusive; a missed positive control (it guards false negatives) makes inconclusive only
+the parts that were not significant (absent, inconclusive) — a supported or contradicted
+part stands; a model that failed its fitness gate makes inconclusive the parts that read it
 (``apply_controls``).
 """
 
@@ -48,7 +54,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy import stats
 
-from repro.claims.power import ALPHA, minimum_detectable_effect
+from repro.claims.power import ALPHA, MOST_SEEDS, minimum_detectable_effect, seeds_to_see
 from repro.core.stats import t_interval
 
 SUPPORTED = "supported"
@@ -95,6 +101,9 @@ class Part:
     resolution: float = 0.0
     resolution_reason: str = "continuous measurement"
     kind: Kind = "effect"
+    #: what a comparison's differences are: "difference" (in the measurement's units) or
+    #: "log ratio" (``log_ratios``; δ and the resolution on the log scale)
+    scale: str = "difference"
 
 
 @dataclass(frozen=True)
@@ -188,11 +197,16 @@ def holm(p_values: Sequence[float], alpha: float = ALPHA) -> list[bool]:
 
 
 def best_option(claimed: str, per_option: Mapping[str, Sequence[float]], *,
-                lower_is_better: bool, fraction: float) -> list[Comparison]:
+                lower_is_better: bool, fraction: float, log_ratio: bool = False,
+                step: float = 0.0) -> list[Comparison]:
     """"``claimed`` is the best option" as one comparison per other option, seed by seed
-    (claimed better → positive), δ = ``fraction`` × |mean of the other option|. An option
-    identical to ``claimed`` in every seed (an exact tie) gives all-zero differences, which
-    come out *below resolution*: neither better nor worse."""
+    (claimed better → positive), δ = ``fraction`` × |mean of the other option|. With
+    ``log_ratio`` each comparison is the per-seed log ratio, better over worse
+    (``log_ratios``, offset half a ``step`` for a counted measurement), and δ the same
+    boundary on the log scale (``log_margin``: log(1 + φ) for higher-is-better, where the
+    other option is the denominator; −log(1 − φ) for lower-is-better, where it is the
+    numerator). An option identical to ``claimed`` in every seed (an exact tie) gives
+    all-zero differences, which come out *below resolution*: neither better nor worse."""
     if claimed not in per_option:
         raise ValueError(f"option {claimed!r} not measured; have {sorted(per_option)}")
     sign = -1.0 if lower_is_better else 1.0
@@ -202,9 +216,72 @@ def best_option(claimed: str, per_option: Mapping[str, Sequence[float]], *,
         if other == claimed:
             continue
         theirs = np.asarray(values, dtype=np.float64)
-        comparisons.append(Comparison(f"vs {other}", (sign * (mine - theirs)).tolist(),
-                                      fraction * abs(float(theirs.mean()))))
+        if not log_ratio:
+            comparisons.append(Comparison(f"vs {other}", (sign * (mine - theirs)).tolist(),
+                                          fraction * abs(float(theirs.mean()))))
+            continue
+        better, worse = (theirs, mine) if lower_is_better else (mine, theirs)
+        comparisons.append(Comparison(
+            f"vs {other}", log_ratios(better.tolist(), worse.tolist(), offset=step / 2,
+                                      what=f"{claimed} vs {other}"),
+            log_margin(fraction, of="numerator" if lower_is_better else "denominator"),
+            log_resolution(better.tolist(), worse.tolist(), step)))
     return comparisons
+
+
+def log_margin(fraction: float, *, of: Literal["numerator", "denominator"],
+               factor: float = 1.0, kind: Kind = "effect") -> float:
+    """δ on the log scale of a part registered as f·a − b > 0 with δ = φ × the mean of one
+    arm (φ = ``fraction``, f = ``factor``), at the same boundary:
+
+    - effect, φ of b: f·a − b ≥ φ·b ⇔ log(f·a/b) ≥ log(1 + φ);
+    - effect, φ of a: f·a − b ≥ φ·a ⇔ log(f·a/b) ≥ log(f/(f − φ)) = −log(1 − φ/f);
+    - non-inferiority (f·a − b > −δ), φ of b: log(f·a/b) > log(1 − φ), δ = −log(1 − φ);
+    - non-inferiority, φ of a: log(f·a/b) > log(f/(f + φ)), δ = log(1 + φ/f)."""
+    upper = {("effect", "numerator"): factor, ("non-inferiority", "denominator"): 1.0}.get(
+        (kind, of), np.inf)
+    if not 0.0 < fraction < upper:
+        raise ValueError(f"a log margin of a {kind} part with δ a fraction of the {of} needs "
+                         f"0 < φ < {upper:g}; got φ = {fraction}")
+    if kind == "effect":
+        return float(np.log1p(fraction) if of == "denominator"
+                     else -np.log1p(-fraction / factor))
+    return float(-np.log1p(-fraction) if of == "denominator" else np.log1p(fraction / factor))
+
+
+def log_ratios(numerator: Sequence[Any], denominator: Sequence[Any], *, factor: float = 1.0,
+               offset: float = 0.0, what: str = "a log-ratio part") -> list[float]:
+    """log((f·a + o) / (b + o)) seed by seed (f = ``factor``, o = ``offset``: half an item of
+    a counted measurement, so that a zero count keeps a ratio); seeds where either value is
+    None (undefined) are left out. A ratio is a comparison of positive amounts: a value at or
+    below zero raises a ValueError naming ``what``, the seed and the values (a ratio of a
+    signed quantity is not a ratio)."""
+    if len(numerator) != len(denominator):
+        raise ValueError(f"{what}: paired values need the same seeds: {len(numerator)} vs "
+                         f"{len(denominator)} values")
+    out = []
+    for index, (a, b) in enumerate(zip(numerator, denominator, strict=True)):
+        if a is None or b is None:
+            continue
+        top, bottom = factor * float(a) + offset, float(b) + offset
+        if not (top > 0 and bottom > 0 and float(a) >= 0 and float(b) >= 0):
+            raise ValueError(f"{what}: seed {index} has {float(a):g} and {float(b):g}; a log "
+                             "ratio compares positive amounts (a ratio of a signed quantity is "
+                             "not a ratio)")
+        out.append(float(np.log(top / bottom)))
+    return out
+
+
+def log_resolution(numerator: Sequence[Any], denominator: Sequence[Any], step: float
+                   ) -> float:
+    """The resolution of a log ratio of counted measurements: one item (``step``) at the
+    lower arm's mean level m, log(1 + step/(m + step/2)) — the most one item moves the log
+    ratio; 0 for a continuous measurement (``step`` 0)."""
+    if step <= 0:
+        return 0.0
+    levels = [np.mean([float(v) for v in arm if v is not None] or [0.0])
+              for arm in (numerator, denominator)]
+    return float(np.log1p(step / (max(min(levels), 0.0) + step / 2)))
 
 
 def _resolution(comparison: Comparison, part: Part) -> float:
@@ -226,17 +303,25 @@ def _floor(comparison: Comparison, part: Part) -> float:
 
 def _part_numbers(part: Part, comparisons: list[Comparison], parts_tested: int
                   ) -> dict[str, Any]:
-    """Per comparison: mean, 95 % interval, n, δ, the spread tested with and the minimum
-    detectable effect at this run's n and spread (80 % power at α/parts: Holm's first step)."""
-    numbers: dict[str, Any] = {"resolution": part.resolution}
+    """Per comparison: mean, 95 % interval, n, δ, the spread tested with, the resolution, the
+    minimum detectable effect at this run's n and spread (80 % power at α/parts: Holm's
+    first step) and the seeds that would see δ at that spread (``power.seeds_to_see``; None
+    and ``spread_unknown`` with one seed or no spread: nothing to plan from)."""
+    numbers: dict[str, Any] = {"resolution": part.resolution, "scale": part.scale}
+    alpha = ALPHA / max(parts_tested, 1)
     for c in comparisons:
         interval = t_interval(c.differences)
         spread = _spread(c.differences, _floor(c, part))
         numbers[c.label or "difference"] = {
             "mean": interval.mean, "low": interval.low, "high": interval.high, "n": interval.n,
             "smallest_effect": c.smallest_effect, "spread": spread,
-            "minimum_detectable_effect": minimum_detectable_effect(
-                interval.n, spread, alpha=ALPHA / max(parts_tested, 1))}
+            "resolution": _resolution(c, part),
+            "minimum_detectable_effect": minimum_detectable_effect(interval.n, spread,
+                                                                   alpha=alpha),
+            "seeds_to_see_delta": (None if interval.n < 2 or spread == 0.0 else
+                                   seeds_to_see(c.smallest_effect, spread, alpha=alpha))}
+        if interval.n < 2 or spread == 0.0:   # no spread measured: nothing to plan seeds from
+            numbers[c.label or "difference"]["spread_unknown"] = True
     return numbers
 
 
@@ -290,14 +375,25 @@ def decide_parts(parts: Sequence[Part], measured: Measured) -> list[PartResult]:
     return results
 
 
+def _units(part: Part) -> str:
+    return " in log ratio" if part.scale == "log ratio" else ""
+
+
 def _could_see(comparisons: list[Comparison], numbers: Mapping[str, Any]) -> str:
-    """"this run could see X (80 % power, n seeds, its own spread); δ is Y" per comparison."""
+    """"this run could see X (80 % power, n seeds, its own spread); δ is Y; N seeds would see
+    δ at this spread" per comparison."""
     words = []
     for c in comparisons:
         row = numbers[c.label or "difference"]
         label = f"{c.label}: " if c.label else ""
+        seeds = row.get("seeds_to_see_delta")
+        needed = ("no spread measured to say how many seeds would see δ"
+                  if row.get("spread_unknown") else
+                  f"{seeds} seeds would see δ at this spread" if seeds is not None
+                  else f"no seed count up to {MOST_SEEDS:,} would see δ at this spread")
         words.append(f"{label}this run could see {row['minimum_detectable_effect']:.3g} (80 % "
-                     f"power, {row['n']} seeds, its own spread); δ is {c.smallest_effect:.3g}")
+                     f"power, {row['n']} seeds, its own spread); δ is {c.smallest_effect:.3g}; "
+                     f"{needed}")
     return "; ".join(words)
 
 
@@ -307,7 +403,8 @@ def _outcome(part: Part, comparisons: list[Comparison], supported: bool, contrad
     ties = [c.label or "difference" for c in comparisons if _below(c, part)]
     if len(ties) == len(comparisons):
         return PartResult(part.name, BELOW_RESOLUTION, f"every difference within ±"
-                          f"{part.resolution:.3g} ({part.resolution_reason})", numbers)
+                          f"{_resolution(comparisons[0], part):.3g}{_units(part)} "
+                          f"({part.resolution_reason})", numbers)
     if n < 2:
         return PartResult(part.name, INCONCLUSIVE, "one seed cannot decide a direction",
                           numbers)
@@ -323,9 +420,10 @@ def _outcome(part: Part, comparisons: list[Comparison], supported: bool, contrad
         return PartResult(part.name, CONTRADICTED, "significantly against the paper's "
                           "direction (Holm)", numbers)
     if ties:
+        tied = [c for c in comparisons if _below(c, part)]
         return PartResult(part.name, BELOW_RESOLUTION, f"{', '.join(ties)}: every difference "
-                          f"within ±{part.resolution:.3g} (an exact tie at "
-                          f"{part.resolution_reason})", numbers)
+                          f"within ±{_resolution(tied[0], part):.3g}{_units(part)} (an exact "
+                          f"tie at {part.resolution_reason})", numbers)
     if part.kind == "effect" and all(equivalent(c.differences, c.smallest_effect,
                                                 _floor(c, part)) for c in comparisons):
         deltas = ", ".join(f"{c.smallest_effect:.3g}" for c in comparisons)
@@ -365,30 +463,56 @@ def exact_decision(verdict: str, reason: str, checks: Mapping[str, bool]) -> Dec
     return Decision(verdict, reason, {r.name: r.outcome for r in results}, results)
 
 
+def _missed_control(result: PartResult, control: str) -> PartResult:
+    """A non-significant part under a missed positive control: inconclusive, saying why."""
+    return PartResult(result.name, INCONCLUSIVE, f"the positive control missed ({control}): "
+                      f"this measurement did not see an effect of the registered size, so a "
+                      f"non-significant result says nothing (without it: {result.outcome} — "
+                      f"{result.reason})", result.numbers)
+
+
 def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
                    quality_gates: Mapping[str, bool] | None = None,
                    gate_reads: Mapping[str, Sequence[str] | None] | None = None,
                    parts: Sequence[Part] | None = None) -> Decision:
     """The claim's decision after its controls and fitness gates.
 
-    A positive control (the registered effect planted) that is not reproduced, or a null
-    control (no effect) that comes out reproduced or partially, makes the claim inconclusive:
-    the measurement itself is in question. A failed gate makes inconclusive the parts that
-    read its model (``gate_reads``: gate name → part names; absent or None: every part; []: a
-    model no part rests on, shown but never deciding), and the verdict is combined again from
-    the parts (``parts``: their kinds)."""
-    problems = []
+    The two controls guard different errors. The null control (no effect planted) guards
+    false positives: if it comes out reproduced or partially, the measurement finds effects
+    where there are none, so no outcome of the claim can be trusted and the claim is
+    inconclusive. The positive control (the registered δ planted) guards false negatives: if
+    it is not reproduced, the measurement could not see δ, which says nothing against a part
+    that *was* significant (supported or contradicted after Holm: its error rate is α
+    whatever the power), but makes a non-significant one (absent, inconclusive) uninformative.
+    So a missed positive control turns only the absent and inconclusive parts inconclusive,
+    each with the reason, and the verdict is combined again from the parts. A failed gate
+    makes inconclusive the parts that read its model (``gate_reads``: gate name → part names;
+    absent or None: every part; []: a model no part rests on, shown but never deciding), and
+    the verdict is combined again (``parts``: their kinds)."""
     positive, null = controls.get("positive"), controls.get("null")
-    if positive is not None and positive.verdict != REPRODUCED:
-        problems.append(f"failed positive control: the measurement cannot see an effect of "
-                        f"the registered size (control: {positive.verdict})")
     if null is not None and null.verdict in (REPRODUCED, PARTIAL):
-        problems.append(f"the null control fired: the measurement finds an effect where none "
-                        f"was planted (control: {null.verdict})")
-    if problems:
-        return Decision(INCONCLUSIVE, "; ".join(problems) + f" — without controls: "
-                        f"{decision.verdict}: {decision.reason}", dict(decision.checks),
-                        list(decision.parts))
+        problem = (f"the null control fired: the measurement finds an effect where none was "
+                   f"planted (control: {null.verdict})")
+        if positive is not None and positive.verdict != REPRODUCED:
+            problem += f"; the positive control missed too (control: {positive.verdict})"
+        return Decision(INCONCLUSIVE, f"{problem} — without controls: {decision.verdict}: "
+                        f"{decision.reason}", dict(decision.checks), list(decision.parts))
+    if positive is not None and positive.verdict != REPRODUCED:
+        control = f"control: {positive.verdict}"
+        if not decision.parts or decision.verdict == PAPER_DISCREPANCY:
+            return Decision(INCONCLUSIVE, f"failed positive control ({control}) — without "
+                            f"controls: {decision.verdict}: {decision.reason}",
+                            dict(decision.checks), list(decision.parts))
+        results = [_missed_control(p, control) if p.outcome in (ABSENT, INCONCLUSIVE) else p
+                   for p in decision.parts]
+        controlled = Decision(combine(results, parts), "", {r.name: r.outcome for r in results},
+                              results)
+        missed = (f"failed positive control ({control}): the significant parts stand, the "
+                  "others are inconclusive; ")
+        controlled.reason = missed + controlled.parts_in_words()
+        decision = controlled
+    else:
+        missed = ""
     # a gate whose model no part reads (``reads`` = []) is reported, never decides
     failed = [name for name, ok in (quality_gates or {}).items()
               if not ok and (gate_reads or {}).get(name, None) != []]
@@ -410,6 +534,6 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
     verdict = (INCONCLUSIVE if not names or decision.verdict == PAPER_DISCREPANCY
                else combine(results, parts))
     gated = Decision(verdict, "", {r.name: r.outcome for r in results}, results)
-    gated.reason = (f"failed fitness gate: {', '.join(failed)}; "
+    gated.reason = (f"{missed}failed fitness gate: {', '.join(failed)}; "
                     + (gated.parts_in_words() or f"without it: {decision.verdict}"))
     return gated

@@ -27,6 +27,7 @@ import numpy as np
 from repro.claims.registry import get_claim
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
 from repro.core.tables import interval_text, markdown_table
+from repro.energymogen import rule_settings
 from repro.energymogen.config import (
     HELD_OUT_PAIRS,
     NEGATION_CASES,
@@ -103,8 +104,9 @@ def emg23_results(study: Mapping[str, Any] | NotMeasurable,
     ``data.NotMeasurable``) both are not measurable on real data: nothing is recorded as
     measured (``claims.result.not_measurable_result``)."""
     if isinstance(study, NotMeasurable):
-        return (not_measurable_result("EMG-2", study.reason, seeds, models=models),
-                not_measurable_result("EMG-3", study.reason, seeds, models=models))
+        used = rule_settings.emg23(settings)
+        return (not_measurable_result("EMG-2", study.reason, seeds, settings=used, models=models),
+                not_measurable_result("EMG-3", study.reason, seeds, settings=used, models=models))
     config, per_case, extra23 = settings.pipeline, settings.negation_items_per_case, study["extra"]
     choice_note = (f"Guidance s = {config.guidance_scale}; Eq. 7 w_i = s; Eq. 8 w = s; Eq. 9 "
                    "conjunction w^s = (1, 1), negation w^s = (1, −0.5), guided with s. "
@@ -131,7 +133,8 @@ def emg23_results(study: Mapping[str, Any] | NotMeasurable,
                     f"{np.mean(m['baseline_negated_present']):.2f}; kept "
                     f"{np.mean(m['negation_kept_present']):.2f} vs "
                     f"{np.mean(m['baseline_kept_present']):.2f}")
-        return ClaimResult(claim_id, m, seeds=seeds, controls=controls[claim_id], models=models,
+        return ClaimResult(claim_id, m, seeds=seeds, settings=rule_settings.emg23(settings),
+                           controls=controls[claim_id], models=models,
                            figures=figures, headline=headline, notes=choice_note,
                            extra={**emg_extra,
                                   "control_calibration": controls[claim_id].planted})
@@ -199,7 +202,8 @@ def emg5_result(results: Results, timelines: Results | NotMeasurable,
     data folder (``timelines`` a ``data.NotMeasurable``: the λ rows compose concepts) not
     measurable on real data (``claims.result.not_measurable_result``)."""
     if isinstance(timelines, NotMeasurable):
-        return not_measurable_result("EMG-5", timelines.reason, seeds, models=models)
+        return not_measurable_result("EMG-5", timelines.reason, seeds, models=models,
+                                     settings=rule_settings.emg5(settings))
     t7_keys = [lambda_key(lam) for lam in TABLE7_LAMBDAS]
     r3 = {key: results[key]["r_precision_top3"] for key in t7_keys}
     trans_all = {key: results[key]["transition_distance"] for key in t7_keys}
@@ -224,7 +228,8 @@ def emg5_result(results: Results, timelines: Results | NotMeasurable,
              "control_calibration": controls.planted}
     measured = {"r_precision_top3": r3, "transition_distance_at_transitions": trans,
                 "transition_speed_ratio": ratio, "transition_distance": trans_all}
-    return ClaimResult("EMG-5", measured, seeds=seeds, controls=controls, models=models,
+    return ClaimResult("EMG-5", measured, seeds=seeds, settings=rule_settings.emg5(settings),
+                       controls=controls, models=models,
                        figures=figures, headline=headline,
                        notes=_common_notes(settings) + " λ grid with AGD off.", extra=extra)
 
@@ -258,5 +263,6 @@ def emg4_result(results: Results, agd_change: Mapping[str, float],
              "table": {k: table[k] for k in gkeys}, "control_calibration": controls.planted}
     return ClaimResult("EMG-4", {"r_precision_top3": {key: results[key]["r_precision_top3"]
                                                       for key in gkeys}},
-                       seeds=seeds, controls=controls, models=models, figures=figures,
-                       headline=headline, notes=notes, extra=extra)
+                       seeds=seeds, settings=rule_settings.emg4(settings), controls=controls,
+                       models=models, figures=figures, headline=headline, notes=notes,
+                       extra=extra)

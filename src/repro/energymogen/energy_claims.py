@@ -21,6 +21,7 @@ import numpy as np
 
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
 from repro.core.tables import interval_text, markdown_table, render
+from repro.energymogen import rule_settings
 from repro.energymogen.data import NotMeasurable
 from repro.energymogen.energy import MAP_KINDS
 from repro.energymogen.settings import EnergyViewSettings
@@ -81,7 +82,8 @@ def emg1_result(energy_view: Mapping[str, Any], field: Mapping[str, Any],
                                                         np.median(v, axis=1).tolist(),
                                                         strict=True))
                                          for name, v in asym.items()}}
-    return ClaimResult("EMG-1", measured, seeds=[seed], models=models, figures=figures,
+    return ClaimResult("EMG-1", measured, seeds=[seed], settings=rule_settings.emg1(settings),
+                       models=models, figures=figures,
                        headline=headline, notes=notes, extra=extra)
 
 
@@ -126,7 +128,8 @@ def emg6_result(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]] | Not
     one list of ``energy.energy_map_case`` results per seed); on a data folder (``cases`` a
     ``NotMeasurable``) not measurable on real data (``claims.result.not_measurable_result``)."""
     if isinstance(cases, NotMeasurable):
-        return not_measurable_result("EMG-6", cases.reason, seeds, models=models)
+        return not_measurable_result("EMG-6", cases.reason, seeds,
+                                     settings=rule_settings.emg6(settings), models=models)
     headline = ("Pearson r with the multi-concept map, floor / composed / ceiling: " + "; ".join(
         f"{kind} " + "/".join(f"{np.mean(measured[f'{kind}_similarity_{what}']):.3f}"
                               for what in ("floor", "to_multi", "ceiling"))
@@ -147,7 +150,8 @@ def emg6_result(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]] | Not
     extra = {"cases": {kind: [[{k: c[k] for k in _CASE_KEYS} for c in found]
                               for found in per_seed] for kind, per_seed in cases.items()},
              "control_calibration": controls.planted}
-    return ClaimResult("EMG-6", dict(measured), seeds=seeds, controls=controls, models=models,
+    return ClaimResult("EMG-6", dict(measured), seeds=seeds,
+                       settings=rule_settings.emg6(settings), controls=controls, models=models,
                        figures=figures, headline=headline, notes=notes, extra=extra)
 
 

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
+from repro.energymogen import rule_settings
 from repro.energymogen.data import NotMeasurable
 from repro.energymogen.latent_count import PAPER_TABLE8
 from repro.energymogen.settings import AugmentationSettings, LatentCountSettings
@@ -67,7 +68,8 @@ def emg7_result(results: Mapping[str, Any], settings: LatentCountSettings,
              "counts_not_run": list(settings.counts_not_run),
              "test_clips": test_clips, "control_calibration": controls.planted}
     return ClaimResult("EMG-7", {"reconstruction_error": recon_error, "generation_fid": gen_fid},
-                       seeds=seeds, controls=controls, models=models, figures=figures,
+                       seeds=seeds, settings=rule_settings.emg7(settings, test_clips),
+                       controls=controls, models=models, figures=figures,
                        headline=headline, notes=notes, extra=extra)
 
 
@@ -85,7 +87,8 @@ def emg8_result(results: Mapping[str, Any] | NotMeasurable, settings: Augmentati
     (``results`` a ``data.NotMeasurable``) not measurable on real data
     (``claims.result.not_measurable_result``; the models' gates are kept)."""
     if isinstance(results, NotMeasurable):
-        return not_measurable_result("EMG-8", results.reason, seeds, models=models)
+        return not_measurable_result("EMG-8", results.reason, seeds, models=models,
+                                     settings=rule_settings.emg8(settings, test_clips))
     config, plan, size = settings.pipeline, settings.plan, settings.composed_set_size
     t2m, held_out = results["t2m"], results["held_out"]
     finetune_steps = [r.steps for r in results["training"]["control"]]
@@ -129,5 +132,7 @@ def emg8_result(results: Mapping[str, Any] | NotMeasurable, settings: Augmentati
              "training": {row: [r.to_dict() for r in results["training"][row]]
                           for row in ("control", "augmented")},
              "plan": dataclasses.asdict(plan), "control_calibration": controls.planted}
-    return ClaimResult("EMG-8", measured, seeds=seeds, controls=controls, models=models,
+    return ClaimResult("EMG-8", measured, seeds=seeds,
+                       settings=rule_settings.emg8(settings, test_clips), controls=controls,
+                       models=models,
                        figures=figures, headline=headline, notes=notes, extra=extra)

@@ -26,7 +26,7 @@ import numpy as np
 from repro.claims.result import ClaimResult, Controls
 from repro.core.stats import paired_difference, t_interval
 from repro.core.tables import interval_text, markdown_table, render
-from repro.gmd import emphasis_arms
+from repro.gmd import emphasis_arms, rule_settings
 from repro.gmd.emphasis import GMD_RELEASED_CONDITION_NUMBER, EmphasisProjection, drowned_directions
 from repro.gmd.emphasis_study import ProjectionSettings, Results, Settings
 from repro.gmd.guidance import default_stop_step
@@ -210,7 +210,8 @@ def c4_result(results: Results, settings: Settings, base: GMDModelSpec, seeds: S
         measured["foot_skating_emphasis"][f"{v:g}"])) for v in values}
     other = {v.label: results.imputed[v.label] for v in results.variants + results.outside_rule}
     return ClaimResult(
-        "GMD-C4", measured, seeds=list(seeds), controls=controls, models=list(model_records),
+        "GMD-C4", measured, seeds=list(seeds), settings=rule_settings.c4(settings),
+        controls=controls, models=list(model_records),
         figures=list(figures),
         headline="foot skating (loss k − Emphasis c, m/s): " + ", ".join(
             f"v={v}: {differences[f'{v:g}'].mean:+.3f} [{differences[f'{v:g}'].low:+.3f}, "

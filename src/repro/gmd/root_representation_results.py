@@ -21,7 +21,7 @@ import torch
 
 from repro.claims.result import ClaimResult
 from repro.core.tables import markdown_table
-from repro.gmd import figures, model_gates, readings, table_b1
+from repro.gmd import figures, model_gates, readings, rule_settings, table_b1
 from repro.gmd import location_imputation as li
 from repro.gmd.cfg import GMD_CFG_SCALE
 from repro.gmd.controls import b2_controls
@@ -283,8 +283,8 @@ def b2_result(runs: Mapping[int, Mapping[str, li.ImputationRun]],
     controls = b2_controls(test, tasks, seeds)
     first = seeds[0]
     return ClaimResult(
-        "GMD-B2", measured, seeds=seeds, figures=list(figures), controls=controls,
-        models=list(models),
+        "GMD-B2", measured, seeds=seeds, settings=rule_settings.b2(settings),
+        figures=list(figures), controls=controls, models=list(models),
         headline=(f"imputation: abs {mean['abs_imputation']:.3f} m vs rel "
                   f"{mean['rel_imputation']:.3f} m; guidance: abs {mean['abs_guidance']:.3f} "
                   f"m vs rel {mean['rel_guidance']:.3f} m ({len(seeds)} seeds × "
@@ -388,8 +388,8 @@ def b3_result(rows: Mapping[str, list[dict[str, float]]], b3: B3Evaluation,
     controls = b3_controls(b3.evaluator, b3.evaluation, b3.real_row, seeds,
                            **settings.b3_control_options)
     return ClaimResult(
-        "GMD-B3", measured, seeds=seeds, figures=list(figures), controls=controls,
-        models=list(models),
+        "GMD-B3", measured, seeds=seeds, settings=rule_settings.b3(settings),
+        figures=list(figures), controls=controls, models=list(models),
         headline=(f"FID rel {mean['fid_rel']:.3f} vs abs {mean['fid_abs']:.3f}; R@3 rel "
                   f"{mean['r_precision_top3_rel']:.3f} vs abs "
                   f"{mean['r_precision_top3_abs']:.3f}; Diversity rel "

@@ -21,7 +21,7 @@ import torch
 
 from repro.claims.result import ClaimResult, Controls
 from repro.gmd import guidance_schedule as gs
-from repro.gmd import model_gates
+from repro.gmd import model_gates, rule_settings
 from repro.gmd.coefficients import schedule_diffusion
 from repro.gmd.guidance import guidance_parameters
 from repro.gmd.models import GMDModelSpec, TrainedGMD, describe, is_cached, load_or_train_many
@@ -427,6 +427,7 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
         "timings_s": {k: round(v, 1) for k, v in timings.items()},
         "controls_planted": controls.planted,
     }
-    return ClaimResult("GMD-F1", measured, seeds=sweeps.seeds, controls=controls,
+    return ClaimResult("GMD-F1", measured, seeds=sweeps.seeds,
+                       settings=rule_settings.f1(settings), controls=controls,
                        models=list(model_records), figures=list(figures), headline=headline,
                        notes=notes, extra=extra)

@@ -21,7 +21,7 @@ import numpy as np
 
 from repro.claims.result import ClaimResult
 from repro.core.diffusion import GaussianDiffusion
-from repro.gmd import controls_a3, model_gates
+from repro.gmd import controls_a3, model_gates, rule_settings
 from repro.gmd.coefficients import c_identity_error
 from repro.gmd.controls import a4_controls
 from repro.gmd.guidance import guidance_parameters, sample
@@ -227,7 +227,8 @@ def a3_result(study: A3Study, guided_models: dict[tuple[str, int], TrainedGMD],
          "best_gain_survival_eps": finite(survival["epsilon"]),
          "guided_change_survival_x0": finite(stop_survival["x0"]),
          "guided_change_survival_eps": finite(stop_survival["epsilon"])},
-        seeds=seeds, figures=[figure], controls=controls, models=list(models),
+        seeds=seeds, settings=rule_settings.a3(settings), figures=[figure], controls=controls,
+        models=list(models),
         headline=(f"goal error x0 {np.mean(goal_error['x0']):.2f} m vs ε "
                   f"{np.mean(goal_error['epsilon']):.2f} m (unguided "
                   f"{np.mean(study.seed_means('x0', 'error_unguided')):.2f} / "
@@ -387,7 +388,8 @@ def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], Trai
         "GMD-A4",
         {k: a4[k] for k in ("motion_jitter_eps", "motion_jitter_x0", "motion_fid_eps",
                             "motion_fid_x0", "trajectory_jitter_eps", "trajectory_jitter_x0")},
-        seeds=seeds, figures=list(figures), controls=controls, models=records.models,
+        seeds=seeds, settings=rule_settings.a4(settings), figures=list(figures),
+        controls=controls, models=records.models,
         headline=(f"motion jerk ε/x0 = {ratio['motion_jitter']:.2f}, FID ε "
                   f"{np.mean(a4['motion_fid_eps']):.2f} vs x0 {np.mean(a4['motion_fid_x0']):.2f} "
                   f"(real {real_fid:.2f}); trajectory jerk ε/x0 = "
