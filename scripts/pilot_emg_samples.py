@@ -1,0 +1,63 @@
+"""Pilot: do the EnergyMoGen pipeline's reference models pass gates version 4's sample gates?
+
+Loads (training on a miss) the standard scale's pipeline of one training seed, exactly as
+notebooks 04 and 05 do (``config.pipeline_config``, the scale's ``TrainingPlan``), and
+measures on notebook 07's held-out text-to-motion test set what the ``vae`` and
+``latent_denoiser`` records measure in the reference role (``model_gates.pipeline_records``):
+reconstructions' jerk and foot skating, decoded samples' speeds, jerk, skating and concept
+recall, each against the test clips. One JSON line goes to ``--out``::
+
+    PYTHONPATH=src python scripts/pilot_emg_samples.py --scale standard --seed 0 \\
+        --out pilots/emg_samples.jsonl
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import torch
+
+from repro.energymogen import model_gates
+from repro.energymogen.config import pipeline_config
+from repro.energymogen.harness import load_or_build_text_to_motion_test
+from repro.energymogen.pipeline import SeedPipelines, load_pipeline
+from repro.energymogen.settings import EnergyViewSettings, LatentCountSettings
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scale", default="standard")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--label", default="standard pipeline")
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    started = time.perf_counter()
+    config = pipeline_config(args.scale)
+    plan = EnergyViewSettings.for_scale(args.scale).plan
+    pipe = SeedPipelines(load_pipeline(config, "cpu", plan=plan))(args.seed)
+    trained_s = time.perf_counter() - started
+    test = load_or_build_text_to_motion_test(
+        config, LatentCountSettings.for_scale(args.scale).test_clips, data=pipe.data)
+    vae, denoiser = model_gates.pipeline_records(pipe, test)
+    row = {"label": args.label, "scale": args.scale, "seed": args.seed,
+           "train_and_load_s": round(trained_s, 1), "test_clips": len(test),
+           "gates": {record["family"]: {metric: {k: gate[k] for k in ("value", "data",
+                                                                     "passed")}
+                                        for metric, gate in record["gate"].items()}
+                     for record in (vae, denoiser)}}
+    with args.out.open("a") as handle:
+        handle.write(json.dumps(row) + "\n")
+    for family, gates in row["gates"].items():
+        for metric, gate in gates.items():
+            ratio = (gate["value"] / gate["data"] if gate["data"] and gate["value"] is not None
+                     else None)
+            print(f"{family:16s} {metric:22s} value {gate['value']} data {gate['data']} "
+                  f"ratio {ratio} passed {gate['passed']}")
+
+
+if __name__ == "__main__":
+    main()
