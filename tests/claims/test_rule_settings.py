@@ -11,26 +11,18 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from conftest import settings_classes
 
 from repro.claims.claim import MissingRuleSetting, setting_text
 from repro.claims.registry import CLAIMS, get_claim
 from repro.energymogen import rule_settings as emg_rules
-from repro.energymogen import settings as emg_settings
-from repro.gmd import emphasis_study, guidance_schedule, root_representation, x0_vs_eps
+from repro.gmd import guidance_schedule, x0_vs_eps
 from repro.gmd import rule_settings as gmd_rules
 from repro.infra import paths
 from repro.infra.context import SCALES
 
-#: claim → the Settings class its notebook builds (``for_scale``; the EMG ones' ``for_run``
-#: is ``for_scale`` without a data folder)
-SETTINGS: dict[str, Any] = {
-    "GMD-A3": x0_vs_eps.Settings, "GMD-A4": x0_vs_eps.Settings,
-    "GMD-B2": root_representation.Settings, "GMD-B3": root_representation.Settings,
-    "GMD-C4": emphasis_study.Settings, "GMD-F1": guidance_schedule.Settings,
-    "EMG-1": emg_settings.EnergyViewSettings, "EMG-2": emg_settings.EnergyViewSettings,
-    "EMG-3": emg_settings.EnergyViewSettings, "EMG-6": emg_settings.EnergyViewSettings,
-    "EMG-4": emg_settings.SEFAblationSettings, "EMG-5": emg_settings.SEFAblationSettings,
-    "EMG-7": emg_settings.LatentCountSettings, "EMG-8": emg_settings.AugmentationSettings}
+#: claim → the Settings class its notebook builds
+SETTINGS: dict[str, Any] = settings_classes()
 RULE_SETTINGS = {**gmd_rules.RULE_SETTINGS, **emg_rules.RULE_SETTINGS}
 
 

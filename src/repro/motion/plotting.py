@@ -107,7 +107,14 @@ def animate(joints: np.ndarray, path: str | os.PathLike, *, fps: int = 20,
         ax.axhline(0.0, color="grey", lw=0.5)
         ax.set_title(f"frame {frame}", fontsize=8)
 
-    animation = FuncAnimation(fig, update, frames=range(0, len(joints), stride))
+    return _save_gif(FuncAnimation(fig, update, frames=range(0, len(joints), stride)), fig,
+                     path, fps=fps, stride=stride)
+
+
+def _save_gif(animation: FuncAnimation, fig: plt.Figure, path: str | os.PathLike, *,
+              fps: int, stride: int) -> Path:
+    """Write ``animation`` (every ``stride``-th frame of a ``fps`` clip) as a GIF, atomically
+    (a temporary file renamed into place), and close its figure."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.tmp.gif")
@@ -157,14 +164,8 @@ def animate_side_by_side(clips: Mapping[str, np.ndarray], path: str | os.PathLik
             ax.set_title(textwrap.fill(label, 26), fontsize=7)
         fig.suptitle(f"frame {frame} of {frames}", fontsize=8)
 
-    animation = FuncAnimation(fig, update, frames=range(0, frames, stride))
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp.gif")
-    animation.save(tmp, writer=PillowWriter(fps=max(1, fps // stride)))
-    os.replace(tmp, path)
-    plt.close(fig)
-    return path
+    return _save_gif(FuncAnimation(fig, update, frames=range(0, frames, stride)), fig, path,
+                     fps=fps, stride=stride)
 
 
 def gif_html(path: str | os.PathLike, *, width: int | None = None) -> str:
