@@ -48,8 +48,8 @@ def test_the_gaussian_denoiser_scores_one_a_perfect_model_zero_and_a_constant_mo
     mean_model = fitness.x0_error_ratio(lambda x_t, t: torch.zeros_like(x_t), ALPHAS, held,
                                         _rows, mean, cov, seed=0)
     assert mean_model > 1.0
-    assert not gate_results("latent_denoiser", {"x0_error_vs_gaussian": mean_model})[
-        "x0_error_vs_gaussian"]["passed"]
+    assert not gate_results("latent_denoiser", {"x0_error_vs_gaussian": mean_model},
+                            role="treatment")["x0_error_vs_gaussian"]["passed"]
 
 
 def test_a_model_that_learned_the_clusters_passes_the_gate() -> None:
@@ -63,7 +63,7 @@ def test_a_model_that_learned_the_clusters_passes_the_gate() -> None:
 
     ratio = fitness.x0_error_ratio(clusters, ALPHAS, held, _rows, mean, cov, seed=0)
     assert ratio < 0.5
-    assert gate_results("latent_denoiser", {"x0_error_vs_gaussian": ratio})[
+    assert gate_results("latent_denoiser", {"x0_error_vs_gaussian": ratio}, role="treatment")[
         "x0_error_vs_gaussian"]["passed"]
 
 
@@ -98,7 +98,7 @@ def test_an_evaluator_that_sees_motion_tells_real_windows_from_trivial_fakes() -
     good = fitness.trivial_fid_ratio(sees_motion, train, sees_motion(held), 128, seed=0)
     assert good["ratio"] >= 3.0 and good["real_fid"] < good["shuffled_fid"]
     assert gate_results("evaluator", {"r_precision_top3": 0.9,
-                                      "trivial_fid_ratio": good["ratio"]})[
+                                      "trivial_fid_ratio": good["ratio"]}, role="treatment")[
         "trivial_fid_ratio"]["passed"]
 
     def blind(w: np.ndarray) -> np.ndarray:  # the mean pose only: order-blind
@@ -107,7 +107,7 @@ def test_an_evaluator_that_sees_motion_tells_real_windows_from_trivial_fakes() -
     bad = fitness.trivial_fid_ratio(blind, train, blind(held), 128, seed=0)
     assert bad["shuffled_fid"] == pytest.approx(bad["real_fid"], rel=1e-5)
     assert not gate_results("evaluator", {"r_precision_top3": 0.9,
-                                          "trivial_fid_ratio": bad["ratio"]})[
+                                          "trivial_fid_ratio": bad["ratio"]}, role="treatment")[
         "trivial_fid_ratio"]["passed"]
     given = fitness.trivial_fid_ratio(sees_motion, train, sees_motion(held), 128, seed=0,
                                       real_fid=1.0)

@@ -13,10 +13,11 @@ per-t residual Jacobian asymmetry and loop integrals) · ``fid_checks`` (EMG-9's
 3, 4, 5) · ``three_concepts`` (notebook 05's sets of three, outside the rules) ·
 ``planted`` (the planted sample sets of the controls) · ``noise_calibration`` (the
 FID-vs-noise curve of EMG-7's and 8's controls) · ``latent_count`` (EMG-7) ·
-``model_gates`` (the fitness gates of the VAE, latent denoiser and evaluator) ·
+``model_gates`` (the gates of the VAE, latent denoiser and evaluator) ·
 ``augmentation`` (EMG-8, which measures its fine-tuned denoisers' gate) · ``controls`` (the
 positive and null controls of EMG-2 to 8) · ``settings`` (the settings per notebook and
-scale) · ``energy_claims`` (EMG-1, 6, 9 as notebook 04 records them) ·
+scale) · ``rule_settings`` (what each claim's rule quotes of its run's
+settings) · ``energy_claims`` (EMG-1, 6, 9 as notebook 04 records them) ·
 ``composition_claims`` (EMG-2 to 5 as notebooks 04 and 05 record them) · ``t2m_claims`` (EMG-7
 and 8 as notebooks 07 and 08 record them) · ``figures`` (the notebooks' figures) ·
 ``training_report`` (the notebooks' training tables and validation curves).
