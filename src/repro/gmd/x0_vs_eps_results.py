@@ -164,11 +164,10 @@ def a3_study(guided_models: dict[tuple[str, int], TrainedGMD], test: MotionWindo
     return A3Study(runs, list(seeds), parameters)
 
 
-#: each prediction's role in GMD-A3 and A4 (``core.gates.ROLES``): GMD's ablations start from
-#: x0 and compare ε against it, in motion and in trajectory space alike — A4's trajectory part
-#: compares the two trajectory models' root jerk, so the ε trajectory model is a treatment arm
-#: there, never gated on it (it is GMD-F1's reference: every arm of F1 samples it)
-TRAJECTORY_ROLES = {"x0": "reference", "epsilon": "treatment"}
+#: each prediction's role in GMD-A3 and A4 (``core.gates.ROLES``): GMD's trajectory model
+#: predicts ε and its motion model x0, so those are the reference arms the other is compared
+#: against (and the only arms the sample gates judge)
+TRAJECTORY_ROLES = {"epsilon": "reference", "x0": "treatment"}
 MOTION_ROLES = {"x0": "reference", "epsilon": "treatment"}
 
 
