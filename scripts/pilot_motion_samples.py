@@ -38,13 +38,10 @@ from repro.motion.features import FPS, features_to_joints
 
 
 def motion_stats(joints: np.ndarray) -> dict[str, float]:
-    """Mean joint speed, root horizontal speed (m/s), jerk (m/s³), foot skating (m/s)."""
-    joints = np.asarray(joints, dtype=np.float64)
-    speed = np.linalg.norm(np.diff(joints, axis=1), axis=-1) * FPS
-    root = np.linalg.norm(np.diff(joints[:, :, 0, [0, 2]], axis=1), axis=-1) * FPS
-    return {"joint_speed": float(speed.mean()), "root_speed": float(root.mean()),
-            "jerk": float(metrics.jitter(joints, fps=FPS).jerk),
-            "skating": float(metrics.foot_skating(joints, fps=FPS))}
+    """``metrics.motion_statistics`` under the pilot's short names."""
+    stats = metrics.motion_statistics(np.asarray(joints, dtype=np.float64), fps=FPS)
+    return {"joint_speed": stats["joint_speed"], "root_speed": stats["root_speed"],
+            "jerk": stats["joint_jerk"], "skating": stats["foot_skating"]}
 
 
 def main() -> None:

@@ -258,37 +258,23 @@ def model_record(*, name: str, family: str, values: Mapping[str, float],
 
     ``reads``: the names of the claim's parts that rest on this model (None: every part); a
     model that fails its gate makes only those inconclusive. ``role``: "reference" (every
-    gate of the family) or "treatment" (its fitness gates only, :func:`gates_for`). The
-    record keeps the measured ``values`` and the data's ``reference`` values, so
-    :func:`reading` can judge the same model in another role."""
+    gate of the family) or "treatment" (its fitness gates only, :func:`gates_for`); each gate
+    keeps the model's value and, for a gate relative to the data, the data's."""
     check_role(role)
     gates = gate_results(family, values, reference, role=role)
     return {"name": name, "family": family, "gates_version": GATES_VERSION, "role": role,
             "reads": None if reads is None else [str(part) for part in reads],
             "parameters": parameters, "steps": steps, "train_seconds": train_seconds,
             "converged": converged, "validation_curve": list(validation_curve or []),
-            "values": {k: float(v) for k, v in values.items()},
-            "reference": {k: float(v) for k, v in (reference or {}).items()},
             "gate": gates, "passed": all(g["passed"] for g in gates.values())}
 
 
-def reading(records: Sequence[Mapping[str, Any]], parts: Sequence[str] | None, *,
-            role: str | None = None) -> list[dict[str, Any]]:
-    """Copies of ``records`` whose ``reads`` are ``parts`` (None: every part of the claim) and,
-    with ``role``, judged in that role (the gates recomputed from the record's values): for a
-    notebook that passes the same models to claims that rest on them differently — the
-    absolute-root motion model is GMD-B3's treatment arm and the one model both arms of
-    GMD-F1's second stage sample."""
-    out = []
-    for record in records:
-        copy = {**record, "reads": None if parts is None else [str(p) for p in parts]}
-        if role is not None and role != record.get("role"):
-            gates = gate_results(record["family"], record["values"], record["reference"],
-                                 role=role)
-            copy.update(role=role, gate=gates,
-                        passed=all(g["passed"] for g in gates.values()))
-        out.append(copy)
-    return out
+def reading(records: Sequence[Mapping[str, Any]],
+            parts: Sequence[str] | None) -> list[dict[str, Any]]:
+    """Copies of ``records`` whose ``reads`` are ``parts`` (None: every part of the claim): for
+    a notebook that passes the same models to claims whose parts rest on them differently."""
+    return [{**record, "reads": None if parts is None else [str(p) for p in parts]}
+            for record in records]
 
 
 def _number(value: float | None) -> str:

@@ -31,7 +31,7 @@ from repro.energymogen.studies import (
     gamma_key,
     lambda_key,
 )
-from repro.motion.plotting import animate_side_by_side, filmstrip, save_figure
+from repro.motion.plotting import animate_side_by_side, filmstrip, save_figure, shorten
 
 __all__ = [
     "agd_step_size_figure", "augmentation_figure", "composed_examples_figure",
@@ -508,15 +508,12 @@ def animate_samples(pipes: Mapping[str, EnergyMoGenPipeline], test: TextToMotion
     count = min(count, len(test))
     texts = test.texts(seed)[:count]
     first = next(iter(pipes.values()))
-    clips = {f"data: {_short(t)}": joints
+    clips = {f"data: {shorten(t)}": joints
              for t, joints in zip(texts, first.joints(test.features[:count]), strict=True)}
     for label, pipe in pipes.items():
         joints = pipe.joints(pipe.decode(pipe.sample(Sampler("single"), [], texts, seed,
                                                      batch=count)))
         for t, clip in zip(texts, joints, strict=True):
-            clips[f"{label}: {_short(t)}"] = clip
+            clips[f"{label}: {shorten(t)}"] = clip
     return animate_side_by_side(clips, path, columns=count)
 
-
-def _short(caption: str, width: int = 44) -> str:
-    return caption if len(caption) <= width else caption[: width - 1] + "…"

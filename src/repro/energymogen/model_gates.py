@@ -159,9 +159,9 @@ def data_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dic
     """The sample gates' reference: ``metrics.motion_statistics`` of the test clips' joints
     and the oracles' recall of their concepts (:func:`real_concept_recall`; NaN on a data
     folder, where the recall gate does not apply)."""
+    recall = real_concept_recall(pipe, test)
     return {**metrics.motion_statistics(pipe.joints(test.features)),
-            "concept_recall": real_concept_recall(pipe, test),
-            "concept_preservation": real_concept_recall(pipe, test)}
+            "concept_recall": recall, "concept_preservation": recall}
 
 
 @torch.no_grad()

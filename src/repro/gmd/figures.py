@@ -35,7 +35,7 @@ from repro.gmd.table_b1 import (
 )
 from repro.gmd.windows import FeatureSpace, MotionWindows, short_label
 from repro.motion.features import features_to_joints, relative_to_absolute_root
-from repro.motion.plotting import animate_side_by_side
+from repro.motion.plotting import animate_side_by_side, shorten
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -573,7 +573,7 @@ def animate_samples(models: Mapping[str, TrainedGMD], test: MotionWindows,
     evaluation = evaluation_set(test, count, seed=seed)
     count = len(evaluation)
     captions = evaluation.captions[:count]
-    clips = {f"data: {_short(c)}": features_to_joints(evaluation.features[k].astype(np.float64))
+    clips = {f"data: {shorten(c)}": features_to_joints(evaluation.features[k].astype(np.float64))
              for k, c in enumerate(captions)}
     for label, model in models.items():
         if model.vocabulary is not None:
@@ -583,9 +583,6 @@ def animate_samples(models: Mapping[str, TrainedGMD], test: MotionWindows,
                 features = model.space.relative_features(
                     sample(model, count, seed=seed)).numpy()
         for k, c in enumerate(captions):
-            clips[f"{label}: {_short(c)}"] = features_to_joints(features[k].astype(np.float64))
+            clips[f"{label}: {shorten(c)}"] = features_to_joints(features[k].astype(np.float64))
     return animate_side_by_side(clips, path, columns=count)
 
-
-def _short(caption: str, width: int = 44) -> str:
-    return caption if len(caption) <= width else caption[: width - 1] + "…"

@@ -168,6 +168,11 @@ def animate_side_by_side(clips: Mapping[str, np.ndarray], path: str | os.PathLik
                      fps=fps, stride=stride)
 
 
+def shorten(text: str, width: int = 44) -> str:
+    """``text`` cut to ``width`` characters with an ellipsis (a panel's title)."""
+    return text if len(text) <= width else text[: width - 1] + "…"
+
+
 def gif_html(path: str | os.PathLike, *, width: int | None = None) -> str:
     """An ``<img>`` tag holding the GIF at ``path`` inline (base64), so an executed notebook
     and its HTML rendering carry the animation without the file beside them."""
