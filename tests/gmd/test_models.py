@@ -77,7 +77,7 @@ def test_load_or_train_many_trains_missing_models_in_worker_processes(small_conf
 #: again with #14's trajectory pilot (GMD's widths 64 × (1, 2, 4), cap 12000); every key with
 #: cache version 2 (the initialisation is seeded from the spec's seed, issue #14); nb03_k5_full
 #: again with the motion family's cap 4000 → 12000 (issue #14, session 11), and with its bf16
-#: autocast (session 13, docs/pilot_bf16_motion.md; quick and trajectory keys unchanged).
+#: autocast (session 13, pilots/pilot_bf16_motion.md; quick and trajectory keys unchanged).
 PINNED_MODEL_KEYS = {
     "default": "6ce1b03ba300719e",
     "nb01_quick_motion_x0": "651d6ce53dddfa4c",

@@ -23,7 +23,7 @@ __all__ = ["FULL_VAE_STEP_CAP", "TrainingPlan", "TrainingRecord", "cached_traini
 
 
 #: the full-mode VAE step cap: what 20 CPU-minutes buy on one thread (0.1015 CPU-s per step,
-#: rounded down to 250), as the rule of ``docs/pilot_emg_vae.md`` says when the pilot VAE
+#: rounded down to 250), as the rule of ``pilots/pilot_emg_vae.md`` says when the pilot VAE
 #: (N = 5) did not reach its gate within them
 FULL_VAE_STEP_CAP = 11750
 
@@ -91,7 +91,7 @@ class TrainingPlan:
     def for_scale(cls, scale: str) -> TrainingPlan:
         """The notebooks' plan at ``scale`` (``infra.context.SCALES``).
 
-        paper: the caps of ``docs/pilot_emg_vae.md`` (VAE) and 4× the fixed 2500 denoiser
+        paper: the caps of ``pilots/pilot_emg_vae.md`` (VAE) and 4× the fixed 2500 denoiser
         steps (no denoiser pilot), 128 validation clips, validation every 250 steps
         (≈ 2–3 % of the training time), the TRAINING.md defaults patience 5 and δ 1 %.
         standard (docs/COMPUTE.md §3b, §4 item 3): a FIXED 900 VAE steps (the pilot's VAE

@@ -220,7 +220,7 @@ class LatentCountSettings(_NotebookSettings):
     text-to-motion test set (256 clips: 8 R-precision batches of 32, FID of 32-d embeddings
     from 256 samples; 64 in quick runs), the torch threads and the training plan
     (``convergence.TrainingPlan.for_scale``: every N's VAE and denoiser trained to convergence
-    at paper, the VAE's cap from the pilot of docs/pilot_emg_vae.md; fixed steps at standard).
+    at paper, the VAE's cap from the pilot of pilots/pilot_emg_vae.md; fixed steps at standard).
     On a data folder EMG-7 is measured (reconstruction error, and FID of generated motions
     against the folder's test windows); its oracle columns read not measurable on real data."""
 

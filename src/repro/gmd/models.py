@@ -100,12 +100,12 @@ class ConvergenceTraining:
 
 
 #: full-mode motion models (``paper_settings.MOTION_ARCHITECTURE``), from the design pilot
-#: (docs/pilot_gmd_motion*.md): lr 3e-4 skated less than 1e-3 at every check (150–600 steps);
+#: (pilots/pilot_gmd_motion*.md): lr 3e-4 skated less than 1e-3 at every check (150–600 steps);
 #: batch 32 and 64 were alike per CPU-second. Cap 12000 (session 11; was 4000, a time budget):
 #: notebook 01's motion models reached 4000 steps without their plateau stop, the held-out
 #: loss still falling 3 % per 1000 steps, so the cap, not convergence, ended them
 #: (docs/TRAINING.md point 9); 12000 as the trajectory family's, the plateau decides.
-#: bf16 autocast (session 13, docs/pilot_bf16_motion.md): 1.7-2.1x faster on an AMX CPU, with
+#: bf16 autocast (session 13, pilots/pilot_bf16_motion.md): 1.7-2.1x faster on an AMX CPU, with
 #: the held-out loss within 0.13 % of fp32's and the gate values within their noise (a rule
 #: written before the runs); on a CPU without AMX it is slower (0.69-0.98x, README).
 MOTION_TRAINING = ConvergenceTraining(batch_size=64, lr=3e-4, validate_every=200, patience=5,

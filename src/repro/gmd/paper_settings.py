@@ -37,8 +37,8 @@ GUIDANCE_STOP_T = 20
 #: GMD clamps its ε trajectory model's x̂0 to ±6 (in its normalised units).
 X0_CLAMP = 6.0
 
-#: the tiny GMD UNets (set by #14's design pilots, docs/pilot_gmd_motion.md and
-#: docs/pilot_gmd_trajectory.jsonl; the motion model's full-resolution width must be at least
+#: the tiny GMD UNets (set by #14's design pilots, pilots/pilot_gmd_motion.md and
+#: pilots/pilot_gmd_trajectory.jsonl; the motion model's full-resolution width must be at least
 #: the 263 features it carries, as GMD's [263 → 1024] is). The trajectory UNet has GMD's own
 #: widths [4 → 64, 128, 256]: at 16 × (1, 2, 4) its ε model failed the trajectory gate (root
 #: jerk 144 m/s³ against the bound 67.5), at 64 × (1, 2, 4) trained to its plateau it passed

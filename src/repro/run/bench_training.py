@@ -20,7 +20,7 @@ denoiser, the evaluator), at the sizes the package trains it with:
 Also fp32 against bf16 autocast for the motion UNet at base 16, at width 288 (mults 1-1-1,
 wide enough for 263-d ε) and as the notebooks train it in full mode (``notebook_motion``:
 ``MOTION_ARCHITECTURE`` at ``MOTION_TRAINING``'s batch 64, whose bf16 decision is
-docs/pilot_bf16_motion.md), the exact-math levers alone (FastMish forward + backward and
+pilots/pilot_bf16_motion.md), the exact-math levers alone (FastMish forward + backward and
 forward only; the parameter update as loops, foreach and fused: a whole step's noise on a
 shared machine hides a 5–10 % gain), a numerics pilot (validation loss of each lever's run
 against fp32's after the same steps, tolerance ``PILOT_TOLERANCE``), and samples/s of the DDPM
