@@ -41,7 +41,7 @@ def test_a_v3_snapshot_shows_totals_against_budgets_and_per_notebook_times() -> 
     timings = {"reproduce_standard_cold": {"seconds": 4000.0, "commit": "abc1234"},
                "reproduce_standard_warm": {"seconds": 200.0, "commit": "0ld0ld0"}}
     text = budgets_markdown(_snapshot(3, timings=timings, run_span_seconds=3990.0))
-    assert "Budgets of #15 against the run in `results/` (commit abc1234):" in text
+    assert "Time budgets (2 cores) against the run in `results/` (commit abc1234):" in text
     assert ("| cold standard `make reproduce` (whole process) | 4000 s (66.7 min) | 3600 | "
             "**over** |") in text
     assert ("| warm standard `make reproduce` (whole process) (commit 0ld0ld0) | 200 s (3.3 min) | "
@@ -83,5 +83,5 @@ def test_update_rewrites_only_the_marked_block(tmp_path: Path) -> None:
     update_readme_budgets(readme, _snapshot(1))
     text = readme.read_text(encoding="utf-8")
     assert "| stale |" not in text
-    assert text.startswith("a\n<!-- budgets:start x -->\nBudgets of #15")
+    assert text.startswith("a\n<!-- budgets:start x -->\nTime budgets (2 cores)")
     assert text.endswith("\n<!-- budgets:end -->\nb\n")

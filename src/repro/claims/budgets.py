@@ -1,4 +1,4 @@
-"""The time budgets of issue #15 against the results snapshot's run, for README's budgets block.
+"""The 2-core time budgets against the results snapshot's run, for README's budgets block.
 
 The per-notebook times are the snapshot's ``run_seconds`` (the run that made ``results/``) and
 ``slowest_seconds`` (each notebook's slowest known time: a cold run's once one was recorded).
@@ -21,7 +21,7 @@ from repro.claims.provenance import is_result
 from repro.claims.readme import replace_block
 from repro.infra.storage import read_json
 
-#: issue #15's budgets (2 cores): cold ``make reproduce`` ≤ 60 min, warm ≤ 4 min,
+#: the budgets (2 cores): cold ``make reproduce`` ≤ 60 min, warm ≤ 4 min,
 #: ``make test`` on a fresh clone ≤ 5 min
 BUDGETS_SECONDS = {"reproduce_standard_cold": 3600.0, "reproduce_standard_warm": 240.0,
                    "make_test_cold_cache": 300.0}
@@ -82,13 +82,13 @@ def budgets_markdown(snapshot: Mapping[str, Any]) -> str:
     budgets = ", ".join(f"{TIMING_NAMES[k].split(' (')[0]} ≤ {v / 60:.0f} min"
                         for k, v in BUDGETS_SECONDS.items())
     if not is_result(snapshot) or snapshot_registry_version(snapshot) < 2:
-        return (f"Budgets of #15: {budgets}. **No full run under registry v2 or later exists "
-                "yet**, so none is measured on one: the committed snapshot is a version 1 run "
-                "(its times are in the paragraph below). The next full `make reproduce` "
+        return (f"Time budgets (2 cores): {budgets}. **No full run under registry v2 or later "
+                "exists yet**, so none is measured on one: the committed snapshot is a version 1 "
+                "run (its times are in the paragraph below). The next full `make reproduce` "
                 "(which refreshes `results/`) writes this block from its run times; `make bench "
                 "ARGS=--full` measures the whole-process totals it shows.")
     commit = _snapshot_commit(snapshot)
-    lines = [f"Budgets of #15 against the run in `results/` (commit {commit}):", "",
+    lines = [f"Time budgets (2 cores) against the run in `results/` (commit {commit}):", "",
              "| measurement | seconds | budget | |", "|---|---|---|---|"]
     timings = snapshot.get("timings", {})
     for name, budget in BUDGETS_SECONDS.items():

@@ -1,4 +1,4 @@
-"""How far each verdict can be trusted: the first screen of REPORT.md (issue #19).
+"""How far each verdict can be trusted: the first screen of REPORT.md.
 
 Per registry claim, from its sidecar: the verdict; the parts' outcomes counted (supported,
 contradicted, absent, inconclusive, below resolution; ``repro.claims.verdicts``); the controls

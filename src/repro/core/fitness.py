@@ -1,7 +1,7 @@
 """Fitness measurements behind the gates (``core.gates``, gates version 3), and their baselines.
 
 A fitness gate asks whether a model learned what a claim's measurement needs, never how large
-the quantity the claim compares comes out (issue #31). Two measurements serve the families of
+the quantity the claim compares comes out. Two measurements serve the families of
 both papers, each anchored to a trivial baseline instead of to the data's own value of an
 outcome:
 

@@ -1,26 +1,30 @@
 """Gates: what a trained model must have learned before a verdict may rest on it.
 
-Registered before the models are trained as results (issue "Models that work"); never lowered
-to let a model pass. Since gates version 3 (issue #31) every gate is a *fitness* gate: it asks
-whether a model learned what a claim's measurement needs, anchored to a trivial baseline
-(a Gaussian with the data's per-feature mean and covariance, shuffled frames, chance), and it
-never measures a quantity that a claim resting on the model compares — a gate on an outcome
-makes the claim inconclusive by construction when the paper's effect is large. Each gate says
-what it measures (``Gate.measures``), so the paper packages can check that against what their
-claims compare (``gmd.model_gates.COMPARED``, ``energymogen.model_gates.COMPARED``). A model
-passes when every gate of its family passes; a model that fails makes inconclusive the parts
-of a claim that read it (``model_record(reads=...)``, ``repro.claims.ledger.record_claim``).
+Registered before the models are trained as results; never lowered to let a model pass.
+Two kinds, each saying what it measures (``Gate.measures``) so the paper packages can check
+it against what their claims compare (``gmd.model_gates.COMPARED``,
+``energymogen.model_gates.COMPARED``):
 
-Gates version 4 adds *sample* gates (``Gate.role`` "reference"): a model is judged on what it
-generates, against the data measured the same way in the same run — it moves as much as the
-data (mean joint and root speed within ½–2×), its joints are no more jagged (jerk ≤ 2×) and
-its feet slide no more (foot skating ≤ 3×) than a small multiple of the data's, and a
-conditioned model's samples show the asked-for concept (oracle recall ≥ 0.7× the data's).
-They apply to the *reference arm* of a comparison (``model_record(role="reference")``: the
-model a claim's other arm is compared against, or the one model both arms of a claim
-sample), never to a *treatment arm* (role "treatment"), which passes the fitness gates
-only: a band on the reference arm bounds where the comparison starts, not its sign, while a
-gate on the treatment arm's compared quantity would decide the claim.
+- *Fitness* gates (``Gate.role`` "any") ask whether a model learned what a claim's
+  measurement needs, anchored to a trivial baseline (a Gaussian with the data's per-feature
+  mean and covariance, shuffled frames, chance); they never measure a quantity a claim
+  resting on the model compares — a gate on an outcome would make the claim inconclusive by
+  construction when the paper's effect is large.
+- *Sample* gates (role "reference") judge a model on what it generates, against the data
+  measured the same way in the same run: it moves as much as the data (mean joint and root
+  speed within ½–2×), its joints are no more jagged (jerk ≤ 2×) and its feet slide no more
+  (foot skating ≤ 3×) than a small multiple of the data's, and a conditioned model's samples
+  show the asked-for concept (oracle recall ≥ 0.7× the data's). They apply to the
+  *reference arm* of a comparison (``model_record(role="reference")``: the model a claim's
+  other arm is compared against, or the one model both arms of a claim sample), never to a
+  *treatment arm* (role "treatment"), which passes the fitness gates only: a band on the
+  reference arm bounds where the comparison starts, not its sign, while a gate on the
+  treatment arm's compared quantity would decide the claim.
+
+A model passes when every gate of its family and role passes; a model that fails makes
+inconclusive the parts of a claim that read it (``model_record(reads=...)``,
+``repro.claims.ledger.record_claim``). The versions and their reasons are in
+docs/REGISTRY_CHANGELOG.md.
 """
 
 from __future__ import annotations

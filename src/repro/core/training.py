@@ -1,7 +1,7 @@
 """The one training loop (``train_loop``: AdamW, gradient clipping, EMA, validation and the
 plateau stop, threads, progress) and the diffusion models' loss on it (GMD appendix E).
 
-Every family trains with ``train_loop``, supplying its batch source and its loss (issue #34):
+Every family trains with ``train_loop``, supplying its batch source and its loss:
 the diffusion models through ``train_diffusion`` (GMD's UNets, the latent denoiser), the VAE
 (``models.vae.train_vae``, no EMA), the evaluator and EnergyMoGen's learned text encoder
 (InfoNCE, no clip, no EMA).
@@ -22,7 +22,7 @@ x or a dict with ``"x"`` and optional ``"cond"`` and ``"mask"``. Models are call
 ``model(x_t, t, cond=…, cond_mask=…)``; ``cond_mask`` (true = keep) is drawn here when
 ``cond_dropout > 0`` (classifier-free training).
 
-Speed (issue #15; measured by ``python -m repro.run.bench_training``): AdamW, the gradient
+Speed (measured by ``python -m repro.run.bench_training``): AdamW, the gradient
 clip and the EMA run as ``foreach`` kernels over all parameters — on CPU the same arithmetic as
 the per-parameter loops, bitwise (``tests/core/test_training.py`` checks it), so they are the
 default and leave every cache key as it was. Two levers change the numerics and are opt-in,
@@ -31,7 +31,7 @@ forward and backward under ``torch.autocast`` (bf16 matrix products, fp32 weight
 and loss reduction), and ``fused_adamw=True`` uses the fused AdamW kernel (float-noise
 differences, ~1e-6 after a few steps).
 
-Convergence (issue #14; docs/TRAINING.md): with ``validate_every`` set and a ``validation``
+Convergence (docs/TRAINING.md): with ``validate_every`` set and a ``validation``
 set passed, the EMA weights' loss on held-out data is measured every ``validate_every`` steps
 on a fixed grid of timesteps with fixed noise (``ValidationSet``), so successive values of the
 curve differ only by the weights. Training stops when the best validation loss has not
@@ -311,7 +311,7 @@ def train_loop(model: nn.Module, loss_fn: Callable[[Any], Tensor], batches: Iter
                validate: Callable[[nn.Module], float] | None = None,
                on_validation: Callable[[int, float, nn.Module], None] | None = None,
                stage: str = "training", progress: bool = False) -> TrainResult:
-    """The package's one training loop (issue #34): ``config.steps`` steps of
+    """The package's one training loop: ``config.steps`` steps of
     ``loss_fn(next(batches))`` (a scalar) minimised by AdamW (``make_adamw``: ``lr``,
     ``weight_decay``, ``fused_adamw``), the gradient norm clipped at ``grad_clip`` (None: no
     clip), under ``autocast`` when set, with ``num_threads`` torch threads (restored after).

@@ -20,7 +20,7 @@ import torch
 #: kernel of notebooks 05 and 06 ("Overflow when unpacking long long").
 MAX_SEED = 2**48 - 1
 
-#: The three scales (issue #32): ``quick`` a test of the code (never a result); ``standard``
+#: The three scales: ``quick`` a test of the code (never a result); ``standard``
 #: what ``make reproduce`` runs and ``results/`` holds (a cold run within 60 minutes on 2 CPU
 #: cores, docs/COMPUTE.md); ``paper`` the papers' settings, for a GPU or a cluster. Each paper
 #: package reads its settings for a scale from its one table.

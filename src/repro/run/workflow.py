@@ -62,7 +62,7 @@ RUNTIME_MARGIN = 1.3
 #: a scheduler's clock minutes
 MIN_RUNTIME_MIN = 10
 #: quick jobs: no plan exists; the slowest quick notebook took 134–152 s on a busy 2-core
-#: machine (docs/TIMINGS.md, session 13), so 15 minutes is ample on any node
+#: machine (docs/TIMINGS.md), so 15 minutes is ample on any node
 QUICK_RUNTIME_MIN = 15
 
 #: peak resident memory (MB) of a notebook's worker, kernel and training pools at the standard

@@ -1,4 +1,4 @@
-"""What a single-concept text's clips hold (generator v3, issue #16): per concept A, of the
+"""What a single-concept text's clips hold (generator version 3): per concept A, of the
 captions that name A alone, the share whose clip also holds each other concept B.
 
 Composition by summed energies (EnergyMoGen Eq. 7) multiplies single-concept conditionals

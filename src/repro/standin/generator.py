@@ -17,7 +17,7 @@ each give the parts they own (``repro.standin.concepts``). Sequential concepts a
 one after the other, each starting where the previous one left the root, and cross-faded over
 :data:`BLEND_FRAMES` frames around each transition.
 
-Version 3 (issue #16): a share :data:`PARTIAL_CAPTION_SHARE` of a multi-concept clip's captions
+Version 3: a share :data:`PARTIAL_CAPTION_SHARE` of a multi-concept clip's captions
 name only some of its concepts, and a single-concept clip's unowned parts move freely
 (``repro.standin.variation``), so the clips of a single-concept text span the others.
 """
@@ -61,7 +61,7 @@ __all__ = [
 #: bump when the generated motion or texts change, so cached datasets are regenerated
 #: (tests/standin/test_generator_version.py pins what each version generates). 2: the motion fixes
 #: made after the first datasets were cached under 1. 3: partial captions of multi-concept clips
-#: and freely moving unowned parts in single-concept clips (issue #16; docs/GENERATOR_V3.md).
+#: and freely moving unowned parts in single-concept clips (docs/GENERATOR_V3.md).
 GENERATOR_VERSION = "3"
 #: cross-fade length at a sequential transition (frames, centred on the boundary).
 BLEND_FRAMES = 8

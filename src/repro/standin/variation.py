@@ -1,5 +1,5 @@
 """Natural variation of the body parts a single-concept clip's concept does not own
-(generator v3, issue #16): they move freely instead of holding a fixed default.
+(generator version 3): they move freely instead of holding a fixed default.
 
 In HumanML3D a clip captioned "a person walks forward" rarely keeps its arms still, and one
 captioned "a person waves the left hand" rarely stands frozen; generator v2 kept every
