@@ -329,3 +329,34 @@ def test_ddim_eta0_deterministic_and_full_steps_approximates_ancestral():
     torch.testing.assert_close(d_x0.ddim_sample_loop(x0_model, shape, steps=100, noise=x_T), a,
                                rtol=1e-4, atol=1e-4)
     assert list(d.ddim_timesteps(5)) == [0, 25, 50, 74, 99]
+
+
+def test_the_sampler_pieces_impute_and_guide_where_they_should() -> None:
+    """The pieces ``p_sample_loop`` composes: imputation replaces exactly the masked entries
+    (by μ_t(target, x_t) on x̂0, by the target itself at the last step on x_{t−1}), and the
+    guided mean moves against the goal's gradient only when guidance is given."""
+    d = GaussianDiffusion(linear_betas(30), prediction="x0")
+    x = torch.randn(2, 3, 4)
+    mask = torch.zeros(1, 3, 4, dtype=torch.bool)
+    mask[:, 0] = True
+    target = torch.full((1, 3, 4), 0.5)
+    t = torch.full((2,), 5, dtype=torch.long)
+    mean, pred_x0 = torch.randn(2, 3, 4), torch.randn(2, 3, 4)
+    imputed = d.impute_x0(mean, pred_x0, x, t, mask, target)
+    expected = d.q_posterior_mean(target.expand_as(x), x, t)
+    assert torch.equal(imputed[:, 0], expected[:, 0]) and torch.equal(imputed[:, 1:], mean[:, 1:])
+    last = d.impute_x_prev(x, torch.zeros(2, dtype=torch.long), mask, target,
+                           torch.Generator().manual_seed(0))
+    assert torch.equal(last[:, 0], target.expand_as(x)[:, 0]) and torch.equal(last[:, 1:],
+                                                                              x[:, 1:])
+
+    def model(x_t: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        return 0.5 * x_t
+
+    plain, no_shift = d.guided_mean_variance(model, x, t, None, None, None)
+    goal = Guidance(goal_fn=lambda x0: x0.sum(dim=(1, 2)), strength=3.0)
+    guided, shift = d.guided_mean_variance(model, x, t, None, None, goal)
+    assert torch.count_nonzero(no_shift) == 0
+    # ∇_{x_t} Σ x̂0 = 0.5 everywhere, so μ̃ − μ = −s·β̃_t·0.5 < 0
+    assert torch.allclose(guided.mean - plain.mean, -3.0 * plain.variance * 0.5)
+    assert torch.allclose(shift, guided.mean - plain.mean)

@@ -210,6 +210,28 @@ def _timestep_tensor(t: int | Tensor, batch: int, device: torch.device) -> Tenso
     return torch.full((batch,), int(t), device=device, dtype=torch.long)
 
 
+class _TrajectoryRecorder:
+    """Collects ``SampleTrajectory`` rows at the ``record``ed steps (CPU copies)."""
+
+    def __init__(self, record: set[int]) -> None:
+        self.record = record
+        self.timesteps: list[int] = []
+        self.rows: tuple[list[Tensor], list[Tensor], list[Tensor]] = ([], [], [])
+
+    def add(self, step: int, x_t: Tensor, pred_x0: Tensor, shift: Tensor) -> None:
+        if step in self.record:
+            self.timesteps.append(step)
+            for rows, value in zip(self.rows, (x_t, pred_x0, shift), strict=True):
+                rows.append(value.detach().cpu())
+
+    def trajectory(self) -> SampleTrajectory:
+        trajectory = SampleTrajectory(timesteps=self.timesteps)
+        if self.timesteps:
+            trajectory.x_t, trajectory.pred_x0, trajectory.guidance_shift = (
+                torch.stack(rows) for rows in self.rows)
+        return trajectory
+
+
 # ----------------------------------------------------------------------------------------------
 # The diffusion
 # ----------------------------------------------------------------------------------------------
@@ -414,13 +436,10 @@ class GaussianDiffusion:
             raise ValueError(f"stop_guidance_at must be in [0, {self.num_timesteps}], got "
                              f"{stop_guidance_at}")
         x = _initial_noise(shape, noise, generator, device)
-        impute_mode = None
-        if imputation is not None:
-            impute_mode, mask, target = self._check_imputation(imputation, x)
+        impute = None if imputation is None else self._check_imputation(imputation, x)
         record = set(range(self.num_timesteps)) if trajectory_timesteps is None else {
             int(t) for t in trajectory_timesteps}
-        trajectory = SampleTrajectory()
-        xs, x0s, shifts = [], [], []
+        recorder = _TrajectoryRecorder(record if return_trajectory else set())
 
         steps = range(self.num_timesteps - 1, -1, -1)
         if progress:
@@ -430,49 +449,57 @@ class GaussianDiffusion:
         for step in steps:
             t = torch.full((shape[0],), step, device=device, dtype=torch.long)
             active = step >= stop_guidance_at
-            if guidance is not None and active:
-                with torch.enable_grad():
-                    x_in = x.detach().requires_grad_(True)
-                    out = self.p_mean_variance(model, x_in, t, model_kwargs, clip_x0)
-                    goal = guidance.goal_fn(out.pred_x0)
-                    (grad,) = torch.autograd.grad(goal.sum(), x_in)
-                scale = out.variance if guidance.variance_scaled else torch.ones_like(x)
-                shift = -guidance.strength * scale.detach() * grad    # −s·Σ_t·∇G
-                out = MeanVariance(out.mean.detach() + shift, out.variance, out.log_variance,
-                                   out.pred_x0.detach(), out.model_output.detach())
-            else:
-                with torch.no_grad():
-                    out = self.p_mean_variance(model, x, t, model_kwargs, clip_x0)
-                shift = torch.zeros_like(x)
-            if return_trajectory and step in record:
-                trajectory.timesteps.append(step)
-                xs.append(x.detach().cpu())
-                x0s.append(out.pred_x0.detach().cpu())
-                shifts.append(shift.detach().cpu())
-
+            out, shift = self.guided_mean_variance(model, x, t, model_kwargs, clip_x0,
+                                                   guidance if active else None)
+            recorder.add(step, x, out.pred_x0, shift)
             mean = out.mean
-            if impute_mode == "x0" and active:
-                # μ with x̂0 overwritten by the target on the mask; guided μ elsewhere
-                imputed_x0 = torch.where(mask, target, out.pred_x0)
-                mean = torch.where(mask, self.q_posterior_mean(imputed_x0, x, t), mean)
+            if impute is not None and active and impute[0] == "x0":
+                mean = self.impute_x0(mean, out.pred_x0, x, t, *impute[1:])
             z = _randn(shape, generator, device, x.dtype)
-            x_prev = mean + (step > 0) * torch.exp(0.5 * out.log_variance) * z
-            if impute_mode == "x_prev" and active:
-                if step > 0:    # target noised to t − 1:  √ᾱ_{t−1} y + √(1 − ᾱ_{t−1}) ε
-                    noised = self.q_sample(target.expand_as(x), t - 1,
-                                           _randn(shape, generator, device, x.dtype))
-                else:           # x_{−1} is x_0 itself: no noise left
-                    noised = target.expand_as(x)
-                x_prev = torch.where(mask, noised, x_prev)
+            x_prev = mean + (step > 0) * torch.exp(0.5 * out.log_variance) * z   # μ̃ + √β̃ z
+            if impute is not None and active and impute[0] == "x_prev":
+                x_prev = self.impute_x_prev(x_prev, t, *impute[1:], generator)
             x = x_prev.detach()
+        return (x, recorder.trajectory()) if return_trajectory else x
 
-        if not return_trajectory:
-            return x
-        if xs:
-            trajectory.x_t = torch.stack(xs)
-            trajectory.pred_x0 = torch.stack(x0s)
-            trajectory.guidance_shift = torch.stack(shifts)
-        return x, trajectory
+    def guided_mean_variance(self, model: Model, x: Tensor, t: Tensor,
+                             model_kwargs: dict[str, Any] | None, clip_x0: float | None,
+                             guidance: Guidance | None) -> tuple[MeanVariance, Tensor]:
+        """p(x_{t−1} | x_t) with the guided mean μ̃ = μ − s·Σ_t·∇_{x_t}G(x̂0(x_t)) (``Guidance``;
+        the gradient flows through the model's x̂0), and the shift μ̃ − μ (zero without
+        ``guidance``)."""
+        if guidance is None:
+            with torch.no_grad():
+                out = self.p_mean_variance(model, x, t, model_kwargs, clip_x0)
+            return out, torch.zeros_like(x)
+        with torch.enable_grad():
+            x_in = x.detach().requires_grad_(True)
+            out = self.p_mean_variance(model, x_in, t, model_kwargs, clip_x0)
+            goal = guidance.goal_fn(out.pred_x0)
+            (grad,) = torch.autograd.grad(goal.sum(), x_in)
+        scale = out.variance if guidance.variance_scaled else torch.ones_like(x)
+        shift = -guidance.strength * scale.detach() * grad    # −s·Σ_t·∇G
+        return MeanVariance(out.mean.detach() + shift, out.variance, out.log_variance,
+                            out.pred_x0.detach(), out.model_output.detach()), shift
+
+    def impute_x0(self, mean: Tensor, pred_x0: Tensor, x_t: Tensor, t: Tensor, mask: Tensor,
+                  target: Tensor) -> Tensor:
+        """Imputation on x̂0 (``Imputation`` mode "x0"): on the mask, μ_t(target, x_t) (Eq. 1
+        with x̂0 overwritten by the target); elsewhere the (guided) mean."""
+        imputed_x0 = torch.where(mask, target, pred_x0)
+        return torch.where(mask, self.q_posterior_mean(imputed_x0, x_t, t), mean)
+
+    def impute_x_prev(self, x_prev: Tensor, t: Tensor, mask: Tensor, target: Tensor,
+                      generator: torch.Generator) -> Tensor:
+        """Imputation on x_{t−1} (mode "x_prev"): on the mask, the target noised to t − 1,
+        √ᾱ_{t−1} y + √(1 − ᾱ_{t−1}) ε; at the last step (t = 0) the target itself."""
+        if int(t[0]) == 0:
+            noised = target.expand_as(x_prev)
+        else:
+            noised = self.q_sample(target.expand_as(x_prev), t - 1,
+                                   _randn(tuple(x_prev.shape), generator, x_prev.device,
+                                          x_prev.dtype))
+        return torch.where(mask, noised, x_prev)
 
     def _check_imputation(self, imputation: Imputation, x: Tensor) -> tuple[str, Tensor, Tensor]:
         mode = imputation.mode
