@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from repro.gmd import cfg
+from repro.gmd import guidance
 from repro.gmd.guidance import sample
 from repro.gmd.models import GMDModelSpec, TrainedGMD
 from repro.gmd.windows import DataConfig, FeatureSpace
@@ -34,20 +34,20 @@ def trained() -> TrainedGMD:
 
 def test_scale_one_is_conditional_sampling_exactly(trained: TrainedGMD) -> None:
     plain = sample(trained, 3, seed=5, text=CAPTIONS)
-    guided = cfg.sample_classifier_free(trained, 3, seed=5, text=CAPTIONS, scale=1.0)
+    guided = guidance.sample_classifier_free(trained, 3, seed=5, text=CAPTIONS, scale=1.0)
     assert torch.equal(plain, guided)
 
 
 def test_scale_zero_is_unconditional_sampling_exactly(trained: TrainedGMD) -> None:
     unconditional = sample(trained, 3, seed=5)
-    guided = cfg.sample_classifier_free(trained, 3, seed=5, text=CAPTIONS, scale=0.0)
+    guided = guidance.sample_classifier_free(trained, 3, seed=5, text=CAPTIONS, scale=0.0)
     assert torch.equal(unconditional, guided)
     assert not torch.equal(unconditional, sample(trained, 3, seed=5, text=CAPTIONS))
 
 
 def test_gmd_scale_mixes_the_two_outputs(trained: TrainedGMD) -> None:
-    assert cfg.GMD_CFG_SCALE == 2.5
-    wrapped = cfg.ClassifierFreeModel(trained.model, cfg.GMD_CFG_SCALE)
+    assert guidance.GMD_CFG_SCALE == 2.5
+    wrapped = guidance.ClassifierFreeModel(trained.model, guidance.GMD_CFG_SCALE)
     x, t = torch.randn(3, 4, 16), torch.tensor([3, 7, 11])
     cond = trained.text_condition(CAPTIONS, 3)
     conditional = trained.model(x, t, cond=cond)
@@ -62,6 +62,6 @@ def test_classifier_free_needs_a_model_trained_with_condition_dropout(trained) -
 
     no_dropout = dataclasses.replace(trained, spec=trained.spec.replace(cond_dropout=0.0))
     with pytest.raises(ValueError, match="condition dropout"):
-        cfg.classifier_free(no_dropout)
+        guidance.classifier_free(no_dropout)
     with pytest.raises(ValueError, match="text-conditioned"):
-        cfg.classifier_free(dataclasses.replace(trained, vocabulary=None))
+        guidance.classifier_free(dataclasses.replace(trained, vocabulary=None))

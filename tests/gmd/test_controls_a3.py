@@ -9,7 +9,7 @@ import torch
 
 from repro.claims.registry import get_claim
 from repro.claims.verdicts import PARTIAL, REPRODUCED
-from repro.gmd import controls_a3
+from repro.gmd import x0_vs_eps
 from repro.gmd.models import GMDModelSpec, TrainedGMD
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
 from repro.gmd.x0_vs_eps import goal_reaching_experiment
@@ -35,7 +35,7 @@ def models(windows: MotionWindows) -> dict:
 
 
 def test_exact_pair_samples_identically(models) -> None:
-    pair = controls_a3.exact_pair(models[("x0", 0)])
+    pair = x0_vs_eps.exact_pair(models[("x0", 0)])
     assert pair["x0"].spec.prediction == "x0" and pair["epsilon"].spec.prediction == "epsilon"
     runs = {p: goal_reaching_experiment(m, TARGETS, seed=3, clip_x0=6.0)
             for p, m in pair.items()}
@@ -47,9 +47,9 @@ def test_exact_pair_samples_identically(models) -> None:
 
 def test_late_reverting_model_leaves_the_unguided_run_and_undoes_the_guided_gain(models
                                                                                  ) -> None:
-    exact = controls_a3.exact_pair(models[("x0", 0)])["x0"]
+    exact = x0_vs_eps.exact_pair(models[("x0", 0)])["x0"]
     honest = goal_reaching_experiment(exact, TARGETS, seed=3, clip_x0=6.0)
-    reverting = controls_a3.late_reverting_model(exact, len(TARGETS), seed=3, below=5,
+    reverting = x0_vs_eps.late_reverting_model(exact, len(TARGETS), seed=3, below=5,
                                                  share=0.5)
     planted = goal_reaching_experiment(reverting, TARGETS, seed=3, clip_x0=6.0)
     assert torch.equal(planted.unguided, honest.unguided)
@@ -63,7 +63,7 @@ def test_late_reverting_model_leaves_the_unguided_run_and_undoes_the_guided_gain
 
 def test_a3_null_does_not_fire_and_positive_is_seen(windows, models) -> None:
     claim = get_claim("GMD-A3")
-    result = controls_a3.a3_controls(models, windows, SEEDS, goals=6, min_distance=0.0)
+    result = x0_vs_eps.a3_controls(models, windows, SEEDS, goals=6, min_distance=0.0)
     null, positive = result.null, result.positive
     np.testing.assert_allclose(null["goal_error_x0"], null["goal_error_eps"], atol=1e-4)
     assert positive["goal_error_eps"] == null["goal_error_eps"]

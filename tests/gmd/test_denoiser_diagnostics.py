@@ -9,14 +9,14 @@ import pytest
 import torch
 
 from repro.core.diffusion import GaussianDiffusion, cosine_betas
-from repro.gmd.denoiser_diagnostics import (
+from repro.gmd.measurements import (
     feature_blocks,
     high_frequency_share,
     noise_floor,
     reconstruction,
+    sample_quality,
     x0_error_by_block,
 )
-from repro.gmd.measurements import sample_quality
 from repro.gmd.windows import FeatureSpace
 from repro.motion.features import FEATURE_DIM
 

@@ -9,8 +9,8 @@ import pytest
 from gmd.test_emphasis_study import _fake_results
 
 from repro.claims.result import Controls
-from repro.gmd import emphasis_c4
-from repro.gmd.emphasis_study import ProjectionSettings, Settings
+from repro.gmd import emphasis_projection
+from repro.gmd.emphasis_projection import ProjectionSettings, Settings
 
 
 def test_spectra_count_the_drowned_directions_per_seed() -> None:
@@ -18,7 +18,7 @@ def test_spectra_count_the_drowned_directions_per_seed() -> None:
     results.models["Emphasis c=10"] = SimpleNamespace(
         diffusion=SimpleNamespace(alphas_cumprod=[0.999]))
     settings = Settings.for_scale("paper")
-    spectra = emphasis_c4.spectra(results, settings, results.seeds, seed=0)
+    spectra = emphasis_projection.spectra(results, settings, results.seeds, seed=0)
     assert spectra.alpha_bar_last == pytest.approx(0.999)
     assert set(spectra.drowned) == {"2", "10"} and len(spectra.drowned["10"]) == 4
     assert "| 10 | 100, 200, 300, 400 |" in spectra.markdown
@@ -27,12 +27,12 @@ def test_spectra_count_the_drowned_directions_per_seed() -> None:
 def test_c4_result_records_the_rules_lists_and_the_readings() -> None:
     results = _fake_results()
     settings = Settings.for_scale("paper")
-    kappa = emphasis_c4.kappa_reading(results)
+    kappa = emphasis_projection.kappa_reading(results)
     assert kappa.relation["10"]["rho"] == pytest.approx(1.0)
     assert "κ 100–400" in kappa.markdown
-    spectra = emphasis_c4.Spectra(0.99, {"2": [0] * 4, "10": [1] * 4}, "")
+    spectra = emphasis_projection.Spectra(0.99, {"2": [0] * 4, "10": [1] * 4}, "")
     controls = Controls(null={}, positive={}, planted={"foot_skating_factor_loss_scaling": 1.1})
-    result = emphasis_c4.c4_result(results, settings, settings.base_spec(), results.seeds,
+    result = emphasis_projection.c4_result(results, settings, settings.base_spec(), results.seeds,
                                    controls=controls, spectra=spectra, kappa=kappa,
                                    model_records=[], outside_records=[{"name": "orthogonal",
                                                                        "passed": True}])
@@ -47,12 +47,12 @@ def test_c4_result_records_the_rules_lists_and_the_readings() -> None:
 
 def test_setup_summary_and_table_b1_name_what_the_scale_leaves_out() -> None:
     standard = Settings.for_scale("standard")
-    text = emphasis_c4.setup_summary(standard, ProjectionSettings.for_scale("standard"), [0],
-                                     scale="standard", threads=1)
+    text = emphasis_projection.setup_summary(standard, ProjectionSettings.for_scale("standard"),
+                                             [0], scale="standard", threads=1)
     assert text.splitlines()[2] == "seeds: [0] | torch threads: 1"
     assert "not run at the standard scale: " in text
-    assert "not run" not in emphasis_c4.setup_summary(
+    assert "not run" not in emphasis_projection.setup_summary(
         Settings.for_scale("paper"), ProjectionSettings.for_scale("paper"), [0],
         scale="paper", threads=1)
-    assert emphasis_c4.table_b1_markdown(None, None, standard, [0], seed=0).startswith(
+    assert emphasis_projection.table_b1_markdown(None, None, standard, [0], seed=0).startswith(
         "*Table B.1 is not run at the standard scale")

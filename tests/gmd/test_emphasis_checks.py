@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from repro.gmd import emphasis_checks
-from repro.gmd.emphasis_study import ProjectionSettings
+from repro.gmd import emphasis_projection
+from repro.gmd.emphasis_projection import ProjectionSettings
 
 #: tiny sample sizes: a test of the code, never a result
 CHECKS = ProjectionSettings(simulation_samples=400, distance_pairs=200, inverse_frames=50,
@@ -22,11 +22,11 @@ def frames() -> np.ndarray:
 
 
 def test_c1_finds_c_star_and_records_the_rules_inputs(frames: np.ndarray) -> None:
-    check = emphasis_checks.relative_importance_check(frames, [0], CHECKS, seed=0)
+    check = emphasis_projection.relative_importance_check(frames, [0], CHECKS, seed=0)
     assert check.c_star == pytest.approx(math.sqrt(260 / 3))
     assert check.importance_at_c_star == pytest.approx(0.5)
-    assert len(check.simulated) == len(emphasis_checks.C1_GRID) and check.simulation_error < 0.1
-    result = emphasis_checks.c1_result(check, seed=0, figures=["c1.png"])
+    assert len(check.simulated) == len(emphasis_projection.C1_GRID) and check.simulation_error < 0.1
+    result = emphasis_projection.c1_result(check, seed=0, figures=["c1.png"])
     assert result.claim_id == "GMD-C1" and result.seeds == [0]
     assert result.measured == {"simulation_max_abs_error": check.simulation_error,
                                "c_star": check.c_star,
@@ -36,11 +36,11 @@ def test_c1_finds_c_star_and_records_the_rules_inputs(frames: np.ndarray) -> Non
 
 
 def test_c2_measures_distances_at_c1_and_the_inverse_at_c10(frames: np.ndarray) -> None:
-    check = emphasis_checks.distance_inverse_check(frames, [0, 1], CHECKS, seed=0)
+    check = emphasis_projection.distance_inverse_check(frames, [0, 1], CHECKS, seed=0)
     assert set(check.ratios) == {(1.0, 0), (1.0, 1), (10.0, 0), (10.0, 1)}
     assert check.fraction_within == min(check.within[(1.0, 0)], check.within[(1.0, 1)])
     assert check.inverse64 < check.inverse32 and check.inverse_frames == 50
-    result = emphasis_checks.c2_result(check)
+    result = emphasis_projection.c2_result(check)
     assert result.seeds == [0, 1] and result.measured["inverse_relative_error_float32"] == (
         check.inverse32)
     assert set(result.extra["within_20_percent"]) == {"c=1,seed=0", "c=1,seed=1",
@@ -49,11 +49,11 @@ def test_c2_measures_distances_at_c1_and_the_inverse_at_c10(frames: np.ndarray) 
 
 
 def test_c3_the_printed_factor_leaves_a_tiny_variance(frames: np.ndarray) -> None:
-    check = emphasis_checks.unit_variance_check(frames, CHECKS, seed=0)
+    check = emphasis_projection.unit_variance_check(frames, CHECKS, seed=0)
     assert check.variance_printed == pytest.approx(1 / 560, rel=0.2)
     assert check.variance_sqrt == pytest.approx(1.0, rel=0.2)
-    result = emphasis_checks.c3_result(check)
+    result = emphasis_projection.c3_result(check)
     assert result.seeds == [0] and result.measured == {
         "variance_with_printed_factor": check.variance_printed,
         "variance_with_sqrt_factor": check.variance_sqrt}
-    assert result.extra["c_grid"] == list(map(float, emphasis_checks.C3_GRID))
+    assert result.extra["c_grid"] == list(map(float, emphasis_projection.C3_GRID))

@@ -7,8 +7,8 @@ import pytest
 import torch
 from torch import nn
 
-from repro.gmd.emphasis import EmphasisProjection
-from repro.gmd.emphasis_study import (
+from repro.gmd.emphasis_projection import (
+    EmphasisProjection,
     ImputedX0,
     ProjectedFeatureSpace,
     Variant,
@@ -117,7 +117,7 @@ def test_variants_follow_gmds_configs() -> None:
 
 
 def test_projection_settings_shrink_in_quick_mode() -> None:
-    from repro.gmd.emphasis_study import ProjectionSettings
+    from repro.gmd.emphasis_projection import ProjectionSettings
 
     quick, full = ProjectionSettings.for_scale("quick"), ProjectionSettings.for_scale("paper")
     assert full.simulation_samples == 10000 and full.kappa_scan_seeds == 20
@@ -126,8 +126,8 @@ def test_projection_settings_shrink_in_quick_mode() -> None:
 
 def test_c4_settings_follow_the_registry_and_the_run_seeds() -> None:
     from repro.claims.registry import get_claim
-    from repro.gmd.emphasis_study import TABLE_B1_VARIANTS, Settings
-    from repro.gmd.run_seeds import FULL_SEEDS
+    from repro.gmd.emphasis_projection import TABLE_B1_VARIANTS, Settings
+    from repro.gmd.settings import FULL_SEEDS
 
     claim = get_claim("GMD-C4")
     full, quick = Settings.for_scale("paper"), Settings.for_scale("quick")
@@ -161,7 +161,7 @@ def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
     samples it through GMD's float32 P and P⁻¹; the orthogonal arm trains on its own data."""
     import dataclasses
 
-    from repro.gmd import emphasis_study
+    from repro.gmd import emphasis_projection as emphasis_study
 
     @dataclasses.dataclass
     class Loaded:
@@ -186,7 +186,7 @@ def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
 
 def _fake_results(seeds: int = 4):
     """A ``Results`` with known per-seed skating and κ (no models)."""
-    from repro.gmd.emphasis_study import Results, Settings
+    from repro.gmd.emphasis_projection import Results, Settings
 
     settings = Settings.for_scale("paper")
     variants, outside = settings.variants(), settings.outside_rule_variants()
@@ -208,7 +208,7 @@ def _fake_results(seeds: int = 4):
 
 
 def test_kappa_relation_and_outside_rule_summary() -> None:
-    from repro.gmd.emphasis_arms import kappa_skating_relation, outside_rule_summary
+    from repro.gmd.emphasis_projection import kappa_skating_relation, outside_rule_summary
 
     results = _fake_results()
     relation = kappa_skating_relation(results)
@@ -232,7 +232,7 @@ def test_skating_against_kappa_figure() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from repro.gmd.emphasis_figures import plot_skating_against_kappa
+    from repro.gmd.emphasis_projection import plot_skating_against_kappa
 
     fig = plot_skating_against_kappa(_fake_results())
     ax = fig.axes[0]

@@ -8,9 +8,7 @@ import pytest
 import torch
 
 from repro.gmd.guidance import goal_reaching_loss
-from repro.gmd.models import (
-    load_or_train_gmd,
-)
+from repro.gmd.models import load_or_train_gmd
 
 FRAMES = 16  # = conftest.FRAMES: the windows of the small_config fixture
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from repro.gmd import location_imputation as L
+from repro.gmd import root_representation as L
 from repro.gmd.guidance import sample
 from repro.gmd.models import TrainedGMD
 from repro.gmd.root_representation import Settings

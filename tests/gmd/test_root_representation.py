@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from repro.gmd import paper_settings
+from repro.gmd import models
 from repro.gmd import root_representation as R
 from repro.gmd.guidance import default_stop_step
 from repro.motion.features import FEATURE_DIM, relative_to_absolute_root
@@ -89,14 +89,14 @@ def test_settings_trajectory_spec_is_the_guidance_experiments_model() -> None:
     full = R.Settings.for_scale("paper")
     assert full.seeds >= 3 and full.motion_seeds >= 5
     spec = full.trajectory_spec("absolute", 0)
-    architecture = paper_settings.TRAJECTORY_ARCHITECTURE
+    architecture = models.TRAJECTORY_ARCHITECTURE
     assert (spec.task, spec.prediction) == ("trajectory", "epsilon")
-    assert spec.diffusion_steps == paper_settings.GUIDANCE_DIFFUSION_STEPS == 1000
-    assert spec.schedule == paper_settings.GUIDANCE_SCHEDULE
+    assert spec.diffusion_steps == models.GUIDANCE_DIFFUSION_STEPS == 1000
+    assert spec.schedule == models.GUIDANCE_SCHEDULE
     assert (spec.base_channels, spec.channel_mults) == (architecture.base_channels,
                                                         architecture.channel_mults)
     assert full.sampling_parameters() == {"num_timesteps": 1000, "guidance_stop_t": 20,
-                                          "x0_clamp": paper_settings.X0_CLAMP}
+                                          "x0_clamp": models.X0_CLAMP}
     quick = R.Settings.for_scale("quick")
     assert quick.trajectory_spec("relative", 0).diffusion_steps == quick.diffusion_steps
     assert quick.guidance_stop_t == default_stop_step(quick.diffusion_steps)

@@ -11,8 +11,7 @@ from conftest import make_context
 
 from repro.claims.result import record
 from repro.claims.verdicts import REPRODUCED
-from repro.gmd import root_representation as R
-from repro.gmd import root_representation_results as results
+from repro.gmd import root_representation as results
 from repro.motion.features import FEATURE_DIM
 
 
@@ -32,7 +31,7 @@ def test_b1_result_records_the_study_and_says_the_real_clip_is_absent(
     monkeypatch.setattr(results.paths, "humanml3d_sample_dir", lambda: tmp_path / "absent")
     monkeypatch.setattr(results, "load_clips", lambda root, split, min_frames, n: (
         [f"c{k}" for k in range(n)], [_clip(70, k) for k in range(n)]))
-    study = results.b1_study(tmp_path, R.Settings.for_scale("quick"))
+    study = results.b1_study(tmp_path, results.Settings.for_scale("quick"))
     assert study.real is None and study.real_measurements is None
     assert len(study.clips) == 8 and study.linearisation.shape == (3,)
     assert "is absent here" in results.round_trip_markdown(study)
@@ -45,8 +44,8 @@ def test_b1_result_records_the_study_and_says_the_real_clip_is_absent(
 
 
 def test_b3_controls_calibrate_briefly_only_in_a_quick_run() -> None:
-    assert R.Settings.for_scale("quick").b3_control_options == {
+    assert results.Settings.for_scale("quick").b3_control_options == {
         "calibration_draws": 1, "rounds": 1, "iterations": 8}
-    assert R.Settings.for_scale("standard").b3_control_options == {}
-    assert R.Settings.for_scale("paper").b3_control_options == {}
+    assert results.Settings.for_scale("standard").b3_control_options == {}
+    assert results.Settings.for_scale("paper").b3_control_options == {}
     assert np.isfinite(results.LINEARISATION_DELTAS).all()

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from repro.gmd import emphasis_study, guidance_schedule, root_representation, x0_vs_eps
-from repro.gmd.run_seeds import FULL_SEEDS, QUICK_SEEDS, STANDARD_SEEDS, seeds_of
+from repro.gmd import emphasis_projection, guidance_schedule, root_representation, x0_vs_eps
+from repro.gmd.settings import FULL_SEEDS, QUICK_SEEDS, STANDARD_SEEDS, seeds_of
 from repro.run.params import notebook_parameters
 
 
@@ -16,7 +16,7 @@ def test_settings_read_the_table() -> None:
     assert guidance_schedule.Settings.for_scale("paper").seeds == FULL_SEEDS["GMD-F1"]
     full = root_representation.Settings.for_scale("paper")
     assert (full.seeds, full.motion_seeds) == (FULL_SEEDS["GMD-B2"], FULL_SEEDS["GMD-B3"])
-    assert emphasis_study.Settings.for_scale("paper").seeds == FULL_SEEDS["GMD-C4"]
+    assert emphasis_projection.Settings.for_scale("paper").seeds == FULL_SEEDS["GMD-C4"]
     assert seeds_of("GMD-B3", "quick") == QUICK_SEEDS
     assert seeds_of("GMD-C4", "paper") == 6
     with pytest.raises(ValueError, match="GMD-A1"):
@@ -33,7 +33,7 @@ def test_standard_runs_three_seeds_for_every_claim_but_c4() -> None:
     assert (standard.seeds, standard.motion_seeds) == (3, 3)
     assert x0_vs_eps.Settings.for_scale("standard").seeds == 3
     assert guidance_schedule.Settings.for_scale("standard").seeds == 3
-    assert emphasis_study.Settings.for_scale("standard").seeds == 1
+    assert emphasis_projection.Settings.for_scale("standard").seeds == 1
 
 
 @pytest.mark.parametrize("notebook", ["01_x0_vs_eps", "06_guidance_schedule"])

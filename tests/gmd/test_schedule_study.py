@@ -14,9 +14,7 @@ from conftest import make_context
 from repro.claims.ledger import load_sidecars
 from repro.claims.result import Controls, record, recorded_markdown
 from repro.gmd import guidance_schedule as gs
-from repro.gmd import schedule_study
-from repro.gmd.coefficients import schedule_diffusion
-from repro.gmd.models import GMDModelSpec, load_or_train_gmd
+from repro.gmd.models import GMDModelSpec, load_or_train_gmd, schedule_diffusion
 from repro.gmd.windows import DataConfig, load_windows
 from repro.standin.dataset import write_dataset
 
@@ -27,7 +25,7 @@ PARAMETER_KEYS = {"num_timesteps", "guidance_stop_t", "x0_clamp"}
 
 
 @pytest.fixture(scope="module")
-def loaded(tmp_path_factory: pytest.TempPathFactory) -> schedule_study.ScheduleModels:
+def loaded(tmp_path_factory: pytest.TempPathFactory) -> gs.ScheduleModels:
     root = write_dataset(tmp_path_factory.mktemp("stand_in"), n_clips=10, seed=3)
     data = DataConfig(data_dir=str(root), frames=FRAMES, stride=8)
     with pytest.MonkeyPatch.context() as patch:
@@ -41,7 +39,7 @@ def loaded(tmp_path_factory: pytest.TempPathFactory) -> schedule_study.ScheduleM
         model, motion = load_or_train_gmd(spec), load_or_train_gmd(motion_spec)
     train = load_windows(data)   # also the goals' windows: the small set has few test clips
     stops = {g: gs.model_stop_step(g, 20) for g in (0, 20, 50, 200)}
-    return schedule_study.ScheduleModels(
+    return gs.ScheduleModels(
         spec, motion_spec, train, train, {0: model}, {0: motion}, [False, False], stops,
         model.diffusion.alphas_cumprod,
         schedule_diffusion("cosine", gs.GMD_NUM_TIMESTEPS).alphas_cumprod)
@@ -54,9 +52,9 @@ def _settings() -> gs.Settings:
 
 
 def test_the_experiment_returns_the_rules_lists_and_records_them(
-        loaded: schedule_study.ScheduleModels, tmp_path: Path) -> None:
+        loaded: gs.ScheduleModels, tmp_path: Path) -> None:
     settings = _settings()
-    sweeps = schedule_study.run_sweeps(loaded, settings, [0], log=lambda _: None)
+    sweeps = gs.run_sweeps(loaded, settings, [0], log=lambda _: None)
     assert set(sweeps.goal_by_s) == {"0", "3", "100", "150", "200"}
     assert sweeps.goal_by_s["100"] == [sweeps.sweep[0].mean_goal_error(100)]
     assert "**(claimed range)**" in sweeps.strength_table(settings)
@@ -64,12 +62,12 @@ def test_the_experiment_returns_the_rules_lists_and_records_them(
     assert stop.rule_arm == "guidance, s = 100" and set(stop.goal) == {
         "guidance, s = 3", "guidance, s = 100", "guidance + goal imputation, s = 100"}
     assert stop.jerk[stop.rule_arm][20] == [sweeps.stop_sweep[(0, 20)].mean_jerk(100)]
-    body = schedule_study.second_stage(loaded, sweeps, settings)
+    body = gs.second_stage(loaded, sweeps, settings)
     assert set(body.coherence["joint_jerk"]) == {0, 20}
     assert f"stop at t = {loaded.stops[20]} of 20" in body.table(loaded, [0])
-    obstacles = schedule_study.obstacle_study(loaded, sweeps, settings)
+    obstacles = gs.obstacle_study(loaded, sweeps, settings)
     assert obstacles.s_lowest in (3, 100, 150, 200) and 100 in obstacles.strengths
-    result = schedule_study.f1_result(
+    result = gs.f1_result(
         loaded, sweeps, stop, body, obstacles, settings,
         controls=Controls(null={}, positive={}), first_step={3: 0.1},
         peak_state={3: 1.0}, timings={"sweeps": 1.23}, model_records=[])

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from repro.gmd import table_b1 as B
+from repro.gmd import measurements as B
 
 
 def test_window_concepts() -> None:

@@ -11,11 +11,7 @@ import torch
 
 from repro.gmd.guidance import goal_error, sample
 from repro.gmd.measurements import jitter_of
-from repro.gmd.models import (
-    GMDModelSpec,
-    TrainedGMD,
-    load_or_train_gmd,
-)
+from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd
 from repro.gmd.windows import DataConfig, FeatureSpace
 from repro.gmd.x0_vs_eps import (
     best_gain_survival,
@@ -151,7 +147,7 @@ def test_goal_reaching_result_reads_the_survival_from_its_own_path(small_spec,
 
 
 def test_guidance_trajectory_spec_is_gmds_diffusion_and_stops_at_20() -> None:
-    from repro.gmd import paper_settings
+    from repro.gmd import models
     from repro.gmd.guidance import default_stop_step, guidance_parameters
     from repro.gmd.x0_vs_eps import Settings, guidance_trajectory_spec
 
@@ -160,8 +156,8 @@ def test_guidance_trajectory_spec_is_gmds_diffusion_and_stops_at_20() -> None:
     assert spec == full.spec("trajectory", "epsilon", full.data(None), seed=2).replace(
         diffusion_steps=1000, schedule="cosine")
     assert spec == guidance_trajectory_spec("paper", seed=2)
-    assert spec.diffusion_steps == paper_settings.GUIDANCE_DIFFUSION_STEPS
-    assert default_stop_step(1000) == paper_settings.GUIDANCE_STOP_T == 20
+    assert spec.diffusion_steps == models.GUIDANCE_DIFFUSION_STEPS
+    assert default_stop_step(1000) == models.GUIDANCE_STOP_T == 20
     assert default_stop_step(50) == 1 and default_stop_step(100) == 2
     quick = guidance_trajectory_spec("quick", "x0")
     assert quick.diffusion_steps == 50 and quick.prediction == "x0"

@@ -14,8 +14,9 @@ from conftest import make_context
 from repro.claims.registry import get_claim
 from repro.claims.result import record
 from repro.claims.verdicts import PAPER_DISCREPANCY, REPRODUCED
-from repro.gmd import coefficients, x0_vs_eps_results
-from repro.gmd.x0_vs_eps_results import A3Study, a1_result, a2_result, finite
+from repro.gmd import models
+from repro.gmd import x0_vs_eps as x0_vs_eps_results
+from repro.gmd.x0_vs_eps import A3Study, a1_result, a2_result, finite
 
 #: what every sidecar of notebook 01 records under ``extra["parameters"]`` (issue #17)
 KEYS = {"num_timesteps", "guidance_stop_t", "x0_clamp"}
@@ -23,17 +24,17 @@ KEYS = {"num_timesteps", "guidance_stop_t", "x0_clamp"}
 
 def test_a1_and_a2_record_the_registered_measurements_and_the_parameters(
         tmp_path: Path) -> None:
-    cosine = coefficients.schedule_diffusion("cosine", 1000)
-    mu_difference = coefficients.posterior_mean_forms(cosine, samples=4, seed=0)
-    printed = coefficients.printed_c_relative_error(cosine)
+    cosine = models.schedule_diffusion("cosine", 1000)
+    mu_difference = x0_vs_eps_results.posterior_mean_forms(cosine, samples=4, seed=0)
+    printed = x0_vs_eps_results.printed_c_relative_error(cosine)
     a1 = a1_result(cosine, mu_difference, printed, figure=tmp_path / "a1.png", seed=0)
     assert set(get_claim("GMD-A1").measurements) <= set(a1.measured)
     assert set(a1.extra["parameters"]) == KEYS
-    assert a1.extra["c_equals_one_over_sqrt_alpha_max_error"] == coefficients.c_identity_error(
+    assert a1.extra["c_equals_one_over_sqrt_alpha_max_error"] == x0_vs_eps_results.c_identity_error(
         cosine) < 1e-9
-    schedules = {name: coefficients.coefficient_shares(coefficients.schedule_diffusion(name))
+    schedules = {name: x0_vs_eps_results.coefficient_shares(models.schedule_diffusion(name))
                  for name in ("cosine", "linear")}
-    peaks = {name: {k: coefficients.peak_fraction(v[k]) for k in ("x0_share", "eps_share")}
+    peaks = {name: {k: x0_vs_eps_results.peak_fraction(v[k]) for k in ("x0_share", "eps_share")}
              for name, v in schedules.items()}
     a2 = a2_result(schedules, peaks, figure=tmp_path / "a2.png", seed=0)
     assert a2.extra["parameters"] == {"num_timesteps": 1000, "guidance_stop_t": None,
