@@ -1,15 +1,18 @@
-"""Positive and null controls beside the GMD model-based experiments (issue #13, item 3).
+"""Positive and null controls beside the GMD model-based experiments: the shared machinery.
 
-Each function runs the *same measurement code* as its experiment, on the same number of seeds
-and items, on inputs whose truth is known: an exact model (GMD-A3) or the stand-in data
-themselves (GMD-A4, C4) as the "model" (GMD-A3's, with exact and planted models, are in
-``repro.gmd.controls_a3``). The **null** control draws both arms from the same
-source with independent randomness per seed (no effect); the **positive** control takes the
-null's inputs and plants every part's effect at its registered size δ
+A claim's controls (in its claim module) run the *same measurement code* as its experiment, on
+the same number of seeds and items, on inputs whose truth is known: an exact model (GMD-A3) or
+the stand-in data themselves (GMD-A4, B2, C4, F1) as the "model". The **null** control draws
+both arms from the same source with independent randomness per seed (no effect); the
+**positive** control takes the null's inputs and plants every part's effect at its registered size δ
 (``repro.claims.registry_gmd``), by an exact transformation wherever one exists (radial
 scaling about the goal, a world-space scale of the body) and by a measured scale factor on
 calibration draws (disjoint from the control's) where none does (FID). ``record_claim(...,
 controls=...)`` decides both with the claim's own rule.
+
+Here: the seeds of control draws (:func:`control_seed`), the bisection that calibrates a
+planted size (:func:`calibrate_increasing`) and the exact plantings (:func:`scale_world`,
+:func:`jag`, :func:`offset_unread_features`, :func:`located`, :func:`planted_path`).
 """
 
 from __future__ import annotations
@@ -27,8 +30,9 @@ from repro.motion.features import (
     relative_to_absolute_root,
 )
 
-__all__ = ["CONTROL_SEED_BASE", "calibrate_increasing", "control_seed", "draw_indices", "jag",
-           "located", "offset_unread_features", "planted_path", "scale_world"]
+__all__ = ["CONTROL_SEED_BASE", "TENTH_FACTOR", "calibrate_increasing", "control_seed",
+           "draw_indices", "jag", "located", "offset_unread_features", "planted_path",
+           "scale_world"]
 
 #: control randomness lives far from the experiments' seeds (0, 1, 2, …)
 CONTROL_SEED_BASE = 1_000_000
@@ -78,6 +82,13 @@ def calibrate_increasing(effect: Callable[[float], float], target: float, *, hig
     return 0.5 * (low + high)
 
 
+def draw_indices(windows: MotionWindows, n: int, seed: int) -> Tensor:
+    """``n`` indices of ``windows`` drawn with ``seed`` (with replacement only when there are
+    fewer than ``n``), sorted: one control arm's windows."""
+    picks = np.random.default_rng(seed).choice(len(windows), n, replace=len(windows) < n)
+    return torch.from_numpy(np.sort(picks))
+
+
 # --- exact planting in the absolute-root representation -----------------------------------
 
 def scale_world(space: FeatureSpace, x: Tensor, factor: float, *,
@@ -105,20 +116,13 @@ def scale_world(space: FeatureSpace, x: Tensor, factor: float, *,
 
 
 def offset_unread_features(space: FeatureSpace, x: Tensor, size: float,
-                            direction: Tensor) -> Tensor:
+                           direction: Tensor) -> Tensor:
     """x with the features no joint reads shifted by ``size`` × their std along a fixed unit
     ``direction`` (every frame, every sample)."""
     features = space.unnormalise(x.detach()).clone()
     std = torch.as_tensor(space.std[_NOT_JOINTS], dtype=features.dtype)
     features[..., _NOT_JOINTS] += size * std * direction.to(features.dtype)
     return space.normalise(features)
-
-
-# --- GMD-A4: the data as the model, jitter and FID planted in the ε arm ---------------------
-
-def draw_indices(windows: MotionWindows, n: int, seed: int) -> Tensor:
-    picks = np.random.default_rng(seed).choice(len(windows), n, replace=len(windows) < n)
-    return torch.from_numpy(np.sort(picks))
 
 
 def jag(space: FeatureSpace, x: Tensor, amplitude: float, seed: int) -> Tensor:
@@ -140,7 +144,7 @@ def jag(space: FeatureSpace, x: Tensor, amplitude: float, seed: int) -> Tensor:
 
 
 def located(space: FeatureSpace, x: Tensor, frames: Sequence[int], targets: np.ndarray,
-             offsets: np.ndarray) -> Tensor:
+            offsets: np.ndarray) -> Tensor:
     """x with its root x/z at ``frames`` set to ``targets`` + ``offsets`` (n, len(frames), 2)."""
     features = space.unnormalise(x.detach()).clone()
     placed = torch.as_tensor(targets + offsets, dtype=features.dtype)
@@ -149,10 +153,8 @@ def located(space: FeatureSpace, x: Tensor, frames: Sequence[int], targets: np.n
     return space.normalise(features)
 
 
-# --- GMD-F1: the data as the model, strength and stop effects planted ----------------------
-
 def planted_path(space: FeatureSpace, x: Tensor, targets: np.ndarray, *, jerk_factor: float,
-                  goal_factor: float) -> Tensor:
+                 goal_factor: float) -> Tensor:
     """Trajectories (B, 4, T) whose root jerk is ``jerk_factor`` × theirs (the root path
     scaled: jerk is linear in positions) and whose goal errors are ``goal_factor`` × theirs
     (the whole path then translated so its last frame lies at g + goal_factor·(p_last − g);

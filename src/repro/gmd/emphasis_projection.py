@@ -468,7 +468,7 @@ def jl_tail_bound(low: float, high: float, k: int) -> float:
 # Tiny GMD motion models with trajectory loss scaling or the Emphasis projection (GMD C.1).
 #
 # A thin layer over ``repro.gmd.models`` and ``guidance`` (which have no projection hook): the
-# Emphasis models train on projected windows y = x P (``emphasis.EmphasisProjection``,
+# Emphasis models train on projected windows y = x P (``EmphasisProjection``,
 # channels-first) and sample in that space; their :class:`ProjectedFeatureSpace` un-projects
 # before un-normalising, so every ``gmd`` measurement (joints, root, foot skating, jitter) works
 # on them unchanged.
@@ -495,8 +495,8 @@ IMPUTED_FEATURES = (1, 2)
 ROOT_VELOCITY = slice(193, 196)
 
 
-#: GMD-C4's matched values (registry v3): 2 and 10 (GMD's released c); its seeds are
-#: ``run_seeds.FULL_SEEDS["GMD-C4"]``.
+#: GMD-C4's registered matched values: 2 and 10 (GMD's released c); its seeds are
+#: ``settings.FULL_SEEDS["GMD-C4"]``.
 C4_VALUES = (2, 10)
 
 
@@ -556,7 +556,7 @@ class Variant:
     code) or the Emphasis projection with c (features 0–2 emphasised).
 
     Emphasis variants carry the matrix's ``kind`` and ``precision``
-    (``emphasis.EmphasisProjection``): the rule's arm is the paper's Gaussian matrix in
+    (``EmphasisProjection``): the rule's arm is the paper's Gaussian matrix in
     float64; the sensitivity arms outside the rule are ``kind="orthogonal"`` (√n·Q, its own
     models) and ``precision="float32_gmd"`` (GMD's released float32 construction: the Gaussian
     arm's model of the same seed, sampled through GMD's float32 P and P⁻¹)."""
@@ -711,13 +711,13 @@ TABLE_B1_VARIANTS = (Variant("loss_scaling", 1), Variant("emphasis", 10))
 class Settings:
     """Every size and step count of GMD-C4 in notebook 03, fixed before any verdict was seen.
 
-    Paper scale (registry v3, the power plan in the GMD-C4 entry): loss scaling k and Emphasis
+    Paper scale (the power plan in the GMD-C4 registry entry): loss scaling k and Emphasis
     c at the matched values v ∈ {2, 10} × 6 seeds = 24 text-conditioned x0 motion models in
     the rule (GMD's motion model predicts x0); outside it the orthogonal-matrix sensitivity arm
     at ``sensitivity_values`` (c = 10) and Table B.1's plain model (k = 1), 6 models each
     (GMD's float32 construction samples the Gaussian arm's models): 36 models, on the
     48-frame absolute-root windows the other GMD notebooks use;
-    T = 50 cosine, ``paper_settings.MOTION_ARCHITECTURE`` trained to convergence with
+    T = 50 cosine, ``models.MOTION_ARCHITECTURE`` trained to convergence with
     ``train_steps`` the cap (``models.training_fields``). Quick mode shrinks everything
     (UNet1D base 16 × (1, 2), a test of the code, never a result).
     """
@@ -1020,7 +1020,7 @@ class ProjectionSettings:
 # ------------------------------------------------------------------------------------------------
 # GMD-C4's descriptive readings outside the rule (notebook 03): how κ(P) of each seed's
 # Emphasis matrix relates to its foot skating, and every Emphasis arm outside the rule against
-# the rule's arms (``emphasis_study.Results``). Neither enters a verdict.
+# the rule's arms (``Results``). Neither enters a verdict.
 # ------------------------------------------------------------------------------------------------
 
 def kappa_skating_relation(results: Results) -> dict[str, dict[str, float | int | None]]:
@@ -1067,8 +1067,7 @@ def outside_rule_summary(results: Results) -> dict[str, dict[str, Any]]:
 # The figures of notebook 03 (GMD appendix C, C.1: Emphasis projection): values in, a Figure out.
 #
 # Each function draws what the notebook measured (nothing here feeds a verdict); the notebook
-# saves the figure with ``repro.motion.plotting.save_figure``. Kept apart from ``figures``
-# (notebooks 01, 02, 06) so that neither module outgrows the size limit.
+# saves the figure with ``repro.motion.plotting.save_figure``.
 # ------------------------------------------------------------------------------------------------
 
 def plot_relative_importance(c_grid: np.ndarray, simulated: np.ndarray,
@@ -1337,7 +1336,7 @@ def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
                            test: MotionWindows, device: str | torch.device = "cpu",
                            parts: Mapping[float, Sequence[str]] | None = None
                            ) -> list[dict[str, Any]]:
-    """``gmd_motion`` records of every GMD-C4 model (``emphasis_study.run_experiment``'s
+    """``gmd_motion`` records of every GMD-C4 model (``run_experiment``'s
     ``results``: each variant × seed): :func:`denoising_gate_values` on the test windows
     against the training windows, in the variant's own space (an Emphasis model's projected
     one), the seed's noise. ``parts``: matched value v → the claim parts that read the models
@@ -1688,8 +1687,6 @@ def c3_result(check: UnitVarianceCheck, *, figures: Sequence[str | Path] = ()) -
 
 
 
-# --- GMD-C4's controls: the data as the model, foot skating planted in the loss-scaling arm ------
-
 # --- GMD-C4: the data as the model, foot skating planted in the loss-scaling arm -----------
 
 def c4_controls(test: MotionWindows, seeds: Sequence[int], values: Sequence[float], *,
@@ -1730,8 +1727,6 @@ def c4_controls(test: MotionWindows, seeds: Sequence[int], values: Sequence[floa
 
 
 # --- notebook 03's reading paragraph -------------------------------------------------------------
-
-# ----------------------------------------------------------------------------- notebook 03
 
 def reading_c4(*, skating: dict[str, dict[str, list[float]]], data_skating: float,
                final_losses: dict[str, float], train_steps: int, kappas: dict[int, float],
@@ -1804,13 +1799,13 @@ def reading_c4(*, skating: dict[str, dict[str, list[float]]], data_skating: floa
 # ------------------------------------------------------------------------------------------------
 # GMD-C4 (notebook 03, GMD appendix C.1): the result it records and the readings beside it.
 #
-# ``emphasis_study.run_experiment`` trains and measures the models; this module turns its
-# :class:`~repro.gmd.emphasis_study.Results` into what the notebook shows and records:
+# :func:`run_experiment` trains and measures the models; these turn its
+# :class:`Results` into what the notebook shows and records:
 #
 # - :func:`spectra`: κ(P), σ_min and the directions a diffusion on the projected data cannot
-#   see at its last step (``emphasis.drowned_directions``: signal σ_i against noise √(1 − ᾱ));
+#   see at its last step (``drowned_directions``: signal σ_i against noise √(1 − ᾱ));
 # - :func:`kappa_reading`: foot skating against κ(P) of each seed's matrix, and the arms outside
-#   the rule against the rule's (``emphasis_arms``);
+#   the rule against the rule's (:func:`outside_rule_summary`);
 # - :func:`table_b1_markdown`: Table B.1's "Ours xproj" row beside the plain model;
 # - :func:`c4_result`: the :class:`~repro.claims.result.ClaimResult` of GMD-C4 (loss scaling k
 #   against Emphasis c at the matched values, Eq. 5: weight k² ≈ c² on the trajectory).
@@ -1878,7 +1873,7 @@ def spectra(results: Results, settings: Settings, seeds: Sequence[int], *, seed:
 @dataclass
 class KappaReading:
     """Spearman's ρ(κ, skating) per value (``relation``), every arm outside the rule
-    (``outside``, ``emphasis_arms.outside_rule_summary``) and the two tables the notebook
+    (``outside``, ``outside_rule_summary``) and the two tables the notebook
     shows. Descriptive: neither enters the rule."""
 
     relation: dict[str, dict[str, float | int | None]]
@@ -1900,7 +1895,7 @@ def kappa_reading(results: Results) -> KappaReading:
     """Each Gaussian value's κ(P) and foot skating per seed with their rank correlation, and
     each arm outside the rule (orthogonal matrix: κ = c; GMD's float32 construction) paired
     with loss scaling at k = c and with the Gaussian arm; then κ of GMD's released matrix
-    (``emphasis.GMD_RELEASED_CONDITION_NUMBER``, a looked-up fact) beside the rule's."""
+    (``GMD_RELEASED_CONDITION_NUMBER``, a looked-up fact) beside the rule's."""
     relation = kappa_skating_relation(results)
     outside = outside_rule_summary(results)
     kappa_rule = results.kappa_per_value()

@@ -52,12 +52,7 @@ def count_below(values_a: Sequence[float], values_b: Sequence[float]) -> int:
 
 
 
-# ------------------------------------------------------------------------------------------------
-# The figures of the GMD notebooks (01, 02, 03, 06): measured values in, a matplotlib Figure out.
-#
-# Each function draws what a notebook measured (nothing is computed here that a verdict reads);
-# the notebook saves the figure with ``repro.motion.plotting.save_figure``.
-# ------------------------------------------------------------------------------------------------
+# --- figures: measured values in, a matplotlib Figure out -----------------------------------------
 
 def plot_table_b1(real: dict[str, float], rows: dict[str, list[dict[str, float]]]) -> Figure:
     """Table B.1 as panels (FID, R@3, Diversity, concept recall): per-seed dots, mean bars,

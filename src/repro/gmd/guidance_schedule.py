@@ -496,7 +496,7 @@ class Settings:
 
     @classmethod
     def for_scale(cls, scale: str, *, seeds: int | None = None) -> Settings:
-        """The settings of ``scale`` (``seeds`` None: ``run_seeds.seeds_of("GMD-F1", scale)``).
+        """The settings of ``scale`` (``seeds`` None: ``settings.seeds_of("GMD-F1", scale)``).
         At the standard scale the models are notebook 01's at T = 100, and ``stops`` maps
         GMD's {0, 20, 50, 200} of 1000 to {0, 2, 5, 20}."""
         check_scale(scale)
@@ -642,8 +642,6 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
 
 
 # --- figures of GMD-F1 ---------------------------------------------------------------------------
-
-# ------------------------------------------------------------- notebook 06: guidance schedule
 
 def plot_strength_sweep(goal_by_s: dict[str, list[float]], jerk_by_s: dict[str, list[float]],
                         strengths: Sequence[float], seeds: Sequence[int], *, stop: int,

@@ -87,7 +87,7 @@ def sample_quality(joints: np.ndarray | Tensor, *, fid: float | None = None) -> 
     """Foot skating (mean horizontal foot speed in contact, m/s, ``metrics.foot_skating``) and
     joint jerk (mean ‖Δ³p‖·fps³, m/s³, ``metrics.jitter``) of joint positions (B, T, 22, 3) in
     metres, with ``fid`` when given: the quantities GMD-A4, C4 and F1 compare (gates versions 1
-    and 2 gated on them; the pilots and ``denoiser_diagnostics.noise_floor`` still measure them)."""
+    and 2 gated on them; the pilots and ``noise_floor`` still measure them)."""
     points = joints.detach().cpu().double().numpy() if isinstance(joints, Tensor) \
         else np.asarray(joints, dtype=np.float64)
     values = {"foot_skating": float(metrics.foot_skating(points, fps=FPS)),
@@ -117,7 +117,7 @@ def unguided_sample_quality(trained: TrainedGMD, n: int, *, seed: int, evaluator
 # The same tiny text-conditioned motion model, trained on relative- and on absolute-root windows,
 # generates one motion per test caption; the package's evaluator scores FID, R-precision top-3
 # and Diversity against the test windows, and the concept oracles the recall of the captioned
-# concepts. Part of ``notebooks/02_root_representation.ipynb`` (with ``root_representation``).
+# concepts. GMD-B3 (notebook 02) runs it; GMD-C4's table and the model gates read it too.
 # ------------------------------------------------------------------------------------------------
 
 #: Table B.1 of the GMD appendix (HumanML3D): FID ↓, R-precision top-3 ↑, Diversity →.
@@ -199,8 +199,9 @@ def generate_for_captions(trained: TrainedGMD, captions: Sequence[str], *, seed:
                           guidance_scale: float = GMD_CFG_SCALE,
                           batch_size: int = 128) -> np.ndarray:
     """One sample per caption with classifier-free guidance at ``guidance_scale`` (GMD: 2.5;
-    1 = plain conditional sampling; ``repro.gmd.cfg``), returned as relative-root features
-    (n, frames, 263) (an abs model's samples are converted with ``absolute_to_relative_root``).
+    1 = plain conditional sampling; ``guidance.sample_classifier_free``), returned as
+    relative-root features (n, frames, 263) (an abs model's samples are converted with
+    ``absolute_to_relative_root``).
     Batch k uses the sampling seed 10 000·seed + k, so models sampled with one seed share
     their noise."""
     out = []
@@ -314,11 +315,11 @@ def registered_measurements(real: dict[str, float],
 
 
 # ------------------------------------------------------------------------------------------------
-# Where a motion model's jitter comes from (issue #14): diagnostics beside the quality gate.
+# Where a motion model's jitter comes from: diagnostics beside the quality gate.
 #
 # The ``gmd_motion`` gate (``core.gates``, version 3) says whether the denoiser beats the best
-# Gaussian denoiser on held-out x̂0 (since version 3 it no longer reads skating or jitter of
-# samples, which claims compare); these say *where* a model's jitter comes from, without sampling:
+# Gaussian denoiser on held-out x̂0 (it reads no skating or jitter of samples, which claims
+# compare); these say *where* a model's jitter comes from, without sampling:
 #
 # * :func:`x0_error_by_block` — the denoiser's RMS error on x0, per feature block, at chosen t,
 #   beside the noise √(1 − ᾱ_t) that x_t still holds. An error far above that noise at small t,

@@ -16,7 +16,7 @@ One function per gate family measures what the registered gate names (gates vers
 
 :data:`COMPARED` names the quantity behind every measurement a GMD claim's parts compare and
 :data:`FAMILIES_READ` the model families whose records each notebook passes to a claim, so a
-test can hold every gate off every outcome (issue #31). :func:`gmd_model_record` /
+test can hold every gate off every outcome. :func:`gmd_model_record` /
 :func:`evaluator_model_record` turn the values into ``core.gates.model_record``s with what the
 model cache keeps (steps, seconds, and the held-out validation curve of a model trained to
 convergence, else the training loss) and the claim parts that read the model; nothing here
@@ -195,7 +195,7 @@ SAMPLE_GATE_WINDOWS = 64
 class SampleGateData:
     """The data side of the ``gmd_motion`` sample gates (``core.gates``, version 4):
     ``evaluation`` — :data:`SAMPLE_GATE_WINDOWS` relative-root test windows with one caption
-    each and their labelled concepts (``table_b1.evaluation_set``) — and ``values``, the
+    each and their labelled concepts (``measurements.evaluation_set``) — and ``values``, the
     windows' own ``metrics.motion_statistics`` and the oracles' recall of their concepts
     (NaN without the stand-in's labels: the recall gate is then not measurable)."""
 
@@ -238,7 +238,7 @@ def motion_sample_values(trained: TrainedGMD, data: SampleGateData, *,
 
 def model_space_windows(trained: TrainedGMD, windows: MotionWindows) -> Tensor:
     """``windows`` (B, C, T) in ``trained``'s model space: its task's channels, projected when
-    the model is an Emphasis variant (``emphasis_study.ProjectedFeatureSpace``)."""
+    the model is an Emphasis variant (``emphasis_projection.ProjectedFeatureSpace``)."""
     x = windows.channels(trained.spec.task)
     projection = getattr(trained.space, "projection", None)
     if projection is None:
@@ -376,7 +376,7 @@ def training_summary(trained: TrainedGMD) -> dict[str, Any]:
 
 def budget_markdown(arms: Mapping[str, Sequence[TrainedGMD]],
                     records: Mapping[str, Sequence[Mapping[str, Any]]]) -> str:
-    """GMD-A4's training budget (issue #14): per arm (label → its models, one per seed, and
+    """GMD-A4's training budget: per arm (label → its models, one per seed, and
     their ``gmd_model_record``s in the same order) and seed, the steps used of the cap, what
     stopped the run and the ``gmd_motion`` gate's value (held-out x̂0 error over the Gaussian
     denoiser's); then, per arm, in how many seeds the gate passed."""

@@ -90,7 +90,7 @@ GUIDANCE_STOP_T = 20
 X0_CLAMP = 6.0
 
 
-#: the tiny GMD UNets (set by #14's design pilots, pilots/pilot_gmd_motion.md and
+#: the tiny GMD UNets (set by the design pilots, pilots/pilot_gmd_motion.md and
 #: pilots/pilot_gmd_trajectory.jsonl; the motion model's full-resolution width must be at least
 #: the 263 features it carries, as GMD's [263 → 1024] is). The trajectory UNet has GMD's own
 #: widths [4 → 64, 128, 256]: at 16 × (1, 2, 4) its ε model failed the trajectory gate (root
@@ -102,7 +102,7 @@ MOTION_ARCHITECTURE = Architecture(base_channels=288, channel_mults=(1, 0.5, 0.2
 TRAJECTORY_ARCHITECTURE = Architecture(base_channels=64, channel_mults=(1, 2, 4))
 
 
-#: the standard scale (issue #32, docs/COMPUTE.md §3–§4; ``make reproduce`` on 2 CPU cores):
+#: the standard scale (docs/COMPUTE.md §3–§4; ``make reproduce`` on 2 CPU cores):
 #: every GMD model at T = 100 cosine (the guidance stop steps at the same fraction of T,
 #: ``guidance_schedule.model_stop_step``: GMD's 20 of 1000 → 2); the motion UNet 64 × (1, 1)
 #: with the full-rank input skip (``UNet1D(input_skip=True)``: without it the ε arm cannot
@@ -164,13 +164,12 @@ class ConvergenceTraining:
     autocast: str | None = None
 
 
-#: full-mode motion models (``paper_settings.MOTION_ARCHITECTURE``), from the design pilot
+#: full-mode motion models (``MOTION_ARCHITECTURE``), from the design pilot
 #: (pilots/pilot_gmd_motion*.md): lr 3e-4 skated less than 1e-3 at every check (150–600 steps);
-#: batch 32 and 64 were alike per CPU-second. Cap 12000 (session 11; was 4000, a time budget):
-#: notebook 01's motion models reached 4000 steps without their plateau stop, the held-out
-#: loss still falling 3 % per 1000 steps, so the cap, not convergence, ended them
-#: (docs/TRAINING.md point 9); 12000 as the trajectory family's, the plateau decides.
-#: bf16 autocast (session 13, pilots/pilot_bf16_motion.md): 1.7-2.1x faster on an AMX CPU, with
+#: batch 32 and 64 were alike per CPU-second. Cap 12000, as the trajectory family's, so that the
+#: plateau decides: at a 4000-step cap notebook 01's motion models stopped on the cap with the
+#: held-out loss still falling 3 % per 1000 steps (docs/TRAINING.md point 9).
+#: bf16 autocast (pilots/pilot_bf16_motion.md): 1.7-2.1x faster on an AMX CPU, with
 #: the held-out loss within 0.13 % of fp32's and the gate values within their noise (a rule
 #: written before the runs); on a CPU without AMX it is slower (0.69-0.98x, README).
 MOTION_TRAINING = ConvergenceTraining(batch_size=64, lr=3e-4, validate_every=200, patience=5,
@@ -256,7 +255,7 @@ class GMDModelSpec:
     ``trajectory_loss_weights``). ``text_conditioned`` adds a bag-of-words caption condition
     (dropped with probability ``training.cond_dropout`` for classifier-free use).
 
-    Convergence (issue #14, docs/TRAINING.md): with ``training.validate_every`` set, the
+    Convergence (docs/TRAINING.md): with ``training.validate_every`` set, the
     windows of a held-out ``validation_fraction`` of the *training-split* clips
     (``validation_split``; never the test windows the claims measure on) are left out of
     training, the EMA weights' loss on them is measured every ``validate_every`` steps, and
@@ -400,9 +399,9 @@ class TrainedGMD:
 def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
                     seed: int = 0) -> dict[str, Any]:
     """The architecture fields and the ``training`` (seeded with ``seed``) of a notebook's
-    ``GMDModelSpec`` of ``task`` at ``scale`` (issues #14, #32).
+    ``GMDModelSpec`` of ``task`` at ``scale`` (docs/COMPUTE.md).
 
-    - ``paper``: ``paper_settings``' architecture of the family and its ``ConvergenceTraining``
+    - ``paper``: ``models``' architecture of the family and its ``ConvergenceTraining``
       (batch, lr, validation interval, patience, autocast, step cap; ``step_cap`` overrides the
       cap): today's registered full settings, the same keys.
     - ``standard``: the family's standard architecture (the motion UNet with the input skip)
@@ -441,7 +440,7 @@ def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
 def longer_run(spec: GMDModelSpec, factor: int = 2) -> GMDModelSpec:
     """``spec`` trained ``factor``× its step cap without the plateau stop (the patience
     outlasts the run), still validated so its curve is recorded: GMD-A4's longer ε run, which
-    shows whether the ε arm converges later than the budget both arms share (issue #14)."""
+    shows whether the ε arm converges later than the budget both arms share."""
     validate_every = spec.training.validate_every
     if validate_every is None:
         raise ValueError("longer_run needs a spec trained with validation (validate_every)")

@@ -17,11 +17,12 @@ the step i → i+1 is taken in the facing frame of i+1), a change δv at frame i
 shifts every later frame by δv. In abs p_t depends on g_t alone.
 
 This module holds the logic of ``notebooks/02_root_representation.ipynb``, on top of the tiny-GMD
-modules of ``repro.gmd``: the exact round trip and the sensitivity study (GMD-B1) and the
-notebook's fixed settings (:class:`Settings`). Location imputation (GMD-B2) is
-``repro.gmd.location_imputation``, Table B.1 (GMD-B3) ``repro.gmd.table_b1``; the figures are
-in ``repro.gmd.figures``. Representations are named as ``motion.humanml3d.REPRESENTATIONS``
-("relative", "absolute"); "rel"/"abs" (``windows.short_label``) only name measurements.
+modules of ``repro.gmd``: the notebook's fixed settings (:class:`Settings`); the exact round
+trip and the sensitivity study (GMD-B1); location imputation and guidance in both
+representations (GMD-B2); Table B.1's evaluation (GMD-B3, ``measurements``) run on both; each
+claim's controls, figures, reading and result. Representations are named as
+``motion.humanml3d.REPRESENTATIONS`` ("relative", "absolute"); "rel"/"abs"
+(``windows.short_label``) only name measurements.
 """
 
 from __future__ import annotations
@@ -59,12 +60,12 @@ from repro.gmd.models import (
     GUIDANCE_DIFFUSION_STEPS,
     GUIDANCE_SCHEDULE,
     GUIDANCE_STOP_T,
-    STANDARD_DIFFUSION_STEPS,
-    X0_CLAMP,
     MOTION_TRAINING,
+    STANDARD_DIFFUSION_STEPS,
     STANDARD_MOTION_TRAINING,
     STANDARD_TRAJECTORY_TRAINING,
     TRAJECTORY_TRAINING,
+    X0_CLAMP,
     GMDModelSpec,
     TrainedGMD,
     describe,
@@ -268,8 +269,7 @@ class SensitivityResult:
     def change_size(self, perturbation: str = "both") -> float:
         """The perturbation's own size where it is made (m): abs's displacement at gap 0, the
         mean over clips (``abs_early_displacement``): what a late displacement is measured
-        against (registry v4; v3 compared rel with abs's late frames, which are 0 by
-        construction)."""
+        against (not abs's late frames, which are 0 by construction)."""
         return float(self.displacement["absolute"][perturbation][:, 0].mean())
 
     def measurements(self) -> dict[str, float]:
@@ -342,16 +342,16 @@ class Settings:
     """Every size and step count of notebook 02 at one scale, fixed before any verdict was seen.
 
     GMD-B2 (paper scale) uses the guidance experiments' trajectory model (:meth:`trajectory_spec`:
-    ε prediction, ``paper_settings.TRAJECTORY_ARCHITECTURE``, T = 1000 cosine), sampled with
-    GMD's stop step t = 20 and ±6 clamp of x̂0 (``paper_settings``); GMD-B3 a text-conditioned
-    x0 motion model (GMD's motion model predicts x0; ``paper_settings.MOTION_ARCHITECTURE``),
+    ε prediction, ``TRAJECTORY_ARCHITECTURE``, T = 1000 cosine), sampled with
+    GMD's stop step t = 20 and ±6 clamp of x̂0 (``models``); GMD-B3 a text-conditioned
+    x0 motion model (GMD's motion model predicts x0; ``MOTION_ARCHITECTURE``),
     both trained to convergence (``models.training_fields``; ``trajectory_steps`` /
     ``motion_steps`` are the step caps), the motion model sampled with
-    classifier-free guidance at GMD's scale (``repro.gmd.cfg``). ``seeds`` (B2) and
-    ``motion_seeds`` (B3) come from ``run_seeds.seeds_of``. The standard scale (docs/COMPUTE.md
-    §3) trains the standard architectures for a fixed step count, T = 100 for every model (the
-    stop step at the same fraction, 2), 3 seeds each and 128 B3 samples. Quick mode shrinks
-    everything, T included (a test of the code, never a result).
+    classifier-free guidance at GMD's scale (``guidance.sample_classifier_free``). ``seeds``
+    (B2) and ``motion_seeds`` (B3) come from ``settings.seeds_of``. The standard scale
+    (docs/COMPUTE.md §3) trains the standard architectures for a fixed step count, T = 100 for
+    every model (the stop step at the same fraction, 2), 3 seeds each and 128 B3 samples. Quick
+    mode shrinks everything, T included (a test of the code, never a result).
     """
 
     scale: str
@@ -412,12 +412,12 @@ class Settings:
 
     @property
     def x0_clamp(self) -> float:
-        """GMD's clamp of the ε trajectory model's x̂0 (±6, ``paper_settings.X0_CLAMP``)."""
+        """GMD's clamp of the ε trajectory model's x̂0 (±6, ``X0_CLAMP``)."""
         return X0_CLAMP
 
     @property
     def b3_control_options(self) -> dict[str, int]:
-        """The calibration of GMD-B3's positive control (``controls_b3.b3_controls``'
+        """The calibration of GMD-B3's positive control (``b3_controls``'
         keywords): its registered defaults, or in a quick run one calibration draw and one
         round of 8-step bisections (a test of the code)."""
         if self.quick:
@@ -487,7 +487,7 @@ def load_clips(root: Path, split: str, *, min_frames: int, n: int) -> tuple[list
 # GMD appendix B: "imputing specific values becomes ill-posed [in rel] since there are many
 # possible sets of values that are satisfiable. On the other hand, for abs, the imputation and
 # optimization of z become straightforward as they only involve replacing or updating z(i)".
-# So the comparison is made twice, each mechanism against itself (issue #17):
+# So the comparison is made twice, each mechanism against itself:
 #
 # * **imputation** — abs: the world x/z entries at the target frames *are* the locations and
 #   are replaced (:func:`abs_location_imputation`). rel: no entry holds a location; p_i is a
@@ -707,10 +707,10 @@ def impute_locations(models: dict[str, TrainedGMD], task: LocationTask, *, seed:
 
 def registered_measurements(runs: dict[int, dict[str, ImputationRun]]) -> dict[str, list[float]]:
     """GMD-B2's measured values: per seed (in ``runs``' order) the mean location error (m) of
-    each registered method, named ``<method>_error``, and v1's two names."""
+    each registered method, named ``<method>_error``, and the two names the rule also reads."""
     measured = {f"{method}_error": [per_seed[method].mean_error for per_seed in runs.values()]
                 for method in REGISTERED_METHODS}
-    # v1's names and meanings (rel guidance vs abs imputation), which its frozen rule reads
+    # rel guidance vs abs imputation, under the two names the registered rule reads
     measured["rel_location_error"] = measured["rel_guidance_error"]
     measured["abs_location_error"] = measured["abs_imputation_error"]
     return measured
@@ -754,7 +754,7 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
                 iterations: int = 12, fid_ratio: float = B3_FID_RATIO,
                 gap_ratio: float = B3_GAP_RATIO) -> Controls:
     """GMD-B3's controls: the evaluation windows themselves, degraded (:func:`_degraded`),
-    stand in for both models' samples, measured with the experiment's ``table_b1.table_row``
+    stand in for both models' samples, measured with the experiment's ``measurements.table_row``
     and ``registered_measurements`` (FID, R@3, Diversity against the same evaluation set).
 
     Null: both arms degraded by :data:`B3_DEGRADATION` with independent noise. Positive: the
@@ -825,8 +825,6 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
 
 
 
-# --- GMD-B2's controls: constructed samples with known location errors ---------------------------
-
 # --- GMD-B2: constructed samples with known location errors -------------------------------
 
 #: E‖d‖ of d ~ N(0, σ²I₂) is σ·√(π/2): the σ that gives a mean location error r̄ is r̄/√(π/2)
@@ -836,8 +834,8 @@ _RAYLEIGH_MEAN = float(np.sqrt(np.pi / 2))
 def b2_controls(test: MotionWindows, tasks: Mapping[int, Any], seeds: Sequence[int], *,
                 mean_error: float = 0.1, abs_factor: float = 0.9) -> Controls:
     """GMD-B2's controls: constructed samples whose location errors are known, measured with
-    the experiment's ``location_imputation.location_errors`` (mean over samples and the two
-    target frames). Each arm (``location_imputation.REGISTERED_METHODS``: imputation and
+    the experiment's ``location_errors`` (mean over samples and the two
+    target frames). Each arm (``REGISTERED_METHODS``: imputation and
     guidance in each representation) is a draw of test trajectories (as many as the seed's
     task has targets) with the root at the waypoint and goal frames placed at the target plus
     a Gaussian offset d ~ N(0, σ²I₂), σ = ``mean_error``/√(π/2), so E‖d‖ = ``mean_error``.
@@ -846,7 +844,8 @@ def b2_controls(test: MotionWindows, tasks: Mapping[int, Any], seeds: Sequence[i
     Positive: the same draws with both abs arms' offsets × 0.9 — abs error 0.09 m: rel − abs =
     0.01 m = 10 % of rel's (the δ of both difference parts) and 0.1 m − abs = 1 cm (the
     threshold part's δ), in expectation. Tests plant larger effects through ``abs_factor``.
-    v1's names are filled as the experiment fills them (rel guidance, abs imputation)."""
+    The rule's two further names are filled as the experiment fills them (rel guidance, abs
+    imputation)."""
     space = test.space("trajectory")
     sigma = mean_error / _RAYLEIGH_MEAN
     null: dict[str, list[float]] = {f"{m}_error": [] for m in REGISTERED_METHODS}
@@ -876,8 +875,6 @@ def b2_controls(test: MotionWindows, tasks: Mapping[int, Any], seeds: Sequence[i
 
 
 # --- notebook 02's reading paragraphs ------------------------------------------------------------
-
-# ----------------------------------------------------------------------------- notebook 02
 
 def reading_b1(*, round_trip_error: float, joints_error: float, summary: dict,
                late_gap: int, growth: float, real_growth: float | None,
@@ -953,7 +950,7 @@ def reading_b2(per_method: dict[str, list[dict[str, float]]], *, seeds: Sequence
 def reading_b3(rows: dict[str, list[dict[str, float]]], real: dict[str, float], *,
                paper_fid: tuple[float, float]) -> str:
     """GMD-B3: each Table B.1 column per representation, concept recall, the distance from
-    the real windows. ``rows`` keyed "relative"/"absolute" (``table_b1.table_row`` per seed);
+    the real windows. ``rows`` keyed "relative"/"absolute" (``measurements.table_row`` per seed);
     ``paper_fid`` the paper's (rel, abs) FID."""
     def values(rep: str, metric: str) -> list[float]:
         return [row[metric] for row in rows[rep]]
@@ -1000,8 +997,6 @@ def reading_b3(rows: dict[str, list[dict[str, float]]], real: dict[str, float], 
 
 
 # --- figures of GMD-B1 and B2 --------------------------------------------------------------------
-
-# ----------------------------------------------------------- notebook 02: root representation
 
 def plot_representations(clip: np.ndarray, setup: SensitivitySetup, title: str) -> Figure:
     """One clip in both representations (root channels over time) and its top-down path
@@ -1143,9 +1138,9 @@ def plot_method_errors(per_seed: dict[str, list[float]], ylabel: str, title: str
 # ------------------------------------------------------------------------------------------------
 # Notebook 02's claims as results: GMD-B1…B3, each a :class:`~repro.claims.result.ClaimResult`.
 #
-# The experiments are :mod:`repro.gmd.root_representation` (B1's round trip and sensitivity
-# study), :mod:`repro.gmd.location_imputation` (B2) and :mod:`repro.gmd.table_b1` (B3); this
-# module runs them at the notebook's :class:`root_representation.Settings`, builds the fitness-
+# The experiments are B1's round trip and sensitivity study, B2's location imputation and
+# B3's Table B.1 (``measurements``); these run them at the notebook's :class:`Settings`,
+# build the fitness-
 # gate records of the models behind B2 and B3 (``model_gates``, gates version 3), runs each
 # claim's controls and returns what its registered rule reads with the sidecar's headline,
 # notes and extra values; the notebook then calls ``record(ctx, result)``.
@@ -1313,7 +1308,7 @@ def b1_result(study: B1Study, *, figures: Sequence[FigurePath], seed: int) -> Cl
 
 
 def b1_reading(study: B1Study) -> str:
-    """B1's "Reading" paragraph (``readings.reading_b1``) from the study's numbers."""
+    """B1's "Reading" paragraph (``reading_b1``) from the study's numbers."""
     real = study.real_sensitivity
     return reading_b1(
         round_trip_error=study.round_trip_max_error,
@@ -1330,8 +1325,8 @@ def b2_runs(trajectory_models: Mapping[str, Mapping[int, TrainedGMD]], test: Mot
             seeds: Sequence[int], settings: Settings,
             ) -> tuple[dict[int, LocationTask], dict[int, dict[str, ImputationRun]]]:
     """Per seed, ``settings.targets`` waypoint + goal pairs from the relative-root ``test``
-    windows (``location_imputation.location_task``) and every method of
-    ``location_imputation.METHODS`` toward them (``impute_locations``: GMD's stop step and
+    windows (``location_task``) and every method of
+    ``METHODS`` toward them (``impute_locations``: GMD's stop step and
     clamp), all from the seed's noise: (tasks, runs), each keyed by seed."""
     tasks, runs = {}, {}
     for s in seeds:
@@ -1429,7 +1424,7 @@ def b3_evaluation(relative: Mapping[str, MotionWindows], settings: Settings, *,
                   seed: int) -> B3Evaluation:
     """The evaluator of ``relative["train"]`` (``settings.evaluator_config()``), the
     ``settings.evaluation_windows`` test windows drawn with ``seed`` and their Real row
-    (``table_b1.ground_truth_row``)."""
+    (``measurements.ground_truth_row``)."""
     train = relative["train"]
     with torch.no_grad():
         train_features = train.features().numpy()
@@ -1444,8 +1439,8 @@ def b3_evaluation(relative: Mapping[str, MotionWindows], settings: Settings, *,
 def b3_rows(motion_models: Mapping[str, Mapping[int, TrainedGMD]], b3: B3Evaluation,
             seeds: Sequence[int]) -> dict[str, list[dict[str, float]]]:
     """Per representation, one Table B.1 row per seed: one sample per evaluation caption with
-    classifier-free guidance at GMD's scale (``table_b1.generate_for_captions``), scored by
-    ``table_b1.table_row``."""
+    classifier-free guidance at GMD's scale (``measurements.generate_for_captions``), scored by
+    ``measurements.table_row``."""
     rows: dict[str, list[dict[str, float]]] = {rep: [] for rep in REPRESENTATIONS}
     for s in seeds:
         for rep in REPRESENTATIONS:
@@ -1489,7 +1484,7 @@ def b3_result(rows: Mapping[str, list[dict[str, float]]], b3: B3Evaluation,
               settings: Settings, *, figures: Sequence[FigurePath],
               models: Sequence[Mapping[str, Any]]) -> ClaimResult:
     """GMD-B3: Table B.1's FID, R@3 and Diversity per seed in each representation, with its
-    controls (``controls_b3.b3_controls``: degraded evaluation windows, calibrated as
+    controls (``b3_controls``: degraded evaluation windows, calibrated as
     ``settings.b3_control_options`` says)."""
     rows = dict(rows)
     measured = measurements.registered_measurements(b3.real_row, rows)

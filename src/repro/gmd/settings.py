@@ -32,9 +32,9 @@ __all__ = ["FULL_SEEDS", "QUICK_SEEDS", "RULE_SETTINGS", "STANDARD_C4_TRAIN_STEP
 
 
 # ------------------------------------------------------------------------------------------------
-# How many seeds each GMD claim's experiment runs, per scale: the one table (registry v4).
+# How many seeds each GMD claim's experiment runs, per scale: the one table.
 #
-# Registry v4 plans no seed count from an earlier run's spread: a run uses the seeds its
+# The registry plans no seed count from an earlier run's spread: a run uses the seeds its
 # budget affords, and each part states from its own interval what it could have seen
 # (``claims.power.minimum_detectable_effect``). Notebook 01's A3 and A4 share one seed list
 # (the same trajectory models), as do F1's trajectory and motion models. The paper scale runs
@@ -119,16 +119,16 @@ def scale_note(scale: str) -> str:
 
 
 # ------------------------------------------------------------------------------------------------
-# What each GMD claim's rule quotes of its run (registry v5), read from the settings object
+# What each GMD claim's rule quotes of its run, read from the settings object
 # its experiment used — never typed.
 #
 # A registered rule is a template (``claims.claim.Claim.rule_fields``); the run's values go in
 # when the claim is recorded (``ClaimResult.settings``). Each function here takes the
-# experiment's own ``Settings`` (``x0_vs_eps``, ``root_representation``, ``emphasis_study``,
+# experiment's own ``Settings`` (``x0_vs_eps``, ``root_representation``, ``emphasis_projection``,
 # ``guidance_schedule``) and returns every field its claim's template names: the diffusion
 # steps T of the models the rule compares, the guidance stop step (GMD's t = 20 of T = 1000,
 # at another T the same fraction, ``guidance.default_stop_step``), the guidance strength, the
-# x̂0 clamp, the seeds and the items (goals, targets, samples). ``tests/gmd/
+# x̂0 clamp, the seeds and the items (goals, targets, samples). ``tests/claims/
 # test_rule_settings.py`` renders every rule at every scale from these.
 # ------------------------------------------------------------------------------------------------
 
@@ -150,7 +150,7 @@ def a4(settings: Any) -> dict[str, Any]:
 
 def b2(settings: Any) -> dict[str, Any]:
     """GMD-B2: the trajectory models' T, the stop step imputation and guidance act down to,
-    the strength (``location_imputation.impute_locations``' default), the clamp, targets."""
+    the strength (``root_representation.impute_locations``' default), the clamp, targets."""
     return {"seeds": settings.seeds, "targets": settings.targets,
             "T": settings.trajectory_diffusion_steps, "stop_step": settings.guidance_stop_t,
             "strength": GMD_GUIDANCE_STRENGTH, "x0_clamp": settings.x0_clamp}

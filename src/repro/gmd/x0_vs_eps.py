@@ -75,8 +75,8 @@ from repro.gmd.windows import (
     goal_targets,
 )
 from repro.infra.context import check_scale
-from repro.motion.features import FEATURE_BLOCKS
 from repro.models.evaluator import Evaluator, EvaluatorConfig
+from repro.motion.features import FEATURE_BLOCKS
 
 __all__ = ["A3Study", "A4Records", "CLAMPS", "EpsilonOfX0", "ExactGaussianDenoiser",
            "GoalReachingResult", "LateRevertingDenoiser", "PREDICTIONS",
@@ -140,20 +140,12 @@ def peak_fraction(values: np.ndarray) -> float:
 
 
 
-# ------------------------------------------------------------------------------------------------
-# Notebook 01 (GMD appendix A, A.1): x0 vs ε prediction under goal guidance (GMD-A3, A4).
-#
-# A guided and an unguided run from the same seed (same x_T, same per-step noise) give the goal
-# error of the final sample and of x̂0 at every step, and the share of the best guided gain that
-# is kept at the end (``best_gain_survival``, the registered GMD-A3 measurement of registry v3).
-# The guidance experiments' trajectory models run GMD's diffusion, T = 1000 cosine
-# (``Settings.guidance_trajectory_spec``, read by notebooks 01, 02 and 06).
-# ------------------------------------------------------------------------------------------------
+# --- GMD-A3 and A4: goal reaching under guidance, unguided sample quality ------------------------
 
 def best_gain_survival(unguided_final_error: np.ndarray | Sequence[float],
                        guided_x0_error: np.ndarray | Sequence[Sequence[float]],
                        guided_final_error: np.ndarray | Sequence[float]) -> float:
-    """The share of the best guided gain kept at the end (GMD-A3, registry v3).
+    """The share of the best guided gain kept at the end (GMD-A3's registered measurement).
 
     Two runs from the same seed (same x_T, same per-step noise), one guided (G), one not (U);
     goal errors are distances (m) of the last-frame root x/z to the goal, averaged over the
@@ -264,8 +256,7 @@ class GoalReachingResult:
 
     @property
     def stop_step_survival(self) -> float:
-        """``guided_change_survival`` from the stop step (registry v2's measurement, kept
-        outside the rule)."""
+        """``guided_change_survival`` from the stop step (outside the rule)."""
         return guided_change_survival(self.space, self.x0_guided_at_stop,
                                       self.x0_unguided_at_stop, self.guided, self.unguided)
 
@@ -327,7 +318,7 @@ class Settings:
     """Every size and step count of notebook 01 at one scale, fixed before any verdict was seen.
 
     Paper scale (today's registered full settings): 48-frame windows (stride 24) of the
-    2000-clip stand-in set, one UNet1D per task for x0 and ε (``paper_settings``'
+    2000-clip stand-in set, one UNet1D per task for x0 and ε (``models``'
     architectures), T = 100 cosine, trained to convergence up to each family's step cap
     (``models.training_fields``); 32 goals and 256 generated windows per seed; the package's
     evaluator with its default size; the guidance experiments' trajectory models (GMD-A3, B2,
@@ -343,7 +334,7 @@ class Settings:
     The trajectory models train on absolute-root windows (GMD's trajectory model: root x/z in
     the world); GMD-A4's motion models on ``motion_representation``, HumanML3D's relative root
     (:meth:`motion_data`): the claim is about MDM's ε model of ε ∈ R^{263×M}, and MDM models
-    HumanML3D's features as they are (registry v3 changelog, GMD-A4).
+    HumanML3D's features as they are (GMD-A4's registry entry).
     """
 
     scale: str
@@ -364,14 +355,14 @@ class Settings:
     guidance_diffusion_steps: int = GUIDANCE_DIFFUSION_STEPS
     #: the root representation of GMD-A4's motion windows (MDM's: HumanML3D's relative root)
     motion_representation: Representation = "relative"
-    #: the evaluator's training steps at the standard scale (``emphasis_study``'s and
+    #: the evaluator's training steps at the standard scale (``emphasis_projection``'s and
     #: notebook 02's: one cache key); None: the scale's own evaluator
     shared_evaluator_steps: int | None = None
 
     @classmethod
     def for_scale(cls, scale: str, *, seeds: int | None = None,
                   train_steps: int | None = None) -> Settings:
-        """The settings of ``scale``; ``seeds`` (None: ``run_seeds.seeds_of("GMD-A4", scale)``)
+        """The settings of ``scale``; ``seeds`` (None: ``settings.seeds_of("GMD-A4", scale)``)
         and ``train_steps`` (None: the scale's) override."""
         check_scale(scale)
         seeds = seeds_of("GMD-A4", scale) if seeds is None else int(seeds)
@@ -442,7 +433,7 @@ class Settings:
 
     def evaluator_config(self, data_id: str) -> EvaluatorConfig:
         """The package's evaluator (tiny in quick mode), named after the training windows; at
-        the standard scale notebooks 02's and 03's (``emphasis_study.window_evaluator``: the
+        the standard scale notebooks 02's and 03's (``emphasis_projection.window_evaluator``: the
         same relative-root windows, no name, so one cache key)."""
         if self.quick:
             return EvaluatorConfig(dim=16, hidden=32, data_id=data_id).replace(steps=30)
@@ -498,7 +489,7 @@ def goal_reaching_study(trajectory_models: dict[tuple[str, int], TrainedGMD],
 
 
 #: the x̂0 clamps of the ε model: GMD's ±6 (registered), ± the largest |value| of the training
-#: windows (registry v2's) and none; the last two are a sensitivity check outside the rule.
+#: windows and none; the last two are a sensitivity check outside the rule.
 CLAMPS: dict[str, Clamp] = {"GMD's ±6 (registered)": "gmd", "±max|x| of the training windows":
                             "auto", "no clamp": None}
 
@@ -832,13 +823,11 @@ def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator
 
 # --- notebook 01's reading paragraphs ------------------------------------------------------------
 
-# ----------------------------------------------------------------------------- notebook 01
-
 def reading_a3(*, stop: int, num_timesteps: int, best_step: dict[str, float],
                survival: dict[str, float], stop_step_survival: dict[str, float]) -> str:
     """How to read GMD-A3's survival, rendered from this run's values (means over seeds):
     ``best_step`` the step t of the closest approach, ``survival`` the registered best-gain
-    survival and ``stop_step_survival`` v2's survival from the stop step, per model ("x0",
+    survival and ``stop_step_survival`` the survival from the stop step, per model ("x0",
     "epsilon")."""
     return render(
         "**Reading GMD-A3.** Guidance acts while t ≥ {stop} of T = {T}. The registered "
@@ -897,12 +886,12 @@ def reading_clamp(errors: dict[str, list[float]], *, bound: float, unguided_eps:
 # Notebook 01's claims as results: GMD-A1…A4, each a :class:`~repro.claims.result.ClaimResult`.
 #
 # Each ``a*_result`` takes what the notebook measured (the coefficient curves of appendix A's
-# Eq. 1–2 and Fig. A.1; the goal-reaching runs of :func:`x0_vs_eps.goal_reaching_study`; the
-# sample quality of :func:`x0_vs_eps.sample_quality`), runs the claim's controls, and returns
+# Eq. 1–2 and Fig. A.1; the goal-reaching runs of :func:`goal_reaching_study`; the
+# sample quality of :func:`sample_quality`), runs the claim's controls, and returns
 # the measurements its registered rule reads with the headline, notes and extra values of the
 # sidecar; the notebook then calls ``record(ctx, result)``. The fitness-gate records of the
 # models behind A3 and A4 (``model_gates``, gates version 3) are built here too, and the
-# training-budget table of A4's longer ε run (issue #14).
+# training-budget table of A4's longer ε run.
 # ------------------------------------------------------------------------------------------------
 
 #: a figure's path, as ``ClaimResult.figures`` takes it
@@ -918,9 +907,9 @@ def finite(values: Sequence[float]) -> list[float | None]:
 
 def a1_result(diffusion: GaussianDiffusion, mu_difference: np.ndarray,
               printed_error: np.ndarray, *, figure: FigurePath, seed: int) -> ClaimResult:
-    """GMD-A1: the largest |Eq. 1 − Eq. 2| over t (``coefficients.posterior_mean_forms``) and
+    """GMD-A1: the largest |Eq. 1 − Eq. 2| over t (``posterior_mean_forms``) and
     the printed c's relative error (``printed_c_relative_error``) on ``diffusion`` (GMD's
-    T = 1000 cosine), with c = 1/√α_t checked (``coefficients.c_identity_error``)."""
+    T = 1000 cosine), with c = 1/√α_t checked (``c_identity_error``)."""
     c_check = c_identity_error(diffusion)
     return ClaimResult(
         "GMD-A1",
@@ -942,7 +931,7 @@ def a1_result(diffusion: GaussianDiffusion, mu_difference: np.ndarray,
 def a2_result(schedules: Mapping[str, Mapping[str, np.ndarray]],
               peaks: Mapping[str, Mapping[str, float]], *, figure: FigurePath,
               seed: int) -> ClaimResult:
-    """GMD-A2: where the x0 share a/(a+b) and the ε share d/(c+d) peak (``coefficients.
+    """GMD-A2: where the x0 share a/(a+b) and the ε share d/(c+d) peak (``
     coefficient_shares``, ``peak_fraction``: step / T) on the cosine schedule (Fig. A.1), the
     linear one beside it; ``schedules`` at T = 1000."""
     cos = schedules["cosine"]
@@ -999,12 +988,12 @@ class A3Study:
 
     @property
     def survival(self) -> dict[str, list[float]]:
-        """Best-gain survival per seed (registry v3's registered measurement)."""
+        """Best-gain survival per seed (the registered measurement)."""
         return {p: self.per_seed(p, "survival") for p in PREDICTIONS}
 
     @property
     def stop_survival(self) -> dict[str, list[float]]:
-        """Registry v2's survival of the guided change from the stop step, per seed."""
+        """The survival of the guided change from the stop step, per seed (outside the rule)."""
         return {p: self.per_seed(p, "stop_step_survival") for p in PREDICTIONS}
 
 
@@ -1068,7 +1057,7 @@ def a3_result(study: A3Study, guided_models: dict[tuple[str, int], TrainedGMD],
               test: MotionWindows, settings: Settings, *, figure: FigurePath,
               models: Sequence[Mapping[str, Any]]) -> ClaimResult:
     """GMD-A3: goal error and best-gain survival of the x0 and the ε trajectory model under
-    GMD's goal guidance, with its controls (``controls_a3.a3_controls``: an exact x0/ε pair,
+    GMD's goal guidance, with its controls (``a3_controls``: an exact x0/ε pair,
     and one whose x0 arm undoes half its guided change after the stop step)."""
     seeds, a3p = study.seeds, study.parameters
     goal_error, survival, stop_survival = study.goal_error, study.survival, study.stop_survival
@@ -1284,7 +1273,7 @@ def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], Trai
 def a4_budget_markdown(models: Mapping[tuple[str, str, int], TrainedGMD],
                        long_eps: Mapping[int, TrainedGMD], records: A4Records,
                        seeds: Sequence[int], settings: Settings) -> str:
-    """GMD-A4's training budget (issue #14, ``model_gates.budget_markdown``): the x0 and ε
+    """GMD-A4's training budget (``model_gates.budget_markdown``): the x0 and ε
     motion models per seed and, at the paper scale, the ε run at 2× the cap; below it, a line
     saying that run is not trained."""
     arms = {"x0": "x0", "ε": "epsilon"}
