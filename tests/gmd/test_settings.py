@@ -1,19 +1,57 @@
-"""The three scales of GMD's settings (issue #32, docs/COMPUTE.md §5): each scale's models are
-what the plan says, the paper scale is today's registered full settings (same cache keys),
-and at the standard scale the models the plan aligns are one cache key (the model bank)."""
+"""The seeds each GMD claim runs come from one table per scale (registry v4): the notebooks'
+settings read it, and their ``n_seeds`` parameters default to it (None: the scale's)."""
 
 from __future__ import annotations
 
 import pytest
 
 from repro.core.training import TrainConfig
-from repro.gmd import emphasis_projection, guidance_schedule, models
+from repro.gmd import emphasis_projection, guidance_schedule, models, root_representation, x0_vs_eps
 from repro.gmd import root_representation as rr
 from repro.gmd import x0_vs_eps as x0eps
 from repro.gmd.emphasis_projection import Variant
 from repro.gmd.models import GMDModelSpec, training_fields
+from repro.gmd.settings import FULL_SEEDS, QUICK_SEEDS, STANDARD_SEEDS, seeds_of
 from repro.models.evaluator import EvaluatorConfig
+from repro.run.params import notebook_parameters
 
+
+def test_settings_read_the_table() -> None:
+    assert (x0_vs_eps.Settings.for_scale("paper").seeds == FULL_SEEDS["GMD-A4"]
+            == FULL_SEEDS["GMD-A3"])
+    assert guidance_schedule.Settings.for_scale("paper").seeds == FULL_SEEDS["GMD-F1"]
+    full = root_representation.Settings.for_scale("paper")
+    assert (full.seeds, full.motion_seeds) == (FULL_SEEDS["GMD-B2"], FULL_SEEDS["GMD-B3"])
+    assert emphasis_projection.Settings.for_scale("paper").seeds == FULL_SEEDS["GMD-C4"]
+    assert seeds_of("GMD-B3", "quick") == QUICK_SEEDS
+    assert seeds_of("GMD-C4", "paper") == 6
+    with pytest.raises(ValueError, match="GMD-A1"):
+        seeds_of("GMD-A1", "paper")
+    with pytest.raises(ValueError, match="scale"):
+        seeds_of("GMD-A4", "full")
+
+
+def test_standard_runs_three_seeds_for_every_claim_but_c4() -> None:
+    assert set(STANDARD_SEEDS) == set(FULL_SEEDS)
+    assert all(seeds_of(claim, "standard") == 3 for claim in FULL_SEEDS if claim != "GMD-C4")
+    assert seeds_of("GMD-C4", "standard") == 1
+    standard = root_representation.Settings.for_scale("standard")
+    assert (standard.seeds, standard.motion_seeds) == (3, 3)
+    assert x0_vs_eps.Settings.for_scale("standard").seeds == 3
+    assert guidance_schedule.Settings.for_scale("standard").seeds == 3
+    assert emphasis_projection.Settings.for_scale("standard").seeds == 1
+
+
+@pytest.mark.parametrize("notebook", ["01_x0_vs_eps", "06_guidance_schedule"])
+def test_notebook_seed_parameters_default_to_the_table(notebook: str) -> None:
+    assert notebook_parameters(notebook)["n_seeds"]["default"] == "None"
+
+
+# ------------------------------------------------------------------------------------------------
+# The three scales of GMD's settings (issue #32, docs/COMPUTE.md §5): each scale's models are
+# what the plan says, the paper scale is today's registered full settings (same cache keys),
+# and at the standard scale the models the plan aligns are one cache key (the model bank).
+# ------------------------------------------------------------------------------------------------
 
 def test_standard_motion_and_trajectory_models_are_the_plans() -> None:
     settings = x0eps.Settings.for_scale("standard")
@@ -88,7 +126,7 @@ def test_the_standard_model_bank_shares_keys() -> None:
         # F1's second stage is B3's absolute-root x0 text model (sampled with the null text)
         assert (guidance_schedule.Settings.for_scale("standard").motion_spec().replace(seed=seed)
                 == rr.Settings.for_scale("standard").motion_spec("absolute", seed))
-    # one evaluator for notebooks 01, 02 and 03 (``emphasis_study.window_evaluator``)
+    # one evaluator for notebooks 01, 02 and 03 (``emphasis_projection.window_evaluator``)
     steps = emphasis_projection.Settings.for_scale("standard").evaluator_steps
     shared = EvaluatorConfig().replace(steps=steps)
     assert rr.Settings.for_scale("standard").evaluator_config() == shared
