@@ -90,7 +90,7 @@ def test_a4_positive_plants_the_jitter_and_fid_ratios(windows: MotionWindows, ev
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
     test_embeddings = evaluator.embed_motions(features, lengths)
     result = x0_vs_eps.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
-                                  test_embeddings=test_embeddings, calibration_draws=2)
+                                   test_embeddings=test_embeddings, calibration_draws=2)
     assert result.planted["calibrated_jerk_ratio"] == pytest.approx(1.1, rel=1e-3)
     assert result.planted["calibrated_fid_ratio"] == pytest.approx(1.1, rel=1e-3)
     jerk = _mean(result.positive["motion_jitter_eps"]) / _mean(result.null["motion_jitter_eps"])
@@ -127,8 +127,8 @@ def test_a4_controls_take_relative_motion_and_absolute_trajectory_windows(
         windows: MotionWindows, relative: MotionWindows, evaluator) -> None:
     features, lengths = evaluator_inputs(relative.space("motion"), relative.x)
     result = x0_vs_eps.a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
-                                  test_embeddings=evaluator.embed_motions(features, lengths),
-                                  trajectory_train=windows, calibration_draws=2)
+                                   test_embeddings=evaluator.embed_motions(features, lengths),
+                                   trajectory_train=windows, calibration_draws=2)
     assert result.planted["calibrated_jerk_ratio"] == pytest.approx(1.1, rel=1e-3)
     assert result.planted["calibrated_fid_ratio"] == pytest.approx(1.1, rel=1e-3)
     # the trajectory arms are draws of the absolute windows, measured in their space
@@ -150,8 +150,8 @@ def test_a4_decision_sees_a_large_planted_effect(windows: MotionWindows, evaluat
     claim = get_claim("GMD-A4")
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
     big = x0_vs_eps.a4_controls(windows, SEEDS, n=16, evaluator=evaluator,
-                               test_embeddings=evaluator.embed_motions(features, lengths),
-                               calibration_draws=2, factor=3.0)
+                                test_embeddings=evaluator.embed_motions(features, lengths),
+                                calibration_draws=2, factor=3.0)
     assert claim.decide(big.positive).verdict == REPRODUCED
     assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
     for name in ("motion_jitter", "motion_fid", "trajectory_jitter"):  # null: equal arms
@@ -213,13 +213,13 @@ def test_f1_decision_sees_a_large_planted_effect_and_null_does_not_fire(windows)
         null["goal_error_by_strength"]["100"])
     assert abs(gap.mean()) < 3 * gap.std(ddof=1) / np.sqrt(len(gap))
     big = guidance_schedule.f1_controls(windows, SEEDS, (100, 150, 200), goals=16, min_distance=0.0,
-                               margin=6.0)
+                                        margin=6.0)
     assert claim.decide(big.positive).verdict == REPRODUCED
 
 
 def test_f1_whole_body_positive_is_smoother_by_the_planted_factor(windows) -> None:
     result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
-                                  min_distance=0.0)
+                                           min_distance=0.0)
     null, positive = result.null, result.positive
     assert positive["joint_jerk_stop_0"] == null["joint_jerk_stop_0"]
     np.testing.assert_allclose(positive["joint_jerk_stop_20"],

@@ -330,9 +330,9 @@ def test_c4_result_records_the_rules_lists_and_the_readings() -> None:
     spectra = emphasis_projection.Spectra(0.99, {"2": [0] * 4, "10": [1] * 4}, "")
     controls = Controls(null={}, positive={}, planted={"foot_skating_factor_loss_scaling": 1.1})
     result = emphasis_projection.c4_result(results, settings, settings.base_spec(), results.seeds,
-                                   controls=controls, spectra=spectra, kappa=kappa,
-                                   model_records=[], outside_records=[{"name": "orthogonal",
-                                                                       "passed": True}])
+                                           controls=controls, spectra=spectra, kappa=kappa,
+                                           model_records=[], outside_records=[{"name": "orthogonal",
+                                                                               "passed": True}])
     assert result.claim_id == "GMD-C4" and result.controls is controls
     assert result.measured["values"] == [2, 10]
     assert result.measured["foot_skating_emphasis"]["10"] == [1.0, 2.0, 3.0, 4.0]
@@ -366,12 +366,12 @@ def test_emphasis_figures() -> None:
     grid = np.array([1.0, 2.0, 10.0])
     share = grid**2 / (grid**2 + 1)
     fig = emphasis_projection.plot_relative_importance(grid, share, {0: share}, share, share,
-                                                    c_star=9.3, importance_at_10=0.54,
-                                                    simulation_error=1e-3)
+                                                       c_star=9.3, importance_at_10=0.54,
+                                                       simulation_error=1e-3)
     assert len(fig.axes) == 1
     spread = np.ones(263)
     fig = emphasis_projection.plot_unit_variance(grid, 260 + 3 * grid**2,
-                                              1 / np.sqrt(260 + 3 * grid**2),
-                                              1 / (260 + 3 * grid**2), spread, spread, spread)
+                                                 1 / np.sqrt(260 + 3 * grid**2),
+                                                 1 / (260 + 3 * grid**2), spread, spread, spread)
     assert len(fig.axes) == 3
     plt.close("all")

@@ -57,7 +57,7 @@ def test_guidance_schedule_figures() -> None:
     strengths, seeds = [0, 10, 100], [0, 1]
     per_seed = {strength_key(s): [1.0 + s, 2.0 + s] for s in strengths}
     fig = guidance_schedule.plot_strength_sweep(per_seed, per_seed, strengths, seeds, stop=2,
-                                      num_timesteps=100)
+                                                num_timesteps=100)
     assert "t ≥ 2 of T = 100" in fig.axes[0].get_title()
     stops = {0: 0, 20: 2}
     table = {"arm": {0: [1.0, 2.0], 20: [1.5, 2.5]}}

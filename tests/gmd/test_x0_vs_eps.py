@@ -265,7 +265,7 @@ def test_late_reverting_model_leaves_the_unguided_run_and_undoes_the_guided_gain
     exact = x0_vs_eps.exact_pair(models[("x0", 0)])["x0"]
     honest = goal_reaching_experiment(exact, TARGETS, seed=3, clip_x0=6.0)
     reverting = x0_vs_eps.late_reverting_model(exact, len(TARGETS), seed=3, below=5,
-                                                 share=0.5)
+                                               share=0.5)
     planted = goal_reaching_experiment(reverting, TARGETS, seed=3, clip_x0=6.0)
     assert torch.equal(planted.unguided, honest.unguided)
     # guided steps down to the stop are the same; the last (t < 5) lose guided gain

@@ -605,11 +605,11 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
             m["jitter_by_strength"]["0"].append(unguided[1])
             for v in strengths:
                 g, j = measure(planted_path(space, arm[strength_key(v)], targets,
-                                             jerk_factor=jerk_f, goal_factor=goal_f), targets)
+                                            jerk_factor=jerk_f, goal_factor=goal_f), targets)
                 m["goal_error_by_strength"][strength_key(v)].append(g)
                 m["jitter_by_strength"][strength_key(v)].append(j)
             g, j = measure(planted_path(space, arm["stop_20"], targets, jerk_factor=stop_jerk_f,
-                                         goal_factor=stop_goal_f), targets)
+                                        goal_factor=stop_goal_f), targets)
             m["goal_error_stop_20"].append(g)
             m["jitter_stop_20"].append(j)
         bodies = [test.x[draw_indices(test, goals, control_seed(s, k, stream=31))] for k in (0, 1)]
@@ -1043,13 +1043,13 @@ def run_sweeps(m: ScheduleModels, settings: Settings, seeds: Sequence[int], *,
         targets[s] = goal_targets(m.test, settings.goals, seed=s,
                                   min_distance=settings.model.min_goal_distance)
         sweep[s] = sweep_strengths(model, targets[s], list(settings.strengths), seed=s,
-                                      stop=stops[settings.gmd_stop], record_steps=s == seeds[0])
+                                   stop=stops[settings.gmd_stop], record_steps=s == seeds[0])
         for g, step in stops.items():
             stop_sweep[(s, g)] = sweep_strengths(model, targets[s],
-                                                    list(settings.stop_sweep_strengths),
-                                                    seed=s, stop=step)
+                                                 list(settings.stop_sweep_strengths),
+                                                 seed=s, stop=step)
             imputed[(s, g)] = sweep_strengths(model, targets[s], [gmd_s], seed=s, stop=step,
-                                                 impute_goal=True)
+                                              impute_goal=True)
         log(f"seed {s}: goal error unguided {sweep[s].mean_goal_error(0):.2f} m, s = {gmd_s} "
             f"{sweep[s].mean_goal_error(gmd_s):.2f} m; root jerk unguided "
             f"{sweep[s].mean_jerk(0):.4g}, s = {gmd_s} {sweep[s].mean_jerk(gmd_s):.4g} m/s³")
@@ -1101,9 +1101,9 @@ def second_stage(m: ScheduleModels, sweeps: Sweeps, settings: Settings) -> Secon
     imputation stopped at GMD's 0 and 20 (same fraction of its T; same seed for both)."""
     gmd_s, stop = settings.gmd_strength, settings.gmd_stop
     bodies = {(s, g): whole_body(m.motion_models[s], m.models[s].space,
-                                    sweeps.stop_sweep[(s, g)].samples[
-                                        sweeps.stop_sweep[(s, g)].index(gmd_s)],
-                                    sweeps.targets[s], seed=s, gmd_stop=g)
+                                 sweeps.stop_sweep[(s, g)].samples[
+                                     sweeps.stop_sweep[(s, g)].index(gmd_s)],
+                                 sweeps.targets[s], seed=s, gmd_stop=g)
               for s in sweeps.seeds for g in (0, stop)}
     coherence = {metric: {g: sweeps.per_seed(lambda s, g=g, n=metric: getattr(bodies[(s, g)], n))
                           for g in (0, stop)} for metric in ("joint_jerk", "foot_skating")}
@@ -1152,8 +1152,8 @@ def obstacle_study(m: ScheduleModels, sweeps: Sweeps, settings: Settings) -> Obs
         goals = sweeps.targets[s][:settings.obstacle_goals]
         sets[s] = obstacles_between(goals)
         runs[s] = obstacle_experiment(m.models[s], goals, sets[s], strengths, seed=s,
-                                         stop=m.stops[settings.gmd_stop],
-                                         obstacle_weight=settings.obstacle_weight)
+                                      stop=m.stops[settings.gmd_stop],
+                                      obstacle_weight=settings.obstacle_weight)
     per_seed = sweeps.per_seed
     summary = {label: {
         "collision_rate": per_seed(lambda s, i=i: runs[s][i].collision_rate),

@@ -960,7 +960,7 @@ def reading_b3(rows: dict[str, list[dict[str, float]]], real: dict[str, float], 
         return "tie" if rel == ab else ("rel" if rel < ab else "abs")
 
     recall_abs_lower = count_below(values("absolute", "concept_recall"),
-                              values("relative", "concept_recall"))
+                                   values("relative", "concept_recall"))
     n = len(rows["relative"])
     gap_rel = [abs(v - real["diversity"]) for v in values("relative", "diversity")]
     gap_abs = [abs(v - real["diversity"]) for v in values("absolute", "diversity")]
@@ -976,7 +976,7 @@ def reading_b3(rows: dict[str, list[dict[str, float]]], real: dict[str, float], 
         div_real=real["diversity"], gap_rel=interval_text(gap_rel),
         gap_abs=interval_text(gap_abs))
     if not measurements.measurable(values("relative", "concept_recall")
-                               + values("absolute", "concept_recall")):
+                                   + values("absolute", "concept_recall")):
         return columns + render(
             " Concept recall: {not_measurable} (the folder has no `labels/` for the concept "
             "oracles to compare with). The real windows' R-precision: {r3_real:.2f}.",
@@ -1275,7 +1275,7 @@ def b1_figures(study: B1Study, ctx: RunContext) -> list[Path]:
     saved = [save_figure(fig, ctx.figure_path("gmd_b1_representations.png"))]
     if study.real is not None:
         fig = plot_representations(study.real, study.setup,
-                                           f"real HumanML3D clip {REAL_CLIP} (first 60 frames)")
+                                   f"real HumanML3D clip {REAL_CLIP} (first 60 frames)")
         saved.append(save_figure(fig, ctx.figure_path("gmd_b1_representations_real.png")))
     fig = plot_sensitivity(study.sensitivity, walker, study.real_sensitivity)
     saved.append(save_figure(fig, ctx.figure_path("gmd_b1_sensitivity.png")))
@@ -1333,7 +1333,7 @@ def b2_runs(trajectory_models: Mapping[str, Mapping[int, TrainedGMD]], test: Mot
         tasks[s] = location_task(test, settings.targets, seed=s)
         models = {rep: trajectory_models[rep][s] for rep in REPRESENTATIONS}
         runs[s] = impute_locations(models, tasks[s], seed=s, stop_t=settings.guidance_stop_t,
-                                      clip_x0=settings.x0_clamp)
+                                   clip_x0=settings.x0_clamp)
     return tasks, runs
 
 
@@ -1431,7 +1431,7 @@ def b3_evaluation(relative: Mapping[str, MotionWindows], settings: Settings, *,
     evaluator = load_or_train_evaluator(train_features, np.full(len(train), train.frames),
                                         train.captions, settings.evaluator_config())
     evaluation = measurements.evaluation_set(relative["test"], settings.evaluation_windows,
-                                         seed=seed)
+                                             seed=seed)
     real_row = measurements.ground_truth_row(evaluator, evaluation, train_features, seed=seed)
     return B3Evaluation(evaluator, train_features, evaluation, real_row)
 
@@ -1510,7 +1510,7 @@ def b3_result(rows: Mapping[str, list[dict[str, float]]], b3: B3Evaluation,
                "table's directions."),
         extra={"real": b3.real_row, "rows": measurements.by_label(rows),
                "summary": measurements.by_label({rep: measurements.summarise_rows(rows[rep])
-                                             for rep in REPRESENTATIONS}),
+                                                 for rep in REPRESENTATIONS}),
                "paper_table_b1": measurements.PAPER_TABLE_B1,
                "classifier_free_scale": GMD_CFG_SCALE,
                "evaluation_windows": len(b3.evaluation),

@@ -779,7 +779,7 @@ def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator
 
     def fid_ratio(size: float) -> float:
         return float(np.mean([motion_fid(motion, offset_unread_features(motion, x, size,
-                                                                         direction),
+                                                                        direction),
                                          evaluator, test_embeddings) for x in jagged])
                      / clean_fid)
 
@@ -790,7 +790,7 @@ def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator
         arms = {tag: train.x[draw_indices(train, n, control_seed(s, k, stream=1))]
                 for k, tag in enumerate(("x0", "eps"))}
         tracks = {tag: trajectory_train.trajectory()[draw_indices(trajectory_train, n,
-                                                           control_seed(s, k, stream=2))]
+                                                                  control_seed(s, k, stream=2))]
                   for k, tag in enumerate(("x0", "eps"))}
         planted = offset_unread_features(
             motion, jag(motion, arms["eps"], amplitude, control_seed(s, 1, stream=3)), size,
@@ -873,10 +873,10 @@ def reading_clamp(errors: dict[str, list[float]], *, bound: float, unguided_eps:
         verdict=either(
             (guided_x0 < ours) == (guided_x0 < gmds),
             either(x0_better_both,
-                    "Under both bounds the x0 model reaches the goals better than the ε model: "
-                    "the goal-error comparison does not hinge on the bound.",
-                    "Under both bounds the ε model reaches the goals at least as well as the "
-                    "x0 model: the goal-error comparison does not hinge on the bound."),
+                   "Under both bounds the x0 model reaches the goals better than the ε model: "
+                   "the goal-error comparison does not hinge on the bound.",
+                   "Under both bounds the ε model reaches the goals at least as well as the "
+                   "x0 model: the goal-error comparison does not hinge on the bound."),
             "Which model reaches the goals better depends on the clamp bound here: the "
             "goal-error half of the verdict rests on taking GMD's bound."))
 
@@ -1064,7 +1064,7 @@ def a3_result(study: A3Study, guided_models: dict[tuple[str, int], TrainedGMD],
     jitter = _a3_jitter(study, guided_models)
     started = time.perf_counter()
     controls = a3_controls(guided_models, test, seeds, goals=settings.goals,
-                                       min_distance=settings.min_goal_distance)
+                           min_distance=settings.min_goal_distance)
     control_seconds = time.perf_counter() - started
     spec = guided_models[("x0", seeds[0])].spec
     return ClaimResult(
