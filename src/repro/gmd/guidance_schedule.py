@@ -849,8 +849,8 @@ def plot_obstacles(space: FeatureSpace, arms: Sequence[ObstacleArm], obstacles: 
 # GMD-F1 (notebook 06, GMD appendix F) as an experiment: the models, the strength and stop
 # sweeps, GMD's second stage, the obstacle extra, and the result the notebook records.
 #
-# ``guidance_schedule`` holds the samplers (one batch for many strengths, the second stage,
-# obstacles); this module runs them over the seeds in the notebook's order, gathers the
+# The samplers above (one batch for many strengths, the second stage, obstacles) run here over
+# the seeds in the notebook's order; these gather the
 # per-seed lists the registered rule reads (GMD appendix F: s = 100 "performs well within the
 # range of 100 to 200"; guidance and imputation stopped at t = 20 "led to a slight improvement
 # in the motion coherence"), renders the tables the notebook shows, and builds GMD-F1's

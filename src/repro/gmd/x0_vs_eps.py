@@ -97,7 +97,7 @@ __all__ = ["A3Study", "A4Records", "CLAMPS", "EpsilonOfX0", "ExactGaussianDenois
 #
 # Eq. 1 writes μ_t = a·x0 + b·x_t; substituting x0 = (x_t − √(1−ᾱ_t) ε)/√ᾱ_t gives Eq. 2,
 # μ_t = c·x_t − d·ε. The coefficients themselves live on ``core.diffusion.GaussianDiffusion``;
-# this module evaluates the appendix's statements about them (claims GMD-A1, GMD-A2).
+# the functions below evaluate the appendix's statements about them (claims GMD-A1, GMD-A2).
 # ------------------------------------------------------------------------------------------------
 
 def posterior_mean_forms(diffusion: GaussianDiffusion, *, samples: int = 64,
