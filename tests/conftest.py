@@ -29,11 +29,12 @@ def settings_classes() -> dict[str, Any]:
     """claim → the Settings class its notebook builds (``for_scale``; the EnergyMoGen ones'
     ``for_run`` is ``for_scale`` without a data folder)."""
     from repro.energymogen import settings as emg
-    from repro.gmd import emphasis_projection, guidance_schedule, root_representation, x0_vs_eps
+    from repro.gmd import emphasis_projection as emphasis_study
+    from repro.gmd import guidance_schedule, root_representation, x0_vs_eps
 
     return {"GMD-A3": x0_vs_eps.Settings, "GMD-A4": x0_vs_eps.Settings,
             "GMD-B2": root_representation.Settings, "GMD-B3": root_representation.Settings,
-            "GMD-C4": emphasis_projection.Settings, "GMD-F1": guidance_schedule.Settings,
+            "GMD-C4": emphasis_study.Settings, "GMD-F1": guidance_schedule.Settings,
             "EMG-1": emg.EnergyViewSettings, "EMG-2": emg.EnergyViewSettings,
             "EMG-3": emg.EnergyViewSettings, "EMG-6": emg.EnergyViewSettings,
             "EMG-4": emg.SEFAblationSettings, "EMG-5": emg.SEFAblationSettings,
