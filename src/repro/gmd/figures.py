@@ -37,7 +37,9 @@ from repro.motion.plotting import animate_side_by_side, shorten
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["count_below", "either"]
+__all__ = ["animate_samples", "count_below", "either", "plot_coefficient_shares",
+           "plot_filmstrips", "plot_goal_reaching", "plot_posterior_mean_forms",
+           "plot_sample_quality", "plot_table_b1"]
 
 
 # --- reading paragraphs: sentences chosen by the numbers -----------------------------------------

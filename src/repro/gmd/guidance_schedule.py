@@ -77,9 +77,11 @@ __all__ = ["GMD_NUM_TIMESTEPS", "ObstacleArm", "ObstacleSet", "ObstacleStudy", "
            "ScheduleModels", "SecondStage", "Settings", "StopReading", "StrengthSweep", "Sweeps",
            "WholeBody", "f1_controls", "f1_result", "goal_keypoint_imputation", "load_models",
            "model_stop_step", "motion_records", "obstacle_cost", "obstacle_experiment",
-           "obstacle_study", "obstacles_between", "penetration_depth", "point_to_point_imputation",
-           "run_sweeps", "second_stage", "shared_start_noise", "strength_key", "sweep_strengths",
-           "trajectory_imputation", "trajectory_records", "weighted_guidance", "whole_body"]
+           "obstacle_study", "obstacles_between", "penetration_depth", "plot_example_paths",
+           "plot_guidance_per_step", "plot_obstacles", "plot_stop_sweep", "plot_strength_sweep",
+           "plot_whole_body_stop", "point_to_point_imputation", "run_sweeps", "second_stage",
+           "shared_start_noise", "strength_key", "sweep_strengths", "trajectory_imputation",
+           "trajectory_records", "weighted_guidance", "whole_body"]
 
 #: GMD's number of diffusion steps (Table D.1): its "t = 20" is a step of T = 1000.
 GMD_NUM_TIMESTEPS = GUIDANCE_DIFFUSION_STEPS

@@ -32,9 +32,9 @@ from repro.motion.skeleton import NUM_JOINTS
 __all__ = ["ABSOLUTE_ROOT_NAMES", "EvaluationSet", "PAPER_TABLE_B1", "TABLE_METRICS", "by_label",
            "concept_recall", "evaluation_set", "evaluator_inputs", "feature_blocks",
            "foot_skating_of", "generate_for_captions", "ground_truth_row", "high_frequency_share",
-           "jitter_of", "motion_fid", "noise_floor", "reconstruction", "registered_measurements",
-           "sample_quality", "summarise_rows", "table_b1_markdown", "table_row",
-           "unguided_sample_quality", "window_concepts", "x0_error_by_block"]
+           "jitter_of", "measurable", "motion_fid", "noise_floor", "reconstruction",
+           "registered_measurements", "sample_quality", "summarise_rows", "table_b1_markdown",
+           "table_row", "unguided_sample_quality", "window_concepts", "x0_error_by_block"]
 
 def _root_as_joints(root: np.ndarray) -> np.ndarray:
     # metrics.jitter averages over 22 joints: 22 copies of the root give the root's own value

@@ -105,7 +105,8 @@ __all__ = ["B1Study", "B3Evaluation", "B3_DEGRADATION", "ImputationRun", "LINEAR
            "b3_controls", "b3_evaluation", "b3_model_records", "b3_result", "b3_rows",
            "facing_path_root", "global_root_xz", "impute_locations", "linearisation_error",
            "load_clips", "load_or_train_per_representation", "location_errors", "location_loss",
-           "location_task", "perturbation_displacement", "reading_b1", "reading_b2", "reading_b3",
+           "location_task", "perturbation_displacement", "plot_imputation", "plot_method_errors",
+           "plot_representations", "plot_sensitivity", "reading_b1", "reading_b2", "reading_b3",
            "real_clip_file", "registered_measurements", "rel_location_imputation", "root_jacobian",
            "round_trip", "round_trip_markdown", "sensitivity_study"]
 
