@@ -756,7 +756,8 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
                 gap_ratio: float = B3_GAP_RATIO) -> Controls:
     """GMD-B3's controls: the evaluation windows themselves, degraded (:func:`_degraded`),
     stand in for both models' samples, measured with the experiment's ``measurements.table_row``
-    and ``registered_measurements`` (FID, R@3, Diversity against the same evaluation set).
+    and ``measurements.registered_measurements`` (FID, R@3, Diversity against the same
+    evaluation set).
 
     Null: both arms degraded by :data:`B3_DEGRADATION` with independent noise. Positive: the
     abs arm degraded less — the shrink and shift that, measured on ``calibration_draws``
@@ -810,8 +811,8 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
                                             B3_DEGRADATION["shift"]))
         rows["positive"]["absolute"].append(arm(1, shrink, shift))
     return Controls(
-        null=registered_measurements(dict(real_row), rows["null"]),
-        positive=registered_measurements(dict(real_row), rows["positive"]),
+        null=measurements.registered_measurements(dict(real_row), rows["null"]),
+        positive=measurements.registered_measurements(dict(real_row), rows["positive"]),
         planted={"rel_degradation": B3_DEGRADATION, "abs_shrink": shrink, "abs_shift": shift,
                  "calibrated_fid_ratio": reached[0] / fid_rel,
                  "calibrated_gap_ratio": reached[1] / gap_rel,
