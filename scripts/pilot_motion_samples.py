@@ -28,10 +28,9 @@ import numpy as np
 import torch
 
 from repro.core import metrics
-from repro.gmd import table_b1
+from repro.gmd import measurements as table_b1
 from repro.gmd import x0_vs_eps as x0eps
-from repro.gmd.cfg import sample_classifier_free
-from repro.gmd.guidance import sample
+from repro.gmd.guidance import sample, sample_classifier_free
 from repro.gmd.models import TrainedGMD, load_or_train_gmd
 from repro.gmd.windows import load_windows
 from repro.motion.features import FPS, features_to_joints

@@ -29,7 +29,8 @@ def settings_classes() -> dict[str, Any]:
     """claim → the Settings class its notebook builds (``for_scale``; the EnergyMoGen ones'
     ``for_run`` is ``for_scale`` without a data folder)."""
     from repro.energymogen import settings as emg
-    from repro.gmd import emphasis_study, guidance_schedule, root_representation, x0_vs_eps
+    from repro.gmd import emphasis_projection as emphasis_study
+    from repro.gmd import guidance_schedule, root_representation, x0_vs_eps
 
     return {"GMD-A3": x0_vs_eps.Settings, "GMD-A4": x0_vs_eps.Settings,
             "GMD-B2": root_representation.Settings, "GMD-B3": root_representation.Settings,
@@ -44,7 +45,7 @@ def run_settings(claim_id: str, scale: str = "standard") -> dict[str, Any]:
     """What ``claim_id``'s rule quotes of a run at ``scale``: its paper package's
     ``rule_settings`` of the Settings its notebook builds (no model trained)."""
     from repro.energymogen import rule_settings as emg_rules
-    from repro.gmd import rule_settings as gmd_rules
+    from repro.gmd import settings as gmd_rules
 
     functions = {**gmd_rules.RULE_SETTINGS, **emg_rules.RULE_SETTINGS}
     if claim_id not in functions:

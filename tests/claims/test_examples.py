@@ -24,7 +24,7 @@ from repro.claims.verdicts import (
     SUPPORTED,
 )
 from repro.energymogen import settings as emg_settings
-from repro.gmd import run_seeds as gmd_seeds
+from repro.gmd import settings as gmd_seeds
 
 EFFECT_CLAIMS = [c.id for c in CLAIMS.values() if c.rests_on_effects]
 RUN_SEEDS = {**gmd_seeds.FULL_SEEDS, **emg_settings.FULL_SEEDS}

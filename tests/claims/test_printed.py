@@ -12,7 +12,7 @@ from repro.claims import printed, seed_text
 from repro.claims.printed import QUOTES, get_table, value
 from repro.claims.registry import CLAIMS
 from repro.energymogen import latent_count, studies
-from repro.gmd import table_b1
+from repro.gmd import measurements as table_b1
 
 EMG = "EnergyMoGen"
 

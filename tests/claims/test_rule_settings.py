@@ -17,7 +17,7 @@ from repro.claims.claim import MissingRuleSetting, setting_text
 from repro.claims.registry import CLAIMS, get_claim
 from repro.energymogen import rule_settings as emg_rules
 from repro.gmd import guidance_schedule, x0_vs_eps
-from repro.gmd import rule_settings as gmd_rules
+from repro.gmd import settings as gmd_rules
 from repro.infra import paths
 from repro.infra.context import SCALES
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from repro.gmd.coefficients import (
+from repro.gmd.models import schedule_diffusion
+from repro.gmd.x0_vs_eps import (
     coefficient_shares,
     peak_fraction,
     posterior_mean_forms,
     printed_c_relative_error,
-    schedule_diffusion,
 )
 
 FRAMES = 16  # = conftest.FRAMES: the windows of the small_config fixture

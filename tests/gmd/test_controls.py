@@ -8,8 +8,14 @@ import pytest
 from repro.claims.registry import get_claim
 from repro.claims.verdicts import PARTIAL, REPRODUCED
 from repro.core import metrics
-from repro.gmd import controls
-from repro.gmd.emphasis_study import C4_VALUES, coherence
+from repro.gmd import (
+    controls,
+    emphasis_projection,
+    guidance_schedule,
+    root_representation,
+    x0_vs_eps,
+)
+from repro.gmd.emphasis_projection import C4_VALUES, coherence
 from repro.gmd.measurements import evaluator_inputs, jitter_of
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
 from repro.infra.paths import data_stubs_dir
@@ -62,7 +68,7 @@ def test_calibrate_increasing_finds_the_size() -> None:
 
 def test_c4_null_arms_are_equal_in_expectation_and_positive_plants_a_tenth(
         windows: MotionWindows) -> None:
-    result = controls.c4_controls(windows, SEEDS, (1, 10), n=6)
+    result = emphasis_projection.c4_controls(windows, SEEDS, (1, 10), n=6)
     for v in ("1", "10"):
         loss = np.asarray(result.null["foot_skating_loss_scaling"][v])
         emphasis = np.asarray(result.null["foot_skating_emphasis"][v])
@@ -83,8 +89,8 @@ def evaluator(windows: MotionWindows):
 def test_a4_positive_plants_the_jitter_and_fid_ratios(windows: MotionWindows, evaluator) -> None:
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
     test_embeddings = evaluator.embed_motions(features, lengths)
-    result = controls.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
-                                  test_embeddings=test_embeddings, calibration_draws=2)
+    result = x0_vs_eps.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
+                                   test_embeddings=test_embeddings, calibration_draws=2)
     assert result.planted["calibrated_jerk_ratio"] == pytest.approx(1.1, rel=1e-3)
     assert result.planted["calibrated_fid_ratio"] == pytest.approx(1.1, rel=1e-3)
     jerk = _mean(result.positive["motion_jitter_eps"]) / _mean(result.null["motion_jitter_eps"])
@@ -110,7 +116,7 @@ def test_jag_puts_white_noise_on_world_positions_in_both_representations(
     for data in (windows, relative):
         space = data.space("motion")
         x = data.x[:6]
-        moved = (space.joints(controls._jag(space, x, amplitude, seed=3)).double()
+        moved = (space.joints(controls.jag(space, x, amplitude, seed=3)).double()
                  - space.joints(x).double())
         per_frame = moved.pow(2).mean(dim=(0, 2, 3)).sqrt()  # RMS per frame over joints, axes
         assert per_frame.max() < 2.5 * amplitude, data.config.representation
@@ -120,13 +126,13 @@ def test_jag_puts_white_noise_on_world_positions_in_both_representations(
 def test_a4_controls_take_relative_motion_and_absolute_trajectory_windows(
         windows: MotionWindows, relative: MotionWindows, evaluator) -> None:
     features, lengths = evaluator_inputs(relative.space("motion"), relative.x)
-    result = controls.a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
-                                  test_embeddings=evaluator.embed_motions(features, lengths),
-                                  trajectory_train=windows, calibration_draws=2)
+    result = x0_vs_eps.a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
+                                   test_embeddings=evaluator.embed_motions(features, lengths),
+                                   trajectory_train=windows, calibration_draws=2)
     assert result.planted["calibrated_jerk_ratio"] == pytest.approx(1.1, rel=1e-3)
     assert result.planted["calibrated_fid_ratio"] == pytest.approx(1.1, rel=1e-3)
     # the trajectory arms are draws of the absolute windows, measured in their space
-    same = [float(jitter_of(windows.space("trajectory"), windows.trajectory()[controls._draw(
+    same = [float(jitter_of(windows.space("trajectory"), windows.trajectory()[controls.draw_indices(
         windows, 8, controls.control_seed(s, 0, stream=2))]).jerk) for s in SEEDS[:2]]
     assert result.null["trajectory_jitter_x0"] == same
 
@@ -135,7 +141,7 @@ def test_a4_controls_take_relative_motion_and_absolute_trajectory_windows(
 
 def test_c4_decision_sees_a_large_planted_effect(windows: MotionWindows) -> None:
     claim = get_claim("GMD-C4")
-    big = controls.c4_controls(windows, SEEDS, C4_VALUES, n=8, factor=4.0)
+    big = emphasis_projection.c4_controls(windows, SEEDS, C4_VALUES, n=8, factor=4.0)
     assert claim.decide(big.positive).verdict == REPRODUCED
     assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
 
@@ -143,9 +149,9 @@ def test_c4_decision_sees_a_large_planted_effect(windows: MotionWindows) -> None
 def test_a4_decision_sees_a_large_planted_effect(windows: MotionWindows, evaluator) -> None:
     claim = get_claim("GMD-A4")
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
-    big = controls.a4_controls(windows, SEEDS, n=16, evaluator=evaluator,
-                               test_embeddings=evaluator.embed_motions(features, lengths),
-                               calibration_draws=2, factor=3.0)
+    big = x0_vs_eps.a4_controls(windows, SEEDS, n=16, evaluator=evaluator,
+                                test_embeddings=evaluator.embed_motions(features, lengths),
+                                calibration_draws=2, factor=3.0)
     assert claim.decide(big.positive).verdict == REPRODUCED
     assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
     for name in ("motion_jitter", "motion_fid", "trajectory_jitter"):  # null: equal arms
@@ -157,14 +163,14 @@ def test_a4_decision_sees_a_large_planted_effect(windows: MotionWindows, evaluat
 
 @pytest.fixture(scope="module")
 def location_tasks(windows: MotionWindows) -> dict:
-    from repro.gmd.location_imputation import location_task
+    from repro.gmd.root_representation import location_task
 
     return {s: location_task(windows, 6, seed=s) for s in SEEDS}
 
 
 def test_b2_null_sits_at_the_threshold_and_positive_plants_delta(windows, location_tasks
                                                                  ) -> None:
-    result = controls.b2_controls(windows, location_tasks, SEEDS)
+    result = root_representation.b2_controls(windows, location_tasks, SEEDS)
     for mechanism in ("imputation", "guidance"):
         rel, abs_ = (np.asarray(result.null[f"{k}_{mechanism}_error"]) for k in ("rel", "abs"))
         # E‖d‖ = 0.1 m in every arm: 8 seeds × 12 offsets, σ = 0.1/√(π/2): SE ≈ 0.05/√96 m
@@ -180,7 +186,7 @@ def test_b2_null_sits_at_the_threshold_and_positive_plants_delta(windows, locati
 
 def test_b2_decision_sees_a_large_planted_effect(windows, location_tasks) -> None:
     claim = get_claim("GMD-B2")
-    big = controls.b2_controls(windows, location_tasks, SEEDS, abs_factor=0.3)
+    big = root_representation.b2_controls(windows, location_tasks, SEEDS, abs_factor=0.3)
     assert claim.decide(big.positive).verdict == REPRODUCED
     assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
 
@@ -189,7 +195,7 @@ def test_f1_arms_carry_the_planted_factors_exactly(windows: MotionWindows) -> No
     space = windows.space("trajectory")
     x = windows.trajectory()[:5]
     targets = np.array([[1.0, 2.0]] * 5, np.float32)
-    planted = controls._planted_path(space, x, targets, jerk_factor=1.4, goal_factor=0.45)
+    planted = controls.planted_path(space, x, targets, jerk_factor=1.4, goal_factor=0.45)
     assert jitter_of(space, planted).jerk == pytest.approx(1.4 * jitter_of(space, x).jerk,
                                                            rel=1e-3)
     from repro.gmd.guidance import goal_error
@@ -200,20 +206,20 @@ def test_f1_arms_carry_the_planted_factors_exactly(windows: MotionWindows) -> No
 
 def test_f1_decision_sees_a_large_planted_effect_and_null_does_not_fire(windows) -> None:
     claim = get_claim("GMD-F1")
-    base = controls.f1_controls(windows, SEEDS, (100, 150, 200), goals=6, min_distance=0.0)
+    base = guidance_schedule.f1_controls(windows, SEEDS, (100, 150, 200), goals=6, min_distance=0.0)
     assert claim.decide(base.null).verdict not in (REPRODUCED, PARTIAL)
     null = base.null  # each guided arm at the threshold: 0.5·unguided − guided ≈ 0
     gap = 0.5 * np.asarray(null["goal_error_unguided"]) - np.asarray(
         null["goal_error_by_strength"]["100"])
     assert abs(gap.mean()) < 3 * gap.std(ddof=1) / np.sqrt(len(gap))
-    big = controls.f1_controls(windows, SEEDS, (100, 150, 200), goals=16, min_distance=0.0,
-                               margin=6.0)
+    big = guidance_schedule.f1_controls(windows, SEEDS, (100, 150, 200), goals=16, min_distance=0.0,
+                                        margin=6.0)
     assert claim.decide(big.positive).verdict == REPRODUCED
 
 
 def test_f1_whole_body_positive_is_smoother_by_the_planted_factor(windows) -> None:
-    result = controls.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
-                                  min_distance=0.0)
+    result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
+                                           min_distance=0.0)
     null, positive = result.null, result.positive
     assert positive["joint_jerk_stop_0"] == null["joint_jerk_stop_0"]
     np.testing.assert_allclose(positive["joint_jerk_stop_20"],
@@ -227,7 +233,7 @@ def test_f1_whole_body_positive_is_smoother_by_the_planted_factor(windows) -> No
 
 @pytest.fixture(scope="module")
 def table_b1_setup():
-    from repro.gmd.table_b1 import evaluation_set, ground_truth_row
+    from repro.gmd.measurements import evaluation_set, ground_truth_row
 
     relative = load_windows(DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=8,
                                        representation="relative"))
@@ -240,7 +246,7 @@ def table_b1_setup():
 
 def test_b3_null_degrades_alike_and_positive_reaches_the_registered_ratios(table_b1_setup
                                                                            ) -> None:
-    from repro.gmd.controls_b3 import B3_FID_RATIO, B3_GAP_RATIO, b3_controls
+    from repro.gmd.root_representation import B3_FID_RATIO, B3_GAP_RATIO, b3_controls
 
     evaluator, evaluation, real = table_b1_setup
     result = b3_controls(evaluator, evaluation, real, SEEDS[:2], calibration_draws=1)
@@ -251,7 +257,7 @@ def test_b3_null_degrades_alike_and_positive_reaches_the_registered_ratios(table
 
 
 def test_b3_decision_sees_a_large_planted_effect(table_b1_setup) -> None:
-    from repro.gmd.controls_b3 import b3_controls
+    from repro.gmd.root_representation import b3_controls
 
     evaluator, evaluation, real = table_b1_setup
     big = b3_controls(evaluator, evaluation, real, SEEDS, calibration_draws=1,

@@ -10,15 +10,18 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from repro.gmd import figures  # noqa: E402
-from repro.gmd.coefficients import (  # noqa: E402
+from repro.gmd import (
+    figures,
+    guidance_schedule,  # noqa: E402
+)
+from repro.gmd.guidance_schedule import strength_key  # noqa: E402
+from repro.gmd.models import schedule_diffusion
+from repro.gmd.x0_vs_eps import (
     coefficient_shares,
     peak_fraction,
     posterior_mean_forms,
     printed_c_relative_error,
-    schedule_diffusion,
 )
-from repro.gmd.guidance_schedule import strength_key  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -53,13 +56,14 @@ def test_sample_quality_and_filmstrips() -> None:
 def test_guidance_schedule_figures() -> None:
     strengths, seeds = [0, 10, 100], [0, 1]
     per_seed = {strength_key(s): [1.0 + s, 2.0 + s] for s in strengths}
-    fig = figures.plot_strength_sweep(per_seed, per_seed, strengths, seeds, stop=2,
-                                      num_timesteps=100)
+    fig = guidance_schedule.plot_strength_sweep(per_seed, per_seed, strengths, seeds, stop=2,
+                                                num_timesteps=100)
     assert "t ≥ 2 of T = 100" in fig.axes[0].get_title()
     stops = {0: 0, 20: 2}
     table = {"arm": {0: [1.0, 2.0], 20: [1.5, 2.5]}}
-    assert len(figures.plot_stop_sweep(table, table, stops, seeds).axes) == 3
+    assert len(guidance_schedule.plot_stop_sweep(table, table, stops, seeds).axes) == 3
     body = {"joint_jerk": {0: [60.0, 70.0], 20: [58.0, 69.0]},
             "foot_skating": {0: [0.5, 0.6], 20: [0.45, 0.58]}}
-    fig = figures.plot_whole_body_stop(body, seeds, stops={0: 0, 20: 20}, num_timesteps=1000)
+    fig = guidance_schedule.plot_whole_body_stop(body, seeds, stops={0: 0, 20: 20},
+                                                 num_timesteps=1000)
     assert len(fig.axes) == 2 and "t = 20\nof 1000" in fig.axes[0].get_xticklabels()[1].get_text()

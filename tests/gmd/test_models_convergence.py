@@ -11,7 +11,7 @@ import torch
 
 from repro.gmd import model_gates
 from repro.gmd import x0_vs_eps as x0eps
-from repro.gmd.emphasis_study import Settings as EmphasisSettings
+from repro.gmd.emphasis_projection import Settings as EmphasisSettings
 from repro.gmd.guidance_schedule import Settings as ScheduleSettings
 from repro.gmd.models import (
     MOTION_TRAINING,

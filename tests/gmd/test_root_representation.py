@@ -3,14 +3,24 @@ the sensitivity study on small synthetic root paths."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
+from conftest import make_context
 
-from repro.gmd import paper_settings
+from repro.claims.result import record
+from repro.claims.verdicts import REPRODUCED
+from repro.gmd import models
+from repro.gmd import root_representation as L
 from repro.gmd import root_representation as R
-from repro.gmd.guidance import default_stop_step
-from repro.motion.features import FEATURE_DIM, relative_to_absolute_root
+from repro.gmd import root_representation as results
+from repro.gmd.guidance import default_stop_step, sample
+from repro.gmd.models import TrainedGMD
+from repro.gmd.root_representation import Settings
+from repro.gmd.windows import DataConfig, FeatureSpace
+from repro.motion.features import FEATURE_DIM, recover_root, relative_to_absolute_root
 
 
 def _clip(frames: int = 40, seed: int = 0, speed: float = 0.05) -> np.ndarray:
@@ -84,19 +94,19 @@ def test_linearisation_error_grows_with_the_perturbation() -> None:
 
 
 def test_settings_trajectory_spec_is_the_guidance_experiments_model() -> None:
-    """Full mode: T, schedule and widths from ``paper_settings`` (one cache key with the
+    """Full mode: T, schedule and widths from ``models`` (one cache key with the
     other guidance notebooks), GMD's stop step and clamp recorded as parameters."""
     full = R.Settings.for_scale("paper")
     assert full.seeds >= 3 and full.motion_seeds >= 5
     spec = full.trajectory_spec("absolute", 0)
-    architecture = paper_settings.TRAJECTORY_ARCHITECTURE
+    architecture = models.TRAJECTORY_ARCHITECTURE
     assert (spec.task, spec.prediction) == ("trajectory", "epsilon")
-    assert spec.diffusion_steps == paper_settings.GUIDANCE_DIFFUSION_STEPS == 1000
-    assert spec.schedule == paper_settings.GUIDANCE_SCHEDULE
+    assert spec.diffusion_steps == models.GUIDANCE_DIFFUSION_STEPS == 1000
+    assert spec.schedule == models.GUIDANCE_SCHEDULE
     assert (spec.base_channels, spec.channel_mults) == (architecture.base_channels,
                                                         architecture.channel_mults)
     assert full.sampling_parameters() == {"num_timesteps": 1000, "guidance_stop_t": 20,
-                                          "x0_clamp": paper_settings.X0_CLAMP}
+                                          "x0_clamp": models.X0_CLAMP}
     quick = R.Settings.for_scale("quick")
     assert quick.trajectory_spec("relative", 0).diffusion_steps == quick.diffusion_steps
     assert quick.guidance_stop_t == default_stop_step(quick.diffusion_steps)
@@ -119,3 +129,162 @@ def test_b2_abs_trajectory_model_is_the_guidance_notebooks_model() -> None:
 
     assert (R.Settings.for_scale("paper").trajectory_spec("absolute", 0)
             == guidance_trajectory_spec("paper", "epsilon", None, 0))
+
+
+# ------------------------------------------------------------------------------------------------
+# GMD-B2's location imputation: abs replaces the two target entries, rel imputes the facing
+# path through both targets on every frame, guidance and imputation run like for like.
+# ------------------------------------------------------------------------------------------------
+
+def _task(n: int = 3, frames: int = 16) -> L.LocationTask:
+    rng = np.random.default_rng(1)
+    return L.LocationTask(rng.normal(0.0, 1.0, (n, 2, 2)).astype(np.float32), frames // 2 - 1,
+                          frames - 1)
+
+
+def _space(representation: str) -> FeatureSpace:
+    return FeatureSpace("trajectory", representation, np.array([0.1, 0.2, -0.3, 0.9]),
+                        np.array([0.5, 2.0, 1.5, 0.1]))
+
+
+def _untrained(representation: str, frames: int = 16, steps: int = 10) -> TrainedGMD:
+    """An untrained UNet (its zero-initialised output layer predicts ε = 0)."""
+    spec = Settings.for_scale("quick").trajectory_spec(representation, 0).replace(
+        diffusion_steps=steps, data=DataConfig(frames=frames, representation=representation))
+    return TrainedGMD(spec.build_model().eval(), spec.diffusion(), _space(representation), spec)
+
+
+def _features(root: np.ndarray) -> torch.Tensor:
+    features = np.zeros(root.shape[:-1] + (FEATURE_DIM,))
+    features[..., :3] = root
+    return torch.from_numpy(features)
+
+
+def test_abs_imputation_replaces_only_the_target_entries() -> None:
+    task, frames = _task(), 16
+    space = _space("absolute")
+    imputation = L.abs_location_imputation(space, task, frames)
+    assert int(imputation.mask.sum()) == 4
+    assert imputation.mask[0, 1:3][:, list(task.frames)].all()
+    x = torch.randn(task.n, 4, frames)
+    x = torch.where(imputation.mask, imputation.target, x)
+    assert L.location_errors(space, x, task).max() < 1e-5
+    loss = L.location_loss(space, task)(x)
+    assert loss.shape == (task.n,) and float(loss.max()) < 1e-5
+
+
+@pytest.mark.parametrize("representation", ["absolute", "relative"])
+def test_imputation_through_the_last_step_reaches_the_targets_exactly(representation) -> None:
+    """With the stop at t = 0 the last step writes the target itself on the mask: abs hits
+    its two entries, rel its recovered path, to float32 rounding; a stop after t = 0 leaves
+    free steps (the untrained model's ε = 0 then moves the masked entries)."""
+    trained, task = _untrained(representation), _task()
+    make = (L.abs_location_imputation if representation == "absolute"
+            else L.rel_location_imputation)
+    imputation = make(trained.space, task, 16)
+    x = sample(trained, task.n, seed=3, imputation=imputation, stop_guidance_at=0, clip_x0=6.0)
+    assert torch.equal(x[imputation.mask.expand_as(x)],
+                       imputation.target.expand_as(x)[imputation.mask.expand_as(x)])
+    assert L.location_errors(trained.space, x, task).max() < 1e-4
+    late = sample(trained, task.n, seed=3, imputation=imputation, stop_guidance_at=5,
+                  clip_x0=6.0)
+    assert not torch.equal(late[imputation.mask.expand_as(x)],
+                           imputation.target.expand_as(x)[imputation.mask.expand_as(x)])
+
+
+def test_facing_path_walks_forward_through_both_targets() -> None:
+    task, frames = _task(4, 20), 20
+    root = L.facing_path_root(task, frames)
+    assert root.shape == (4, frames, 3)
+    _, position = recover_root(_features(root))
+    position = position.numpy()[..., [0, 2]]
+    np.testing.assert_allclose(position[:, 0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(position[:, task.waypoint_frame], task.targets[:, 0], atol=1e-6)
+    np.testing.assert_allclose(position[:, task.goal_frame], task.targets[:, 1], atol=1e-6)
+    # facing the direction of travel: no sideways (local x) velocity, positive forward speed
+    np.testing.assert_allclose(root[:, :-1, 1], 0.0, atol=1e-9)
+    assert (root[:, :-1, 2] > 0).all()
+    # constant speed per leg, one turn at the first step and one at the waypoint
+    i = task.waypoint_frame
+    np.testing.assert_allclose(root[:, :i, 2] - root[:, :1, 2], 0.0, atol=1e-9)
+    np.testing.assert_allclose(root[:, i:-1, 2] - root[:, i:i + 1, 2], 0.0, atol=1e-9)
+    turning = np.abs(root[:, :-1, 0]) > 1e-12
+    assert set(np.nonzero(turning)[1]) <= {0, i}
+    assert (np.abs(root[:, :-1, 0]) <= np.pi / 2 + 1e-12).all()
+
+
+def test_rel_imputation_fixes_the_root_of_every_frame() -> None:
+    task, frames = _task(), 16
+    space = _space("relative")
+    imputation = L.rel_location_imputation(space, task, frames)
+    assert imputation.mask[0, :3].all() and not imputation.mask[0, 3].any()
+    x = imputation.target.clone()
+    assert L.location_errors(space, x, task).max() < 1e-5
+    with pytest.raises(ValueError, match="relative-root"):
+        L.rel_location_imputation(_space("absolute"), task, frames)
+
+
+def test_location_loss_is_l1_over_both_frames() -> None:
+    task, frames = _task(1), 16
+    space = _space("absolute")
+    x = space.normalise(torch.zeros(1, frames, 4))
+    expected = np.abs(task.targets).sum()
+    assert float(L.location_loss(space, task)(x)) == pytest.approx(expected, rel=1e-5)
+
+
+def test_impute_locations_runs_every_method_like_for_like() -> None:
+    task = _task(2, 16)
+    models = {rep: _untrained(rep) for rep in ("absolute", "relative")}
+    runs = L.impute_locations(models, task, seed=0, stop_t=0, clip_x0=6.0)
+    assert set(runs) == set(L.METHODS)
+    assert runs["abs_imputation"].mean_error < 1e-4
+    assert runs["rel_imputation"].mean_error < 1e-4
+    assert runs["abs_unguided"].path_change == 0.0
+    assert all(np.isfinite(run.location_error).all() for run in runs.values())
+    measured = L.registered_measurements({0: runs, 1: runs})
+    assert set(measured) == {"abs_imputation_error", "rel_imputation_error",
+                             "abs_guidance_error", "rel_guidance_error",
+                             "abs_location_error", "rel_location_error"}
+    assert measured["rel_location_error"] == measured["rel_guidance_error"]
+    assert measured["abs_location_error"] == [runs["abs_imputation"].mean_error] * 2
+
+
+# ------------------------------------------------------------------------------------------------
+# Notebook 02's results (``gmd.root_representation``): GMD-B1's study and record on
+# synthetic clips, and the quick scale's B3 control calibration.
+# ------------------------------------------------------------------------------------------------
+
+def _results_clip(frames: int, seed: int) -> np.ndarray:
+    """Relative-root features: forward walking (5 cm a frame) with a gentle random turn."""
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0.0, 0.1, (frames, FEATURE_DIM))
+    x[:, 0] = 0.01 * np.sin(np.linspace(0, 3, frames)) + rng.normal(0, 0.002, frames)
+    x[:, 1] = rng.normal(0.0, 0.003, frames)
+    x[:, 2] = 0.05 + rng.normal(0.0, 0.003, frames)
+    x[:, 3] = 0.9
+    return x
+
+
+def test_b1_result_records_the_study_and_says_the_real_clip_is_absent(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(results.paths, "humanml3d_sample_dir", lambda: tmp_path / "absent")
+    monkeypatch.setattr(results, "load_clips", lambda root, split, min_frames, n: (
+        [f"c{k}" for k in range(n)], [_results_clip(70, k) for k in range(n)]))
+    study = results.b1_study(tmp_path, results.Settings.for_scale("quick"))
+    assert study.real is None and study.real_measurements is None
+    assert len(study.clips) == 8 and study.linearisation.shape == (3,)
+    assert "is absent here" in results.round_trip_markdown(study)
+    result = results.b1_result(study, figures=[], seed=0)
+    assert result.measured["round_trip_max_error"] == study.round_trip_max_error < 1e-12
+    assert result.extra["real_clip"] is None
+    assert result.headline.endswith("from gap 1 to 54")
+    assert record(make_context(tmp_path, scale="standard"), result).verdict == REPRODUCED
+    assert "Reading" in results.b1_reading(study)
+
+
+def test_b3_controls_calibrate_briefly_only_in_a_quick_run() -> None:
+    assert results.Settings.for_scale("quick").b3_control_options == {
+        "calibration_draws": 1, "rounds": 1, "iterations": 8}
+    assert results.Settings.for_scale("standard").b3_control_options == {}
+    assert results.Settings.for_scale("paper").b3_control_options == {}
+    assert np.isfinite(results.LINEARISATION_DELTAS).all()

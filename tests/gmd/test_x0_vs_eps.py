@@ -2,27 +2,45 @@
 
 from __future__ import annotations
 
+import ast
 import dataclasses
+import inspect
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import torch
+from conftest import make_context
 
+from repro.claims.registry import get_claim
+from repro.claims.result import record
+from repro.claims.verdicts import PAPER_DISCREPANCY, PARTIAL, REPRODUCED
+from repro.gmd import x0_vs_eps
 from repro.gmd.guidance import goal_error, sample
 from repro.gmd.measurements import jitter_of
 from repro.gmd.models import (
+    GUIDANCE_DIFFUSION_STEPS,
+    GUIDANCE_STOP_T,
     GMDModelSpec,
     TrainedGMD,
     load_or_train_gmd,
+    schedule_diffusion,
 )
-from repro.gmd.windows import DataConfig, FeatureSpace
+from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows, load_windows
 from repro.gmd.x0_vs_eps import (
+    A3Study,
+    a1_result,
+    a2_result,
     best_gain_survival,
+    finite,
     goal_error_kept,
     goal_reaching_experiment,
     guided_change_survival,
 )
+from repro.infra.paths import data_stubs_dir
+
+torch.set_num_threads(1)
 
 FRAMES = 16  # = conftest.FRAMES: the windows of the small_config fixture
 
@@ -151,7 +169,6 @@ def test_goal_reaching_result_reads_the_survival_from_its_own_path(small_spec,
 
 
 def test_guidance_trajectory_spec_is_gmds_diffusion_and_stops_at_20() -> None:
-    from repro.gmd import paper_settings
     from repro.gmd.guidance import default_stop_step, guidance_parameters
     from repro.gmd.x0_vs_eps import Settings, guidance_trajectory_spec
 
@@ -160,8 +177,8 @@ def test_guidance_trajectory_spec_is_gmds_diffusion_and_stops_at_20() -> None:
     assert spec == full.spec("trajectory", "epsilon", full.data(None), seed=2).replace(
         diffusion_steps=1000, schedule="cosine")
     assert spec == guidance_trajectory_spec("paper", seed=2)
-    assert spec.diffusion_steps == paper_settings.GUIDANCE_DIFFUSION_STEPS
-    assert default_stop_step(1000) == paper_settings.GUIDANCE_STOP_T == 20
+    assert spec.diffusion_steps == GUIDANCE_DIFFUSION_STEPS
+    assert default_stop_step(1000) == GUIDANCE_STOP_T == 20
     assert default_stop_step(50) == 1 and default_stop_step(100) == 2
     quick = guidance_trajectory_spec("quick", "x0")
     assert quick.diffusion_steps == 50 and quick.prediction == "x0"
@@ -202,3 +219,131 @@ def test_clamp_sensitivity_repeats_the_guided_run_under_each_bound(small_spec,
     for label, bound in CLAMPS.items():
         again = goal_reaching_experiment(trained, targets, seed=4, strength=10.0, clip_x0=bound)
         assert errors[label][0] == pytest.approx(float(again.error_guided.mean()), rel=1e-5)
+
+
+# ------------------------------------------------------------------------------------------------
+# GMD-A3's controls: the exact x0/ε pair samples identically (the null does not fire), the
+# late-reverting model undoes guided gain (the positive is seen).
+# ------------------------------------------------------------------------------------------------
+
+torch.set_num_threads(1)
+
+
+SEEDS = list(range(4))
+
+
+TARGETS = np.array([[1.0, 2.0], [-0.5, 1.5], [0.3, -1.0]], np.float32)
+
+
+@pytest.fixture(scope="module")
+def windows() -> MotionWindows:
+    return load_windows(DataConfig(data_dir=str(data_stubs_dir()), frames=32, stride=8))
+
+
+@pytest.fixture(scope="module")
+def models(windows: MotionWindows) -> dict:
+    """What the A3 controls read of the guidance trajectory models (schedule, space, spec)."""
+    spec = GMDModelSpec(prediction="x0", diffusion_steps=50, data=DataConfig(frames=32))
+    base = TrainedGMD(torch.nn.Linear(1, 1), spec.diffusion(), windows.space("trajectory"),
+                      spec)
+    return {(p, s): base for s in SEEDS for p in ("x0", "epsilon")}
+
+
+def test_exact_pair_samples_identically(models) -> None:
+    pair = x0_vs_eps.exact_pair(models[("x0", 0)])
+    assert pair["x0"].spec.prediction == "x0" and pair["epsilon"].spec.prediction == "epsilon"
+    runs = {p: goal_reaching_experiment(m, TARGETS, seed=3, clip_x0=6.0)
+            for p, m in pair.items()}
+    np.testing.assert_allclose(runs["x0"].guided, runs["epsilon"].guided, atol=1e-4)
+    np.testing.assert_allclose(runs["x0"].x0_error_guided, runs["epsilon"].x0_error_guided,
+                               atol=1e-4)
+    assert runs["x0"].error_guided.mean() < 0.5 * runs["x0"].error_unguided.mean()
+
+
+def test_late_reverting_model_leaves_the_unguided_run_and_undoes_the_guided_gain(models
+                                                                                 ) -> None:
+    exact = x0_vs_eps.exact_pair(models[("x0", 0)])["x0"]
+    honest = goal_reaching_experiment(exact, TARGETS, seed=3, clip_x0=6.0)
+    reverting = x0_vs_eps.late_reverting_model(exact, len(TARGETS), seed=3, below=5,
+                                               share=0.5)
+    planted = goal_reaching_experiment(reverting, TARGETS, seed=3, clip_x0=6.0)
+    assert torch.equal(planted.unguided, honest.unguided)
+    # guided steps down to the stop are the same; the last (t < 5) lose guided gain
+    above = planted.timesteps >= 5
+    np.testing.assert_allclose(planted.x0_error_guided[above], honest.x0_error_guided[above],
+                               atol=1e-5)
+    assert planted.survival < honest.survival - 0.2
+    assert planted.error_guided.mean() > honest.error_guided.mean()
+
+
+def test_a3_null_does_not_fire_and_positive_is_seen(windows, models) -> None:
+    claim = get_claim("GMD-A3")
+    result = x0_vs_eps.a3_controls(models, windows, SEEDS, goals=6, min_distance=0.0)
+    null, positive = result.null, result.positive
+    np.testing.assert_allclose(null["goal_error_x0"], null["goal_error_eps"], atol=1e-4)
+    assert positive["goal_error_eps"] == null["goal_error_eps"]
+    assert claim.decide(null).verdict not in (REPRODUCED, PARTIAL)
+    assert claim.decide(positive).verdict == REPRODUCED
+    assert result.planted["survival_drop_in_delta"] >= 1
+    assert result.planted["goal_error_gap_in_delta"] >= 1
+    assert result.planted["revert_below_t"] == 1  # GMD's 20/1000 at T = 50
+
+
+# ------------------------------------------------------------------------------------------------
+# Notebook 01's results (``gmd.x0_vs_eps``): what GMD-A1…A4 record, built from the
+# measurements, and the per-seed views of the A3 study.
+# ------------------------------------------------------------------------------------------------
+
+#: what every sidecar of notebook 01 records under ``extra["parameters"]`` (issue #17)
+KEYS = {"num_timesteps", "guidance_stop_t", "x0_clamp"}
+
+
+def test_a1_and_a2_record_the_registered_measurements_and_the_parameters(
+        tmp_path: Path) -> None:
+    cosine = schedule_diffusion("cosine", 1000)
+    mu_difference = x0_vs_eps.posterior_mean_forms(cosine, samples=4, seed=0)
+    printed = x0_vs_eps.printed_c_relative_error(cosine)
+    a1 = a1_result(cosine, mu_difference, printed, figure=tmp_path / "a1.png", seed=0)
+    assert set(get_claim("GMD-A1").measurements) <= set(a1.measured)
+    assert set(a1.extra["parameters"]) == KEYS
+    assert a1.extra["c_equals_one_over_sqrt_alpha_max_error"] == x0_vs_eps.c_identity_error(
+        cosine) < 1e-9
+    schedules = {name: x0_vs_eps.coefficient_shares(schedule_diffusion(name))
+                 for name in ("cosine", "linear")}
+    peaks = {name: {k: x0_vs_eps.peak_fraction(v[k]) for k in ("x0_share", "eps_share")}
+             for name, v in schedules.items()}
+    a2 = a2_result(schedules, peaks, figure=tmp_path / "a2.png", seed=0)
+    assert a2.extra["parameters"] == {"num_timesteps": 1000, "guidance_stop_t": None,
+                                      "x0_clamp": None}
+    assert a2.headline.startswith("cosine: x0 share a/(a+b) peaks at t = 1/1000")
+    assert set(a2.extra["cosine_x0_share_at"]) == {"1", "10", "500", "1000"}
+    ctx = make_context(tmp_path, scale="standard")
+    assert record(ctx, a1).verdict == PAPER_DISCREPANCY  # the printed Eq. 2 drops a square root
+    assert record(ctx, a2).verdict == REPRODUCED
+
+
+def test_every_result_of_notebook_01_records_the_guidance_parameters() -> None:
+    tree = ast.parse(inspect.getsource(x0_vs_eps))
+    calls = [node for node in ast.walk(tree) if isinstance(node, ast.Call)
+             and getattr(node.func, "id", None) == "ClaimResult"]
+    assert len(calls) == 4
+    for call in calls:
+        extra = next(k.value for k in call.keywords if k.arg == "extra")
+        assert isinstance(extra, ast.Dict)
+        keys = {k.value for k in extra.keys if isinstance(k, ast.Constant)}
+        assert "parameters" in keys, ast.unparse(call)[:80]
+
+
+def test_the_a3_study_reads_each_seed_in_order() -> None:
+    def run(offset: float) -> SimpleNamespace:
+        return SimpleNamespace(error_guided=np.array([offset, offset + 1.0]),
+                               error_unguided=np.array([2.0, 4.0]), best_step=int(offset),
+                               survival=offset / 10, stop_step_survival=float("nan"))
+
+    study = A3Study({(p, s): run(s + (p == "epsilon")) for p in ("x0", "epsilon")
+                     for s in (3, 1)}, [1, 3], {"num_timesteps": 10})
+    assert study.goal_error == {"x0": [1.5, 3.5], "epsilon": [2.5, 4.5]}
+    assert study.seed_means("x0", "error_unguided") == [3.0, 3.0]
+    assert study.per_seed("epsilon", "best_step") == [2.0, 4.0]
+    assert study.survival["x0"] == [0.1, 0.3]
+    assert finite(study.stop_survival["x0"]) == [None, None]

@@ -1,14 +1,20 @@
-"""Guided Motion Diffusion's appendix (layer 5): its math, experiments and figures. Never imports
+"""Guided Motion Diffusion's appendix (layer 6): its math, experiments and figures. Never imports
 repro.energymogen.
 
-The tiny GMD every notebook shares: ``coefficients`` (appendix A's posterior-mean forms),
-``windows`` (data windows and their feature space), ``models`` (specs, text conditioning,
-cached training), ``guidance`` (guided sampling, goal functions), ``measurements`` (jitter,
-foot skating, evaluator inputs), ``model_gates`` (the registered quality gates of every
-model behind a verdict, measured). One module per notebook experiment: ``x0_vs_eps`` (01),
-``root_representation``, ``location_imputation``, ``table_b1`` and ``cfg`` (02),
-``emphasis`` and ``emphasis_study`` (03), ``guidance_schedule`` (06), each with its
-notebook's ``Settings``; their figures are in
-``figures`` and ``emphasis_figures``, their rendered reading paragraphs in ``readings``.
+One module per claim group, named like its notebook, holding the group's settings,
+experiment, controls, readings, figures and results:
+
+- ``x0_vs_eps`` (01): appendix A, x0 vs ε prediction (GMD-A1…A4);
+- ``root_representation`` (02): appendix B, relative vs absolute root (GMD-B1…B3);
+- ``emphasis_projection`` (03): appendix C, the Emphasis projection (GMD-C1…C4);
+- ``guidance_schedule`` (06): appendix F, guidance strength and stop step (GMD-F1).
+
+Below them, the tiny GMD every notebook shares: ``windows`` (data windows and their feature
+space), ``models`` (the paper's settings, specs, text conditioning, cached training),
+``guidance`` (guided and classifier-free sampling, goal functions), ``measurements`` (jitter,
+foot skating, evaluator inputs, Table B.1's evaluation, denoiser diagnostics), ``model_gates``
+(the registered quality gates of every model behind a verdict, measured), ``figures`` (figures
+drawn from shared measurements, reading helpers), ``controls`` (control seeds, calibration,
+exact plantings) and ``settings`` (seeds per scale, what each rule quotes, the scale note).
 
 Layers: docs/DESIGN.md."""

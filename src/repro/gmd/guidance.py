@@ -1,48 +1,43 @@
-"""Tiny GMD's guided sampling and goal functions (GMD appendix F; REFERENCE.md "Guidance").
+"""Tiny GMD's sampling: guided sampling, goal functions and classifier-free guidance.
 
 GMD's goal functions G act on the un-normalised x̂0 — L1 (p = 1), averaged over the target
 entries as GMD does — and enter sampling through ``diffusion.Guidance``
 (μ̃ = μ − s·Σ_t·∇_{x_t} G(x̂0)); guidance (and imputation) stop at t = 20 of T = 1000
-(``paper_settings.GUIDANCE_STOP_T``). A model with another T (quick mode, the T = 100 motion
+(``models.GUIDANCE_STOP_T``). A model with another T (quick mode, the T = 100 motion
 models) stops at the same fraction of its T (``default_stop_step``).
 
 Sampling is ancestral DDPM over every step, as GMD's: its ``create_gaussian_diffusion``
 respaces only with ``use_ddim`` (default False), so nothing is respaced here either. GMD
 clamps an ε model's x̂0 to ±``clip_range`` = 6 (default of its ``DiffusionOptions``;
-``paper_settings.X0_CLAMP``): ``clip_x0="gmd"``.
+``models.X0_CLAMP``): ``clip_x0="gmd"``.
+
+Classifier-free guidance (Ho & Salimans 2022), as GMD samples its motion model, is at the end
+(``sample_classifier_free``, scale ``GMD_CFG_SCALE``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
 import numpy as np
 import torch
-from torch import Tensor
+from torch import Tensor, nn
 
 from repro.core.diffusion import Guidance, Imputation, SampleTrajectory
-from repro.gmd.models import TrainedGMD
-from repro.gmd.paper_settings import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_STOP_T, X0_CLAMP
+from repro.gmd.models import GUIDANCE_DIFFUSION_STEPS, GUIDANCE_STOP_T, X0_CLAMP, TrainedGMD
 from repro.gmd.windows import FeatureSpace
 
-__all__ = [
-    "GMD_GUIDANCE_STRENGTH",
-    "GMD_STOP_FRACTION",
-    "Clamp",
-    "default_stop_step",
-    "goal_error",
-    "goal_guidance",
-    "goal_reaching_loss",
-    "guidance_parameters",
-    "obstacle_loss",
-    "resolve_clamp",
-    "sample",
-    "waypoint_loss",
-]
+__all__ = ["Clamp", "ClassifierFreeModel", "GMD_CFG_SCALE", "GMD_GUIDANCE_STRENGTH",
+           "GMD_STOP_FRACTION", "classifier_free", "default_stop_step", "goal_error",
+           "goal_guidance", "goal_reaching_loss", "guidance_parameters", "obstacle_loss",
+           "resolve_clamp", "sample", "sample_classifier_free", "waypoint_loss"]
 
 #: GMD stops guidance at t = 20 of T = 1000 (appendix F): 2 % of the steps.
 GMD_STOP_FRACTION = GUIDANCE_STOP_T / GUIDANCE_DIFFUSION_STEPS
+
+
 #: GMD's guidance strength s (appendix F; REFERENCE.md "Guidance").
 GMD_GUIDANCE_STRENGTH = 100.0
 
@@ -182,3 +177,63 @@ def goal_error(trained: TrainedGMD | FeatureSpace, x: Tensor,
         position = space.root_xz(x.detach())[:, frame]
         return (position - _targets(target_xz, position)).norm(dim=-1).cpu().numpy()
 
+
+
+# ------------------------------------------------------------------------------------------------
+# Classifier-free guidance at sampling (Ho & Salimans 2022), as GMD samples its motion model.
+#
+# GMD wraps a model trained with condition dropout (``cond_mask_prob`` > 0; here
+# ``GMDModelSpec.cond_dropout``) and returns, at every step,
+#
+#     out = out_uncond + s · (out_cond − out_uncond),
+#
+# with s = ``guidance_param`` = 2.5 by default in its sampling and evaluation options (GMD
+# ``model/cfg_sampler.py``, ``utils/parser_util.py``). s = 1 is plain conditional sampling,
+# s = 0 unconditional. Computed here as (1 − s)·out_uncond + s·out_cond — the same value, and
+# exactly the conditional (unconditional) output at s = 1 (s = 0), as 0·a = 0 and 1·b = b.
+# ------------------------------------------------------------------------------------------------
+
+#: GMD's classifier-free guidance scale s (``guidance_param`` default 2.5).
+GMD_CFG_SCALE = 2.5
+
+
+class ClassifierFreeModel(nn.Module):
+    """``model``'s output mixed with its unconditional output: (1 − s)·ε(x, t, ∅) + s·ε(x, t, c).
+
+    Without a condition (or with ``force_unconditional``) it is the unconditional output.
+    The two passes are separate calls of the same batch size as plain sampling's, so s = 1
+    and s = 0 reproduce conditional and unconditional sampling bit for bit.
+    """
+
+    def __init__(self, model: nn.Module, scale: float) -> None:
+        super().__init__()
+        self.model = model
+        self.scale = float(scale)
+
+    def forward(self, x: Tensor, t: Tensor, cond: Tensor | None = None,
+                force_unconditional: bool = False) -> Tensor:
+        unconditional = self.model(x, t, force_unconditional=True)
+        if cond is None or force_unconditional:
+            return unconditional
+        conditional = self.model(x, t, cond=cond)
+        return (1.0 - self.scale) * unconditional + self.scale * conditional
+
+
+def classifier_free(trained: TrainedGMD, scale: float = GMD_CFG_SCALE) -> TrainedGMD:
+    """The same trained model sampled with classifier-free guidance at ``scale``: a copy whose
+    network is :class:`ClassifierFreeModel` (weights shared, nothing retrained)."""
+    if trained.vocabulary is None:
+        raise ValueError("classifier-free guidance needs a text-conditioned model")
+    if not trained.spec.training.cond_dropout > 0:
+        raise ValueError("classifier-free guidance needs a model trained with condition "
+                         "dropout (cond_dropout > 0)")
+    return dataclasses.replace(trained, model=ClassifierFreeModel(trained.model, scale).eval())
+
+
+def sample_classifier_free(trained: TrainedGMD, n: int, *, seed: int,
+                           text: str | Sequence[str], scale: float = GMD_CFG_SCALE,
+                           **kwargs: object) -> Tensor:
+    """``guidance.sample`` of :func:`classifier_free` (``trained``, ``scale``) with ``text``;
+    the same seed gives the same x_T and per-step noise as plain sampling."""
+    return sample(classifier_free(trained, scale), n, seed=seed, text=text,
+                  **kwargs)  # type: ignore[arg-type]

@@ -16,7 +16,7 @@ One function per gate family measures what the registered gate names (gates vers
 
 :data:`COMPARED` names the quantity behind every measurement a GMD claim's parts compare and
 :data:`FAMILIES_READ` the model families whose records each notebook passes to a claim, so a
-test can hold every gate off every outcome (issue #31). :func:`gmd_model_record` /
+test can hold every gate off every outcome. :func:`gmd_model_record` /
 :func:`evaluator_model_record` turn the values into ``core.gates.model_record``s with what the
 model cache keeps (steps, seconds, and the held-out validation curve of a model trained to
 convergence, else the training loss) and the claim parts that read the model; nothing here
@@ -36,7 +36,7 @@ from torch import Tensor
 from repro.core import fitness, metrics
 from repro.core.gates import model_record
 from repro.core.tables import markdown_table
-from repro.gmd import table_b1
+from repro.gmd import measurements
 from repro.gmd.guidance import sample
 from repro.gmd.measurements import evaluator_inputs
 from repro.gmd.models import TrainedGMD, bag_of_words, parameter_count
@@ -47,12 +47,12 @@ from repro.motion.features import FPS, features_to_joints
 from repro.motion.skeleton import NUM_JOINTS
 
 __all__ = ["COMPARED", "CURVE_POINTS", "FAMILIES_READ", "FITNESS_WINDOWS", "MotionEvaluation",
-           "SAMPLE_GATE_WINDOWS", "SampleGateData", "motion_sample_values", "sample_gate_data",
-           "R_PRECISION_SHUFFLES", "REFERENCE_FID_DRAWS", "budget_markdown",
-           "denoising_gate_values", "emphasis_study_records", "evaluator_gate_values",
+           "REFERENCE_FID_DRAWS", "R_PRECISION_SHUFFLES", "SAMPLE_GATE_WINDOWS", "SampleGateData",
+           "budget_markdown", "denoising_gate_values", "evaluator_gate_values",
            "evaluator_model_record", "gmd_model_name", "gmd_model_record", "loss_curve",
-           "model_space_windows", "motion_evaluation", "one_caption_each", "path_length",
-           "reference_fid", "trajectory_gate_values", "training_summary"]
+           "model_space_windows", "motion_evaluation", "motion_sample_values", "one_caption_each",
+           "path_length", "reference_fid", "sample_gate_data", "training_summary",
+           "trajectory_gate_values"]
 
 #: the quantity behind each measurement the GMD claims' parts read (``Part.needs`` in
 #: ``claims.registry_gmd``), in the words of ``core.gates.Gate.measures``
@@ -75,6 +75,7 @@ COMPARED: dict[str, str] = {
     "jitter_unguided": "root jerk of samples", "jitter_by_strength": "root jerk of samples",
 }
 
+
 #: claim → the model families whose records its notebook passes (``record_claim(models=)``)
 FAMILIES_READ: dict[str, tuple[str, ...]] = {
     "GMD-A3": ("gmd_trajectory",), "GMD-A4": ("gmd_motion", "gmd_trajectory", "evaluator"),
@@ -82,15 +83,22 @@ FAMILIES_READ: dict[str, tuple[str, ...]] = {
     "GMD-C4": ("gmd_motion",), "GMD-F1": ("gmd_trajectory", "gmd_motion"),
 }
 
+
 #: points of the training-loss curve kept in a model record (means of equal chunks of steps).
 CURVE_POINTS = 50
+
+
 #: draws of training windows whose mean FID is the ``evaluator`` gate's real FID (the
 #: ``gmd_motion`` FID gate's reference in gates version 2): over 64 draws of notebook 01's 256
 #: training windows the data's FID ran from 0.022 to 0.047 (sd 17 % of the mean); the mean of
 #: 64 is within about 2 %. The windows are embedded once, so the draws cost seconds.
 REFERENCE_FID_DRAWS = 64
+
+
 #: shuffles of the R-precision batches whose mean R@3 is the ``evaluator`` gate's value
 R_PRECISION_SHUFFLES = 8
+
+
 #: at most this many held-out windows in a model's x̂0-error gate (a forward pass of each at
 #: three noise levels: seconds on the CPU)
 FITNESS_WINDOWS = 256
@@ -187,11 +195,11 @@ SAMPLE_GATE_WINDOWS = 64
 class SampleGateData:
     """The data side of the ``gmd_motion`` sample gates (``core.gates``, version 4):
     ``evaluation`` — :data:`SAMPLE_GATE_WINDOWS` relative-root test windows with one caption
-    each and their labelled concepts (``table_b1.evaluation_set``) — and ``values``, the
+    each and their labelled concepts (``measurements.evaluation_set``) — and ``values``, the
     windows' own ``metrics.motion_statistics`` and the oracles' recall of their concepts
     (NaN without the stand-in's labels: the recall gate is then not measurable)."""
 
-    evaluation: table_b1.EvaluationSet
+    evaluation: measurements.EvaluationSet
     values: dict[str, float]
 
 
@@ -199,10 +207,10 @@ def sample_gate_data(test: MotionWindows, *, seed: int,
                      n: int = SAMPLE_GATE_WINDOWS) -> SampleGateData:
     """:class:`SampleGateData` of ``n`` of the relative-root ``test`` windows, drawn with
     ``seed``."""
-    evaluation = table_b1.evaluation_set(test, n, seed=seed)
+    evaluation = measurements.evaluation_set(test, n, seed=seed)
     joints = features_to_joints(evaluation.features.astype(np.float64))
     values = {**metrics.motion_statistics(joints, fps=FPS),
-              "concept_recall": table_b1.concept_recall(evaluation.features, evaluation.truth)}
+              "concept_recall": measurements.concept_recall(evaluation.features, evaluation.truth)}
     return SampleGateData(evaluation, values)
 
 
@@ -216,7 +224,7 @@ def motion_sample_values(trained: TrainedGMD, data: SampleGateData, *,
         raise ValueError(f"need a motion model, got a {trained.spec.task} model")
     captions = data.evaluation.captions
     if trained.vocabulary is not None:
-        features = table_b1.generate_for_captions(trained, captions, seed=seed)
+        features = measurements.generate_for_captions(trained, captions, seed=seed)
     else:
         with torch.no_grad():
             x = sample(trained, len(captions), seed=seed)
@@ -224,13 +232,13 @@ def motion_sample_values(trained: TrainedGMD, data: SampleGateData, *,
     values = metrics.motion_statistics(features_to_joints(features.astype(np.float64)),
                                        fps=FPS)
     if trained.vocabulary is not None:
-        values["concept_recall"] = table_b1.concept_recall(features, data.evaluation.truth)
+        values["concept_recall"] = measurements.concept_recall(features, data.evaluation.truth)
     return values
 
 
 def model_space_windows(trained: TrainedGMD, windows: MotionWindows) -> Tensor:
     """``windows`` (B, C, T) in ``trained``'s model space: its task's channels, projected when
-    the model is an Emphasis variant (``emphasis_study.ProjectedFeatureSpace``)."""
+    the model is an Emphasis variant (``emphasis_projection.ProjectedFeatureSpace``)."""
     x = windows.channels(trained.spec.task)
     projection = getattr(trained.space, "projection", None)
     if projection is None:
@@ -368,7 +376,7 @@ def training_summary(trained: TrainedGMD) -> dict[str, Any]:
 
 def budget_markdown(arms: Mapping[str, Sequence[TrainedGMD]],
                     records: Mapping[str, Sequence[Mapping[str, Any]]]) -> str:
-    """GMD-A4's training budget (issue #14): per arm (label → its models, one per seed, and
+    """GMD-A4's training budget: per arm (label → its models, one per seed, and
     their ``gmd_model_record``s in the same order) and seed, the steps used of the cap, what
     stopped the run and the ``gmd_motion`` gate's value (held-out x̂0 error over the Gaussian
     denoiser's); then, per arm, in how many seeds the gate passed."""
@@ -405,27 +413,3 @@ def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float],
                         steps=len(evaluator.losses) or evaluator.config.training.steps,
                         train_seconds=None, validation_curve=loss_curve(evaluator.losses),
                         converged=None, reads=reads, role="reference")
-
-
-def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
-                           test: MotionWindows, device: str | torch.device = "cpu",
-                           parts: Mapping[float, Sequence[str]] | None = None
-                           ) -> list[dict[str, Any]]:
-    """``gmd_motion`` records of every GMD-C4 model (``emphasis_study.run_experiment``'s
-    ``results``: each variant × seed): :func:`denoising_gate_values` on the test windows
-    against the training windows, in the variant's own space (an Emphasis model's projected
-    one), the seed's noise. ``parts``: matched value v → the claim parts that read the models
-    of v (their records' ``reads``; a value not in it: read by no part); None: every part.
-    The models are the study's cached ones (``load_or_train_variant`` only loads)."""
-    from repro.gmd import emphasis_study as study
-
-    records = []
-    for seed in results.seeds:
-        for variant in results.variants:
-            trained = study.load_or_train_variant(base, variant, train, seed, device=device)
-            reads = None if parts is None else list(parts.get(variant.value, ()))
-            records.append(gmd_model_record(
-                trained, family="gmd_motion", label=variant.label, reads=reads,
-                role="treatment",
-                values=denoising_gate_values(trained, test, train, seed=seed)))
-    return records

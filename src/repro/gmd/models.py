@@ -1,4 +1,4 @@
-"""Tiny GMD's models: specs, text conditioning, cached (and multiprocess) training.
+"""Tiny GMD's models: the paper's settings, specs, text conditioning, cached training.
 
 GMD (appendix D–F; REFERENCE.md "GMD") trains a *trajectory* DPM on the 4 root features
 (angle, x, z, y) and a *motion* DPM on all 263, both 1D UNets with AdaGN. Here
@@ -6,6 +6,11 @@ GMD (appendix D–F; REFERENCE.md "GMD") trains a *trajectory* DPM on the 4 root
 ``training.train_diffusion``, cached by ``cache.load_or_train`` under a hash of the spec *and*
 a fingerprint of the training windows (so a real-data run never loads stand-in weights).
 Everything is scaled down to run on 2 CPU cores.
+
+The settings several notebooks share (architectures, diffusion steps T, the guidance stop
+step, the x̂0 clamp) are stated once at the top, each a fact of GMD's paper or code or a
+registered choice of this package, so the models one notebook trains are the ones another
+loads (one cache key). ``schedule_diffusion`` builds a model's noise schedule.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from repro.core.diffusion import GaussianDiffusion
+from repro.core.diffusion import GaussianDiffusion, cosine_betas, linear_betas
 from repro.core.training import (
     TRAIN_CONFIG_FIELDS,
     TrainConfig,
@@ -27,13 +32,6 @@ from repro.core.training import (
     fixed_steps_patience,
     replace_with_training,
     train_diffusion,
-)
-from repro.gmd.coefficients import schedule_diffusion
-from repro.gmd.paper_settings import (
-    MOTION_ARCHITECTURE,
-    STANDARD_MOTION_ARCHITECTURE,
-    STANDARD_TRAJECTORY_ARCHITECTURE,
-    TRAJECTORY_ARCHITECTURE,
 )
 from repro.gmd.windows import (
     CHANNELS,
@@ -51,34 +49,101 @@ from repro.models.unet import UNet1D
 from repro.motion.features import FEATURE_DIM, TRAJECTORY_FEATURES
 from repro.standin.text import Vocabulary, tokenize
 
-__all__ = [
-    "MOTION_TRAINING",
-    "QUICK_TRAINING",
-    "STANDARD_MOTION_TRAINING",
-    "STANDARD_TRAJECTORY_TRAINING",
-    "TRAJECTORY_TRAINING",
-    "ConvergenceTraining",
-    "GMDModelSpec",
-    "TrainedGMD",
-    "VALIDATION_SPLIT_SEED",
-    "bag_of_words",
-    "describe",
-    "is_cached",
-    "longer_run",
-    "load_or_train_gmd",
-    "load_or_train_many",
-    "model_cache_config",
-    "parameter_count",
-    "trajectory_loss_weights",
-    "training_fields",
-    "validation_split",
-]
+__all__ = ["Architecture", "ConvergenceTraining", "GMDModelSpec", "GUIDANCE_DIFFUSION_STEPS",
+           "GUIDANCE_SCHEDULE", "GUIDANCE_STOP_T", "MOTION_ARCHITECTURE", "MOTION_TRAINING",
+           "QUICK_TRAINING", "STANDARD_DIFFUSION_STEPS", "STANDARD_MOTION_ARCHITECTURE",
+           "STANDARD_MOTION_TRAINING", "STANDARD_TRAJECTORY_ARCHITECTURE",
+           "STANDARD_TRAJECTORY_TRAINING", "TRAJECTORY_ARCHITECTURE", "TRAJECTORY_TRAINING",
+           "TrainedGMD", "VALIDATION_SPLIT_SEED", "X0_CLAMP", "bag_of_words", "describe",
+           "is_cached", "load_or_train_gmd", "load_or_train_many", "longer_run",
+           "model_cache_config", "parameter_count", "schedule_diffusion", "training_fields",
+           "trajectory_loss_weights", "validation_split"]
+
+
+# --- GMD's settings that several notebooks share -------------------------------------------------
+
+@dataclass(frozen=True)
+class Architecture:
+    """A ``models.unet.UNet1D``'s widths: ``base_channels`` × ``channel_mults`` per level."""
+
+    base_channels: int
+    channel_mults: tuple[float, ...]
+
+    @property
+    def full_resolution_width(self) -> int:
+        """The narrowest width at full temporal resolution (the first level's)."""
+        return int(self.base_channels * self.channel_mults[0])
+
+
+#: the guidance experiments (GMD-A3, B2, F1) run GMD's diffusion: T = 1000, cosine schedule.
+GUIDANCE_DIFFUSION_STEPS = 1000
+
+
+GUIDANCE_SCHEDULE = "cosine"
+
+
+#: GMD stops guidance at t = 20 of T = 1000 (appendix F).
+GUIDANCE_STOP_T = 20
+
+
+#: GMD clamps its ε trajectory model's x̂0 to ±6 (in its normalised units).
+X0_CLAMP = 6.0
+
+
+#: the tiny GMD UNets (set by the design pilots, pilots/pilot_gmd_motion.md and
+#: pilots/pilot_gmd_trajectory.jsonl; the motion model's full-resolution width must be at least
+#: the 263 features it carries, as GMD's [263 → 1024] is). The trajectory UNet has GMD's own
+#: widths [4 → 64, 128, 256]: at 16 × (1, 2, 4) its ε model failed the trajectory gate (root
+#: jerk 144 m/s³ against the bound 67.5), at 64 × (1, 2, 4) trained to its plateau it passed
+#: (62.5; docs/TRAINING.md).
+MOTION_ARCHITECTURE = Architecture(base_channels=288, channel_mults=(1, 0.5, 0.25))
+
+
+TRAJECTORY_ARCHITECTURE = Architecture(base_channels=64, channel_mults=(1, 2, 4))
+
+
+#: the standard scale (docs/COMPUTE.md §3–§4; ``make reproduce`` on 2 CPU cores):
+#: every GMD model at T = 100 cosine (the guidance stop steps at the same fraction of T,
+#: ``guidance_schedule.model_stop_step``: GMD's 20 of 1000 → 2); the motion UNet 64 × (1, 1)
+#: with the full-rank input skip (``UNet1D(input_skip=True)``: without it the ε arm cannot
+#: carry 263-d noise through 64 channels, COMPUTE.md §4 item 1), the trajectory UNet
+#: 32 × (1, 2): the first run's 16 × (1, 2) at 1000 steps failed its path-length gate in 9 of
+#: 12 records (COMPUTE.md §8); the wider net passes at 1000 steps with a margin and costs less
+#: than 16 × (1, 2) at the 2000 steps that also pass (COMPUTE.md §11). Fixed from pilots, before
+#: the standard run that reports with it.
+STANDARD_DIFFUSION_STEPS = 100
+
+
+STANDARD_MOTION_ARCHITECTURE = Architecture(base_channels=64, channel_mults=(1, 1))
+
+
+STANDARD_TRAJECTORY_ARCHITECTURE = Architecture(base_channels=32, channel_mults=(1, 2))
+
+
+
+# --- the noise schedule of a model ---------------------------------------------------------------
+
+def schedule_diffusion(schedule: Literal["cosine", "linear"], num_timesteps: int = 1000,
+                       prediction: Literal["x0", "epsilon"] = "epsilon") -> GaussianDiffusion:
+    """The diffusion of a named schedule (GMD: cosine, T = 1000)."""
+    if schedule not in ("cosine", "linear"):
+        raise ValueError(f"schedule must be 'cosine' or 'linear', got {schedule!r}")
+    betas = (cosine_betas if schedule == "cosine" else linear_betas)(num_timesteps)
+    return GaussianDiffusion(betas, prediction)
+
+
+
+# --- specs, text conditioning, cached training ---------------------------------------------------
 
 #: 2: ``build_model`` seeds the initialisation (before, it drew from the process's global RNG,
 #: so a model's weights depended on what the process had drawn before, not on its seed alone).
 _CACHE_VERSION = 2
+
+
 #: the validation fraction of a spec without convergence training
 _DEFAULT_VALIDATION_FRACTION = 0.05
+
+
 #: the held-out clips are drawn with this seed, whatever the model's seed (so both arms of a
 #: comparison, and every seed, validate on the same windows)
 VALIDATION_SPLIT_SEED = 0
@@ -99,17 +164,18 @@ class ConvergenceTraining:
     autocast: str | None = None
 
 
-#: full-mode motion models (``paper_settings.MOTION_ARCHITECTURE``), from the design pilot
+#: full-mode motion models (``MOTION_ARCHITECTURE``), from the design pilot
 #: (pilots/pilot_gmd_motion*.md): lr 3e-4 skated less than 1e-3 at every check (150–600 steps);
-#: batch 32 and 64 were alike per CPU-second. Cap 12000 (session 11; was 4000, a time budget):
-#: notebook 01's motion models reached 4000 steps without their plateau stop, the held-out
-#: loss still falling 3 % per 1000 steps, so the cap, not convergence, ended them
-#: (docs/TRAINING.md point 9); 12000 as the trajectory family's, the plateau decides.
-#: bf16 autocast (session 13, pilots/pilot_bf16_motion.md): 1.7-2.1x faster on an AMX CPU, with
+#: batch 32 and 64 were alike per CPU-second. Cap 12000, as the trajectory family's, so that the
+#: plateau decides: at a 4000-step cap notebook 01's motion models stopped on the cap with the
+#: held-out loss still falling 3 % per 1000 steps (docs/TRAINING.md point 9).
+#: bf16 autocast (pilots/pilot_bf16_motion.md): 1.7-2.1x faster on an AMX CPU, with
 #: the held-out loss within 0.13 % of fp32's and the gate values within their noise (a rule
 #: written before the runs); on a CPU without AMX it is slower (0.69-0.98x, README).
 MOTION_TRAINING = ConvergenceTraining(batch_size=64, lr=3e-4, validate_every=200, patience=5,
                                       step_cap=12000, autocast="bfloat16")
+
+
 #: full-mode trajectory models: at 64 × (1, 2, 4) the ε model was still improving at a 4000-step
 #: cap and stopped on its plateau at 6700 of 12000 (docs/TRAINING.md, trajectory pilots).
 TRAJECTORY_TRAINING = ConvergenceTraining(batch_size=64, lr=1e-3, validate_every=100,
@@ -123,11 +189,15 @@ TRAJECTORY_TRAINING = ConvergenceTraining(batch_size=64, lr=1e-3, validate_every
 STANDARD_MOTION_TRAINING = ConvergenceTraining(
     batch_size=32, lr=1e-3, validate_every=150, patience=fixed_steps_patience(900, 150),
     step_cap=900)
+
+
 #: the standard scale's trajectory models (COMPUTE.md §4 item 2: both arms pass from 300
 #: steps): a fixed 1000 steps × batch 32, lr 1e-3, fp32, validated every 100 steps.
 STANDARD_TRAJECTORY_TRAINING = ConvergenceTraining(
     batch_size=32, lr=1e-3, validate_every=100, patience=fixed_steps_patience(1000, 100),
     step_cap=1000)
+
+
 #: quick mode (a test of the code): validate every 5 steps, stop after 2 without a gain.
 QUICK_TRAINING = ConvergenceTraining(batch_size=32, lr=1e-3, validate_every=5, patience=2,
                                      step_cap=20)
@@ -156,15 +226,18 @@ def trajectory_loss_weights(k: float, channels: int = FEATURE_DIM) -> list[float
     return weights
 
 
-
 #: GMD's training defaults (a spec's ``training``): AdamW at lr 1e-3, weight decay 0.01, batch
 #: 64, gradient clip 1, EMA 0.9999 with warm-up, 1000 steps, seed 0; a text-conditioned model
 #: drops its condition 10 % of the time (``cond_dropout``: ``train_diffusion`` drops only a
 #: condition it is given, and a spec without text leaves it out of its key)
 GMD_TRAINING = TrainConfig(steps=1000, batch_size=64, lr=1e-3, weight_decay=0.01,
                            ema_decay=0.9999, cond_dropout=0.1)
+
+
 #: the spec's key names of ``TrainConfig`` fields (the names before the spec held one)
 _KEY_NAMES = {"steps": "train_steps"}
+
+
 #: ``TrainConfig`` fields in the spec's key as they always were (the rest: only when changed)
 _KEYED_TRAINING = ("steps", "batch_size", "lr", "weight_decay", "ema_decay", "seed",
                    "feature_weights")
@@ -182,7 +255,7 @@ class GMDModelSpec:
     ``trajectory_loss_weights``). ``text_conditioned`` adds a bag-of-words caption condition
     (dropped with probability ``training.cond_dropout`` for classifier-free use).
 
-    Convergence (issue #14, docs/TRAINING.md): with ``training.validate_every`` set, the
+    Convergence (docs/TRAINING.md): with ``training.validate_every`` set, the
     windows of a held-out ``validation_fraction`` of the *training-split* clips
     (``validation_split``; never the test windows the claims measure on) are left out of
     training, the EMA weights' loss on them is measured every ``validate_every`` steps, and
@@ -326,9 +399,9 @@ class TrainedGMD:
 def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
                     seed: int = 0) -> dict[str, Any]:
     """The architecture fields and the ``training`` (seeded with ``seed``) of a notebook's
-    ``GMDModelSpec`` of ``task`` at ``scale`` (issues #14, #32).
+    ``GMDModelSpec`` of ``task`` at ``scale`` (docs/COMPUTE.md).
 
-    - ``paper``: ``paper_settings``' architecture of the family and its ``ConvergenceTraining``
+    - ``paper``: ``models``' architecture of the family and its ``ConvergenceTraining``
       (batch, lr, validation interval, patience, autocast, step cap; ``step_cap`` overrides the
       cap): today's registered full settings, the same keys.
     - ``standard``: the family's standard architecture (the motion UNet with the input skip)
@@ -367,7 +440,7 @@ def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
 def longer_run(spec: GMDModelSpec, factor: int = 2) -> GMDModelSpec:
     """``spec`` trained ``factor``× its step cap without the plateau stop (the patience
     outlasts the run), still validated so its curve is recorded: GMD-A4's longer ε run, which
-    shows whether the ε arm converges later than the budget both arms share (issue #14)."""
+    shows whether the ε arm converges later than the budget both arms share."""
     validate_every = spec.training.validate_every
     if validate_every is None:
         raise ValueError("longer_run needs a spec trained with validation (validate_every)")

@@ -32,36 +32,27 @@ from repro.motion.features import (
     recover_root,
     relative_to_absolute_root,
 )
-from repro.motion.humanml3d import (
-    REPRESENTATIONS,
-    MotionDataset,
-    compute_statistics,
-    cut_windows,
-)
+from repro.motion.humanml3d import REPRESENTATIONS, MotionDataset, compute_statistics, cut_windows
 from repro.standin.text import Vocabulary
 
-__all__ = [
-    "CHANNELS",
-    "REPRESENTATIONS",
-    "TASKS",
-    "check_task",
-    "DataConfig",
-    "DataDir",
-    "FeatureSpace",
-    "MotionWindows",
-    "Representation",
-    "Task",
-    "goal_targets",
-    "load_windows",
-    "short_label",
-]
+__all__ = ["CHANNELS", "DataConfig", "DataDir", "FeatureSpace", "MotionWindows", "REPRESENTATIONS",
+           "Representation", "TASKS", "Task", "check_task", "goal_targets", "load_windows",
+           "short_label"]
 
 Task = Literal["trajectory", "motion"]
+
+
 Representation = Literal["relative", "absolute"]
+
+
 #: a HumanML3D-layout folder (a run context's `data_dir` is a Path; `DataConfig` keeps its
 #: string), or None for the generated stand-in set
 DataDir = str | Path | None
+
+
 TASKS = ("trajectory", "motion")
+
+
 #: number of model channels per task: the trajectory model sees (angle, x, z, y).
 CHANNELS = {"trajectory": TRAJECTORY_FEATURES.stop - TRAJECTORY_FEATURES.start,
             "motion": FEATURE_DIM}
@@ -312,7 +303,6 @@ def load_windows(config: DataConfig, split: str = "train", *,
                          _fingerprint(x, captions, mean, std), vocabulary)
 
 
-
 def goal_targets(windows: MotionWindows, n: int, *, seed: int, frame: int = -1,
                  min_distance: float = 0.0) -> np.ndarray:
     """n goal locations (n, 2): the root x/z at ``frame`` of n windows drawn with ``seed``
@@ -326,4 +316,3 @@ def goal_targets(windows: MotionWindows, n: int, *, seed: int, frame: int = -1,
         raise ValueError(f"asked for {n} targets but only {len(eligible)} of {len(windows)} "
                          f"windows end ≥ {min_distance} m from their start")
     return ends[np.random.default_rng(seed).choice(eligible, n, replace=False)]
-

@@ -1,40 +1,70 @@
-"""Notebook 01 (GMD appendix A, A.1): x0 vs ε prediction under goal guidance (GMD-A3, A4).
+"""Notebook 01 (GMD appendix A, A.1): x0 vs ε prediction (claims GMD-A1…A4).
 
-A guided and an unguided run from the same seed (same x_T, same per-step noise) give the goal
-error of the final sample and of x̂0 at every step, and the share of the best guided gain that
-is kept at the end (``best_gain_survival``, the registered GMD-A3 measurement of registry v3).
+- GMD-A1, A2: the two forms of the posterior mean and their coefficients (Eq. 1–2, Fig. A.1);
+- GMD-A3: under goal guidance, a guided and an unguided run from the same seed (same x_T, same
+  per-step noise) give the goal error of the final sample and of x̂0 at every step, and the
+  share of the best guided gain that is kept at the end (``best_gain_survival``, GMD-A3's
+  registered measurement); its controls run exact and planted models through the same code;
+- GMD-A4: the unguided sample quality (jitter, FID) of x0 and ε models, with controls on the
+  data themselves;
+- the results: each ``a*_result`` takes what the notebook measured, runs the claim's controls
+  and returns the :class:`~repro.claims.result.ClaimResult` its registered rule reads, with the
+  fitness-gate records of the models behind it; the notebook's "Reading" paragraphs.
+
 The guidance experiments' trajectory models run GMD's diffusion, T = 1000 cosine
 (``Settings.guidance_trajectory_spec``, read by notebooks 01, 02 and 06).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import torch
-from torch import Tensor
+from torch import Tensor, nn
 
-from repro.core.diffusion import SampleTrajectory
+from repro.claims.result import ClaimResult, Controls
+from repro.core.diffusion import GaussianDiffusion, SampleTrajectory
+from repro.core.tables import render
+from repro.gmd import model_gates
+from repro.gmd import settings as rule_settings
+from repro.gmd.controls import (
+    calibrate_increasing,
+    control_seed,
+    draw_indices,
+    jag,
+    offset_unread_features,
+)
+from repro.gmd.figures import either
 from repro.gmd.guidance import (
     GMD_GUIDANCE_STRENGTH,
     Clamp,
     default_stop_step,
     goal_error,
     goal_guidance,
+    guidance_parameters,
     resolve_clamp,
     sample,
 )
 from repro.gmd.measurements import foot_skating_of, jitter_of, motion_fid
-from repro.gmd.models import GMDModelSpec, TrainedGMD, training_fields
-from repro.gmd.paper_settings import (
+from repro.gmd.models import (
     GUIDANCE_DIFFUSION_STEPS,
     GUIDANCE_SCHEDULE,
     STANDARD_DIFFUSION_STEPS,
+    X0_CLAMP,
+    GMDModelSpec,
+    TrainedGMD,
+    describe,
+    load_or_train_many,
+    longer_run,
+    parameter_count,
+    training_fields,
 )
-from repro.gmd.run_seeds import seeds_of
+from repro.gmd.settings import seeds_of
 from repro.gmd.windows import (
     DataConfig,
     DataDir,
@@ -46,17 +76,76 @@ from repro.gmd.windows import (
 )
 from repro.infra.context import check_scale
 from repro.models.evaluator import Evaluator, EvaluatorConfig
+from repro.motion.features import FEATURE_BLOCKS
 
-__all__ = ["CLAMPS", "PREDICTIONS", "QUICK_GUIDANCE_DIFFUSION_STEPS", "GoalReachingResult",
-           "SampleQuality", "Settings", "best_gain_survival", "clamp_sensitivity",
-           "goal_error_kept", "goal_reaching_experiment", "goal_reaching_study",
-           "guidance_trajectory_spec", "guided_change_survival", "sample_quality"]
+__all__ = ["A3Study", "A4Records", "CLAMPS", "EpsilonOfX0", "ExactGaussianDenoiser",
+           "GoalReachingResult", "LateRevertingDenoiser", "PREDICTIONS",
+           "QUICK_GUIDANCE_DIFFUSION_STEPS", "SampleQuality", "Settings", "a1_result", "a2_result",
+           "a3_controls", "a3_model_records", "a3_result", "a3_study", "a4_budget_markdown",
+           "a4_controls", "a4_model_records", "a4_result", "best_gain_survival",
+           "c_identity_error", "clamp_sensitivity", "coefficient_shares", "exact_model",
+           "exact_pair", "finite", "goal_error_kept", "goal_reaching_experiment",
+           "goal_reaching_study", "guidance_trajectory_spec", "guided_change_survival",
+           "late_reverting_model", "longer_eps_description", "longer_eps_models",
+           "parameter_counts", "peak_fraction", "posterior_mean_forms", "printed_c_relative_error",
+           "reading_a3", "reading_clamp", "sample_quality", "trajectory_model_values",
+           "trajectory_reference"]
 
+
+# ------------------------------------------------------------------------------------------------
+# GMD appendix A: the two forms of the posterior mean and their coefficients (Eq. 1–2, Fig. A.1).
+#
+# Eq. 1 writes μ_t = a·x0 + b·x_t; substituting x0 = (x_t − √(1−ᾱ_t) ε)/√ᾱ_t gives Eq. 2,
+# μ_t = c·x_t − d·ε. The coefficients themselves live on ``core.diffusion.GaussianDiffusion``;
+# the functions below evaluate the appendix's statements about them (claims GMD-A1, GMD-A2).
+# ------------------------------------------------------------------------------------------------
+
+def posterior_mean_forms(diffusion: GaussianDiffusion, *, samples: int = 64,
+                         seed: int = 0) -> np.ndarray:
+    """max |a·x0 + b·x_t − (c·x_t − d·ε)| per t (T,), float64, for random x_t, ε ~ N(0, I)
+    (``samples`` values per t) and x0 = (x_t − √(1−ᾱ_t) ε)/√ᾱ_t (GMD Eq. 1 vs Eq. 2)."""
+    generator = torch.Generator().manual_seed(seed)
+    steps = diffusion.num_timesteps
+    x_t = torch.randn(steps, samples, generator=generator, dtype=torch.float64)
+    eps = torch.randn(steps, samples, generator=generator, dtype=torch.float64)
+    t = torch.arange(steps)
+    x0 = diffusion.predict_x0_from_eps(x_t, t, eps)
+    eq1 = diffusion.q_posterior_mean(x0, x_t, t)
+    eq2 = diffusion.posterior_mean_from_eps(x_t, eps, t)
+    return (eq1 - eq2).abs().amax(dim=1).numpy()
+
+
+def printed_c_relative_error(diffusion: GaussianDiffusion) -> np.ndarray:
+    """|c_printed − c|/c per t, c_printed = a/ᾱ_t + b (Eq. 2 as printed), c = a/√ᾱ_t + b."""
+    c = diffusion.eps_mean_coef_xt
+    return np.abs(diffusion.eps_mean_coef_xt_as_printed - c) / c
+
+
+def c_identity_error(diffusion: GaussianDiffusion) -> float:
+    """max_t |c·√α_t − 1|: Eq. 2's c = a/√ᾱ_t + b is 1/√α_t (GMD-A1's derivation)."""
+    return float(np.max(np.abs(diffusion.eps_mean_coef_xt * np.sqrt(diffusion.alphas) - 1.0)))
+
+
+def coefficient_shares(diffusion: GaussianDiffusion) -> dict[str, np.ndarray]:
+    """Fig. A.1's curves over t: a, b (Eq. 1), c, d (Eq. 2), the x0 share a/(a+b) and the
+    ε share d/(c+d) (the relative shares registered for claim GMD-A2)."""
+    a, b = diffusion.posterior_mean_coef_x0, diffusion.posterior_mean_coef_xt
+    c, d = diffusion.eps_mean_coef_xt, diffusion.eps_mean_coef_eps
+    return {"a": a, "b": b, "c": c, "d": d, "x0_share": a / (a + b), "eps_share": d / (c + d)}
+
+
+def peak_fraction(values: np.ndarray) -> float:
+    """Where a curve over t = 0 … T−1 peaks, as the paper's step (t + 1) divided by T."""
+    return float((int(np.argmax(values)) + 1) / len(values))
+
+
+
+# --- GMD-A3 and A4: goal reaching under guidance, unguided sample quality ------------------------
 
 def best_gain_survival(unguided_final_error: np.ndarray | Sequence[float],
                        guided_x0_error: np.ndarray | Sequence[Sequence[float]],
                        guided_final_error: np.ndarray | Sequence[float]) -> float:
-    """The share of the best guided gain kept at the end (GMD-A3, registry v3).
+    """The share of the best guided gain kept at the end (GMD-A3's registered measurement).
 
     Two runs from the same seed (same x_T, same per-step noise), one guided (G), one not (U);
     goal errors are distances (m) of the last-frame root x/z to the goal, averaged over the
@@ -167,8 +256,7 @@ class GoalReachingResult:
 
     @property
     def stop_step_survival(self) -> float:
-        """``guided_change_survival`` from the stop step (registry v2's measurement, kept
-        outside the rule)."""
+        """``guided_change_survival`` from the stop step (outside the rule)."""
         return guided_change_survival(self.space, self.x0_guided_at_stop,
                                       self.x0_unguided_at_stop, self.guided, self.unguided)
 
@@ -230,7 +318,7 @@ class Settings:
     """Every size and step count of notebook 01 at one scale, fixed before any verdict was seen.
 
     Paper scale (today's registered full settings): 48-frame windows (stride 24) of the
-    2000-clip stand-in set, one UNet1D per task for x0 and ε (``paper_settings``'
+    2000-clip stand-in set, one UNet1D per task for x0 and ε (``models``'
     architectures), T = 100 cosine, trained to convergence up to each family's step cap
     (``models.training_fields``); 32 goals and 256 generated windows per seed; the package's
     evaluator with its default size; the guidance experiments' trajectory models (GMD-A3, B2,
@@ -246,7 +334,7 @@ class Settings:
     The trajectory models train on absolute-root windows (GMD's trajectory model: root x/z in
     the world); GMD-A4's motion models on ``motion_representation``, HumanML3D's relative root
     (:meth:`motion_data`): the claim is about MDM's ε model of ε ∈ R^{263×M}, and MDM models
-    HumanML3D's features as they are (registry v3 changelog, GMD-A4).
+    HumanML3D's features as they are (GMD-A4's registry entry).
     """
 
     scale: str
@@ -267,14 +355,14 @@ class Settings:
     guidance_diffusion_steps: int = GUIDANCE_DIFFUSION_STEPS
     #: the root representation of GMD-A4's motion windows (MDM's: HumanML3D's relative root)
     motion_representation: Representation = "relative"
-    #: the evaluator's training steps at the standard scale (``emphasis_study``'s and
+    #: the evaluator's training steps at the standard scale (``emphasis_projection``'s and
     #: notebook 02's: one cache key); None: the scale's own evaluator
     shared_evaluator_steps: int | None = None
 
     @classmethod
     def for_scale(cls, scale: str, *, seeds: int | None = None,
                   train_steps: int | None = None) -> Settings:
-        """The settings of ``scale``; ``seeds`` (None: ``run_seeds.seeds_of("GMD-A4", scale)``)
+        """The settings of ``scale``; ``seeds`` (None: ``settings.seeds_of("GMD-A4", scale)``)
         and ``train_steps`` (None: the scale's) override."""
         check_scale(scale)
         seeds = seeds_of("GMD-A4", scale) if seeds is None else int(seeds)
@@ -345,7 +433,7 @@ class Settings:
 
     def evaluator_config(self, data_id: str) -> EvaluatorConfig:
         """The package's evaluator (tiny in quick mode), named after the training windows; at
-        the standard scale notebooks 02's and 03's (``emphasis_study.window_evaluator``: the
+        the standard scale notebooks 02's and 03's (``emphasis_projection.window_evaluator``: the
         same relative-root windows, no name, so one cache key)."""
         if self.quick:
             return EvaluatorConfig(dim=16, hidden=32, data_id=data_id).replace(steps=30)
@@ -371,6 +459,7 @@ def guidance_trajectory_spec(scale: str, prediction: Literal["x0", "epsilon"] = 
 
 #: the two parametrisations and the short tags of their measurement names.
 PREDICTIONS = {"x0": "x0", "epsilon": "eps"}
+
 
 #: GMD-A4's parts that rest on each of its models' fitness gates, (task, prediction) → the
 #: record's ``reads`` (None: every part), as gates version 3 registered them: the motion
@@ -400,7 +489,7 @@ def goal_reaching_study(trajectory_models: dict[tuple[str, int], TrainedGMD],
 
 
 #: the x̂0 clamps of the ε model: GMD's ±6 (registered), ± the largest |value| of the training
-#: windows (registry v2's) and none; the last two are a sensitivity check outside the rule.
+#: windows and none; the last two are a sensitivity check outside the rule.
 CLAMPS: dict[str, Clamp] = {"GMD's ±6 (registered)": "gmd", "±max|x| of the training windows":
                             "auto", "no clamp": None}
 
@@ -466,3 +555,736 @@ def sample_quality(models: dict[tuple[str, str, int], TrainedGMD], seeds: Sequen
             if s == seeds[0]:
                 examples[prediction] = motion_model.space.joints(x[:2]).numpy()
     return SampleQuality(values, examples)
+
+
+
+# ------------------------------------------------------------------------------------------------
+# GMD-A3's controls (notebook 01), beside ``repro.gmd.controls``: exact models whose truth is
+# known, run through the experiment's own ``x0_vs_eps.goal_reaching_experiment`` (same T, stop
+# step, clamp, goals).
+#
+# - **Null**: an exact x0/ε pair — one exact network (:class:`ExactGaussianDenoiser`) read as an
+#   x0 model and, through :class:`EpsilonOfX0`, as an ε model. With one seed both sample the
+#   same paths up to float rounding, so no part may fire.
+# - **Positive**: the x0 arm replaced by the same network made to undo a share of its guided
+#   change after guidance stops (:class:`LateRevertingDenoiser`): the paper's mechanism,
+#   "undoing … the guidance signal … at the end of the diffusion process", planted.
+# ------------------------------------------------------------------------------------------------
+
+#: δ of GMD-A3's survival part (registry_gmd): 0.1 of the best guided gain
+SURVIVAL_DELTA = 0.1
+
+
+#: δ of GMD-A3's goal-error part: 10 % of the x0 arm's goal error
+GOAL_ERROR_DELTA_SHARE = 0.1
+
+
+class ExactGaussianDenoiser(nn.Module):
+    """The exact x0 predictor for data whose every channel is ~ N(0, Σ) over frames, Σ the
+    squared-exponential kernel exp(−(i−j)²/2ℓ²) (smooth paths, unit variance):
+    x̂0 = E[x0 | x_t] = √ᾱ_t Σ (ᾱ_t Σ + (1−ᾱ_t) I)⁻¹ x_t. A goal on one frame then moves every
+    frame (as a learned model's does). Its x0 and ε parametrisations are the same model."""
+
+    def __init__(self, diffusion: GaussianDiffusion, frames: int,
+                 length_scale: float | None = None) -> None:
+        super().__init__()
+        scale = frames / 4 if length_scale is None else length_scale
+        index = torch.arange(frames, dtype=torch.float64)
+        kernel = torch.exp(-0.5 * ((index[:, None] - index[None, :]) / scale) ** 2)
+        alpha_bar = torch.as_tensor(diffusion.alphas_cumprod, dtype=torch.float64)
+        eye = torch.eye(frames, dtype=torch.float64)
+        posterior = torch.stack([a.sqrt() * kernel @ torch.linalg.inv(a * kernel + (1 - a) * eye)
+                                 for a in alpha_bar])
+        self.register_buffer("posterior", posterior.float())  # (T_diffusion, frames, frames)
+        self.unused = nn.Parameter(torch.zeros(1))  # TrainedGMD reads its device from one
+
+    def forward(self, x: Tensor, t: Tensor, **_: Any) -> Tensor:
+        return torch.einsum("bij,bcj->bci", self.posterior[t], x)
+
+
+def exact_model(trained: TrainedGMD) -> TrainedGMD:
+    """The exact smooth-Gaussian x0 model (:class:`ExactGaussianDenoiser`) with ``trained``'s
+    noise schedule, feature space and window length."""
+    frames = trained.spec.data.frames
+    diffusion = GaussianDiffusion(trained.diffusion.betas, "x0")
+    return TrainedGMD(ExactGaussianDenoiser(diffusion, frames), diffusion, trained.space,
+                      trained.spec.replace(prediction="x0"))
+
+
+class EpsilonOfX0(nn.Module):
+    """An x0 network read as an ε network: ε̂ = (x_t/√ᾱ_t − x̂0)/√(1/ᾱ_t − 1), the inverse of
+    the sampler's x̂0 = (x_t − √(1−ᾱ_t) ε̂)/√ᾱ_t, so both parametrisations give the same x̂0,
+    the same μ_t (GMD Eq. 1 = Eq. 2) and the same guidance gradient, up to float rounding."""
+
+    def __init__(self, x0_model: nn.Module, diffusion: GaussianDiffusion) -> None:
+        super().__init__()
+        self.x0_model = x0_model
+        self.diffusion = diffusion
+
+    def forward(self, x: Tensor, t: Tensor, **kwargs: Any) -> Tensor:
+        return self.diffusion.predict_eps_from_x0(x, t, self.x0_model(x, t, **kwargs))
+
+
+def exact_pair(trained: TrainedGMD) -> dict[str, TrainedGMD]:
+    """{"x0": :func:`exact_model`, "epsilon": the same network as an ε model
+    (:class:`EpsilonOfX0`)}: an x0/ε pair known to sample identically from one seed."""
+    x0 = exact_model(trained)
+    eps_diffusion = GaussianDiffusion(x0.diffusion.betas, "epsilon")
+    eps = TrainedGMD(EpsilonOfX0(x0.model, eps_diffusion), eps_diffusion, x0.space,
+                     x0.spec.replace(prediction="epsilon"))
+    return {"x0": x0, "epsilon": eps}
+
+
+class LateRevertingDenoiser(nn.Module):
+    """An x0 network that undoes guidance in the last steps (GMD-A3's positive control): for
+    t < ``below`` its x̂0 is moved back toward the unguided run's x̂0 at that step,
+    x̂0' = x̂0 − ``share``·(x̂0 − x̂0_U(t)) (``reference``: t → x̂0_U(t), (B, C, T)). On the
+    unguided run itself x̂0 = x̂0_U(t), so that run is unchanged; a guided run loses the share
+    ``share`` of its guided change in x̂0 at each of those steps."""
+
+    def __init__(self, x0_model: nn.Module, reference: dict[int, Tensor], *, below: int,
+                 share: float) -> None:
+        super().__init__()
+        self.x0_model = x0_model
+        self.reference = reference
+        self.below = int(below)
+        self.share = float(share)
+
+    def forward(self, x: Tensor, t: Tensor, **kwargs: Any) -> Tensor:
+        out = self.x0_model(x, t, **kwargs)
+        step = int(t[0])
+        if step >= self.below:
+            return out
+        reference = self.reference[step].to(out.device, out.dtype)
+        return out - self.share * (out - reference)
+
+
+def late_reverting_model(x0: TrainedGMD, n: int, *, seed: int, below: int,
+                         share: float) -> TrainedGMD:
+    """``x0`` (an x0 model) as a :class:`LateRevertingDenoiser` whose reference is its own
+    unguided run of ``n`` samples from ``seed`` (the run a paired experiment compares with,
+    at the controls' clamp ±``X0_CLAMP``)."""
+    with torch.no_grad():
+        _, path = sample(x0, n, seed=seed, return_trajectory=True, clip_x0=X0_CLAMP,
+                         trajectory_timesteps=range(below))
+    reference = {int(t): path.pred_x0[i] for i, t in enumerate(path.timesteps)}
+    model = LateRevertingDenoiser(x0.model, reference, below=below, share=share)
+    return TrainedGMD(model, x0.diffusion, x0.space, x0.spec)
+
+
+def _survivals(runs: Sequence[GoalReachingResult]) -> list[float | None]:
+    """Per-run best-gain survival; None where it is undefined (no guided gain)."""
+    return [float(r.survival) if np.isfinite(r.survival) else None for r in runs]
+
+
+def _a3_measured(x0: Sequence[GoalReachingResult], eps: Sequence[GoalReachingResult],
+                 ) -> dict[str, list[float | None]]:
+    """The notebook's GMD-A3 measurements (batch-mean goal error, best-gain survival)."""
+    return {"goal_error_x0": [float(r.error_guided.mean()) for r in x0],
+            "goal_error_eps": [float(r.error_guided.mean()) for r in eps],
+            "best_gain_survival_x0": _survivals(x0), "best_gain_survival_eps": _survivals(eps)}
+
+
+def _mean_gap(a: Sequence[float | None], b: Sequence[float | None]) -> float:
+    """mean(a − b) over the seeds where both are defined (NaN if none)."""
+    pairs = [(x, y) for x, y in zip(a, b, strict=True) if x is not None and y is not None]
+    return float(np.mean([x - y for x, y in pairs])) if pairs else float("nan")
+
+
+def a3_controls(trajectory_models: Mapping[tuple[str, int], TrainedGMD], test: MotionWindows,
+                seeds: Sequence[int], *, goals: int, min_distance: float,
+                revert_share: float = 0.5) -> Controls:
+    """GMD-A3's controls toward the experiment's goals per seed (``trajectory_models`` keyed
+    (prediction, seed); the exact models take their noise schedule, T and feature space).
+
+    Both arms clamp x̂0 at GMD's ±6 (the ε arm's registered clamp): were only the ε arm
+    clamped, the pair would differ wherever guidance pushes x̂0 past ±6 and would no longer
+    be exact. Null: :func:`exact_pair` from the same seed in both arms. Positive: the x0 arm
+    replaced by :func:`late_reverting_model` — ``revert_share`` of the guided change in x̂0
+    undone at every step after guidance stops (t < the stop step) — against the same ε arm.
+    What that plants (survival drop, goal-error gap, in units of each part's δ) is measured
+    and recorded."""
+    x0_runs, eps_runs, planted_runs = [], [], []
+    stop = 0
+    for s in seeds:
+        pair = exact_pair(trajectory_models[("x0", s)])
+        targets = goal_targets(test, goals, seed=s, min_distance=min_distance)
+        seed = control_seed(s, 0)
+        stop = default_stop_step(pair["x0"].num_timesteps)
+        eps_runs.append(goal_reaching_experiment(pair["epsilon"], targets, seed=seed,
+                                                 clip_x0=X0_CLAMP))
+        x0_runs.append(goal_reaching_experiment(pair["x0"], targets, seed=seed,
+                                                clip_x0=X0_CLAMP))
+        reverting = late_reverting_model(pair["x0"], len(targets), seed=seed, below=stop,
+                                         share=revert_share)
+        planted_runs.append(goal_reaching_experiment(reverting, targets, seed=seed,
+                                                     clip_x0=X0_CLAMP))
+    null, positive = _a3_measured(x0_runs, eps_runs), _a3_measured(planted_runs, eps_runs)
+    drop = _mean_gap(null["best_gain_survival_x0"], positive["best_gain_survival_x0"])
+    goal_gap = _mean_gap(positive["goal_error_x0"], positive["goal_error_eps"])
+    goal_delta = GOAL_ERROR_DELTA_SHARE * float(np.mean(positive["goal_error_x0"]))
+    return Controls(
+        null=null, positive=positive,
+        planted={"model": "exact smooth-Gaussian x0 network, also read as an ε model; same "
+                          "seed and goals in both arms",
+                 "revert_share": revert_share, "revert_below_t": stop,
+                 "survival_drop_x0": drop, "survival_drop_in_delta": drop / SURVIVAL_DELTA,
+                 "goal_error_gap_m": goal_gap, "goal_error_gap_in_delta": goal_gap / goal_delta},
+        null_text=(f"one exact smooth-Gaussian network as the x0 and as the ε model, same seed "
+                   f"and goals in both arms (identical samples), {len(seeds)} seed(s)"),
+        positive_text=(f"the x0 arm made to undo {revert_share:g} of its guided change in x̂0 "
+                       f"at every step t < {stop}: survival {drop:.3g} lower "
+                       f"({drop / SURVIVAL_DELTA:.3g} δ), goal error x0 − ε {goal_gap:.3g} m "
+                       f"({goal_gap / goal_delta:.3g} δ)"))
+
+
+
+# --- GMD-A4's controls: the data as the model, jitter and FID planted in the ε arm ---------------
+
+def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator: Any,
+                test_embeddings: np.ndarray, trajectory_train: MotionWindows | None = None,
+                calibration_draws: int = 4, factor: float = 1.1) -> Controls:
+    """GMD-A4's controls: ``n`` training windows per arm and seed stand in for each model's
+    samples, measured with the experiment's code (joint jerk, FID against
+    ``test_embeddings``, root jerk of the trajectory channels). ``train``: the motion models'
+    windows; ``trajectory_train``: the trajectory models' (default ``train``).
+
+    Null: independent draws for the two arms. Positive: the ε motion arm made jagged — white
+    noise on every joint position, of the amplitude that raises the mean joint jerk of
+    ``calibration_draws`` further draws by 10 % (part 1's δ; |log ratio| = log 1.1 with the
+    trajectories left equal: part 3's δ) — and its non-joint features shifted along a fixed
+    direction by the size that raises the FID of those jagged draws to 1.1 × that of the
+    clean ones (part 2's δ; zero, and recorded, if the noise alone raises it further). Tests
+    plant a larger effect through ``factor`` (both ratios)."""
+    trajectory_train = train if trajectory_train is None else trajectory_train
+    motion, trajectory = train.space("motion"), trajectory_train.space("trajectory")
+    unread = motion.channels - FEATURE_BLOCKS["ric_positions"].stop
+    direction = torch.from_numpy(
+        np.random.default_rng(control_seed(0, 0, stream=9)).standard_normal(unread)).float()
+    direction = direction / direction.norm()
+    calibration = [train.x[draw_indices(train, n, control_seed(k, 0, stream=8))]
+                   for k in range(calibration_draws)]
+    noise_seeds = [control_seed(k, 1, stream=8) for k in range(calibration_draws)]
+    clean_jerk = np.mean([jitter_of(motion, x).jerk for x in calibration])
+    clean_fid = np.mean([motion_fid(motion, x, evaluator, test_embeddings) for x in calibration])
+
+    def jerk_ratio(amplitude: float) -> float:
+        return float(np.mean([jitter_of(motion, jag(motion, x, amplitude, k)).jerk
+                              for x, k in zip(calibration, noise_seeds, strict=True)])
+                     / clean_jerk)
+
+    amplitude = calibrate_increasing(jerk_ratio, factor, high=1e-3)
+    jagged = [jag(motion, x, amplitude, k) for x, k in zip(calibration, noise_seeds,
+                                                             strict=True)]
+
+    def fid_ratio(size: float) -> float:
+        return float(np.mean([motion_fid(motion, offset_unread_features(motion, x, size,
+                                                                        direction),
+                                         evaluator, test_embeddings) for x in jagged])
+                     / clean_fid)
+
+    size = calibrate_increasing(fid_ratio, factor, high=0.5)
+    null: dict[str, list[float]] = {}
+    positive: dict[str, list[float]] = {}
+    for s in seeds:
+        arms = {tag: train.x[draw_indices(train, n, control_seed(s, k, stream=1))]
+                for k, tag in enumerate(("x0", "eps"))}
+        tracks = {tag: trajectory_train.trajectory()[draw_indices(trajectory_train, n,
+                                                                  control_seed(s, k, stream=2))]
+                  for k, tag in enumerate(("x0", "eps"))}
+        planted = offset_unread_features(
+            motion, jag(motion, arms["eps"], amplitude, control_seed(s, 1, stream=3)), size,
+            direction)
+        for out, eps_motion in ((null, arms["eps"]), (positive, planted)):
+            for tag, x in (("x0", arms["x0"]), ("eps", eps_motion)):
+                out.setdefault(f"motion_jitter_{tag}", []).append(float(jitter_of(motion,
+                                                                                  x).jerk))
+                out.setdefault(f"motion_fid_{tag}", []).append(
+                    motion_fid(motion, x, evaluator, test_embeddings))
+                out.setdefault(f"trajectory_jitter_{tag}", []).append(
+                    float(jitter_of(trajectory, tracks[tag]).jerk))
+    return Controls(null=null, positive=positive,
+                    planted={"jitter_noise_amplitude_m": amplitude,
+                             "calibrated_jerk_ratio": jerk_ratio(amplitude),
+                             "unread_feature_offset": size,
+                             "calibrated_fid_ratio": fid_ratio(size),
+                             "fid_ratio_of_noise_alone": fid_ratio(0.0),
+                             "calibration_draws": calibration_draws,
+                             "model": f"{n} training windows per arm and seed"},
+                    null_text=(f"{n} training windows per arm, independent draws, "
+                               f"{len(seeds)} seed(s)"),
+                    positive_text=(f"the same draws; the ε motion arm jagged (white noise of "
+                                   f"{1000 * amplitude:.3g} mm on every joint position: jerk × "
+                                   f"{jerk_ratio(amplitude):.3g}) and its non-joint features "
+                                   f"shifted (FID × {fid_ratio(size):.3g}), measured on "
+                                   f"{calibration_draws} calibration draws"))
+
+
+
+# --- notebook 01's reading paragraphs ------------------------------------------------------------
+
+def reading_a3(*, stop: int, num_timesteps: int, best_step: dict[str, float],
+               survival: dict[str, float], stop_step_survival: dict[str, float]) -> str:
+    """How to read GMD-A3's survival, rendered from this run's values (means over seeds):
+    ``best_step`` the step t of the closest approach, ``survival`` the registered best-gain
+    survival and ``stop_step_survival`` the survival from the stop step, per model ("x0",
+    "epsilon")."""
+    return render(
+        "**Reading GMD-A3.** Guidance acts while t ≥ {stop} of T = {T}. The registered "
+        "survival compares the end with the guided x̂0's closest approach to the goal, "
+        "wherever in sampling it happens: on average at t ≈ {best_x0:.0f} for the x0 model "
+        "and t ≈ {best_eps:.0f} for the ε model. The x0 model keeps {s_x0:.2f} of its best "
+        "gain and the ε model {s_eps:.2f}. Counted from the stop step instead (registry v2's "
+        "measurement, outside the rule) they keep {v2_x0:.2f} and {v2_eps:.2f}: {v2_reading} "
+        "A share is undefined (stored as null) for a seed whose guided x̂0 never came nearer "
+        "the goal than the unguided sample.",
+        stop=stop, T=num_timesteps, best_x0=best_step["x0"], best_eps=best_step["epsilon"],
+        s_x0=survival["x0"], s_eps=survival["epsilon"], v2_x0=stop_step_survival["x0"],
+        v2_eps=stop_step_survival["epsilon"],
+        v2_reading=either(
+            min(best_step.values()) > stop,
+            "both closest approaches lie before the stop step, so what is undone there is "
+            "outside the v2 measurement.",
+            "at least one closest approach lies after the stop step."))
+
+
+#: the labels of ``x0_vs_eps.CLAMPS`` (registered first)
+CLAMP_LABELS = ("GMD's ±6 (registered)", "±max|x| of the training windows", "no clamp")
+
+
+def reading_clamp(errors: dict[str, list[float]], *, bound: float, unguided_eps: float,
+                  guided_x0: float, seeds: Sequence[int]) -> str:
+    """The x̂0-clamp sensitivity check of GMD-A3. ``errors``: ``x0_vs_eps.clamp_sensitivity``
+    (``CLAMP_LABELS``); ``bound`` the ±max|x| bound; the other values are means over seeds."""
+    gmds, ours, none = (float(np.mean(errors[k])) for k in CLAMP_LABELS)
+    x0_better_both = guided_x0 < ours and guided_x0 < gmds
+
+    def effect(value: float) -> str:
+        return either(value > unguided_eps, "makes the ε model *worse*", "helps the ε model")
+
+    return render(
+        "**Reading** (this run, seeds {seeds}). With GMD's ±6 (registered) guidance "
+        "{gmd_effect} ({gmds:.3g} m against {unguided:.3g} m unguided); with ± the largest "
+        "|value| of the training windows (±{bound:.1f}, registry v2's bound) it {ours_effect} "
+        "({ours:.3g} m); without any clamp the guided samples end {none:.3g} m from their "
+        "goals. The x0 model's guided error is {x0:.3g} m. {verdict}",
+        seeds=list(seeds), bound=bound, ours_effect=effect(ours), ours=ours,
+        unguided=unguided_eps, gmd_effect=effect(gmds), gmds=gmds, none=none, x0=guided_x0,
+        verdict=either(
+            (guided_x0 < ours) == (guided_x0 < gmds),
+            either(x0_better_both,
+                   "Under both bounds the x0 model reaches the goals better than the ε model: "
+                   "the goal-error comparison does not hinge on the bound.",
+                   "Under both bounds the ε model reaches the goals at least as well as the "
+                   "x0 model: the goal-error comparison does not hinge on the bound."),
+            "Which model reaches the goals better depends on the clamp bound here: the "
+            "goal-error half of the verdict rests on taking GMD's bound."))
+
+
+
+# ------------------------------------------------------------------------------------------------
+# Notebook 01's claims as results: GMD-A1…A4, each a :class:`~repro.claims.result.ClaimResult`.
+#
+# Each ``a*_result`` takes what the notebook measured (the coefficient curves of appendix A's
+# Eq. 1–2 and Fig. A.1; the goal-reaching runs of :func:`goal_reaching_study`; the
+# sample quality of :func:`sample_quality`), runs the claim's controls, and returns
+# the measurements its registered rule reads with the headline, notes and extra values of the
+# sidecar; the notebook then calls ``record(ctx, result)``. The fitness-gate records of the
+# models behind A3 and A4 (``model_gates``, gates version 3) are built here too, and the
+# training-budget table of A4's longer ε run.
+# ------------------------------------------------------------------------------------------------
+
+#: a figure's path, as ``ClaimResult.figures`` takes it
+FigurePath = str | os.PathLike
+
+
+def finite(values: Sequence[float]) -> list[float | None]:
+    """JSON has no NaN: an undefined share (no guided gain) is stored as null."""
+    return [v if np.isfinite(v) else None for v in values]
+
+
+# ------------------------------------------------------------------------------ GMD-A1, A2
+
+def a1_result(diffusion: GaussianDiffusion, mu_difference: np.ndarray,
+              printed_error: np.ndarray, *, figure: FigurePath, seed: int) -> ClaimResult:
+    """GMD-A1: the largest |Eq. 1 − Eq. 2| over t (``posterior_mean_forms``) and
+    the printed c's relative error (``printed_c_relative_error``) on ``diffusion`` (GMD's
+    T = 1000 cosine), with c = 1/√α_t checked (``c_identity_error``)."""
+    c_check = c_identity_error(diffusion)
+    return ClaimResult(
+        "GMD-A1",
+        {"max_abs_mu_difference": float(mu_difference.max()),
+         "printed_c_max_relative_error": float(printed_error.max())},
+        seeds=[seed], figures=[figure],
+        headline=(f"max |Δμ| = {mu_difference.max():.1e} over all t; c = a/√ᾱ_t + b = 1/√α_t; "
+                  f"printed a/ᾱ_t + b off by {printed_error.min():.1e} (t=1) to "
+                  f"{printed_error.max():.1e} (t=T) relative"),
+        notes=("Ours: T = 1000 cosine schedule as GMD (max β 0.999); 256 N(0,1) draws of x_t "
+               "and ε per t in float64; the PDF's text layer drops the bars over α, read as ᾱ."),
+        extra={"parameters": {"num_timesteps": diffusion.num_timesteps, "guidance_stop_t": None,
+                              "x0_clamp": None},
+               "c_equals_one_over_sqrt_alpha_max_error": c_check,
+               "printed_c_relative_error_at_t1": float(printed_error[0]),
+               "printed_c_relative_error_at_t500": float(printed_error[499])})
+
+
+def a2_result(schedules: Mapping[str, Mapping[str, np.ndarray]],
+              peaks: Mapping[str, Mapping[str, float]], *, figure: FigurePath,
+              seed: int) -> ClaimResult:
+    """GMD-A2: where the x0 share a/(a+b) and the ε share d/(c+d) peak (``
+    coefficient_shares``, ``peak_fraction``: step / T) on the cosine schedule (Fig. A.1), the
+    linear one beside it; ``schedules`` at T = 1000."""
+    cos = schedules["cosine"]
+    steps = len(cos["x0_share"])
+    return ClaimResult(
+        "GMD-A2",
+        {"cosine_x0_share_argmax_fraction": peaks["cosine"]["x0_share"],
+         "cosine_eps_share_argmax_fraction": peaks["cosine"]["eps_share"]},
+        seeds=[seed], figures=[figure],
+        headline=(f"cosine: x0 share a/(a+b) peaks at t = "
+                  f"{peaks['cosine']['x0_share'] * steps:.0f}/{steps} ({cos['x0_share'][0]:.2f}), "
+                  f"ε share d/(c+d) at t = {peaks['cosine']['eps_share'] * steps:.0f}/{steps} "
+                  f"({cos['eps_share'][-1]:.2f}); linear: "
+                  f"{peaks['linear']['x0_share'] * steps:.0f} and "
+                  f"{peaks['linear']['eps_share'] * steps:.0f}"),
+        notes=("Ours: shares as registered (a/(a+b), d/(c+d)); the paper does not define its "
+               "'relative share'. Steps counted 1…T (our index t+1). Both cosine shares are "
+               "not monotone: share_x0 rises again in the last ~10 % of steps (to "
+               f"{cos['x0_share'][-1]:.3f} at t = T) and share_ε dips after t = 1 "
+               f"({cos['eps_share'][0]:.4f}) before rising; the peaks are still at the ends."),
+        extra={"parameters": {"num_timesteps": steps, "guidance_stop_t": None, "x0_clamp": None},
+               "peaks": peaks,
+               **{f"cosine_{key}_at": {str(t): float(cos[key][t - 1])
+                                       for t in (1, 10, 500, steps)}
+                  for key in ("x0_share", "eps_share")}})
+
+
+# ----------------------------------------------------------------------------------- GMD-A3
+
+@dataclass(frozen=True)
+class A3Study:
+    """GMD-A3's goal-reaching runs (:func:`x0_vs_eps.goal_reaching_study`, keyed (prediction,
+    seed)), their seeds and the sampling settings (``guidance.guidance_parameters`` of the ε
+    model at the runs' stop step)."""
+
+    runs: dict[tuple[str, int], GoalReachingResult]
+    seeds: list[int]
+    parameters: dict[str, Any]
+
+    def per_seed(self, prediction: str, attribute: str) -> list[float]:
+        """A scalar attribute of each seed's run (e.g. ``best_step``, ``survival``)."""
+        return [float(getattr(self.runs[(prediction, s)], attribute)) for s in self.seeds]
+
+    def seed_means(self, prediction: str, attribute: str) -> list[float]:
+        """The mean over goals of a per-goal attribute (e.g. ``error_unguided``), per seed."""
+        return [float(np.mean(getattr(self.runs[(prediction, s)], attribute)))
+                for s in self.seeds]
+
+    @property
+    def goal_error(self) -> dict[str, list[float]]:
+        """The guided final samples' mean goal error (m) per seed: ``goal_error_{x0,eps}``."""
+        return {p: [float(self.runs[(p, s)].error_guided.mean()) for s in self.seeds]
+                for p in PREDICTIONS}
+
+    @property
+    def survival(self) -> dict[str, list[float]]:
+        """Best-gain survival per seed (the registered measurement)."""
+        return {p: self.per_seed(p, "survival") for p in PREDICTIONS}
+
+    @property
+    def stop_survival(self) -> dict[str, list[float]]:
+        """The survival of the guided change from the stop step, per seed (outside the rule)."""
+        return {p: self.per_seed(p, "stop_step_survival") for p in PREDICTIONS}
+
+
+def a3_study(guided_models: dict[tuple[str, int], TrainedGMD], test: MotionWindows,
+             seeds: Sequence[int], settings: Settings) -> A3Study:
+    """The two guidance trajectory models' goal-reaching runs toward ``settings.goals`` test
+    goals per seed (:func:`x0_vs_eps.goal_reaching_study`, GMD's guidance, clamp and stop)."""
+    runs = goal_reaching_study(guided_models, test, seeds, goals=settings.goals,
+                               min_distance=settings.min_goal_distance)
+    first = seeds[0]
+    parameters = guidance_parameters(guided_models[("epsilon", first)],
+                                     stop=runs[("epsilon", first)].stop_guidance_at)
+    return A3Study(runs, list(seeds), parameters)
+
+
+#: each prediction's role in GMD-A3 and A4 (``core.gates.ROLES``): GMD's trajectory model
+#: predicts ε and its motion model x0, so those are the reference arms the other is compared
+#: against (and the only arms the sample gates judge)
+TRAJECTORY_ROLES = {"epsilon": "reference", "x0": "treatment"}
+
+
+MOTION_ROLES = {"x0": "reference", "epsilon": "treatment"}
+
+
+def trajectory_reference(test: MotionWindows) -> dict[str, float]:
+    """The ``gmd_trajectory`` gates' reference: the test windows' own path length and root
+    jerk."""
+    return model_gates.trajectory_gate_values(test.space("trajectory"), test.trajectory())
+
+
+def trajectory_model_values(model: TrainedGMD, unguided: Any, test: MotionWindows,
+                            train: MotionWindows, seed: int) -> dict[str, float]:
+    """A trajectory model's ``gmd_trajectory`` gate values: the path length of its unguided
+    samples and its held-out x̂0 error over the Gaussian denoiser's."""
+    return {**model_gates.trajectory_gate_values(model, unguided),
+            **model_gates.denoising_gate_values(model, test, train, seed=seed)}
+
+
+def a3_model_records(study: A3Study, guided_models: dict[tuple[str, int], TrainedGMD],
+                     test: MotionWindows, train: MotionWindows) -> list[dict[str, Any]]:
+    """The guidance trajectory models' gate records; GMD-A3's parts all rest on them (reads:
+    every part). The unguided samples are the study's own (same noise)."""
+    reference = trajectory_reference(test)
+    return [model_gates.gmd_model_record(
+        guided_models[(p, s)], family="gmd_trajectory", reference=reference,
+        role=TRAJECTORY_ROLES[p],
+        values=trajectory_model_values(guided_models[(p, s)], study.runs[(p, s)].unguided,
+                                       test, train, s))
+        for p in PREDICTIONS for s in study.seeds]
+
+
+def _a3_jitter(study: A3Study, guided_models: dict[tuple[str, int], TrainedGMD],
+               ) -> dict[str, dict[str, list[float]]]:
+    return {p: {kind: [float(jitter_of(guided_models[(p, s)],
+                                       getattr(study.runs[(p, s)], kind)).jerk)
+                       for s in study.seeds] for kind in ("guided", "unguided")}
+            for p in PREDICTIONS}
+
+
+def a3_result(study: A3Study, guided_models: dict[tuple[str, int], TrainedGMD],
+              test: MotionWindows, settings: Settings, *, figure: FigurePath,
+              models: Sequence[Mapping[str, Any]]) -> ClaimResult:
+    """GMD-A3: goal error and best-gain survival of the x0 and the ε trajectory model under
+    GMD's goal guidance, with its controls (``a3_controls``: an exact x0/ε pair,
+    and one whose x0 arm undoes half its guided change after the stop step)."""
+    seeds, a3p = study.seeds, study.parameters
+    goal_error, survival, stop_survival = study.goal_error, study.survival, study.stop_survival
+    jitter = _a3_jitter(study, guided_models)
+    started = time.perf_counter()
+    controls = a3_controls(guided_models, test, seeds, goals=settings.goals,
+                           min_distance=settings.min_goal_distance)
+    control_seconds = time.perf_counter() - started
+    spec = guided_models[("x0", seeds[0])].spec
+    return ClaimResult(
+        "GMD-A3",
+        {"goal_error_x0": goal_error["x0"], "goal_error_eps": goal_error["epsilon"],
+         "best_gain_survival_x0": finite(survival["x0"]),
+         "best_gain_survival_eps": finite(survival["epsilon"]),
+         "guided_change_survival_x0": finite(stop_survival["x0"]),
+         "guided_change_survival_eps": finite(stop_survival["epsilon"])},
+        seeds=seeds, settings=rule_settings.a3(settings), figures=[figure], controls=controls,
+        models=list(models),
+        headline=(f"goal error x0 {np.mean(goal_error['x0']):.2f} m vs ε "
+                  f"{np.mean(goal_error['epsilon']):.2f} m (unguided "
+                  f"{np.mean(study.seed_means('x0', 'error_unguided')):.2f} / "
+                  f"{np.mean(study.seed_means('epsilon', 'error_unguided')):.2f}); best-gain "
+                  f"survival x0 {np.nanmean(survival['x0']):.2f} vs ε "
+                  f"{np.nanmean(survival['epsilon']):.2f}; T = {a3p['num_timesteps']}, stop "
+                  f"t = {a3p['guidance_stop_t']}, ε clamp ±{a3p['x0_clamp']:g}"),
+        notes=(f"Ours: tiny UNet1D trajectory models (4 channels, {describe(spec)}), "
+               f"T = {a3p['num_timesteps']} cosine (GMD's), ancestral DDPM over every step (GMD "
+               "respaces only with use_ddim), GMD's guidance (s = 100, ½·L1 on the last-frame "
+               "root x/z of the un-normalised x̂0, μ̃ = μ − s·Σ_t·∇G) while t ≥ "
+               f"{a3p['guidance_stop_t']}; ε model's x̂0 clamped to ±{a3p['x0_clamp']:g} (GMD's "
+               f"clip_range), x0 model unclamped (as GMD); goals = last-frame root x/z of "
+               f"{settings.goals} random test windows travelling ≥ 0.5 m, drawn per seed; same "
+               "x_T and per-step noise for guided/unguided and for x0/ε; best-gain survival = "
+               "(ē_unguided − ē_guided) / (ē_unguided − min_t ē_guided x̂0(t)), batch means "
+               "(registry v3)."),
+        extra={"parameters": a3p,
+               **{f"goal_error_unguided_{tag}": study.seed_means(p, "error_unguided")
+                  for p, tag in PREDICTIONS.items()},
+               **{f"goal_error_x0hat_at_stop_{tag}": study.seed_means(p, "error_at_stop")
+                  for p, tag in PREDICTIONS.items()},
+               **{f"{name}_{tag}": study.per_seed(p, attribute)
+                  for name, attribute in (("best_step_goal_error", "best_step_error"),
+                                          ("best_step", "best_step"),
+                                          ("best_gain_m", "best_gain"),
+                                          ("final_gain_m", "final_gain"))
+                  for p, tag in PREDICTIONS.items()},
+               **{f"root_jerk_{kind}_{tag}": jitter[p][kind]
+                  for kind in ("guided", "unguided") for p, tag in PREDICTIONS.items()},
+               "strength": 100.0, "goals_per_seed": settings.goals,
+               "controls_seconds": round(control_seconds, 1),
+               "controls_planted": controls.planted})
+
+
+# ----------------------------------------------------------------------------------- GMD-A4
+
+def longer_eps_models(settings: Settings, motion_eps: GMDModelSpec, seeds: Sequence[int],
+                      windows: MotionWindows, *, device: str) -> dict[int, TrainedGMD]:
+    """GMD-A4's longer ε run (outside the rule; ``models.longer_run``: the motion ε model at
+    2× the shared cap), one per seed, where ``settings.longer_eps_run``; else none."""
+    if not settings.longer_eps_run:
+        return {}
+    spec = longer_run(motion_eps)
+    return dict(zip(seeds, load_or_train_many([spec.replace(seed=s) for s in seeds], windows,
+                                              device=device), strict=True))
+
+
+def longer_eps_description(settings: Settings, motion_eps: GMDModelSpec) -> str:
+    """The longer ε run's spec in words, or why it is not run at this scale."""
+    if settings.longer_eps_run:
+        return describe(longer_run(motion_eps))
+    return f"not run at the {settings.scale} scale (paper scale only)"
+
+
+def parameter_counts(models: Mapping[tuple[str, str, int], TrainedGMD],
+                     seeds: Sequence[int]) -> dict[str, int]:
+    """Trainable parameters of the first seed's x0 model of each task."""
+    return {task: parameter_count(models[(task, "x0", seeds[0])])
+            for task in ("trajectory", "motion")}
+
+
+@dataclass(frozen=True)
+class A4Records:
+    """The gate records behind GMD-A4 (gates version 3; which parts read which:
+    ``x0_vs_eps.A4_READS``): the motion models (``gmd_motion``, keyed (prediction, seed)), A4's
+    own trajectory models (``gmd_trajectory``), the evaluator, and the longer ε run's motion
+    models (keyed by seed; outside the rule, empty below the paper scale)."""
+
+    motion: dict[tuple[str, int], dict[str, Any]]
+    trajectory: dict[tuple[str, int], dict[str, Any]]
+    evaluator: dict[str, Any]
+    long_eps: dict[int, dict[str, Any]]
+
+    @property
+    def models(self) -> list[dict[str, Any]]:
+        """What GMD-A4's ``record(models=...)`` takes: every record but the longer run's."""
+        return [*self.motion.values(), *self.trajectory.values(), self.evaluator]
+
+
+def a4_model_records(models: Mapping[tuple[str, str, int], TrainedGMD],
+                     long_eps: Mapping[int, TrainedGMD], seeds: Sequence[int], *,
+                     motion: tuple[MotionWindows, MotionWindows],
+                     trajectory: tuple[MotionWindows, MotionWindows],
+                     evaluation: model_gates.MotionEvaluation, settings: Settings,
+                     seed: int) -> A4Records:
+    """Measure GMD-A4's gates: each motion model's held-out x̂0 error, each trajectory model's
+    (and the path length of ``settings.goals`` unguided samples), the evaluator's R@3 and
+    trivial-fake FIDs; ``motion`` and ``trajectory`` are each task's (train, test) windows."""
+    motion_train, motion_test = motion
+    train, test = trajectory
+    samples = model_gates.sample_gate_data(motion_test, seed=seed)
+
+    def motion_values(p: str, s: int) -> dict[str, float]:
+        model = models[("motion", p, s)]
+        values = model_gates.denoising_gate_values(model, motion_test, motion_train, seed=s)
+        if MOTION_ROLES[p] == "reference":
+            values.update(model_gates.motion_sample_values(model, samples, seed=s))
+        return values
+
+    motion_records = {
+        (p, s): model_gates.gmd_model_record(
+            models[("motion", p, s)], family="gmd_motion", reads=A4_READS[("motion", p)],
+            role=MOTION_ROLES[p], reference=samples.values, values=motion_values(p, s))
+        for p in PREDICTIONS for s in seeds}
+    reference = trajectory_reference(test)
+    trajectory_records = {
+        (p, s): model_gates.gmd_model_record(
+            models[("trajectory", p, s)], family="gmd_trajectory",
+            reads=A4_READS[("trajectory", p)], reference=reference, role=TRAJECTORY_ROLES[p],
+            values=trajectory_model_values(models[("trajectory", p, s)], sample(
+                models[("trajectory", p, s)], settings.goals, seed=s), test, train, s))
+        for p in PREDICTIONS for s in seeds}
+    evaluator_record = model_gates.evaluator_model_record(
+        evaluation.evaluator, reads=["eps_motion_worse_fid"],
+        values=model_gates.evaluator_gate_values(
+            evaluation.evaluator, evaluation.test_features, evaluation.test_lengths,
+            motion_test.captions, seed=seed, train_features=evaluation.train_features,
+            samples=settings.generated, real_fid=evaluation.reference_fid))
+    long_eps_records = {
+        s: model_gates.gmd_model_record(
+            long_eps[s], family="gmd_motion", label="2× cap", role="treatment",
+            values=model_gates.denoising_gate_values(long_eps[s], motion_test, motion_train,
+                                                     seed=s))
+        for s in long_eps}
+    return A4Records(motion_records, trajectory_records, evaluator_record, long_eps_records)
+
+
+def _longer_eps_extra(long_eps: Mapping[int, TrainedGMD], records: A4Records,
+                      scale: str) -> dict[str, Any] | str:
+    if not long_eps:
+        return f"not run at the {scale} scale (paper scale only)"
+    return {"training": [model_gates.training_summary(long_eps[s]) for s in long_eps],
+            "gate_values": {m: [records.long_eps[s]["gate"][m]["value"] for s in long_eps]
+                            for m in ("x0_error_vs_gaussian",)},
+            "passed": [bool(records.long_eps[s]["passed"]) for s in long_eps]}
+
+
+def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], TrainedGMD],
+              long_eps: Mapping[int, TrainedGMD], records: A4Records, seeds: Sequence[int],
+              settings: Settings, *, references: Mapping[str, float],
+              evaluation: model_gates.MotionEvaluation, motion_train: MotionWindows,
+              train: MotionWindows, figures: Sequence[FigurePath]) -> ClaimResult:
+    """GMD-A4: joint jerk and FID of the x0 and the ε motion model's samples and root jerk of
+    the trajectory models' (appendix A.1), with its controls (``controls.a4_controls``:
+    training windows for both arms; the ε motion arm made jagged by δ). ``references``: the
+    data's ``motion_jitter``, ``motion_fid`` (train vs test) and ``trajectory_jitter``."""
+    a4 = quality.values
+    ratio = {k: float(np.mean(a4[f"{k}_eps"]) / np.mean(a4[f"{k}_x0"]))
+             for k in ("motion_jitter", "motion_fid", "trajectory_jitter", "motion_root_jitter")}
+    controls = a4_controls(motion_train, seeds, n=settings.generated,
+                           evaluator=evaluation.evaluator,
+                           test_embeddings=evaluation.test_embeddings, trajectory_train=train)
+    real_fid = references["motion_fid"]
+    first = seeds[0]
+    return ClaimResult(
+        "GMD-A4",
+        {k: a4[k] for k in ("motion_jitter_eps", "motion_jitter_x0", "motion_fid_eps",
+                            "motion_fid_x0", "trajectory_jitter_eps", "trajectory_jitter_x0")},
+        seeds=seeds, settings=rule_settings.a4(settings), figures=list(figures),
+        controls=controls, models=records.models,
+        headline=(f"motion jerk ε/x0 = {ratio['motion_jitter']:.2f}, FID ε "
+                  f"{np.mean(a4['motion_fid_eps']):.2f} vs x0 {np.mean(a4['motion_fid_x0']):.2f} "
+                  f"(real {real_fid:.2f}); trajectory jerk ε/x0 = "
+                  f"{ratio['trajectory_jitter']:.2f}"),
+        notes=(f"Ours: motion {describe(models[('motion', 'x0', first)].spec)}; trajectories "
+               f"{describe(models[('trajectory', 'x0', first)].spec)}; x0 and ε of a task "
+               "share the architecture and the budget; EMA; "
+               f"{settings.generated} unguided samples per model and seed (same "
+               "noise for x0 and ε); ε model's x̂0 clamped to ±max|x| of its training windows, "
+               "x0 unclamped (as GMD); jitter = mean jerk of the 22 recovered joints (motion) "
+               "or of the root (trajectory), m/s³; FID with the package's contrastive "
+               "evaluator trained on the training windows, generated windows vs all test "
+               "windows (relative representation); trajectory models: the T = 100 ones of "
+               "this claim (GMD-A3 uses T = 1000 models)."),
+        extra={"ratios_eps_over_x0": ratio,
+               "data_joint_jerk": float(references["motion_jitter"]),
+               "data_root_jerk": float(references["trajectory_jitter"]),
+               "real_fid_train_vs_test": float(real_fid),
+               **{k: a4[k] for k in ("motion_root_jitter_x0", "motion_root_jitter_eps",
+                                     "motion_acceleration_x0", "motion_acceleration_eps",
+                                     "motion_foot_skating_x0", "motion_foot_skating_eps")},
+               "parameters": {"num_timesteps": settings.diffusion_steps,
+                              "guidance_stop_t": None,
+                              "x0_clamp": models[("motion", "epsilon", first)].x0_bound},
+               "parameter_counts": parameter_counts(models, seeds),
+               "generated_per_seed": settings.generated,
+               "motion_budget": {
+                   p: [model_gates.training_summary(models[("motion", p, s)]) for s in seeds]
+                   for p in PREDICTIONS},
+               "longer_eps_run": _longer_eps_extra(long_eps, records, settings.scale),
+               "controls_planted": controls.planted})
+
+
+def a4_budget_markdown(models: Mapping[tuple[str, str, int], TrainedGMD],
+                       long_eps: Mapping[int, TrainedGMD], records: A4Records,
+                       seeds: Sequence[int], settings: Settings) -> str:
+    """GMD-A4's training budget (``model_gates.budget_markdown``): the x0 and ε
+    motion models per seed and, at the paper scale, the ε run at 2× the cap; below it, a line
+    saying that run is not trained."""
+    arms = {"x0": "x0", "ε": "epsilon"}
+    budget_models = {label: [models[("motion", p, s)] for s in seeds] for label, p in arms.items()}
+    budget_records = {label: [records.motion[(p, s)] for s in seeds] for label, p in arms.items()}
+    note = ""
+    if long_eps:
+        budget_models["ε, 2× cap"] = [long_eps[s] for s in seeds]
+        budget_records["ε, 2× cap"] = [records.long_eps[s] for s in seeds]
+    else:
+        note = (f"*The longer ε run is not trained at the {settings.scale} scale "
+                f"(`settings.longer_eps_run` is {settings.longer_eps_run}): paper scale only.*"
+                "\n\n")
+    return note + model_gates.budget_markdown(budget_models, budget_records)

@@ -27,9 +27,7 @@ from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import ema_decay_at, train_diffusion
 from repro.energymogen.config import PipelineConfig
 from repro.energymogen.pipeline import denoiser_kwargs, scaled_linear_betas, vae_kwargs
-from repro.gmd.coefficients import schedule_diffusion
-from repro.gmd.models import GMDModelSpec
-from repro.gmd.paper_settings import MOTION_ARCHITECTURE
+from repro.gmd.models import MOTION_ARCHITECTURE, GMDModelSpec, schedule_diffusion
 from repro.models.evaluator import (
     Evaluator,
     feature_statistics,

@@ -57,9 +57,7 @@ from torch.utils.flop_counter import FlopCounterMode
 
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import TrainConfig, train_diffusion
-from repro.gmd.coefficients import schedule_diffusion
-from repro.gmd.models import MOTION_TRAINING, GMDModelSpec
-from repro.gmd.paper_settings import MOTION_ARCHITECTURE
+from repro.gmd.models import MOTION_ARCHITECTURE, MOTION_TRAINING, GMDModelSpec, schedule_diffusion
 from repro.infra import paths
 from repro.infra.storage import read_json, write_json
 from repro.models.unet import UNet1D

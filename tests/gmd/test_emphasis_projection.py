@@ -2,15 +2,24 @@
 
 from __future__ import annotations
 
+import math
+from types import SimpleNamespace
+
+import matplotlib
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 import torch
 from torch import nn
 
-from repro.gmd.emphasis import EmphasisProjection
-from repro.gmd.emphasis_study import (
+from repro.claims.result import Controls
+from repro.gmd import emphasis_projection
+from repro.gmd.emphasis_projection import (
+    EmphasisProjection,
     ImputedX0,
     ProjectedFeatureSpace,
+    ProjectionSettings,
+    Settings,
     Variant,
     coherence,
     draw_targets,
@@ -21,6 +30,8 @@ from repro.gmd.emphasis_study import (
 from repro.gmd.models import GMDModelSpec
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
 from repro.infra.paths import data_stubs_dir
+
+matplotlib.use("Agg")
 
 
 @pytest.fixture(scope="module")
@@ -117,7 +128,7 @@ def test_variants_follow_gmds_configs() -> None:
 
 
 def test_projection_settings_shrink_in_quick_mode() -> None:
-    from repro.gmd.emphasis_study import ProjectionSettings
+    from repro.gmd.emphasis_projection import ProjectionSettings
 
     quick, full = ProjectionSettings.for_scale("quick"), ProjectionSettings.for_scale("paper")
     assert full.simulation_samples == 10000 and full.kappa_scan_seeds == 20
@@ -126,8 +137,8 @@ def test_projection_settings_shrink_in_quick_mode() -> None:
 
 def test_c4_settings_follow_the_registry_and_the_run_seeds() -> None:
     from repro.claims.registry import get_claim
-    from repro.gmd.emphasis_study import TABLE_B1_VARIANTS, Settings
-    from repro.gmd.run_seeds import FULL_SEEDS
+    from repro.gmd.emphasis_projection import TABLE_B1_VARIANTS, Settings
+    from repro.gmd.settings import FULL_SEEDS
 
     claim = get_claim("GMD-C4")
     full, quick = Settings.for_scale("paper"), Settings.for_scale("quick")
@@ -161,7 +172,7 @@ def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
     samples it through GMD's float32 P and P⁻¹; the orthogonal arm trains on its own data."""
     import dataclasses
 
-    from repro.gmd import emphasis_study
+    from repro.gmd import emphasis_projection
 
     @dataclasses.dataclass
     class Loaded:
@@ -173,11 +184,11 @@ def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
         trained_on.append(data.fingerprint)
         return Loaded(windows.space("motion"))
 
-    monkeypatch.setattr(emphasis_study, "load_or_train_gmd", fake_load_or_train)
+    monkeypatch.setattr(emphasis_projection, "load_or_train_gmd", fake_load_or_train)
     base = GMDModelSpec(task="motion", prediction="x0")
     arms = [Variant("emphasis", 10), Variant("emphasis", 10, precision="float32_gmd"),
             Variant("emphasis", 10, kind="orthogonal")]
-    loaded = [emphasis_study.load_or_train_variant(base, v, windows, 1) for v in arms]
+    loaded = [emphasis_projection.load_or_train_variant(base, v, windows, 1) for v in arms]
     assert trained_on[0] == trained_on[1] != trained_on[2]
     assert [m.space.projection.precision for m in loaded] == ["float64", "float32_gmd",
                                                               "float64"]
@@ -186,7 +197,7 @@ def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
 
 def _fake_results(seeds: int = 4):
     """A ``Results`` with known per-seed skating and κ (no models)."""
-    from repro.gmd.emphasis_study import Results, Settings
+    from repro.gmd.emphasis_projection import Results, Settings
 
     settings = Settings.for_scale("paper")
     variants, outside = settings.variants(), settings.outside_rule_variants()
@@ -208,7 +219,7 @@ def _fake_results(seeds: int = 4):
 
 
 def test_kappa_relation_and_outside_rule_summary() -> None:
-    from repro.gmd.emphasis_arms import kappa_skating_relation, outside_rule_summary
+    from repro.gmd.emphasis_projection import kappa_skating_relation, outside_rule_summary
 
     results = _fake_results()
     relation = kappa_skating_relation(results)
@@ -232,10 +243,135 @@ def test_skating_against_kappa_figure() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from repro.gmd.emphasis_figures import plot_skating_against_kappa
+    from repro.gmd.emphasis_projection import plot_skating_against_kappa
 
     fig = plot_skating_against_kappa(_fake_results())
     ax = fig.axes[0]
     # the four Emphasis arms, loss scaling at k = c, the data and GMD's released κ
     assert ax.get_xscale() == "log" and len(ax.get_lines()) == 4 + 2 + 2
     plt.close(fig)
+
+
+# ------------------------------------------------------------------------------------------------
+# GMD-C1…C3 as experiments that return their measurements and their ClaimResults
+# (notebook 03; issue #34): Eq. 4's c*, the inverse's errors and the variance factors.
+# ------------------------------------------------------------------------------------------------
+
+#: tiny sample sizes: a test of the code, never a result
+CHECKS = ProjectionSettings(simulation_samples=400, distance_pairs=200, inverse_frames=50,
+                            kappa_scan_seeds=2, kappa_scan_frames=20)
+
+
+@pytest.fixture(scope="module")
+def frames() -> np.ndarray:
+    return np.random.default_rng(0).standard_normal((120, 263))
+
+
+def test_c1_finds_c_star_and_records_the_rules_inputs(frames: np.ndarray) -> None:
+    check = emphasis_projection.relative_importance_check(frames, [0], CHECKS, seed=0)
+    assert check.c_star == pytest.approx(math.sqrt(260 / 3))
+    assert check.importance_at_c_star == pytest.approx(0.5)
+    assert len(check.simulated) == len(emphasis_projection.C1_GRID) and check.simulation_error < 0.1
+    result = emphasis_projection.c1_result(check, seed=0, figures=["c1.png"])
+    assert result.claim_id == "GMD-C1" and result.seeds == [0]
+    assert result.measured == {"simulation_max_abs_error": check.simulation_error,
+                               "c_star": check.c_star,
+                               "importance_at_c_star": check.importance_at_c_star}
+    assert result.extra["projected_gaussian"].keys() == {"0"}
+    assert "c* = √(260/3) = 9.309" in result.headline and "I = ½" in check.summary()
+
+
+def test_c2_measures_distances_at_c1_and_the_inverse_at_c10(frames: np.ndarray) -> None:
+    check = emphasis_projection.distance_inverse_check(frames, [0, 1], CHECKS, seed=0)
+    assert set(check.ratios) == {(1.0, 0), (1.0, 1), (10.0, 0), (10.0, 1)}
+    assert check.fraction_within == min(check.within[(1.0, 0)], check.within[(1.0, 1)])
+    assert check.inverse64 < check.inverse32 and check.inverse_frames == 50
+    result = emphasis_projection.c2_result(check)
+    assert result.seeds == [0, 1] and result.measured["inverse_relative_error_float32"] == (
+        check.inverse32)
+    assert set(result.extra["within_20_percent"]) == {"c=1,seed=0", "c=1,seed=1",
+                                                      "c=10,seed=0", "c=10,seed=1"}
+    assert len(check.summary().splitlines()) == 4
+
+
+def test_c3_the_printed_factor_leaves_a_tiny_variance(frames: np.ndarray) -> None:
+    check = emphasis_projection.unit_variance_check(frames, CHECKS, seed=0)
+    assert check.variance_printed == pytest.approx(1 / 560, rel=0.2)
+    assert check.variance_sqrt == pytest.approx(1.0, rel=0.2)
+    result = emphasis_projection.c3_result(check)
+    assert result.seeds == [0] and result.measured == {
+        "variance_with_printed_factor": check.variance_printed,
+        "variance_with_sqrt_factor": check.variance_sqrt}
+    assert result.extra["c_grid"] == list(map(float, emphasis_projection.C3_GRID))
+
+
+# ------------------------------------------------------------------------------------------------
+# GMD-C4's readings and ClaimResult (notebook 03; issue #34) from a ``Results`` with known
+# per-seed skating and κ (no models).
+# ------------------------------------------------------------------------------------------------
+
+def test_spectra_count_the_drowned_directions_per_seed() -> None:
+    results = _fake_results()
+    results.models["Emphasis c=10"] = SimpleNamespace(
+        diffusion=SimpleNamespace(alphas_cumprod=[0.999]))
+    settings = Settings.for_scale("paper")
+    spectra = emphasis_projection.spectra(results, settings, results.seeds, seed=0)
+    assert spectra.alpha_bar_last == pytest.approx(0.999)
+    assert set(spectra.drowned) == {"2", "10"} and len(spectra.drowned["10"]) == 4
+    assert "| 10 | 100, 200, 300, 400 |" in spectra.markdown
+
+
+def test_c4_result_records_the_rules_lists_and_the_readings() -> None:
+    results = _fake_results()
+    settings = Settings.for_scale("paper")
+    kappa = emphasis_projection.kappa_reading(results)
+    assert kappa.relation["10"]["rho"] == pytest.approx(1.0)
+    assert "κ 100–400" in kappa.markdown
+    spectra = emphasis_projection.Spectra(0.99, {"2": [0] * 4, "10": [1] * 4}, "")
+    controls = Controls(null={}, positive={}, planted={"foot_skating_factor_loss_scaling": 1.1})
+    result = emphasis_projection.c4_result(results, settings, settings.base_spec(), results.seeds,
+                                           controls=controls, spectra=spectra, kappa=kappa,
+                                           model_records=[], outside_records=[{"name": "orthogonal",
+                                                                               "passed": True}])
+    assert result.claim_id == "GMD-C4" and result.controls is controls
+    assert result.measured["values"] == [2, 10]
+    assert result.measured["foot_skating_emphasis"]["10"] == [1.0, 2.0, 3.0, 4.0]
+    assert result.headline.startswith("foot skating (loss k − Emphasis c, m/s): v=2: ")
+    assert result.extra["condition_number"]["gaussian"]["10"] == [100.0, 200.0, 300.0, 400.0]
+    assert result.extra["outside_rule_gates"] == {"orthogonal": True}
+    assert result.extra["controls_planted"] == controls.planted
+
+
+def test_setup_summary_and_table_b1_name_what_the_scale_leaves_out() -> None:
+    standard = Settings.for_scale("standard")
+    text = emphasis_projection.setup_summary(standard, ProjectionSettings.for_scale("standard"),
+                                             [0], scale="standard", threads=1)
+    assert text.splitlines()[2] == "seeds: [0] | torch threads: 1"
+    assert "not run at the standard scale: " in text
+    assert "not run" not in emphasis_projection.setup_summary(
+        Settings.for_scale("paper"), ProjectionSettings.for_scale("paper"), [0],
+        scale="paper", threads=1)
+    assert emphasis_projection.table_b1_markdown(None, None, standard, [0], seed=0).startswith(
+        "*Table B.1 is not run at the standard scale")
+
+
+# ------------------------------------------------------------------------------------------------
+# Notebook 03's figures draw from measured values alone (smoke tests on small inputs).
+# ------------------------------------------------------------------------------------------------
+
+matplotlib.use("Agg")
+
+
+def test_emphasis_figures() -> None:
+    grid = np.array([1.0, 2.0, 10.0])
+    share = grid**2 / (grid**2 + 1)
+    fig = emphasis_projection.plot_relative_importance(grid, share, {0: share}, share, share,
+                                                       c_star=9.3, importance_at_10=0.54,
+                                                       simulation_error=1e-3)
+    assert len(fig.axes) == 1
+    spread = np.ones(263)
+    fig = emphasis_projection.plot_unit_variance(grid, 260 + 3 * grid**2,
+                                                 1 / np.sqrt(260 + 3 * grid**2),
+                                                 1 / (260 + 3 * grid**2), spread, spread, spread)
+    assert len(fig.axes) == 3
+    plt.close("all")

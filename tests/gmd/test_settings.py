@@ -1,19 +1,57 @@
-"""The three scales of GMD's settings (issue #32, docs/COMPUTE.md §5): each scale's models are
-what the plan says, the paper scale is today's registered full settings (same cache keys),
-and at the standard scale the models the plan aligns are one cache key (the model bank)."""
+"""The seeds each GMD claim runs come from one table per scale (registry v4): the notebooks'
+settings read it, and their ``n_seeds`` parameters default to it (None: the scale's)."""
 
 from __future__ import annotations
 
 import pytest
 
 from repro.core.training import TrainConfig
-from repro.gmd import emphasis_study, guidance_schedule, models, paper_settings
+from repro.gmd import emphasis_projection, guidance_schedule, models, root_representation, x0_vs_eps
 from repro.gmd import root_representation as rr
 from repro.gmd import x0_vs_eps as x0eps
-from repro.gmd.emphasis_study import Variant
+from repro.gmd.emphasis_projection import Variant
 from repro.gmd.models import GMDModelSpec, training_fields
+from repro.gmd.settings import FULL_SEEDS, QUICK_SEEDS, STANDARD_SEEDS, seeds_of
 from repro.models.evaluator import EvaluatorConfig
+from repro.run.params import notebook_parameters
 
+
+def test_settings_read_the_table() -> None:
+    assert (x0_vs_eps.Settings.for_scale("paper").seeds == FULL_SEEDS["GMD-A4"]
+            == FULL_SEEDS["GMD-A3"])
+    assert guidance_schedule.Settings.for_scale("paper").seeds == FULL_SEEDS["GMD-F1"]
+    full = root_representation.Settings.for_scale("paper")
+    assert (full.seeds, full.motion_seeds) == (FULL_SEEDS["GMD-B2"], FULL_SEEDS["GMD-B3"])
+    assert emphasis_projection.Settings.for_scale("paper").seeds == FULL_SEEDS["GMD-C4"]
+    assert seeds_of("GMD-B3", "quick") == QUICK_SEEDS
+    assert seeds_of("GMD-C4", "paper") == 6
+    with pytest.raises(ValueError, match="GMD-A1"):
+        seeds_of("GMD-A1", "paper")
+    with pytest.raises(ValueError, match="scale"):
+        seeds_of("GMD-A4", "full")
+
+
+def test_standard_runs_three_seeds_for_every_claim_but_c4() -> None:
+    assert set(STANDARD_SEEDS) == set(FULL_SEEDS)
+    assert all(seeds_of(claim, "standard") == 3 for claim in FULL_SEEDS if claim != "GMD-C4")
+    assert seeds_of("GMD-C4", "standard") == 1
+    standard = root_representation.Settings.for_scale("standard")
+    assert (standard.seeds, standard.motion_seeds) == (3, 3)
+    assert x0_vs_eps.Settings.for_scale("standard").seeds == 3
+    assert guidance_schedule.Settings.for_scale("standard").seeds == 3
+    assert emphasis_projection.Settings.for_scale("standard").seeds == 1
+
+
+@pytest.mark.parametrize("notebook", ["01_x0_vs_eps", "06_guidance_schedule"])
+def test_notebook_seed_parameters_default_to_the_table(notebook: str) -> None:
+    assert notebook_parameters(notebook)["n_seeds"]["default"] == "None"
+
+
+# ------------------------------------------------------------------------------------------------
+# The three scales of GMD's settings (issue #32, docs/COMPUTE.md §5): each scale's models are
+# what the plan says, the paper scale is today's registered full settings (same cache keys),
+# and at the standard scale the models the plan aligns are one cache key (the model bank).
+# ------------------------------------------------------------------------------------------------
 
 def test_standard_motion_and_trajectory_models_are_the_plans() -> None:
     settings = x0eps.Settings.for_scale("standard")
@@ -45,7 +83,7 @@ def test_every_standard_model_runs_t_100_and_the_stops_scale() -> None:
     assert nb02.trajectory_spec("relative", 0).diffusion_steps == 100
     assert nb02.motion_spec("absolute", 0).diffusion_steps == 100
     assert nb02.guidance_stop_t == 2 and nb02.evaluation_windows == 128
-    nb03 = emphasis_study.Settings.for_scale("standard")
+    nb03 = emphasis_projection.Settings.for_scale("standard")
     assert nb03.base_spec().diffusion_steps == 100
     assert nb03.base_spec().input_skip and nb03.base_spec().training.steps == 1500
     assert nb02.motion_spec("absolute", 0).training.steps == 900
@@ -56,7 +94,7 @@ def test_every_standard_model_runs_t_100_and_the_stops_scale() -> None:
 
 
 def test_standard_c4_runs_v_10_only() -> None:
-    settings = emphasis_study.Settings.for_scale("standard")
+    settings = emphasis_projection.Settings.for_scale("standard")
     assert settings.values == (10,)
     assert settings.variants() == [Variant("loss_scaling", 10), Variant("emphasis", 10)]
     outside = settings.outside_rule_variants()
@@ -64,7 +102,7 @@ def test_standard_c4_runs_v_10_only() -> None:
     assert settings.trained_models == 1 * 2
     assert settings.paper_only == ["the rule's part at v = 2", "the orthogonal-matrix arm",
                                    "Table B.1's plain model (k = 1)"]
-    paper = emphasis_study.Settings.for_scale("paper")
+    paper = emphasis_projection.Settings.for_scale("paper")
     assert paper.paper_only == [] and paper.values == (2, 10) and paper.trained_models == 36
 
 
@@ -88,8 +126,8 @@ def test_the_standard_model_bank_shares_keys() -> None:
         # F1's second stage is B3's absolute-root x0 text model (sampled with the null text)
         assert (guidance_schedule.Settings.for_scale("standard").motion_spec().replace(seed=seed)
                 == rr.Settings.for_scale("standard").motion_spec("absolute", seed))
-    # one evaluator for notebooks 01, 02 and 03 (``emphasis_study.window_evaluator``)
-    steps = emphasis_study.Settings.for_scale("standard").evaluator_steps
+    # one evaluator for notebooks 01, 02 and 03 (``emphasis_projection.window_evaluator``)
+    steps = emphasis_projection.Settings.for_scale("standard").evaluator_steps
     shared = EvaluatorConfig().replace(steps=steps)
     assert rr.Settings.for_scale("standard").evaluator_config() == shared
     assert nb01.evaluator_config("fingerprint") == EvaluatorConfig().replace(steps=steps)
@@ -101,8 +139,8 @@ def test_the_standard_model_bank_shares_keys() -> None:
 
 def test_paper_scale_is_todays_full_settings() -> None:
     for task, architecture, plan in (
-            ("motion", paper_settings.MOTION_ARCHITECTURE, models.MOTION_TRAINING),
-            ("trajectory", paper_settings.TRAJECTORY_ARCHITECTURE, models.TRAJECTORY_TRAINING)):
+            ("motion", models.MOTION_ARCHITECTURE, models.MOTION_TRAINING),
+            ("trajectory", models.TRAJECTORY_ARCHITECTURE, models.TRAJECTORY_TRAINING)):
         assert training_fields(task, scale="paper") == {
             "base_channels": architecture.base_channels,
             "channel_mults": architecture.channel_mults,
@@ -119,7 +157,7 @@ def test_paper_scale_is_todays_full_settings() -> None:
     nb02 = rr.Settings.for_scale("paper")
     assert (nb02.trajectory_diffusion_steps, nb02.guidance_stop_t) == (1000, 20)
     assert nb02.evaluation_windows == 256
-    nb03 = emphasis_study.Settings.for_scale("paper")
+    nb03 = emphasis_projection.Settings.for_scale("paper")
     assert (nb03.diffusion_steps, nb03.train_steps) == (50, models.MOTION_TRAINING.step_cap)
     nb06 = guidance_schedule.Settings.for_scale("paper")
     assert nb06.stops() == {0: 0, 20: 20, 50: 50, 200: 200}
@@ -127,8 +165,8 @@ def test_paper_scale_is_todays_full_settings() -> None:
 
 @pytest.mark.parametrize("build", [
     lambda s: x0eps.Settings.for_scale(s), lambda s: rr.Settings.for_scale(s),
-    lambda s: emphasis_study.Settings.for_scale(s),
-    lambda s: emphasis_study.ProjectionSettings.for_scale(s),
+    lambda s: emphasis_projection.Settings.for_scale(s),
+    lambda s: emphasis_projection.ProjectionSettings.for_scale(s),
     lambda s: guidance_schedule.Settings.for_scale(s),
     lambda s: training_fields("motion", scale=s)])
 def test_an_unknown_scale_is_a_clear_error(build) -> None:

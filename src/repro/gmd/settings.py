@@ -1,0 +1,181 @@
+"""The run settings of the GMD claims: seeds per scale, what each rule quotes, the scale note.
+
+- ``FULL_SEEDS`` / ``STANDARD_SEEDS`` / ``QUICK_SEEDS`` (:func:`seeds_of`): how many seeds each
+  claim's experiment runs, per scale — the one table;
+- :func:`a3` … :func:`f1` (``RULE_SETTINGS``): what each claim's rule quotes of its run, read
+  from the ``Settings`` object its experiment used, never typed;
+- :func:`scale_note`: what a notebook's reader must know about its run's scale.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from repro.gmd.guidance import GMD_CFG_SCALE, GMD_GUIDANCE_STRENGTH, default_stop_step
+from repro.gmd.models import (
+    GUIDANCE_DIFFUSION_STEPS,
+    MOTION_ARCHITECTURE,
+    STANDARD_DIFFUSION_STEPS,
+    STANDARD_MOTION_ARCHITECTURE,
+    STANDARD_MOTION_TRAINING,
+    STANDARD_TRAJECTORY_ARCHITECTURE,
+    STANDARD_TRAJECTORY_TRAINING,
+    TRAJECTORY_ARCHITECTURE,
+    X0_CLAMP,
+    Architecture,
+)
+from repro.infra.context import QUICK_NOTE, check_scale
+
+__all__ = ["FULL_SEEDS", "QUICK_SEEDS", "RULE_SETTINGS", "STANDARD_C4_TRAIN_STEPS",
+           "STANDARD_SEEDS", "a3", "a4", "b2", "b3", "c4", "f1", "scale_note", "seeds_of"]
+
+
+# ------------------------------------------------------------------------------------------------
+# How many seeds each GMD claim's experiment runs, per scale: the one table.
+#
+# The registry plans no seed count from an earlier run's spread: a run uses the seeds its
+# budget affords, and each part states from its own interval what it could have seen
+# (``claims.power.minimum_detectable_effect``). Notebook 01's A3 and A4 share one seed list
+# (the same trajectory models), as do F1's trajectory and motion models. The paper scale runs
+# ``FULL_SEEDS`` (the registered full settings), the standard scale 3 for every claim but GMD-C4
+# (docs/COMPUTE.md §3a item 5), quick runs one. GMD-C4 runs one seed at standard
+# (docs/COMPUTE.md §13): its arms pass their gate only from 1500 steps, its part needs ≈ 340× δ at
+# 3 seeds (no standard seed count decides it), so the budget buys one seed of models that pass.
+# ------------------------------------------------------------------------------------------------
+
+#: the paper scale's seeds (today's registered full settings)
+FULL_SEEDS: dict[str, int] = {
+    "GMD-A3": 3, "GMD-A4": 3,   # notebook 01: two trajectory + motion models per seed
+    "GMD-B2": 3,                # notebook 02: two trajectory models, six methods at T = 1000
+    "GMD-B3": 5,                # notebook 02: two motion models per seed
+    "GMD-C4": 6,                # notebook 03: two values × two arms per seed (24 models)
+    "GMD-F1": 3,                # notebook 06
+}
+
+
+#: the standard scale's seeds: 3 for every GMD claim but GMD-C4 (one seed, 1500 steps)
+STANDARD_SEEDS: dict[str, int] = {**dict.fromkeys(FULL_SEEDS, 3), "GMD-C4": 1}
+
+
+QUICK_SEEDS = 1
+
+
+def seeds_of(claim_id: str, scale: str) -> int:
+    """The seeds ``claim_id``'s experiment runs at ``scale`` (quick, standard or paper)."""
+    check_scale(scale)
+    if claim_id not in FULL_SEEDS:
+        raise ValueError(f"no seed count for {claim_id!r}; have {sorted(FULL_SEEDS)}")
+    return {"quick": QUICK_SEEDS, "standard": STANDARD_SEEDS[claim_id],
+            "paper": FULL_SEEDS[claim_id]}[scale]
+
+
+
+# --- GMD-C4's standard-scale training steps ------------------------------------------------------
+
+#: the standard scale's training steps of GMD-C4's arms (docs/COMPUTE.md §9, §13): the k = 10
+#: and Gaussian c = 10 arms of seed 0 pass their x̂0 gate (≤ 0.9) from 1500 steps (0.856 and
+#: 0.787; 0.952 and 0.850 at 1200, 1.12 and 0.94 at the other motion models' 900)
+STANDARD_C4_TRAIN_STEPS = 1500
+
+
+
+# ------------------------------------------------------------------------------------------------
+# What a GMD notebook's reader must know about its run's scale, rendered from the settings.
+#
+# The notebooks' design text describes GMD's own settings (T = 1000, its widths, the registered
+# seed counts): the paper scale. A standard run (``make reproduce``) uses the tiny design of
+# docs/COMPUTE.md; :func:`scale_note` says which, from the constants the code runs with.
+# ------------------------------------------------------------------------------------------------
+
+def _widths(architecture: Architecture) -> str:
+    mults = ", ".join(f"{m:g}" for m in architecture.channel_mults)
+    return f"{architecture.base_channels} × ({mults})"
+
+
+def scale_note(scale: str) -> str:
+    """A markdown line for the top of a GMD notebook: the run's scale and, at standard, how
+    its models and diffusion differ from the paper settings the design text names."""
+    if check_scale(scale) == "quick":
+        return QUICK_NOTE
+    if scale == "paper":
+        return ("**Paper scale**: GMD's settings as the design text states them "
+                f"(T = {GUIDANCE_DIFFUSION_STEPS} for guidance, motion UNet "
+                f"{_widths(MOTION_ARCHITECTURE)}, trajectory UNet "
+                f"{_widths(TRAJECTORY_ARCHITECTURE)}, the registered seed counts).")
+    seeds = ", ".join(f"{claim} {n}" for claim, n in STANDARD_SEEDS.items())
+    return (f"**Standard scale** (`make reproduce`, docs/COMPUTE.md): every GMD model has "
+            f"T = {STANDARD_DIFFUSION_STEPS} (guidance stop steps at the same fraction of T "
+            f"as GMD's 20 of {GUIDANCE_DIFFUSION_STEPS}); motion UNet "
+            f"{_widths(STANDARD_MOTION_ARCHITECTURE)} with a full-rank input skip, "
+            f"{STANDARD_MOTION_TRAINING.step_cap} steps (GMD-C4's arms "
+            f"{STANDARD_C4_TRAIN_STEPS}); trajectory UNet "
+            f"{_widths(STANDARD_TRAJECTORY_ARCHITECTURE)}, "
+            f"{STANDARD_TRAJECTORY_TRAINING.step_cap} steps; seeds per claim: {seeds}. "
+            "Where the text below names GMD's T = 1000, its widths or more "
+            "seeds, those are the paper scale's; the values this run used are printed by its "
+            "cells and recorded in every claim's sidecar.")
+
+
+
+# ------------------------------------------------------------------------------------------------
+# What each GMD claim's rule quotes of its run, read from the settings object
+# its experiment used — never typed.
+#
+# A registered rule is a template (``claims.claim.Claim.rule_fields``); the run's values go in
+# when the claim is recorded (``ClaimResult.settings``). Each function here takes the
+# experiment's own ``Settings`` (``x0_vs_eps``, ``root_representation``, ``emphasis_projection``,
+# ``guidance_schedule``) and returns every field its claim's template names: the diffusion
+# steps T of the models the rule compares, the guidance stop step (GMD's t = 20 of T = 1000,
+# at another T the same fraction, ``guidance.default_stop_step``), the guidance strength, the
+# x̂0 clamp, the seeds and the items (goals, targets, samples). ``tests/claims/
+# test_rule_settings.py`` renders every rule at every scale from these.
+# ------------------------------------------------------------------------------------------------
+
+def a3(settings: Any) -> dict[str, Any]:
+    """GMD-A3: the guidance trajectory models' T, GMD's stop step at that T and strength (the
+    defaults ``x0_vs_eps.goal_reaching_experiment`` runs with), the ε model's clamp (GMD's,
+    ``clip_x0="gmd"``), goals per seed."""
+    steps = settings.guidance_diffusion_steps
+    return {"seeds": settings.seeds, "goals": settings.goals, "T": steps,
+            "strength": GMD_GUIDANCE_STRENGTH, "stop_step": default_stop_step(steps),
+            "x0_clamp": X0_CLAMP}
+
+
+def a4(settings: Any) -> dict[str, Any]:
+    """GMD-A4: the motion and trajectory models' T and the unguided samples per seed."""
+    return {"seeds": settings.seeds, "samples": settings.generated,
+            "T": settings.diffusion_steps}
+
+
+def b2(settings: Any) -> dict[str, Any]:
+    """GMD-B2: the trajectory models' T, the stop step imputation and guidance act down to,
+    the strength (``root_representation.impute_locations``' default), the clamp, targets."""
+    return {"seeds": settings.seeds, "targets": settings.targets,
+            "T": settings.trajectory_diffusion_steps, "stop_step": settings.guidance_stop_t,
+            "strength": GMD_GUIDANCE_STRENGTH, "x0_clamp": settings.x0_clamp}
+
+
+def b3(settings: Any) -> dict[str, Any]:
+    """GMD-B3: the motion models' T, one sample per evaluation window, GMD's CFG scale."""
+    return {"seeds": settings.motion_seeds, "samples": settings.evaluation_windows,
+            "T": settings.diffusion_steps, "cfg_scale": GMD_CFG_SCALE}
+
+
+def c4(settings: Any) -> dict[str, Any]:
+    """GMD-C4: the matched values this scale trains, T, samples per arm."""
+    return {"seeds": settings.seeds, "values": settings.values, "T": settings.diffusion_steps,
+            "samples": settings.samples}
+
+
+def f1(settings: Any) -> dict[str, Any]:
+    """GMD-F1: the trajectory model's T, the model's stop step for GMD's t = 20, GMD's s at
+    which the stops are compared, the strengths the rule reads, goals per seed."""
+    return {"seeds": settings.seeds, "goals": settings.goals, "T": settings.num_timesteps,
+            "stop_step": settings.stops()[settings.gmd_stop], "strength": settings.gmd_strength,
+            "strengths": settings.rule_strengths}
+
+
+#: claim → the function giving what its rule quotes, from its experiment's settings
+RULE_SETTINGS: dict[str, Callable[[Any], dict[str, Any]]] = {
+    "GMD-A3": a3, "GMD-A4": a4, "GMD-B2": b2, "GMD-B3": b3, "GMD-C4": c4, "GMD-F1": f1}
