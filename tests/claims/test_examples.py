@@ -1,5 +1,5 @@
 """Every rule that rests on measured effects, fed its own examples at 3, 5 and 6 seeds (the
-seed counts runs use: ``gmd.run_seeds``, ``energymogen.settings``): an effect of +3δ must come
+seed counts runs use: ``gmd.settings``, ``energymogen.settings``): an effect of +3δ must come
 out reproduced in ≥ 90 % of draws, the same effect reversed (−3δ, the paper wrong) not
 reproduced in ≥ 80 %, no effect reproduced or partially in ≤ 8 %, and identical quantised arms
 below resolution (under v3, −3δ came out "inconclusive" in every draw for 11 of the 13). A

@@ -273,7 +273,7 @@ def test_the_largest_base_seed_fits_every_seed_derived_from_it(tmp_path: Path) -
     from repro.infra.context import MAX_SEED
     from repro.run.notebook import setup_notebook
 
-    largest = 10_000 * (MAX_SEED + 100) + 10_000  # gmd.table_b1, 100 seeds from the base
+    largest = 10_000 * (MAX_SEED + 100) + 10_000  # Table B.1's seeds, 100 from the base
     assert largest < 2**63 and control_seed(MAX_SEED + 100, 99, stream=99) < 2**63
     torch.Generator().manual_seed(largest)
     np.random.default_rng(largest)

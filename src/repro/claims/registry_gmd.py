@@ -6,7 +6,7 @@ Smallest effects of interest (δ): half the paper's own relative effect where it
 mean), 10 % unless the entry says why not. A δ that is a fraction of an arm is a ratio, and
 its part tests the per-seed log ratio against the same boundary on the log scale
 (``claim.ratio_part``, ``verdicts.log_margin``). How many seeds a run uses is in the paper
-package's run settings (``repro.gmd.run_seeds``); each part states what its run could see.
+package's run settings (``repro.gmd.settings``); each part states what its run could see.
 Each rule's text quotes the run's settings (``{T}``, ``{stop_step}``, ...: the fields of
 ``repro.gmd``'s ``rule_settings``), rendered when the claim is recorded.
 """

@@ -15,9 +15,9 @@ import torch
 
 #: The largest base seed: every derived seed must fit a signed 64-bit integer (torch's and
 #: numpy's int64) wherever a notebook uses it, and the largest derivation is
-#: ``10_000 * seed + k`` (``gmd.table_b1``; ``gmd.controls.control_seed`` adds about 10⁷), so
-#: 2⁴⁸ − 1 leaves room: 10⁴ · 2⁴⁸ ≈ 2.8·10¹⁸ < 2⁶³ ≈ 9.2·10¹⁸. 2⁶⁴ − 1 fails inside the
-#: kernel of notebooks 05 and 06 ("Overflow when unpacking long long").
+#: ``10_000 * seed + k`` (``gmd.measurements``, Table B.1; ``gmd.controls.control_seed``
+#: adds about 10⁷), so 2⁴⁸ − 1 leaves room: 10⁴ · 2⁴⁸ ≈ 2.8·10¹⁸ < 2⁶³ ≈ 9.2·10¹⁸. 2⁶⁴ − 1
+#: fails inside the kernel of notebooks 05 and 06 ("Overflow when unpacking long long").
 MAX_SEED = 2**48 - 1
 
 #: The three scales: ``quick`` a test of the code (never a result); ``standard``
