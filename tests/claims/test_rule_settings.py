@@ -15,7 +15,7 @@ from conftest import settings_classes
 
 from repro.claims.claim import MissingRuleSetting, setting_text
 from repro.claims.registry import CLAIMS, get_claim
-from repro.energymogen import rule_settings as emg_rules
+from repro.energymogen import settings as emg_rules
 from repro.gmd import guidance_schedule, x0_vs_eps
 from repro.gmd import rule_settings as gmd_rules
 from repro.infra import paths

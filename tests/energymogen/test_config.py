@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from dataclasses import fields, replace
 
-from repro.energymogen.config import (
+from repro.energymogen.data import trained_pairs
+from repro.energymogen.settings import (
     ARM_CONCEPTS,
     EXTRA_TEST_SETS,
     HELD_OUT_PAIRS,
@@ -17,7 +18,6 @@ from repro.energymogen.config import (
     config_summary,
     pipeline_config,
 )
-from repro.energymogen.data import trained_pairs
 from repro.standin.concepts import can_be_simultaneous
 
 

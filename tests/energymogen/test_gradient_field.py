@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from repro.energymogen.gradient_field import (
+from repro.energymogen.energy_contour_maps import (
     flat_jacobian,
     loop_plane,
     relative_circulation,

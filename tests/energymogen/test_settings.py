@@ -15,17 +15,19 @@ from conftest import make_context
 
 from repro.core.training import PlateauCriterion
 from repro.energymogen import pipeline as em
-from repro.energymogen.config import PipelineConfig, pipeline_config
-from repro.energymogen.convergence import FULL_VAE_STEP_CAP, TrainingPlan
-from repro.energymogen.energy import energy_map_case
-from repro.energymogen.latent_count import LATENT_COUNTS
+from repro.energymogen.energy_contour_maps import energy_map_case
 from repro.energymogen.settings import (
     FULL_SEEDS,
+    FULL_VAE_STEP_CAP,
+    LATENT_COUNTS,
     SEEDS,
     AugmentationSettings,
     EnergyViewSettings,
     LatentCountSettings,
+    PipelineConfig,
     SEFAblationSettings,
+    TrainingPlan,
+    pipeline_config,
     seeds_of,
 )
 from repro.infra.context import SCALES

@@ -6,14 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from repro.energymogen import studies as em_studies
-from repro.energymogen.config import ARM_CONCEPTS, FRAMES, LOWER_CONCEPTS
-from repro.energymogen.timelines import (
+from repro.energymogen import harness as em_harness
+from repro.energymogen import sef_ablation as sef
+from repro.energymogen.sef_ablation import (
     real_then_clips,
     timeline_item,
     timeline_items,
     transition_frames,
 )
+from repro.energymogen.settings import ARM_CONCEPTS, FRAMES, LOWER_CONCEPTS
 from repro.standin.concepts import CONCEPTS
 
 
@@ -76,25 +77,25 @@ def _clip_with_jump(frames: int, at: int, jump_m: float, speed_m: float = 0.0) -
 def test_transition_distance_sees_a_known_jump_at_a_known_transition() -> None:
     clip = _clip_with_jump(64, at=30, jump_m=0.05)
     # 21 of the 22 joints jump 5 cm (the root is the origin): the mean over joints is 5·21/22
-    assert em_studies.transition_distances_at_cm([clip], [(30,)])[0] == pytest.approx(
+    assert em_harness.transition_distances_at_cm([clip], [(30,)])[0] == pytest.approx(
         5.0 * 21 / 22)
-    assert em_studies.transition_distance_at_transitions_cm([clip], [(20,)]) == 0.0
-    both = em_studies.transition_distances_at_cm([clip, clip], [(30, 20), (30,)])
+    assert em_harness.transition_distance_at_transitions_cm([clip], [(20,)]) == 0.0
+    both = em_harness.transition_distances_at_cm([clip, clip], [(30, 20), (30,)])
     assert both.tolist() == pytest.approx([5.0 * 21 / 22, 0.0, 5.0 * 21 / 22])
     with pytest.raises(ValueError, match="transition frames"):
-        em_studies.transition_distances_at_cm([clip], [(64,)])
+        em_harness.transition_distances_at_cm([clip], [(64,)])
 
 
 def test_speed_ratio_does_not_reward_standing_still() -> None:
     still = _clip_with_jump(64, at=30, jump_m=0.0)
     moving = _clip_with_jump(64, at=30, jump_m=0.0, speed_m=0.01)
     jumping = _clip_with_jump(64, at=30, jump_m=0.05, speed_m=0.01)
-    ratio = {name: em_studies.transition_speed_ratio([clip], [(30,)]) for name, clip in
+    ratio = {name: em_harness.transition_speed_ratio([clip], [(30,)]) for name, clip in
              (("still", still), ("moving", moving), ("jumping", jumping))}
     assert ratio["still"] == pytest.approx(1.0) and ratio["moving"] == pytest.approx(1.0)
     assert ratio["jumping"] > 3.0
     # the all-frames distance v2 read calls the still clip the smoothest
-    assert em_studies.transition_distance_cm(still[None]) < em_studies.transition_distance_cm(
+    assert em_harness.transition_distance_cm(still[None]) < em_harness.transition_distance_cm(
         moving[None])
-    values = em_studies.timeline_measurements([jumping, still], [(30,), (30,)])
+    values = sef.timeline_measurements([jumping, still], [(30,), (30,)])
     assert values["transition_speed_ratio"] == pytest.approx((ratio["jumping"] + 1.0) / 2)

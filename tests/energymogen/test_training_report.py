@@ -4,12 +4,9 @@ from __future__ import annotations
 
 import matplotlib
 
-from repro.energymogen.convergence import TrainingRecord
-from repro.energymogen.training_report import (
-    latent_count_training,
-    training_markdown,
-    validation_curves_figure,
-)
+from repro.energymogen.figures import training_markdown, validation_curves_figure
+from repro.energymogen.latent_count import latent_count_training
+from repro.energymogen.pipeline import TrainingRecord
 
 matplotlib.use("Agg")
 
