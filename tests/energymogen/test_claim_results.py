@@ -1,5 +1,5 @@
-"""What the EnergyMoGen experiments return (``energy_claims``, ``t2m_claims``,
-``three_concepts``): a ClaimResult with every measurement the registered rule reads, its
+"""What the EnergyMoGen experiments return (``energy_contour_maps``, ``latent_count``,
+``sef_ablation``): a ClaimResult with every measurement the registered rule reads, its
 controls' calibration kept beside, and the notebooks' summary lines."""
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
-"""The EnergyMoGen controls (``energymogen.controls``): the null's inputs carry no effect, the
-positive's planted effect has the registered size, and a planted effect is seen."""
+"""The EnergyMoGen controls (each claim module's ``*_controls``, on ``harness``'s planted sets):
+the null's inputs carry no effect, the positive's planted effect has the registered size, and a
+planted effect is seen."""
 
 from __future__ import annotations
 

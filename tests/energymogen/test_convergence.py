@@ -1,5 +1,5 @@
-"""Training the pipeline to convergence (repro.energymogen.convergence and the plan's path
-through repro.energymogen.pipeline): the convergence fields and the validation data enter the
+"""Training the pipeline to convergence (repro.energymogen.settings.TrainingPlan and the plan's
+path through repro.energymogen.pipeline): the convergence fields and the validation data enter the
 cache keys only with a plan, the pipeline carries each model's training record from exactly
 its own cache entry, and retraining (other seeds, other N) keeps the plan."""
 

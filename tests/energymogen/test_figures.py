@@ -1,8 +1,10 @@
-"""The figures of notebooks 04, 05, 07 and 08 (repro.energymogen.figures) drawn from values
-shaped as the studies return them: every panel is there and shows the values given."""
+"""The figures of notebooks 04, 05, 07 and 08 (each claim module's, and the shared ones of
+repro.energymogen.figures) drawn from values shaped as the studies return them: every panel is
+there and shows the values given; the training tables and curves of notebooks 07/08."""
 
 from __future__ import annotations
 
+import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
@@ -13,7 +15,9 @@ from repro.energymogen import energy_contour_maps as ecm
 from repro.energymogen import latent_count as lc
 from repro.energymogen import sef_ablation as sef
 from repro.energymogen.composed_augmentation import ROWS, ComposedSet
-from repro.energymogen.pipeline import scaled_linear_betas
+from repro.energymogen.figures import training_markdown, validation_curves_figure
+from repro.energymogen.latent_count import latent_count_training
+from repro.energymogen.pipeline import TrainingRecord, scaled_linear_betas
 from repro.energymogen.sef_ablation import TABLE7_LAMBDAS, TABLE9_GAMMAS, gamma_key, lambda_key
 from repro.energymogen.settings import HELD_OUT_PAIRS
 
@@ -116,3 +120,28 @@ def test_notebook_08_figures() -> None:
             for row in ROWS}
     fig = ag.augmentation_figure({"t2m": part, "held_out": part}, SEEDS)
     assert len(fig.axes) == 3 and len(fig.axes[0].patches) == len(ROWS)
+
+
+matplotlib.use("Agg")
+
+PLATEAU = TrainingRecord(steps=40, step_cap=60, train_seconds=2.0, converged=True,
+                         stop_reason="plateau", validation_curve=((0, 1.0), (20, 0.5), (40, 0.6)),
+                         losses=())
+CAPPED = TrainingRecord(steps=60, step_cap=60, train_seconds=3.0, converged=False,
+                        stop_reason="step cap", validation_curve=((0, 1.0), (60, 0.9)), losses=())
+FIXED = TrainingRecord(steps=10, step_cap=10, train_seconds=None, converged=None,
+                       stop_reason=None, validation_curve=(), losses=(1.0,))
+
+
+def test_the_table_says_how_each_run_stopped() -> None:
+    text = training_markdown([("vae a", PLATEAU), ("denoiser b", CAPPED), ("vae c", FIXED)])
+    assert "0.5 (step 20)" in text and "step cap" in text and "fixed steps" in text
+    assert "1 of 2 validated runs stopped on the plateau" in text
+
+
+def test_latent_count_rows_and_the_figure() -> None:
+    results = {"training": {"1": [{"vae": PLATEAU.to_dict(), "denoiser": CAPPED.to_dict()}]}}
+    rows = latent_count_training(results, [1], [0])
+    assert [name for name, _ in rows] == ["vae N=1 seed 0", "denoiser N=1 seed 0"]
+    figure = validation_curves_figure(rows)
+    assert [len(ax.lines) for ax in figure.axes] == [1, 1]

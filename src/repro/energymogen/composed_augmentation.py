@@ -71,6 +71,7 @@ from repro.claims.result import ClaimResult, Controls, not_measurable_result
 from repro.core.stats import paired_difference
 from repro.core.tables import interval_text, markdown_table
 from repro.core.training import TrainConfig, torch_threads
+from repro.energymogen import settings as rule_settings
 from repro.energymogen.data import (
     NotMeasurable,
     composition_items,
@@ -109,7 +110,6 @@ from repro.energymogen.settings import (
     HELD_OUT_PAIRS,
     LOWER_CONCEPTS,
     AugmentationSettings,
-    emg8,
     finetune_config,
 )
 from repro.infra import cache
@@ -187,8 +187,6 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
 #: the compared models: the pretrained denoiser, fine-tuned on training data alone (the
 #: registered baseline), fine-tuned on training data + the composed set.
 ROWS = ("pretrained", "control", "augmented")
-
-
 _COMPOSE_NOISE = 10 ** 4     # the composed set's noise seed is this + seed (evaluation: seed)
 
 
@@ -304,7 +302,7 @@ def load_or_finetune(pipe: EnergyMoGenPipeline, rows: Rows,
     def build() -> nn.Module:       # the cached EMA copy comes back with requires_grad off
         return copy.deepcopy(base).requires_grad_(True)
 
-    def train(model: nn.Module) -> tuple[nn.Module, dict]:   # on the pipeline's device (#33)
+    def train(model: nn.Module) -> tuple[nn.Module, dict]:   # on the pipeline's device
         return train_latent_denoiser(model, pipe.diffusion, rows.latents, rows.tokens, rows.mask,
                                      replace(train_config, device=str(pipe.device))).for_cache()
 
@@ -419,14 +417,10 @@ def rows_markdown(results: Mapping[str, Mapping[str, Sequence[float]]],
 
 
 Study = Mapping[str, Any] | NotMeasurable
-
-
 #: the text-to-motion columns of the rule's test, and those of the held-out composed texts
 T2M_COLUMNS = (("r_precision_top1", "R@1"), ("r_precision_top3", "R@3"), ("fid", "FID"),
                ("mm_dist", "MM-Dist"), ("diversity", "Diversity"),
                ("oracle_accuracy", "oracle acc."))
-
-
 HELD_OUT_COLUMNS = (("oracle_accuracy", "oracle acc."), ("both_present", "both found"),
                     ("r_precision_top3", "R@3 %"), ("fid", "FID"))
 
@@ -576,7 +570,7 @@ def emg8_result(results: Mapping[str, Any] | NotMeasurable, settings: Augmentati
     (``claims.result.not_measurable_result``; the models' gates are kept)."""
     if isinstance(results, NotMeasurable):
         return not_measurable_result("EMG-8", results.reason, seeds, models=models,
-                                     settings=emg8(settings, test_clips))
+                                     settings=rule_settings.emg8(settings, test_clips))
     config, plan, size = settings.pipeline, settings.plan, settings.composed_set_size
     t2m, held_out = results["t2m"], results["held_out"]
     finetune_steps = [r.steps for r in results["training"]["control"]]
@@ -621,7 +615,7 @@ def emg8_result(results: Mapping[str, Any] | NotMeasurable, settings: Augmentati
                           for row in ("control", "augmented")},
              "plan": dataclasses.asdict(plan), "control_calibration": controls.planted}
     return ClaimResult("EMG-8", measured, seeds=seeds,
-                       settings=emg8(settings, test_clips), controls=controls,
+                       settings=rule_settings.emg8(settings, test_clips), controls=controls,
                        models=models,
                        figures=figures, headline=headline, notes=notes, extra=extra)
 

@@ -8,7 +8,7 @@ licenses, checked on the pipeline — the settings are ``settings.EnergyViewSett
   :func:`denoiser_jacobian_asymmetry`)? All three on the pipeline: :func:`energy_view_study`.
   Per t (:func:`gradient_field_study`, on the same draws): the **residual Jacobian
   asymmetry** ‖A − Aᵀ‖_F / ‖A‖_F with A = ∂ε_θ/∂z − I/√(1−ᾱ_t) (the identity term is
-  symmetric, so it leaves A − Aᵀ = J − Jᵀ alone but no longer dominates the denominator at
+  symmetric, so it leaves A − Aᵀ = J − Jᵀ alone but does not dominate the denominator at
   large t; :func:`residual_asymmetry`) and the **relative loop integral** |∮ε_θ·dz| /
   ∮‖ε_θ‖‖dz‖ around a circle (Stokes: 0 for a gradient field, 1 for a field circulating along
   the loop; :func:`relative_circulation`). Our choices: the circle lies in the plane where the
@@ -74,6 +74,7 @@ from repro.claims.result import ClaimResult, Controls, not_measurable_result
 from repro.core import metrics
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.tables import interval_text, markdown_table, render
+from repro.energymogen import settings as rule_settings
 from repro.energymogen.compose import Condition, make_composed_eps_fn
 from repro.energymogen.data import (
     NotMeasurable,
@@ -108,9 +109,6 @@ from repro.energymogen.settings import (
     LOWER_CONCEPTS,
     NEGATION_CASES,
     EnergyViewSettings,
-    emg1,
-    emg6,
-    emg23,
 )
 from repro.models.latent_denoiser import LatentDenoiser
 from repro.motion.plotting import filmstrip, save_figure
@@ -540,7 +538,7 @@ def energy_map_case(pipe: EnergyMoGenPipeline, kind: Literal["conjunction", "neg
       better of concept 1 and concept 2; negation: c_i, the text before negating), and a
       **ceiling**, a paraphrase of the multi-concept text ~ multi (another caption of the
       pair; negation: another wording of the kept concept) — how alike two texts of one
-      meaning are on this slice (registry v3); ``similarity_to_control`` (an unrelated text)
+      meaning are on this slice; ``similarity_to_control`` (an unrelated text)
       is context.
     """
     rng = np.random.default_rng([seed, 606, 0 if kind == "conjunction" else 1])
@@ -675,8 +673,6 @@ def fid_formula_errors(seed: int, dim: int = 16, draws: int = 20) -> dict[str, A
 
 
 LOOP_POINTS = 16
-
-
 EpsFn = Callable[[Tensor], Tensor]
 
 
@@ -758,12 +754,8 @@ def gradient_field_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
 
 
 _DIM = 6
-
-
 #: eigenvalues of the fixed covariances: none is 0 or 1 (no idempotent Σ), spread over [0.2, 3]
 _LAMBDA_1 = np.array([0.2, 0.5, 0.9, 1.4, 2.0, 3.0])
-
-
 _LAMBDA_2 = np.array([1.5, 0.3, 2.5, 0.7, 1.1, 0.4])
 
 
@@ -933,8 +925,6 @@ def composition_study(source: PipelineSource, seeds: Sequence[int], *, per_case:
 #: our choice: the single-concept arm's both-present rate in the constructed sets (the
 #: registry example's level); the negation baseline keeps its negated concept in 90 %
 _BASE_BOTH = 0.3
-
-
 _BASE_NEGATED = 0.9
 
 
@@ -1195,7 +1185,7 @@ def emg1_result(energy_view: Mapping[str, Any], field: Mapping[str, Any],
                                                         np.median(v, axis=1).tolist(),
                                                         strict=True))
                                          for name, v in asym.items()}}
-    return ClaimResult("EMG-1", measured, seeds=[seed], settings=emg1(settings),
+    return ClaimResult("EMG-1", measured, seeds=[seed], settings=rule_settings.emg1(settings),
                        models=models, figures=figures,
                        headline=headline, notes=notes, extra=extra)
 
@@ -1242,7 +1232,7 @@ def emg6_result(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]] | Not
     ``NotMeasurable``) not measurable on real data (``claims.result.not_measurable_result``)."""
     if isinstance(cases, NotMeasurable):
         return not_measurable_result("EMG-6", cases.reason, seeds,
-                                     settings=emg6(settings), models=models)
+                                     settings=rule_settings.emg6(settings), models=models)
     headline = ("Pearson r with the multi-concept map, floor / composed / ceiling: " + "; ".join(
         f"{kind} " + "/".join(f"{np.mean(measured[f'{kind}_similarity_{what}']):.3f}"
                               for what in ("floor", "to_multi", "ceiling"))
@@ -1264,7 +1254,7 @@ def emg6_result(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]] | Not
                               for found in per_seed] for kind, per_seed in cases.items()},
              "control_calibration": controls.planted}
     return ClaimResult("EMG-6", dict(measured), seeds=seeds,
-                       settings=emg6(settings), controls=controls, models=models,
+                       settings=rule_settings.emg6(settings), controls=controls, models=models,
                        figures=figures, headline=headline, notes=notes, extra=extra)
 
 
@@ -1369,7 +1359,7 @@ def emg23_results(study: Mapping[str, Any] | NotMeasurable,
     ``data.NotMeasurable``) both are not measurable on real data: nothing is recorded as
     measured (``claims.result.not_measurable_result``)."""
     if isinstance(study, NotMeasurable):
-        used = emg23(settings)
+        used = rule_settings.emg23(settings)
         return (not_measurable_result("EMG-2", study.reason, seeds, settings=used, models=models),
                 not_measurable_result("EMG-3", study.reason, seeds, settings=used, models=models))
     config, per_case, extra23 = settings.pipeline, settings.negation_items_per_case, study["extra"]
@@ -1398,7 +1388,7 @@ def emg23_results(study: Mapping[str, Any] | NotMeasurable,
                     f"{np.mean(m['baseline_negated_present']):.2f}; kept "
                     f"{np.mean(m['negation_kept_present']):.2f} vs "
                     f"{np.mean(m['baseline_kept_present']):.2f}")
-        return ClaimResult(claim_id, m, seeds=seeds, settings=emg23(settings),
+        return ClaimResult(claim_id, m, seeds=seeds, settings=rule_settings.emg23(settings),
                            controls=controls[claim_id], models=models,
                            figures=figures, headline=headline, notes=choice_note,
                            extra={**emg_extra,

@@ -32,8 +32,6 @@ __all__ = [
     "training_markdown",
     "validation_curves_figure",
 ]
-
-
 Figures = Sequence[str | os.PathLike]
 
 

@@ -107,16 +107,11 @@ __all__ = [
     "with_feature_noise",
 ]
 
-
 #: random keys of the test clips start here (training clips use keys 0..n_train−1, the
 #: composition pool 10⁶ + pair): disjoint by construction.
 _TEST_KEY = 2 * 10 ** 6
-
-
 #: ... and those of the shared-concept test (EMG-8) here (validation clips: 3·10⁶, ``data``)
 _SHARED_KEY = 5 * 10 ** 6
-
-
 #: R-precision batch size (Guo et al.; HumanML3D's protocol)
 R_PRECISION_BATCH = 32
 
@@ -337,10 +332,10 @@ def transition_distance_cm(features: np.ndarray) -> float:
     """Transition distance (TEACH/STMC) at every frame, in cm: mean over frames t and joints
     of ‖j_t − j_{t−1}‖ on root-relative, heading-free joints (``metrics.ric_joints``).
 
-    Registry v2's measurement, context since v3: averaged over all consecutive frames it is
-    the body's mean speed, so it rewards standing still (issue #16: real data scored worse
-    than every generated row). EMG-5 now reads :func:`transition_distance_at_transitions_cm`
-    and :func:`transition_speed_ratio` on the MTT-style timelines.
+    Context only: averaged over all consecutive frames it is the body's mean speed, so it
+    rewards standing still (real data score worse than every generated row). EMG-5 reads
+    :func:`transition_distance_at_transitions_cm` and :func:`transition_speed_ratio` on the
+    MTT-style timelines.
     """
     features = np.asarray(features)
     frames = np.arange(1, features.shape[-2])
@@ -527,8 +522,6 @@ def reference_embeddings(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> n
 
 #: the calibration grid around the base amplitude (the planted arms only lower FID from it)
 _AMPLITUDES = np.geomspace(0.2, 0.7, 6)
-
-
 _CALIBRATION_DRAWS = 4
 
 

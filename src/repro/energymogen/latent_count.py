@@ -54,6 +54,7 @@ from repro.claims.result import ClaimResult, Controls
 from repro.core import metrics
 from repro.core.tables import interval_text
 from repro.core.training import torch_threads
+from repro.energymogen import settings as rule_settings
 from repro.energymogen.figures import Record
 from repro.energymogen.harness import (
     _BASE_AMPLITUDE,
@@ -85,7 +86,6 @@ from repro.energymogen.settings import (
     LATENT_COUNTS,
     LatentCountSettings,
     PipelineConfig,
-    emg7,
 )
 from repro.models.evaluator import evaluate_generated
 from repro.motion.features import features_to_joints
@@ -116,23 +116,15 @@ __all__ = [
 TABLE8_COLUMNS: tuple[tuple[str, str], ...] = (
     ("r_precision_top1", "Top-1"), ("r_precision_top2", "Top-2"), ("r_precision_top3", "Top-3"),
     ("fid", "FID"), ("mm_dist", "MM-Dist"), ("diversity", "Diversity"))
-
-
 _T8_RECON = ((0.493, 0.681, 0.787, 0.170, 3.160, 9.589), (0.501, 0.696, 0.792, 0.117, 3.037, 9.621),
              (0.508, 0.700, 0.795, 0.080, 3.004, 9.620), (0.513, 0.704, 0.797, 0.022, 2.984, 9.603))
-
-
 _T8_GEN = ((0.498, 0.686, 0.791, 0.424, 3.085, 9.705), (0.523, 0.712, 0.814, 0.418, 2.946, 9.443),
            (0.523, 0.715, 0.815, 0.188, 2.915, 9.488), (0.514, 0.713, 0.813, 0.291, 2.938, 9.456))
-
-
 #: Table 8 of the paper (HumanML3D test set): part → str(N) → column → value.
 PAPER_TABLE8: dict[str, dict[str, dict[str, float]]] = {
     part: {str(n): dict(zip((k for k, _ in TABLE8_COLUMNS), row, strict=True))
            for n, row in zip(LATENT_COUNTS, rows, strict=True)}
     for part, rows in (("reconstruction", _T8_RECON), ("generation", _T8_GEN))}
-
-
 #: the paper's "Real motion" row on the HumanML3D test set (Table 4, the same test set).
 PAPER_REAL_MOTION = dict(zip((k for k, _ in TABLE8_COLUMNS),
                              (0.511, 0.703, 0.797, 0.002, 2.974, 9.503), strict=True))
@@ -431,7 +423,7 @@ def emg7_result(results: Mapping[str, Any], settings: LatentCountSettings,
              "counts_not_run": list(settings.counts_not_run),
              "test_clips": test_clips, "control_calibration": controls.planted}
     return ClaimResult("EMG-7", {"reconstruction_error": recon_error, "generation_fid": gen_fid},
-                       seeds=seeds, settings=emg7(settings, test_clips),
+                       seeds=seeds, settings=rule_settings.emg7(settings, test_clips),
                        controls=controls, models=models, figures=figures,
                        headline=headline, notes=notes, extra=extra)
 

@@ -73,14 +73,10 @@ __all__ = [
     "vae_sample_values",
 ]
 
-
 #: shuffles of the R-precision batches whose mean R@3 is the ``evaluator`` gate's value
 R_PRECISION_SHUFFLES = 8
-
-
 #: EMG-7's reference arm: the paper's number of latent vectors (Table 8; the pipeline's N)
 REFERENCE_LATENT_COUNT = 5
-
 
 #: the quantity behind each measurement the EnergyMoGen claims' parts read (``Part.needs`` in
 #: ``claims.registry_energymogen``), in the words of ``core.gates.Gate.measures``
@@ -98,7 +94,6 @@ COMPARED: dict[str, str] = {
     "reconstruction_error": "reconstruction error of held-out clips",
     **{name: "FID of samples" for name in ("generation_fid", "fid_augmented", "fid_baseline")},
 }
-
 
 #: claim → the model families whose records its notebook passes (``record_claim(models=)``)
 FAMILIES_READ: dict[str, tuple[str, ...]] = {

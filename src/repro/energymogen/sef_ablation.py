@@ -69,6 +69,7 @@ from torch import Tensor
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
 from repro.core import metrics, tables
 from repro.core.tables import interval_text
+from repro.energymogen import settings as rule_settings
 from repro.energymogen.data import (
     NotMeasurable,
     composition_items,
@@ -102,8 +103,6 @@ from repro.energymogen.settings import (
     THREE_CONCEPT_SETS,
     THREES_AS_PAIRS,
     SEFAblationSettings,
-    emg4,
-    emg5,
 )
 from repro.models.latent_denoiser import CrossAttentionControl
 from repro.motion.features import FPS
@@ -157,14 +156,9 @@ __all__ = [
     "transition_measures_figure",
 ]
 
-
 #: MTT's span choice for C: A's, B's, the longer of the two, both (weights 2, 2, 2, 1)
 _SPANS = ("first", "second", "longer", "both")
-
-
 _SPAN_WEIGHTS = np.array([2, 2, 2, 1], dtype=float) / 7
-
-
 #: our choice: every "then" ground-truth segment lasts its concept's minimum + this (s)
 _REAL_SEGMENT_MARGIN = 0.5
 
@@ -310,31 +304,21 @@ def real_then_clips(items: TimelineItems, seed: int, stream: Sequence[int] = (17
 # --- the paper's rows (R@1, R@3 in %, TMR M2T, M2M, FID, transition distance) ----------------
 _COLUMNS = ("r_precision_top1", "r_precision_top3", "tmr_m2t", "tmr_m2m", "fid",
             "transition_distance")
-
-
 TABLE7_LAMBDAS: tuple[tuple[float, float, float], ...] = (
     (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.5, 0.5, 0.0), (0.4, 0.6, 0.0),
     (0.3, 0.7, 0.0), (0.2, 0.8, 0.0), (0.1, 0.9, 0.0), (0.3, 0.4, 0.3), (0.2, 0.5, 0.3),
     (0.1, 0.7, 0.2), (0.1, 0.8, 0.1))
-
-
 TABLE9_GAMMAS: tuple[tuple[float, float], ...] = (
     (0.0, 0.0), (0.1, 0.2), (0.01, 0.02), (0.005, 0.01), (0.005, 0.005), (0.001, 0.002))
-
-
 _T7 = ((9.7, 19.6, 0.547, 0.521, 0.917, 1.6), (15.1, 27.5, 0.585, 0.567, 0.569, 2.2),
        (12.7, 25.4, 0.570, 0.562, 0.592, 2.7), (13.3, 25.5, 0.584, 0.551, 0.740, 1.4),
        (12.7, 25.0, 0.584, 0.555, 0.730, 1.4), (13.4, 26.4, 0.589, 0.559, 0.694, 1.4),
        (13.6, 26.9, 0.590, 0.558, 0.668, 1.5), (14.2, 27.5, 0.587, 0.563, 0.613, 1.7),
        (14.5, 27.1, 0.588, 0.560, 0.669, 1.6), (14.4, 26.9, 0.590, 0.563, 0.628, 1.6),
        (15.7, 28.0, 0.591, 0.567, 0.604, 1.6), (14.9, 26.7, 0.587, 0.563, 0.615, 1.6))
-
-
 _T9 = ((12.7, 25.4, 0.570, 0.562, 0.592, 2.7), (1.4, 4.2, 0.498, 0.495, 1.083, 6.1),
        (9.1, 20.1, 0.551, 0.547, 0.623, 2.9), (6.7, 15.3, 0.531, 0.523, 0.806, 1.9),
        (13.8, 25.6, 0.570, 0.558, 0.591, 2.7), (14.0, 26.3, 0.570, 0.560, 0.587, 2.7))
-
-
 _T3 = {"single text": (12.7, 25.4, 0.570, 0.562, 0.592, 2.7),
        "single text + AGD": (14.0, 26.3, 0.570, 0.560, 0.587, 2.7),
        "latent only": (9.7, 19.6, 0.547, 0.521, 0.917, 1.6),
@@ -356,18 +340,14 @@ def gamma_key(gammas: Sequence[float]) -> str:
 #: Table 3 (Sec. 5.4, EnergyMoGen rows). Transition distance as printed (STMC's ×100 scale).
 PAPER_TABLE7 = {lambda_key(k): dict(zip(_COLUMNS, v, strict=True))
                 for k, v in zip(TABLE7_LAMBDAS, _T7, strict=True)}
-
-
 PAPER_TABLE9 = {gamma_key(k): dict(zip(_COLUMNS, v, strict=True))
                 for k, v in zip(TABLE9_GAMMAS, _T9, strict=True)}
-
-
 PAPER_TABLE3 = {k: dict(zip(_COLUMNS, v, strict=True)) for k, v in _T3.items()}
 
 
 def timeline_measurements(features: Sequence[np.ndarray], transitions: Sequence[Sequence[int]]
                           ) -> dict[str, float]:
-    """EMG-5's two registered transition measurements on one batch (registry v3):
+    """EMG-5's two registered transition measurements on one batch:
     ``transition_distance_at_transitions`` (cm) and ``transition_speed_ratio``, with the mean
     speed (cm per frame over all frames) beside them."""
     return {"transition_distance_at_transitions":
@@ -558,24 +538,15 @@ def timeline_table(timelines: Mapping[str, Mapping[str, Sequence[float]]] | NotM
 
 
 Results = Mapping[str, Mapping[str, Any]]
-
-
 Study = Results | NotMeasurable
-
-
 Rows = Sequence[tuple[str, str]]
 
-
 _REAL = [("real (ground truth)", "real")]
-
-
 _THREE_COLUMNS = [("oracle_accuracy", "oracle acc."), ("both_present", "all found"),
                   ("oracle_accuracy_concept_1", "lower found"),
                   ("oracle_accuracy_concept_2", "left wave found"),
                   ("oracle_accuracy_concept_3", "right wave found"),
                   ("foot_skating", "foot skate m/s"), ("jitter", "jitter m/s²")]
-
-
 _CONTROL_COLUMNS = [("oracle_accuracy", "oracle acc."), ("both_present", "both found"),
                     ("oracle_accuracy_concept_1", "lower found"),
                     ("oracle_accuracy_concept_2", "wave_both found"),
@@ -857,7 +828,7 @@ def emg5_result(results: Results, timelines: Results | NotMeasurable,
     measurable on real data (``claims.result.not_measurable_result``)."""
     if isinstance(timelines, NotMeasurable):
         return not_measurable_result("EMG-5", timelines.reason, seeds, models=models,
-                                     settings=emg5(settings))
+                                     settings=rule_settings.emg5(settings))
     t7_keys = [lambda_key(lam) for lam in TABLE7_LAMBDAS]
     r3 = {key: results[key]["r_precision_top3"] for key in t7_keys}
     trans_all = {key: results[key]["transition_distance"] for key in t7_keys}
@@ -882,7 +853,7 @@ def emg5_result(results: Results, timelines: Results | NotMeasurable,
              "control_calibration": controls.planted}
     measured = {"r_precision_top3": r3, "transition_distance_at_transitions": trans,
                 "transition_speed_ratio": ratio, "transition_distance": trans_all}
-    return ClaimResult("EMG-5", measured, seeds=seeds, settings=emg5(settings),
+    return ClaimResult("EMG-5", measured, seeds=seeds, settings=rule_settings.emg5(settings),
                        controls=controls, models=models,
                        figures=figures, headline=headline,
                        notes=_common_notes(settings) + " λ grid with AGD off.", extra=extra)
@@ -917,7 +888,7 @@ def emg4_result(results: Results, agd_change: Mapping[str, float],
              "table": {k: table[k] for k in gkeys}, "control_calibration": controls.planted}
     return ClaimResult("EMG-4", {"r_precision_top3": {key: results[key]["r_precision_top3"]
                                                       for key in gkeys}},
-                       seeds=seeds, settings=emg4(settings), controls=controls,
+                       seeds=seeds, settings=rule_settings.emg4(settings), controls=controls,
                        models=models, figures=figures, headline=headline, notes=notes,
                        extra=extra)
 

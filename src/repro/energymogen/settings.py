@@ -119,27 +119,20 @@ __all__ = [
 ]
 
 
-#: the pipeline's text encoders: "minilm" (the default since issue #16: frozen pretrained
+#: the pipeline's text encoders: "minilm" (the default: frozen pretrained
 #: all-MiniLM-L6-v2, ``repro.models.frozen_text``, as the paper's encoder is a frozen pretrained
 #: CLIP) or "learned" (a BiGRU pretrained contrastively on the stand-in captions,
 #: ``text_stage``; its embedding scale is arbitrary and it would need retraining on real
 #: captions)
 TEXT_ENCODERS = ("learned", "minilm")
 
-
 FRAMES = 64
-
-
 #: concepts owning root + legs + torso (the generator's locomotion/leg concepts) ...
 LOWER_CONCEPTS = ("walk_forward", "walk_backward", "walk_left", "walk_right", "run", "jump",
                   "squat")
-
-
 #: ... and concepts owning arms only; a simultaneous pair is one of each. (Our choice: kicks
 #: and punches are left out — single fast strikes that the tiny VAE does not reconstruct.)
 ARM_CONCEPTS = ("wave_left", "wave_right", "wave_both", "raise_arms", "clap")
-
-
 #: the rhythm we give waving and clapping (the generator draws 2–3 and 1.6–2.6 Hz at a random
 #: phase): our choice, so that a 2-layer width-64 VAE trained for minutes on CPU reconstructs
 #: them — at a random rhythm and phase it damps the oscillation away (measured on its own
@@ -147,16 +140,12 @@ ARM_CONCEPTS = ("wave_left", "wave_right", "wave_both", "raise_arms", "clap")
 RHYTHM_OVERRIDES: dict[str, dict[str, float]] = {
     "wave_left": {"frequency": 1.0, "phase": 0.0}, "wave_right": {"frequency": 1.0, "phase": 0.0},
     "wave_both": {"frequency": 1.0, "phase": 0.0}, "clap": {"frequency": 1.0}}
-
-
 #: never seen together in training; every lower concept once or twice, every arm concept twice.
 HELD_OUT_PAIRS: tuple[tuple[str, str], ...] = (
     ("walk_forward", "wave_right"), ("walk_forward", "clap"), ("walk_backward", "raise_arms"),
     ("walk_left", "wave_both"), ("walk_right", "wave_left"), ("run", "raise_arms"),
     ("jump", "wave_right"), ("jump", "clap"), ("squat", "wave_left"), ("squat", "wave_both"),
 )
-
-
 #: MTT-style sets of three simultaneous concepts: each lower concept with a wave of each arm.
 #: Lower body, left arm and right arm are the stand-in body's only three disjoint part groups,
 #: and ``wave_left``/``wave_right`` the pool's only one-arm concepts, so these are all the
@@ -166,19 +155,13 @@ HELD_OUT_PAIRS: tuple[tuple[str, str], ...] = (
 #: pairs, so for those two sets the motion itself is unseen too.
 THREE_CONCEPT_SETS: tuple[tuple[str, str, str], ...] = tuple(
     (lower, "wave_left", "wave_right") for lower in LOWER_CONCEPTS)
-
-
 #: the control of the sets of three: the same motions named as two concepts (the lower concept
 #: and ``wave_both``): do the sets of three fail for the motion or for the split into three texts?
 THREES_AS_PAIRS: tuple[tuple[str, str], ...] = tuple(
     (lower, "wave_both") for lower in LOWER_CONCEPTS)
-
-
 #: the extra composition test sets beside the held-out pairs: name → (sets, rng stream)
 EXTRA_TEST_SETS: dict[str, tuple[tuple[tuple[str, ...], ...], int]] = {
     "threes": (THREE_CONCEPT_SETS, 2 * 10 ** 6), "threes_as_pairs": (THREES_AS_PAIRS, 3 * 10 ** 6)}
-
-
 #: negation (Eq. 8): (trained pair c_i, the concept c_j to remove). As the paper's Fig. 5b
 #: ("jumping to the right" not "someone jumps"), c_i is a text that holds both concepts.
 NEGATION_CASES: tuple[tuple[tuple[str, str], str], ...] = (
@@ -192,42 +175,30 @@ NEGATION_CASES: tuple[tuple[tuple[str, str], str], ...] = (
 #: the limit of the paper's text encoder. The learned encoder's 24 words would cut 18 of the 63
 #: quick-mode three-concept captions (up to 29 tokens; measured), none of which it cuts as words.
 MINILM_MAX_TEXT_LEN = 77
-
-
 #: the standard scale's fixed step counts (docs/COMPUTE.md §3b and §4 item 3, fixed before
 #: any standard result): the width-64 VAE passed its concept-preservation gate from 750 steps
 #: in both piloted seeds; the latent denoiser 64 × 2 passed its x̂0 gate from 1500 steps in
 #: both piloted seeds (§10: 0.86 / 0.88; the first run's 32 × 2 at 1000 failed, 2.1–3.7, and
 #: levels off at 1.7 at any step count)
 STANDARD_VAE_STEPS = 900
-
-
 STANDARD_DENOISER_STEPS = 1500
-
-
 STANDARD_DENOISER_WIDTH, STANDARD_DENOISER_LAYERS = 64, 2
 
 
-#: the learned encoder's width and word limit (its values before issue #16)
+#: the learned encoder's width and word limit
 LEARNED_TEXT_DIM, LEARNED_MAX_TEXT_LEN = 64, 24
 
 
 #: the motion VAE's training (Sec. 3.1; appendix A: AdamW, recon weight 1, KL 1e-4; our lr
 #: 1e-3 and 1000 batches of 32 clips: minutes, not 300K iterations)
 VAE_TRAINING = VAETrainConfig(steps=1000, batch_size=32, lr=1e-3)
-
-
 #: the learned stand-in text encoder's (``text_encoder="learned"`` only): 300 batches of up to
 #: 128 captions, AdamW lr 2e-3, weight decay 0.01, no clip, no EMA
 TEXT_TRAINING = TrainConfig(steps=300, batch_size=128, lr=2e-3, weight_decay=0.01,
                             grad_clip=None)
-
-
 #: the latent denoiser's (appendix A: AdamW, EMA 0.999, the text dropped 10 % of the time)
 DENOISER_TRAINING = TrainConfig(steps=2500, batch_size=128, lr=5e-4, ema_decay=0.999,
                                 cond_dropout=0.1)
-
-
 #: the evaluator (the stand-in for Guo et al.'s / TMR's encoders): 32-d, 64 channels, 400 steps
 EVALUATOR = EvaluatorConfig(dim=32, hidden=64).replace(steps=400)
 
@@ -322,7 +293,7 @@ def pipeline_config(scale: str) -> PipelineConfig:
     """The one configuration every EnergyMoGen notebook uses at ``scale``
     (``infra.context.SCALES``; identical → shared cache).
 
-    paper: the defaults (the former full mode, the same cache keys). standard
+    paper: the defaults. standard
     (docs/COMPUTE.md §3b, §5; fixed before any standard result): the paper's data, VAE and
     sampling, with the latent denoiser at width 64 × 2 layers (64 × 3 at paper) and
     the step counts :data:`STANDARD_VAE_STEPS` / :data:`STANDARD_DENOISER_STEPS`
@@ -355,9 +326,7 @@ def with_minilm(config: PipelineConfig) -> PipelineConfig:
 
 def with_learned_text(config: PipelineConfig) -> PipelineConfig:
     """``config`` with the learned stand-in text encoder (``text_stage``): ``text_encoder=
-    "learned"``, ``text_dim`` 64, ``max_text_len`` 24 words (the pipeline's settings before
-    issue #16, so its cache keys are those of the learned encoder); everything else
-    unchanged."""
+    "learned"``, ``text_dim`` 64, ``max_text_len`` 24 words; everything else unchanged."""
     return replace(config, text_encoder="learned", text_dim=LEARNED_TEXT_DIM,
                    max_text_len=LEARNED_MAX_TEXT_LEN)
 
@@ -371,13 +340,9 @@ def config_summary(config: PipelineConfig) -> dict[str, Any]:
 #: a window, so a 3.2 s window overlaps its neighbour by half); a clip shorter than
 #: ``FRAMES`` gives none
 FOLDER_STRIDE = FRAMES // 2
-
-
 #: the fewest training windows a data folder must leave once the validation clips are held out
 #: (our choice: one VAE batch of the quick scale; ``folder_needs``)
 FOLDER_MIN_TRAIN = 32
-
-
 #: the fewest test windows: one R-precision batch of 32 (the evaluator's gate,
 #: ``model_gates.evaluator_gate_values``)
 FOLDER_MIN_TEST = 32
@@ -502,26 +467,21 @@ def finetune_config(config: PipelineConfig, seed: int, threads: int | None = 1,
 #: ``core.training.torch_threads``)
 ONE_THREAD = 1
 
-
 #: the N of a quick or standard notebook 07: the pipeline's own 5 and the rule's other named N
 #: (N = 1 and 3 are the paper scale's, docs/COMPUTE.md §3d)
 STANDARD_LATENT_COUNTS = (5, 7)
 
-
 _EMG_CLAIMS = ("EMG-2", "EMG-3", "EMG-6", "EMG-4", "EMG-5", "EMG-7", "EMG-8")
-
-
 #: How many seeds each EnergyMoGen claim's experiment runs at each scale, the one table
-#: (registry v4 plans no seed count from an earlier run's spread: each part states what its
-#: run could see). Notebook 04's claims share one seed list, as do notebook 05's. quick: 1;
-#: standard: 3 for every claim (docs/COMPUTE.md §3a item 5); paper: the former full mode's.
+#: (no seed count is planned from an earlier run's spread: each part states what its run
+#: could see). Notebook 04's claims share one seed list, as do notebook 05's. quick: 1;
+#: standard: 3 for every claim (docs/COMPUTE.md §3a item 5); paper: 5 for EMG-2, 3 and 6, 3
+#: for the others.
 SEEDS: dict[str, dict[str, int]] = {
     "quick": dict.fromkeys(_EMG_CLAIMS, 1),
     "standard": dict.fromkeys(_EMG_CLAIMS, 3),
     "paper": {"EMG-2": 5, "EMG-3": 5, "EMG-6": 5, "EMG-4": 3, "EMG-5": 3, "EMG-7": 3,
               "EMG-8": 3}}
-
-
 #: the paper scale's row (the registry's examples read it)
 FULL_SEEDS: dict[str, int] = SEEDS["paper"]
 
@@ -614,7 +574,7 @@ class EnergyViewSettings(_NotebookSettings):
     items; EMG-6's maps: a ``map_grid``² grid, ``map_noise_draws`` noise draws (standard 2,
     paper 4), ``map_samples`` generated latents per row (the paper values are
     ``energy_contour_maps.energy_map_case``'s defaults), ``map_cases`` cases per kind and seed
-    (None: every held-out pair and every negation case, registry v3; quick runs take the
+    (None: every held-out pair and every negation case; quick runs take the
     first two). ``plan``: the training plan of every EnergyMoGen notebook (the same trained
     pipeline as 05, 07 and 08).
     """

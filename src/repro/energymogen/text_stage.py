@@ -2,7 +2,7 @@
 
 ``config.text_encoder`` chooses it:
 
-- "minilm" (the default, issue #16): all-MiniLM-L6-v2 with pretrained weights
+- "minilm" (the default): all-MiniLM-L6-v2 with pretrained weights
   (``repro.models.frozen_text``), frozen, with its own WordPiece tokenizer in place of the
   vocabulary; nothing is trained or cached. The denoiser reads its 384-wide token states
   (``config.text_dim`` = 384) in its cross-attention, and AGD (Eq. 3–4) refines those token

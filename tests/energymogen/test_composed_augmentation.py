@@ -1,5 +1,5 @@
-"""EMG-8 (repro.energymogen.augmentation): the composed set, training rows, fine-tuning from the
-pretrained denoiser without touching it, and a tiny end-to-end study."""
+"""EMG-8 (repro.energymogen.composed_augmentation): the composed set, training rows, fine-tuning
+from the pretrained denoiser without touching it, and a tiny end-to-end study."""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
-"""The energy view (repro.energymogen.energy): EMG-1's identities on toy fields with known
-answers, EMG-6's maps, EMG-9's FID check, and one energy-map case on the tiny pipeline."""
+"""Notebook 04's measurements (repro.energymogen.energy_contour_maps): EMG-1's identities on toy
+fields with known answers and its per-t measurements, EMG-6's maps, EMG-9's FID check and its
+draw-independent fixed cases, and one energy-map case on the tiny pipeline."""
 
 from __future__ import annotations
 
@@ -7,8 +8,17 @@ import numpy as np
 import pytest
 import torch
 
+from repro.claims.registry import get_claim
 from repro.core.diffusion import GaussianDiffusion
 from repro.energymogen import energy_contour_maps as ecm
+from repro.energymogen.energy_contour_maps import (
+    fid_fixed_cases,
+    fixed_cases,
+    flat_jacobian,
+    loop_plane,
+    relative_circulation,
+    residual_asymmetry,
+)
 from repro.energymogen.pipeline import EnergyMoGenPipeline, scaled_linear_betas
 from repro.energymogen.settings import HELD_OUT_PAIRS
 from repro.models.latent_denoiser import LatentDenoiser
@@ -144,3 +154,68 @@ def test_floor_and_ceiling_order_on_a_constructed_case() -> None:
     assert set(measured) == {f"conjunction_{k}" for k in (
         "similarity_to_multi", "similarity_floor", "similarity_ceiling",
         "similarity_to_control")}
+
+
+def _matrices(dim: int = 8) -> tuple[torch.Tensor, torch.Tensor]:
+    a = torch.randn(dim, dim, dtype=torch.float64, generator=torch.Generator().manual_seed(0))
+    return a + a.T, a - a.T
+
+
+def test_a_symmetric_linear_field_has_no_asymmetry_and_no_circulation() -> None:
+    sym, _ = _matrices()
+    z = torch.randn(1, 8, dtype=torch.float64)
+    jac = flat_jacobian(lambda x: x @ sym.T, z)
+    assert torch.allclose(jac, sym)
+    assert residual_asymmetry(jac, 0.0) == 0.0
+    u, v = loop_plane(jac + 1e-3 * _matrices()[1])
+    assert relative_circulation(lambda x: x @ sym.T, z, u, v, 0.5) < 1e-12
+
+
+def test_a_rotation_circulates_fully_around_its_centre() -> None:
+    _, anti = _matrices()
+    jac = flat_jacobian(lambda x: x @ anti.T, torch.zeros(1, 8, dtype=torch.float64))
+    assert abs(residual_asymmetry(jac, 0.0) - 2.0) < 1e-12
+    u, v = loop_plane(jac)
+    assert relative_circulation(lambda x: x @ anti.T, torch.zeros(1, 8, dtype=torch.float64),
+                                u, v, 1.0) > 0.999
+
+
+def test_a_nonlinear_gradient_field_has_no_circulation() -> None:
+    w = torch.randn(8, 8, dtype=torch.float64, generator=torch.Generator().manual_seed(1))
+
+    def grad(x: torch.Tensor) -> torch.Tensor:      # ∇ Σ cos(x W)
+        return -torch.sin(x @ w) @ w.T
+
+    z = torch.randn(1, 8, dtype=torch.float64, generator=torch.Generator().manual_seed(2))
+    jac = flat_jacobian(grad, z)
+    assert residual_asymmetry(jac, 3.0) < 1e-12
+    u, v = loop_plane(jac + 1e-3 * _matrices()[1])
+    assert relative_circulation(grad, z, u, v, 0.3) < 1e-6
+
+
+def test_the_identity_term_changes_only_the_denominator() -> None:
+    sym, anti = _matrices()
+    jac = sym + 0.1 * anti
+    assert residual_asymmetry(jac, 5.0) != residual_asymmetry(jac, 0.0)
+    assert residual_asymmetry(jac + 5.0 * torch.eye(8, dtype=torch.float64), 5.0) == \
+        residual_asymmetry(jac, 0.0)
+
+
+def test_ours_matches_every_closed_form_and_is_zero_at_p_equals_p() -> None:
+    result = fid_fixed_cases()
+    assert result["fid_fixed_cases_max_relative_error"] < 1e-9
+    assert [c["closed_form"] for c in fixed_cases()][-1] == 0.0
+
+
+def test_printed_form_at_p_equals_p_is_minus_twice_the_trace_of_sigma_minus_sigma_squared() -> None:
+    sigma = fixed_cases()[-1]["sigma1"]
+    expected = 2 * abs(np.trace(sigma - sigma @ sigma)) / np.trace(sigma)
+    assert np.isclose(fid_fixed_cases()["printed_self_distance"], expected)
+    assert fid_fixed_cases()["printed_fixed_cases_min_relative_error"] > 1e-3
+
+
+def test_the_emg9_rule_reads_the_fixed_cases() -> None:
+    measured = {"fid_vs_closed_form_relative_error": 1e-12,
+                "printed_vs_closed_form_relative_error": 0.5,
+                **{k: v for k, v in fid_fixed_cases().items() if k != "cases"}}
+    assert get_claim("EMG-9").decide(measured).verdict == "discrepancy in the paper"
