@@ -79,19 +79,19 @@ from repro.energymogen.data import (
 )
 from repro.energymogen.figures import Record
 from repro.energymogen.harness import (
-    _BASE_AMPLITUDE,
+    BASE_AMPLITUDE,
     CONTROL_STREAM,
     KINDS,
     TextToMotionTest,
-    _rng,
-    _swap_fraction,
     composition_metrics,
+    control_rng,
     fid_curve,
     generation_metrics,
     ground_truth_r_precision,
     oracle_presence,
     permute_motions,
     reference_embeddings,
+    swap_fraction,
     t2m_measurements,
     with_feature_noise,
 )
@@ -523,19 +523,19 @@ def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest | No
                                 0, reference)["r_precision_top3"]
 
     base_swap = 0.5
-    base_fid = curve.fid(_BASE_AMPLITUDE)
+    base_fid = curve.fid(BASE_AMPLITUDE)
     aug_amplitude = curve.amplitude((1 - 0.1 * scale) * base_fid)
-    base_r3 = r3_at(_BASE_AMPLITUDE, base_swap)
-    aug_swap = _swap_fraction(r3_at(aug_amplitude, 0.0), r3_at(aug_amplitude, 1.0),
+    base_r3 = r3_at(BASE_AMPLITUDE, base_swap)
+    aug_swap = swap_fraction(r3_at(aug_amplitude, 0.0), r3_at(aug_amplitude, 1.0),
                               base_r3 + 0.01 * scale)
     plan = {"positive": {"augmented": (aug_amplitude, aug_swap),
-                         "baseline": (_BASE_AMPLITUDE, base_swap)},
-            "null": {"augmented": (_BASE_AMPLITUDE, base_swap),
-                     "baseline": (_BASE_AMPLITUDE, base_swap)}}
+                         "baseline": (BASE_AMPLITUDE, base_swap)},
+            "null": {"augmented": (BASE_AMPLITUDE, base_swap),
+                     "baseline": (BASE_AMPLITUDE, base_swap)}}
     out: dict[str, Any] = {kind: {} for kind in KINDS}
     for seed in seeds:
         for kind in KINDS:
-            rng = _rng(seed, 8, kind)
+            rng = control_rng(seed, 8, kind)
             for arm, (amplitude, fraction) in plan[kind].items():
                 noisy = with_feature_noise(test.features, pipe.data.std, amplitude, rng)
                 values = t2m_measurements(pipe, test, permute_motions(noisy, fraction, rng),
@@ -547,7 +547,7 @@ def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest | No
                     planted={"plan": plan, "baseline_fid_expected": base_fid,
                              "fid_curve": dataclasses.asdict(curve),
                              "baseline_r3_expected": base_r3},
-                    null_text=(f"both arms noised at {_BASE_AMPLITUDE:g} × std with {base_swap:g} "
+                    null_text=(f"both arms noised at {BASE_AMPLITUDE:g} × std with {base_swap:g} "
                                f"of the motions permuted, independent draws, "
                                f"{len(seeds)} seed(s)"),
                     positive_text=(f"the augmented arm at {aug_amplitude:.3g} × std (FID × "

@@ -90,7 +90,7 @@ from repro.energymogen.figures import Figures
 from repro.energymogen.harness import (
     CONTROL_STREAM,
     KINDS,
-    _rng,
+    control_rng,
     oracle_presence,
     pair_index,
     per_pair_mean,
@@ -1017,7 +1017,7 @@ def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_ca
         alone = np.array([set(c) <= f for c, f in zip(items.concepts, singles, strict=True)])
         found = _negation_sets(neg, pool, clips)
         for claim_id, kind in ((c, k) for c in claims for k in KINDS):
-            rng, rates = _rng(seed, claims[claim_id], kind), plan[kind]
+            rng, rates = control_rng(seed, claims[claim_id], kind), plan[kind]
 
             def arm(p: float, rng: np.random.Generator = rng, has_both: np.ndarray = has_both,
                     alone: np.ndarray = alone) -> np.ndarray:
@@ -1110,7 +1110,7 @@ def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]
         for kind in KINDS:
             multi, floor = [], []
             for index, found in enumerate(per_seed):
-                rng = _rng(index, 6 + 10 * index_kind, kind)
+                rng = control_rng(index, 6 + 10 * index_kind, kind)
                 seed_multi, seed_floor = [], []
                 for case in found:
                     composed = np.asarray(case["smooth"]["composed"])

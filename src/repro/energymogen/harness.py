@@ -72,6 +72,7 @@ from repro.models.evaluator import evaluate_generated
 from repro.standin.oracles import detect_concepts
 
 __all__ = [
+    "BASE_AMPLITUDE",
     "CONTROL_STREAM",
     "FidCurve",
     "KINDS",
@@ -82,6 +83,7 @@ __all__ = [
     "build_text_to_motion_test",
     "clip_count",
     "composition_metrics",
+    "control_rng",
     "fid_curve",
     "folder_test",
     "generation_metrics",
@@ -93,11 +95,13 @@ __all__ = [
     "oracle_accuracy",
     "oracle_presence",
     "pair_index",
+    "per_frame_displacement_cm",
     "per_pair_mean",
     "permute_motions",
     "reference_embeddings",
     "scale_movement",
     "shared_concept_anchors",
+    "swap_fraction",
     "swap_motions",
     "t2m_measurements",
     "transition_distance_at_transitions_cm",
@@ -348,7 +352,7 @@ def transition_distance_cm(features: np.ndarray) -> float:
 SPEED_FLOOR_CM = 0.01
 
 
-def _per_frame_displacement_cm(features: np.ndarray) -> np.ndarray:
+def per_frame_displacement_cm(features: np.ndarray) -> np.ndarray:
     """(T − 1,) mean over joints of ‖j_t − j_{t−1}‖ (cm) on ``metrics.ric_joints`` (root-
     relative, heading-free: STMC's local joints); entry t − 1 is the step into frame t."""
     joints = metrics.ric_joints(np.asarray(features))
@@ -373,7 +377,7 @@ def transition_distances_at_cm(features: Sequence[np.ndarray],
         raise ValueError(f"{len(features)} motions for {len(transitions)} transition lists")
     out = []
     for clip, points in zip(features, transitions, strict=True):
-        step = _per_frame_displacement_cm(clip)
+        step = per_frame_displacement_cm(clip)
         out.append(step[_check_transitions(len(step) + 1, points) - 1])
     return np.concatenate(out)
 
@@ -396,7 +400,7 @@ def transition_speed_ratio(features: Sequence[np.ndarray],
         raise ValueError(f"{len(features)} motions for {len(transitions)} transition lists")
     ratios = []
     for clip, points in zip(features, transitions, strict=True):
-        step = _per_frame_displacement_cm(clip)
+        step = per_frame_displacement_cm(clip)
         at = step[_check_transitions(len(step) + 1, points) - 1]
         ratios.append((at.mean() + floor_cm) / (step.mean() + floor_cm))
     return float(np.mean(ratios))
@@ -560,11 +564,13 @@ def fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest, reference: np.n
 KINDS = ("positive", "null")
 
 
-def _rng(seed: int, claim: int, kind: str) -> np.random.Generator:
+def control_rng(seed: int, claim: int, kind: str) -> np.random.Generator:
+    """The randomness of one claim's control arm ``kind`` at ``seed``: independent per claim,
+    arm and seed."""
     return np.random.default_rng([CONTROL_STREAM, claim, KINDS.index(kind), seed])
 
 
-def _swap_fraction(clean: float, swapped: float, target: float) -> float:
+def swap_fraction(clean: float, swapped: float, target: float) -> float:
     """The swap fraction whose expected R@3 is ``target`` (linear between the endpoints)."""
     if clean - swapped <= 0:
         return 0.0
@@ -572,4 +578,4 @@ def _swap_fraction(clean: float, swapped: float, target: float) -> float:
 
 
 #: our choice: the compared arms' base noise (× the data's per-feature std)
-_BASE_AMPLITUDE = 0.5
+BASE_AMPLITUDE = 0.5

@@ -57,10 +57,10 @@ from repro.core.training import torch_threads
 from repro.energymogen import settings as rule_settings
 from repro.energymogen.figures import Record
 from repro.energymogen.harness import (
-    _BASE_AMPLITUDE,
+    BASE_AMPLITUDE,
     KINDS,
     TextToMotionTest,
-    _rng,
+    control_rng,
     fid_curve,
     generation_metrics,
     oracle_accuracy,
@@ -355,30 +355,30 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
     base = 0.05
     reference = reference_embeddings(pipe, test)
     curve = fid_curve(pipe, test, reference)
-    other_fid = curve.fid(_BASE_AMPLITUDE)
+    other_fid = curve.fid(BASE_AMPLITUDE)
     best_amplitude = curve.amplitude((1 - 0.177 * scale) * other_fid)
     out: dict[str, Any] = {kind: {"reconstruction_error": {}, "generation_fid": {}}
                            for kind in KINDS}
     for seed in seeds:
         for kind in KINDS:
-            rng = _rng(seed, 7, kind)
+            rng = control_rng(seed, 7, kind)
             for n in counts:
                 mean = base * (1 - 0.362 * scale if kind == "positive" and n == 7 else 1.0)
                 offsets = mean * np.sqrt(np.pi / 2) * np.abs(rng.standard_normal(len(test)))
                 recon = _offset_height(test.features, offsets)
                 amplitude = (best_amplitude if kind == "positive" and n == 5
-                             else _BASE_AMPLITUDE)
+                             else BASE_AMPLITUDE)
                 generated = with_feature_noise(test.features, pipe.data.std, amplitude, rng)
                 out[kind]["reconstruction_error"].setdefault(str(n), []).append(
                     mpjpe(recon, test.features))
                 out[kind]["generation_fid"].setdefault(str(n), []).append(
                     t2m_measurements(pipe, test, generated, seed, reference)["fid"])
     return Controls(null=out["null"], positive=out["positive"],
-                    planted={"offset_mean_m": base, "base_amplitude": _BASE_AMPLITUDE,
+                    planted={"offset_mean_m": base, "base_amplitude": BASE_AMPLITUDE,
                              "best_amplitude": best_amplitude, "other_fid": other_fid,
                              "fid_curve": dataclasses.asdict(curve)},
                     null_text=(f"every N the test clips lifted by {base:g} m on average and "
-                               f"noised at {_BASE_AMPLITUDE:g} × std, independent draws, "
+                               f"noised at {BASE_AMPLITUDE:g} × std, independent draws, "
                                f"{len(seeds)} seed(s)"),
                     positive_text=(f"N = 7's lift × {1 - 0.362 * scale:g}; N = 5's noise "
                                    f"{best_amplitude:.3g} × std (FID × {1 - 0.177 * scale:g})"))

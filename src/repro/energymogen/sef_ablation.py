@@ -82,12 +82,12 @@ from repro.energymogen.figures import Figures
 from repro.energymogen.harness import (
     CONTROL_STREAM,
     KINDS,
-    _per_frame_displacement_cm,
-    _rng,
-    _swap_fraction,
     composition_metrics,
+    control_rng,
     pair_index,
+    per_frame_displacement_cm,
     scale_movement,
+    swap_fraction,
     swap_motions,
     transition_distance_at_transitions_cm,
     transition_distance_cm,
@@ -353,7 +353,7 @@ def timeline_measurements(features: Sequence[np.ndarray], transitions: Sequence[
     return {"transition_distance_at_transitions":
             transition_distance_at_transitions_cm(features, transitions),
             "transition_speed_ratio": transition_speed_ratio(features, transitions),
-            "mean_speed": float(np.mean([_per_frame_displacement_cm(f).mean()
+            "mean_speed": float(np.mean([per_frame_displacement_cm(f).mean()
                                          for f in features]))}
 
 
@@ -668,7 +668,7 @@ def _row_plan(source: PipelineSource, seeds: Sequence[int], claim: int,
         items = energy_view_items(pipe.data, seed, pipe.config.items_per_pair)
         groups = _swap_groups(items)
         for kind in KINDS:
-            rng = _rng(seed, claim, kind)
+            rng = control_rng(seed, claim, kind)
             plan = rows(pipe, items, seed, kind)
             calibration.setdefault(kind, []).append(plan)
             for row, spec in plan.items():
@@ -715,7 +715,7 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
         targets = {key: other for key in row_keys}
         if kind == "positive":
             targets[best], targets[large] = clean, other * (1 - 0.417 * scale)
-        return {key: {"movement": 1.0, "swap": _swap_fraction(clean, swapped, target),
+        return {key: {"movement": 1.0, "swap": swap_fraction(clean, swapped, target),
                       "target": target, "clean": clean, "swapped": swapped}
                 for key, target in targets.items()}
 
@@ -752,7 +752,7 @@ def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float =
              ) -> dict[str, dict[str, Any]]:
         if kind == "null":
             clean, swapped = _endpoints(pipe, items, seed, 1.0)
-            swap = _swap_fraction(clean, swapped, clean / 1.2143)
+            swap = swap_fraction(clean, swapped, clean / 1.2143)
             return {key: {"movement": 1.0, "swap": swap, "clean": clean, "swapped": swapped}
                     for key in (lat, sem, sef)}
         semantic = 1 + 0.1875 * scale
@@ -761,7 +761,7 @@ def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float =
         target_lat = ends[sef][0] / (1 + 0.2143 * scale)
         targets = {lat: target_lat, sem: (1 + 0.2015 * scale) * target_lat, sef: ends[sef][0]}
         return {key: {"movement": movement[key], "target": targets[key],
-                      "swap": _swap_fraction(*ends[key], targets[key]), "clean": ends[key][0],
+                      "swap": swap_fraction(*ends[key], targets[key]), "clean": ends[key][0],
                       "swapped": ends[key][1]} for key in movement}
 
     out = _row_plan(source, seeds, 5, rows)
