@@ -1,6 +1,6 @@
 """Notebook 04's measurements (repro.energymogen.energy_contour_maps): EMG-1's identities on toy
-fields with known answers and its per-t measurements, EMG-6's maps, EMG-9's FID check and its
-draw-independent fixed cases, and one energy-map case on the tiny pipeline."""
+fields with known answers and its per-t measurements, EMG-6's maps, EMG-9's FID check (its
+fixed cases: test_fid_checks.py), and one energy-map case on the tiny pipeline."""
 
 from __future__ import annotations
 
@@ -8,12 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from repro.claims.registry import get_claim
 from repro.core.diffusion import GaussianDiffusion
 from repro.energymogen import energy_contour_maps as ecm
 from repro.energymogen.energy_contour_maps import (
-    fid_fixed_cases,
-    fixed_cases,
     flat_jacobian,
     loop_plane,
     relative_circulation,
@@ -199,23 +196,3 @@ def test_the_identity_term_changes_only_the_denominator() -> None:
     assert residual_asymmetry(jac, 5.0) != residual_asymmetry(jac, 0.0)
     assert residual_asymmetry(jac + 5.0 * torch.eye(8, dtype=torch.float64), 5.0) == \
         residual_asymmetry(jac, 0.0)
-
-
-def test_ours_matches_every_closed_form_and_is_zero_at_p_equals_p() -> None:
-    result = fid_fixed_cases()
-    assert result["fid_fixed_cases_max_relative_error"] < 1e-9
-    assert [c["closed_form"] for c in fixed_cases()][-1] == 0.0
-
-
-def test_printed_form_at_p_equals_p_is_minus_twice_the_trace_of_sigma_minus_sigma_squared() -> None:
-    sigma = fixed_cases()[-1]["sigma1"]
-    expected = 2 * abs(np.trace(sigma - sigma @ sigma)) / np.trace(sigma)
-    assert np.isclose(fid_fixed_cases()["printed_self_distance"], expected)
-    assert fid_fixed_cases()["printed_fixed_cases_min_relative_error"] > 1e-3
-
-
-def test_the_emg9_rule_reads_the_fixed_cases() -> None:
-    measured = {"fid_vs_closed_form_relative_error": 1e-12,
-                "printed_vs_closed_form_relative_error": 0.5,
-                **{k: v for k, v in fid_fixed_cases().items() if k != "cases"}}
-    assert get_claim("EMG-9").decide(measured).verdict == "discrepancy in the paper"
