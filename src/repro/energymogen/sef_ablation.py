@@ -415,7 +415,7 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
 def timeline_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequence[int],
                   *, items_per_seed: int, log: Callable[[str], None] | None = None
                   ) -> dict[str, dict[str, list[float]]] | NotMeasurable:
-    """EMG-5's transition measurements on the MTT-style timelines (``timelines``): row →
+    """EMG-5's transition measurements on the MTT-style timelines (:func:`timeline_items`): row →
     metric → per-seed list (:func:`timeline_measurements`).
 
     Per seed, ``items_per_seed`` items (``timeline_items(seed, …)``); every row

@@ -618,13 +618,14 @@ class EnergyViewSettings(_NotebookSettings):
 @dataclass(frozen=True)
 class SEFAblationSettings(_NotebookSettings):
     """Notebook 05 (EMG-4, EMG-5): the pipeline, the number of seeds and the MTT-style
-    timeline items per seed on which EMG-5's transitions are measured (``timelines``; 64 at
-    standard and paper, our choice: 1–3 boundaries each, about 150 transitions per row and seed, one
-    item in eight of MTT's 500; 8 in quick runs) and the training plan (every EnergyMoGen
-    notebook's: one trained pipeline). On a data folder EMG-4 is measured (Table 9's
-    single-text rows with AGD, from the captions of the folder's test windows, R@3 and FID
-    against them); EMG-5 (the λ rows compose concepts; the timelines and the sets of three
-    are the stand-in's) is recorded as not measurable on real data."""
+    timeline items per seed on which EMG-5's transitions are measured
+    (``sef_ablation.timeline_items``; 64 at standard and paper, our choice: 1–3 boundaries each,
+    about 150 transitions per row and seed, one item in eight of MTT's 500; 8 in quick runs)
+    and the training plan (every EnergyMoGen notebook's: one trained pipeline). On a data
+    folder EMG-4 is measured (Table 9's single-text rows with AGD, from the captions of the
+    folder's test windows, R@3 and FID against them); EMG-5 (the λ rows compose concepts; the
+    timelines and the sets of three are the stand-in's) is recorded as not measurable on real
+    data."""
 
     NOTEBOOK: ClassVar[str] = "05_sef_ablation"
     scale: str
