@@ -21,10 +21,9 @@ from pathlib import Path
 import torch
 
 from repro.energymogen import model_gates
-from repro.energymogen.config import pipeline_config
 from repro.energymogen.harness import load_or_build_text_to_motion_test
 from repro.energymogen.pipeline import SeedPipelines, load_pipeline
-from repro.energymogen.settings import EnergyViewSettings, LatentCountSettings
+from repro.energymogen.settings import EnergyViewSettings, LatentCountSettings, pipeline_config
 
 
 def main() -> None:

@@ -11,8 +11,8 @@ import nbformat
 import pytest
 import torch
 
-from repro.energymogen.config import PipelineConfig
 from repro.energymogen.pipeline import EnergyMoGenPipeline, load_pipeline
+from repro.energymogen.settings import PipelineConfig
 from repro.infra import paths
 from repro.infra.context import RunContext
 
@@ -44,7 +44,7 @@ def settings_classes() -> dict[str, Any]:
 def run_settings(claim_id: str, scale: str = "standard") -> dict[str, Any]:
     """What ``claim_id``'s rule quotes of a run at ``scale``: its paper package's
     ``rule_settings`` of the Settings its notebook builds (no model trained)."""
-    from repro.energymogen import rule_settings as emg_rules
+    from repro.energymogen import settings as emg_rules
     from repro.gmd import settings as gmd_rules
 
     functions = {**gmd_rules.RULE_SETTINGS, **emg_rules.RULE_SETTINGS}

@@ -11,7 +11,8 @@ import pytest
 from repro.claims import printed, seed_text
 from repro.claims.printed import QUOTES, get_table, value
 from repro.claims.registry import CLAIMS
-from repro.energymogen import latent_count, studies
+from repro.energymogen import latent_count
+from repro.energymogen import sef_ablation as studies
 from repro.gmd import measurements as table_b1
 
 EMG = "EnergyMoGen"

@@ -13,7 +13,7 @@ import pytest
 from repro.claims import printed
 from repro.claims.errata import errata_html, errata_markdown, load_errata, parse_errata
 from repro.claims.registry import CLAIMS
-from repro.energymogen import studies
+from repro.energymogen import sef_ablation as studies
 from repro.infra import paths
 
 

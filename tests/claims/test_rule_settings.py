@@ -15,7 +15,7 @@ from conftest import settings_classes
 
 from repro.claims.claim import MissingRuleSetting, setting_text
 from repro.claims.registry import CLAIMS, get_claim
-from repro.energymogen import rule_settings as emg_rules
+from repro.energymogen import settings as emg_rules
 from repro.gmd import guidance_schedule, x0_vs_eps
 from repro.gmd import settings as gmd_rules
 from repro.infra import paths
@@ -98,7 +98,7 @@ def test_every_experiment_passes_the_settings_its_rule_quotes() -> None:
             for call in _claim_result_calls(path):
                 first = call.args[0] if call.args else None
                 ids = ([first.value] if isinstance(first, ast.Constant) else
-                       ["EMG-2", "EMG-3"] if path.name == "composition_claims.py" else [])
+                       ["EMG-2", "EMG-3"] if path.name == "energy_contour_maps.py" else [])
                 keywords = {k.arg: k.value for k in call.keywords}
                 for claim_id in ids:
                     if not get_claim(claim_id).rule_fields:

@@ -1,5 +1,5 @@
-"""What the EnergyMoGen experiments return (``energy_claims``, ``t2m_claims``,
-``three_concepts``): a ClaimResult with every measurement the registered rule reads, its
+"""What the EnergyMoGen experiments return (``energy_contour_maps``, ``latent_count``,
+``sef_ablation``): a ClaimResult with every measurement the registered rule reads, its
 controls' calibration kept beside, and the notebooks' summary lines."""
 
 from __future__ import annotations
@@ -11,12 +11,15 @@ from conftest import make_context
 from repro.claims.ledger import load_sidecars
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls, record
-from repro.energymogen.energy import fid_formula_errors
-from repro.energymogen.energy_claims import emg9_result, fid_draws_markdown
-from repro.energymogen.fid_checks import fid_fixed_cases
+from repro.energymogen.energy_contour_maps import (
+    emg9_result,
+    fid_draws_markdown,
+    fid_fixed_cases,
+    fid_formula_errors,
+)
+from repro.energymogen.latent_count import emg7_result
+from repro.energymogen.sef_ablation import summary_line
 from repro.energymogen.settings import LatentCountSettings
-from repro.energymogen.t2m_claims import emg7_result
-from repro.energymogen.three_concepts import summary_line
 
 
 def test_emg9_is_recorded_with_every_measurement_its_rule_reads(tmp_path: Path) -> None:

@@ -1,5 +1,5 @@
-"""Training the pipeline to convergence (repro.energymogen.convergence and the plan's path
-through repro.energymogen.pipeline): the convergence fields and the validation data enter the
+"""Training the pipeline to convergence (repro.energymogen.settings.TrainingPlan and the plan's
+path through repro.energymogen.pipeline): the convergence fields and the validation data enter the
 cache keys only with a plan, the pipeline carries each model's training record from exactly
 its own cache entry, and retraining (other seeds, other N) keeps the plan."""
 
@@ -13,11 +13,12 @@ import numpy as np
 import pytest
 from conftest import TINY_PIPELINE as TINY
 
+from repro.energymogen import data as em_data
 from repro.energymogen import latent_count as lc
 from repro.energymogen import pipeline as em
-from repro.energymogen.config import pipeline_config
-from repro.energymogen.convergence import TrainingPlan, cached_training_record
 from repro.energymogen.data import VALIDATION_KEY, load_or_build_validation_clips
+from repro.energymogen.pipeline import cached_training_record
+from repro.energymogen.settings import TrainingPlan, pipeline_config
 from repro.infra import cache
 
 #: a plan for the tiny pipeline: a few evaluations, patience 1, so the plateau can stop it
@@ -57,7 +58,7 @@ def test_validation_clips_are_held_out_and_in_distribution(emg_cache: Path) -> N
     again = load_or_build_validation_clips(TINY, 6)
     assert np.array_equal(clips.features, again.features) and clips.captions == again.captions
     assert VALIDATION_KEY > TINY.n_train_clips
-    data = em.load_or_build_data(TINY)
+    data = em_data.load_or_build_data(TINY)
     for clip in data.train_features:               # no training clip is a validation clip
         assert not np.any(np.all(np.isclose(clips.features, clip[None]), axis=(1, 2)))
 

@@ -10,8 +10,9 @@ import pytest
 import torch
 from conftest import TINY_PIPELINE
 
-from repro.energymogen import augmentation as ag
+from repro.energymogen import composed_augmentation as ag
 from repro.energymogen import pipeline as em
+from repro.energymogen import settings as emg_settings
 from repro.energymogen.pipeline import Sampler, load_pipeline
 from repro.models.latent_denoiser import train_latent_denoiser
 
@@ -57,6 +58,6 @@ def test_emg8_fine_tuning_trains_on_the_pipelines_device(
     pipe = load_pipeline(TINY_PIPELINE, "cuda", log=None)
     devices = _record_devices(monkeypatch, ag)
     rows = ag.caption_rows(pipe, pipe.data.train_features[:8], pipe.data.train_captions[:8])
-    tuned, _ = ag.load_or_finetune(pipe, rows, ag.finetune_config(pipe.config, seed=0))
+    tuned, _ = ag.load_or_finetune(pipe, rows, emg_settings.finetune_config(pipe.config, seed=0))
     assert devices == ["cuda"]
     assert all(p.device.type == "cuda" for p in tuned.parameters())

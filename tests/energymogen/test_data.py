@@ -8,14 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from repro.energymogen.config import (
-    FRAMES,
-    HELD_OUT_PAIRS,
-    LOWER_CONCEPTS,
-    NEGATION_CASES,
-    THREE_CONCEPT_SETS,
-    THREES_AS_PAIRS,
-)
 from repro.energymogen.data import (
     CompositionPool,
     composition_items,
@@ -23,6 +15,14 @@ from repro.energymogen.data import (
     negation_items,
 )
 from repro.energymogen.pipeline import EnergyMoGenPipeline
+from repro.energymogen.settings import (
+    FRAMES,
+    HELD_OUT_PAIRS,
+    LOWER_CONCEPTS,
+    NEGATION_CASES,
+    THREE_CONCEPT_SETS,
+    THREES_AS_PAIRS,
+)
 from repro.standin.concepts import CONCEPTS
 
 

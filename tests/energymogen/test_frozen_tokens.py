@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import torch
 
-from repro.energymogen.config import pipeline_config
 from repro.energymogen.pipeline import _caption_rows
+from repro.energymogen.settings import pipeline_config
 from repro.models.frozen_text import shared_minilm
 
 CAPTIONS = [["a person walks forward and then turns left", "someone waves with the right hand"],

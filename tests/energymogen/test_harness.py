@@ -9,7 +9,6 @@ import pytest
 from conftest import TINY_PIPELINE
 
 from repro.core import metrics
-from repro.energymogen.config import ARM_CONCEPTS, FRAMES, LOWER_CONCEPTS
 from repro.energymogen.data import trained_pairs
 from repro.energymogen.harness import (
     R_PRECISION_BATCH,
@@ -23,6 +22,7 @@ from repro.energymogen.harness import (
     shared_concept_anchors,
 )
 from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler
+from repro.energymogen.settings import ARM_CONCEPTS, FRAMES, LOWER_CONCEPTS
 
 
 def test_oracle_accuracy_takes_ragged_concept_lists() -> None:

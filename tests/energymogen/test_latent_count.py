@@ -10,13 +10,14 @@ from conftest import TINY_PIPELINE as TINY
 
 from repro.claims.registry import get_claim
 from repro.energymogen import latent_count as lc
+from repro.energymogen import settings as emg_settings
 from repro.energymogen.harness import TextToMotionTest, load_or_build_text_to_motion_test
 from repro.energymogen.pipeline import EnergyMoGenPipeline
 
 
 def test_paper_table8_is_the_registry_value() -> None:
-    recon = [lc.PAPER_TABLE8["reconstruction"][str(n)]["fid"] for n in lc.LATENT_COUNTS]
-    gen = [lc.PAPER_TABLE8["generation"][str(n)]["fid"] for n in lc.LATENT_COUNTS]
+    recon = [lc.PAPER_TABLE8["reconstruction"][str(n)]["fid"] for n in emg_settings.LATENT_COUNTS]
+    gen = [lc.PAPER_TABLE8["generation"][str(n)]["fid"] for n in emg_settings.LATENT_COUNTS]
     assert recon == [0.170, 0.117, 0.080, 0.022] and gen == [0.424, 0.418, 0.188, 0.291]
     paper = get_claim("EMG-7").paper_value
     assert all(f"{v:.3f}" in paper for v in recon + gen)

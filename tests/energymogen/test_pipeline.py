@@ -20,8 +20,8 @@ from repro.core.training import TrainConfig
 from repro.energymogen import latent_count as lc
 from repro.energymogen import pipeline as em
 from repro.energymogen.compose import MODES
-from repro.energymogen.config import PipelineConfig, pipeline_config, with_learned_text
 from repro.energymogen.data import load_or_build_data
+from repro.energymogen.settings import PipelineConfig, pipeline_config, with_learned_text
 from repro.infra import cache, paths
 from repro.models import vae as vae_module
 from repro.models.vae import VAETrainConfig, array_fingerprint, load_or_train_vae

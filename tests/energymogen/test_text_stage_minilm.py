@@ -11,7 +11,9 @@ import pytest
 import torch
 from conftest import TINY_PIPELINE
 
-from repro.energymogen.config import (
+from repro.energymogen.data import load_or_build_data, load_or_build_test_pool
+from repro.energymogen.pipeline import denoiser_kwargs, denoiser_rows
+from repro.energymogen.settings import (
     EXTRA_TEST_SETS,
     MINILM_MAX_TEXT_LEN,
     PipelineConfig,
@@ -20,8 +22,6 @@ from repro.energymogen.config import (
     with_learned_text,
     with_minilm,
 )
-from repro.energymogen.data import load_or_build_data, load_or_build_test_pool
-from repro.energymogen.pipeline import denoiser_kwargs, denoiser_rows
 from repro.energymogen.text_stage import train_text_stage
 from repro.models.frozen_text import MINILM_WIDTH, FrozenTextEncoder, shared_minilm
 from repro.models.latent_denoiser import LatentDenoiser

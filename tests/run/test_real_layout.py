@@ -29,17 +29,18 @@ import pytest
 import torch
 
 from repro.claims.ledger import load_sidecars
-from repro.energymogen import studies as em_studies
-from repro.energymogen.config import FRAMES, pipeline_config
+from repro.energymogen import sef_ablation as em_studies
 from repro.energymogen.data import build_folder_data, composition_items
 from repro.energymogen.harness import oracle_accuracy
 from repro.energymogen.latent_count import table8_markdown
 from repro.energymogen.settings import (
+    FRAMES,
     AugmentationSettings,
     EnergyViewSettings,
     LatentCountSettings,
     SEFAblationSettings,
     folder_problems,
+    pipeline_config,
 )
 from repro.gmd.windows import DataConfig, load_windows
 from repro.infra import paths

@@ -1,9 +1,9 @@
 """The stand-in data of the EnergyMoGen pipeline and its composition test items.
 
-- **data** — fixed-length clips (``config.FRAMES`` = 64 frames, 3.2 s) from
+- **data** — fixed-length clips (``settings.FRAMES`` = 64 frames, 3.2 s) from
   ``repro.standin.generator``: single concepts and simultaneous pairs (a locomotion/leg concept
   with an arm concept, the generator's disjoint body parts). The pairs of
-  ``config.HELD_OUT_PAIRS`` never occur in training, so composing them is a real test. Their
+  ``settings.HELD_OUT_PAIRS`` never occur in training, so composing them is a real test. Their
   clips form the composition test pool, in the spirit of MTT (EnergyMoGen G.1): per item the
   concepts, one text per concept and the single joined text ("... while ...", "... and ... at
   the same time"), and the ground-truth composed motion (:func:`composition_items`).
@@ -28,9 +28,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from repro.energymogen.config import (
+from repro.energymogen.settings import (
     ARM_CONCEPTS,
     EXTRA_TEST_SETS,
+    FOLDER_STRIDE,
     FRAMES,
     HELD_OUT_PAIRS,
     LOWER_CONCEPTS,
@@ -54,16 +55,34 @@ from repro.standin.generator import (
 )
 
 __all__ = [
-    "FOLDER_MIN_TEST", "FOLDER_MIN_TRAIN", "FOLDER_STRIDE", "VALIDATION_KEY", "ClipRequest",
-    "CompositionItems", "CompositionPool", "HeldOutClips", "NegationItems", "NotMeasurable",
+    "ClipRequest",
+    "CompositionItems",
+    "CompositionPool",
+    "HeldOutClips",
+    "NegationItems",
+    "NotMeasurable",
     "StandInData",
-    "build_composition_pool", "build_folder_data", "build_stand_in_data", "composition_items",
-    "concept_text", "draw_clip_request", "draw_training_like_clips", "energy_view_items",
+    "VALIDATION_KEY",
+    "build_composition_pool",
+    "build_folder_data",
+    "build_stand_in_data",
+    "composition_items",
+    "concept_text",
+    "draw_clip_request",
+    "draw_training_like_clips",
+    "energy_view_items",
     "evaluator_clips",
-    "folder_windows", "load_or_build_data", "load_or_build_test_pool",
+    "folder_windows",
+    "load_or_build_data",
+    "load_or_build_test_pool",
     "load_or_build_validation_clips",
-    "negation_items", "not_measurable_reason", "pair_caption", "stand_in_clip", "stand_in_clips",
-    "stand_in_clips_of", "trained_pairs",
+    "negation_items",
+    "not_measurable_reason",
+    "pair_caption",
+    "stand_in_clip",
+    "stand_in_clips",
+    "stand_in_clips_of",
+    "trained_pairs",
 ]
 
 
@@ -279,20 +298,6 @@ def load_or_build_data(config: PipelineConfig) -> StandInData:
             [tuple(c) for c in text["test_concepts"]], stored["mean"], stored["std"])
 
 
-# ----------------------------------------------------------------------------------------------
-# A data folder in the HumanML3D layout (real data: no concept labels)
-# ----------------------------------------------------------------------------------------------
-
-#: windows of a data folder start every ``FOLDER_STRIDE`` frames of each clip (our choice: half
-#: a window, so a 3.2 s window overlaps its neighbour by half); a clip shorter than
-#: ``config.FRAMES`` gives none
-FOLDER_STRIDE = FRAMES // 2
-#: the fewest training windows a data folder must leave once the validation clips are held out
-#: (our choice: one VAE batch of the quick scale; ``folder_needs``)
-FOLDER_MIN_TRAIN = 32
-#: the fewest test windows: one R-precision batch of 32 (the evaluator's gate,
-#: ``model_gates.evaluator_gate_values``)
-FOLDER_MIN_TEST = 32
 #: rng stream of the validation clips held out of a folder's train split
 _FOLDER_VALIDATION_STREAM = 33
 
@@ -411,10 +416,6 @@ def load_or_build_test_pool(config: PipelineConfig, name: str) -> CompositionPoo
         return pool
 
 
-# ----------------------------------------------------------------------------------------------
-# Held-out clips of the training distribution (validation, the text-to-motion test set)
-# ----------------------------------------------------------------------------------------------
-
 #: random keys of the validation clips start here (training clips: 0..n_train−1; the
 #: text-to-motion test set, ``harness``: 2·10⁶ + i): disjoint by construction.
 VALIDATION_KEY = 3 * 10 ** 6
@@ -482,11 +483,6 @@ def load_or_build_validation_clips(config: PipelineConfig, count: int) -> HeldOu
         return clips
 
 
-# ----------------------------------------------------------------------------------------------
-# Test items
-# ----------------------------------------------------------------------------------------------
-
-
 @dataclass(frozen=True)
 class CompositionItems:
     """An MTT-like composition batch: B items of n concepts each (n = 2: the held-out pairs;
@@ -538,13 +534,14 @@ def composition_items(data: StandInData, seed: int, per_pair: int,
 
 
 def energy_view_items(data: StandInData, seed: int, per_pair: int) -> CompositionItems:
-    """The test latents' draws of EMG-1's model identities (``energy.energy_view_study``,
-    ``gradient_field.gradient_field_study``) and of notebook 05's rows (``studies.run_rows``,
-    EMG-4's controls; a folder: single-text rows only): on the stand-in set
-    :func:`composition_items` (``per_pair`` per held-out pair, unchanged); on a data folder (no
-    concepts to compose) as many test windows (at most all) drawn with ``seed``, each with one
-    of its captions as the joined text and as the first "concept", the next item's caption as
-    the second: Eq. 5–7's identities hold for any two conditions, so only the texts differ."""
+    """The test latents' draws of EMG-1's model identities
+    (``energy_contour_maps.energy_view_study``, ``energy_contour_maps.gradient_field_study``)
+    and of notebook 05's rows (``sef_ablation.run_rows``, EMG-4's controls; a folder:
+    single-text rows only): on the stand-in set :func:`composition_items` (``per_pair`` per
+    held-out pair, unchanged); on a data folder (no concepts to compose) as many test windows
+    (at most all) drawn with ``seed``, each with one of its captions as the joined text and as
+    the first "concept", the next item's caption as the second: Eq. 5–7's identities hold for
+    any two conditions, so only the texts differ."""
     if data.labelled:
         return composition_items(data, seed, per_pair)
     rng = np.random.default_rng([seed, 404])
@@ -594,4 +591,3 @@ def negation_items(seed: int, per_case: int) -> NegationItems:
                 fields["n"].append(negated)
     return NegationItems(tuple(fields["pair"]), tuple(fields["neg"]), tuple(fields["kept_text"]),
                          tuple(fields["kept"]), tuple(fields["n"]))
-

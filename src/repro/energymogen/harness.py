@@ -1,21 +1,50 @@
-"""The text-to-motion test harness of the EnergyMoGen experiments (EMG-7 and EMG-8 use it).
+"""The measurement harness of the EnergyMoGen experiments: the held-out test sets, the
+measurements several claims share, and the planted sample sets of their controls.
 
 - :class:`TextToMotionTest` — the stand-in for the HumanML3D test set: held-out clips drawn
   exactly as the pipeline's training clips (single concepts and the trained pairs, same
   probabilities) with random keys disjoint from the training ones
   (:func:`load_or_build_text_to_motion_test`, cache kind ``emg_t2m_test``);
-- :func:`build_shared_concept_test` — EMG-8's test set off the ceiling (issue #16: the
-  random-batch test sits at R@3 ≈ 0.97 on ground truth): the same kind of clips, grouped into
-  R-precision batches of 32 whose clips all share one concept (the batch's *anchor*), so every
-  distractor differs from the true clip only in its other body part — the composition the
-  fine-tuning on composed motions is meant to improve. Our choice, made before any EMG-8 run
-  on it, over a larger random batch: a larger batch lowers chance but its extra distractors
-  mostly differ in both concepts, so it still ranks the easy part first;
+- :func:`build_shared_concept_test` — EMG-8's test set off the ceiling (the random-batch test
+  sits at R@3 ≈ 0.97 on ground truth): the same kind of clips, grouped into R-precision
+  batches of 32 whose clips all share one concept (the batch's *anchor*), so every distractor
+  differs from the true clip only in its other body part — the composition the fine-tuning on
+  composed motions is meant to improve. Our choice, made before any EMG-8 run on it, over a
+  larger random batch: a larger batch lowers chance but its extra distractors mostly differ
+  in both concepts, so it still ranks the easy part first;
 - :func:`generation_metrics` — text-to-motion from the test captions with single-text
   classifier-free guidance: Table 8's columns (``evaluator.evaluate_generated``: R-precision,
   FID, MM-Dist, Diversity) plus the concept-oracle accuracy (:func:`oracle_accuracy`); on a
   grouped test (``TextToMotionTest.grouped``) R-precision is over its own batches
-  (:func:`grouped_r_precision`).
+  (:func:`grouped_r_precision`);
+- **composed motion** (notebooks 04, 05 and 08's held-out composed texts) — on one batch
+  (:func:`composition_metrics`): oracle presence per concept (:func:`oracle_presence`,
+  ``repro.standin.oracles``), R@1/R@3, TMR-style M2T/M2M, FID, transition distance
+  (:func:`transition_distance_cm`), foot skating, jitter; per held-out pair
+  (:func:`pair_index`, :func:`per_pair_mean`);
+- **transitions where they happen** (EMG-5): :func:`transition_distances_at_cm` (TEACH/STMC's
+  distance at a timeline's boundary frames) and :func:`transition_speed_ratio` (the same over
+  the clip's own mean speed, which standing still does not win);
+- **the controls' sample sets** — ground-truth motions with a known change planted: a
+  fraction swapped to another item's motion (:func:`swap_motions`: R-precision falls linearly
+  in it), passed round within a subset (:func:`permute_motions`: FID exactly unchanged), the
+  body's movement scaled about its temporal mean (:func:`scale_movement`: every
+  consecutive-frame displacement scales); and the feature-noised test clips that EMG-7's and
+  EMG-8's controls read their planted noise amplitudes off: the test clips plus Gaussian
+  feature noise of amplitude × the data's per-feature std (:func:`with_feature_noise`),
+  measured as :func:`generation_metrics` measures FID and R@3 (:func:`t2m_measurements`), and
+  a power law FID ≈ c·aᵏ fitted on calibration draws of its own (:class:`FidCurve`,
+  :func:`fid_curve`).
+
+Each claim's positive and null controls (in its notebook's module) run the experiment's own
+measurement code on these sets: *positive* plants every part's registered effect δ, *null*
+plants none (the compared arms come from one source, with independent randomness per seed).
+Sizes are set analytically or from a scale factor measured on the data before the arms are
+drawn (never by trying until a control passes); ``planted`` records those numbers (the
+sidecar's ``control_calibration``). ``scale`` multiplies every planted effect: 1 (the
+registered δ) in the notebooks; the tests plant larger effects to show that the
+measurement sees them. A control with one seed cannot decide a direction: in quick runs both
+controls come out inconclusive, and the claim with them.
 """
 
 from __future__ import annotations
@@ -26,8 +55,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from repro.core import metrics
-from repro.energymogen.config import ARM_CONCEPTS, LOWER_CONCEPTS, PipelineConfig
 from repro.energymogen.data import (
+    CompositionItems,
     NotMeasurable,
     StandInData,
     draw_clip_request,
@@ -37,17 +66,49 @@ from repro.energymogen.data import (
     trained_pairs,
 )
 from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler
+from repro.energymogen.settings import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPTS, PipelineConfig
 from repro.infra import cache, storage
 from repro.models.evaluator import evaluate_generated
 from repro.standin.oracles import detect_concepts
 
 __all__ = [
-    "R_PRECISION_BATCH", "TextToMotionTest", "build_shared_concept_test",
-    "build_text_to_motion_test", "clip_count", "folder_test", "generation_metrics",
-    "ground_truth_r_precision", "grouped_r_precision",
+    "BASE_AMPLITUDE",
+    "CONTROL_STREAM",
+    "FidCurve",
+    "KINDS",
+    "R_PRECISION_BATCH",
+    "SPEED_FLOOR_CM",
+    "TextToMotionTest",
+    "build_shared_concept_test",
+    "build_text_to_motion_test",
+    "clip_count",
+    "composition_metrics",
+    "control_rng",
+    "fid_curve",
+    "folder_test",
+    "generation_metrics",
+    "ground_truth_r_precision",
+    "grouped_r_precision",
     "grouped_r_precision_metrics",
-    "load_or_build_shared_concept_test", "load_or_build_text_to_motion_test", "oracle_accuracy",
+    "load_or_build_shared_concept_test",
+    "load_or_build_text_to_motion_test",
+    "oracle_accuracy",
+    "oracle_presence",
+    "pair_index",
+    "per_frame_displacement_cm",
+    "per_pair_mean",
+    "permute_motions",
+    "reference_embeddings",
+    "scale_movement",
     "shared_concept_anchors",
+    "swap_fraction",
+    "swap_motions",
+    "t2m_measurements",
+    "transition_distance_at_transitions_cm",
+    "transition_distance_cm",
+    "transition_distances_at_cm",
+    "transition_speed_ratio",
+    "with_feature_noise",
 ]
 
 #: random keys of the test clips start here (training clips use keys 0..n_train−1, the
@@ -252,3 +313,269 @@ def grouped_r_precision_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray,
                                 pipe.evaluator.embed_motions(features, test.lengths))
     return {f"r_precision_top{k}": float(rate) for k, rate in enumerate(rates, start=1)}
 
+
+def oracle_presence(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> np.ndarray:
+    """(B, n) bool: is the i-th concept of item b among ``oracles.detect_concepts`` of b?
+
+    The oracle calls both arms waving ``wave_both`` only; for an item that names the wave of
+    each arm (a set of three, ``settings.THREE_CONCEPT_SETS``) a detected ``wave_both``
+    is both of them. Items naming one arm's wave are scored as the oracle says.
+    """
+    if len(joints) != len(concepts):
+        raise ValueError(f"{len(joints)} motions for {len(concepts)} concept lists")
+    out = []
+    for clip, names in zip(joints, concepts, strict=True):
+        found = detect_concepts(clip)
+        if {"wave_left", "wave_right"} <= set(names) and "wave_both" in found:
+            found |= {"wave_left", "wave_right"}
+        out.append([name in found for name in names])
+    return np.asarray(out, dtype=bool)
+
+
+def transition_distance_cm(features: np.ndarray) -> float:
+    """Transition distance (TEACH/STMC) at every frame, in cm: mean over frames t and joints
+    of ‖j_t − j_{t−1}‖ on root-relative, heading-free joints (``metrics.ric_joints``).
+
+    Context only: averaged over all consecutive frames it is the body's mean speed, so it
+    rewards standing still (real data score worse than every generated row). EMG-5 reads
+    :func:`transition_distance_at_transitions_cm` and :func:`transition_speed_ratio` on the
+    MTT-style timelines.
+    """
+    features = np.asarray(features)
+    frames = np.arange(1, features.shape[-2])
+    return 100.0 * metrics.transition_distance(metrics.ric_joints(features), frames)
+
+
+#: our choice: the speed floor of :func:`transition_speed_ratio` (cm per frame, 2 mm/s at
+#: 20 fps), far below any stand-in concept's mean joint speed: a clip standing still scores 1,
+#: as a clip moving evenly does, never below it
+SPEED_FLOOR_CM = 0.01
+
+
+def per_frame_displacement_cm(features: np.ndarray) -> np.ndarray:
+    """(T − 1,) mean over joints of ‖j_t − j_{t−1}‖ (cm) on ``metrics.ric_joints`` (root-
+    relative, heading-free: STMC's local joints); entry t − 1 is the step into frame t."""
+    joints = metrics.ric_joints(np.asarray(features))
+    return 100.0 * np.linalg.norm(np.diff(joints, axis=-3), axis=-1).mean(axis=-1)
+
+
+def _check_transitions(frames: int, points: Sequence[int]) -> np.ndarray:
+    points = np.asarray(points, dtype=int).reshape(-1)
+    if points.size == 0:
+        raise ValueError("an item has no transition frame")
+    if np.any(points < 1) or np.any(points >= frames):
+        raise ValueError(f"transition frames must lie in 1..{frames - 1}, got {points}")
+    return points
+
+
+def transition_distances_at_cm(features: Sequence[np.ndarray],
+                               transitions: Sequence[Sequence[int]]) -> np.ndarray:
+    """Every transition's distance (cm), items concatenated: at transition frame p of item i,
+    the mean over joints of ‖j_p − j_{p−1}‖ on root-relative, heading-free joints (TEACH's
+    distance as STMC's ``mtt/stmc_metrics.py`` computes it, at the timeline's boundaries)."""
+    if len(features) != len(transitions):
+        raise ValueError(f"{len(features)} motions for {len(transitions)} transition lists")
+    out = []
+    for clip, points in zip(features, transitions, strict=True):
+        step = per_frame_displacement_cm(clip)
+        out.append(step[_check_transitions(len(step) + 1, points) - 1])
+    return np.concatenate(out)
+
+
+def transition_distance_at_transitions_cm(features: Sequence[np.ndarray],
+                                          transitions: Sequence[Sequence[int]]) -> float:
+    """Transition distance (cm) as STMC reports it: the mean over every transition of every
+    item (:func:`transition_distances_at_cm`; STMC's tables print it ×100 of metres)."""
+    return float(transition_distances_at_cm(features, transitions).mean())
+
+
+def transition_speed_ratio(features: Sequence[np.ndarray],
+                           transitions: Sequence[Sequence[int]],
+                           floor_cm: float = SPEED_FLOOR_CM) -> float:
+    """Smoothness that does not reward standing still: per item, (mean displacement at its
+    transitions + ε) / (mean displacement over all its frames + ε), ε = ``floor_cm``; the
+    mean over items. 1: the body moves through the transitions as it moves elsewhere in the
+    same clip; > 1: a jump at the transitions; a clip standing still scores 1, not 0."""
+    if len(features) != len(transitions):
+        raise ValueError(f"{len(features)} motions for {len(transitions)} transition lists")
+    ratios = []
+    for clip, points in zip(features, transitions, strict=True):
+        step = per_frame_displacement_cm(clip)
+        at = step[_check_transitions(len(step) + 1, points) - 1]
+        ratios.append((at.mean() + floor_cm) / (step.mean() + floor_cm))
+    return float(np.mean(ratios))
+
+
+def composition_metrics(pipe: EnergyMoGenPipeline, features: np.ndarray, joints: np.ndarray,
+                        items: CompositionItems, seed: int,
+                        reference: np.ndarray | None = None) -> dict[str, float]:
+    """Table 3/7/9 columns for one batch, plus oracle accuracy and foot skating.
+
+    R@1/R@3 (%, batches of 32) and TMR M2T with the joined text, M2M against each item's
+    ground truth, FID against ``reference`` (default: the whole held-out pair pool's ground
+    truth, ``pipe.reference_embeddings``; evaluator embeddings), transition distance (cm,
+    :func:`transition_distance_cm`), foot skating (m/s), jitter (m/s²), oracle accuracy
+    (fraction of (item, concept) present; ``oracle_accuracy_concept_i``: of the i-th concept
+    of the items alone) and the rate of items with every concept present (``both_present``:
+    two of two, or three of three for sets of three). Items without concepts (a data folder's
+    test windows, ``data.energy_view_items``): the oracle columns are NaN (not measurable on
+    real data).
+    """
+    evaluator = pipe.evaluator
+    lengths = np.full(len(features), features.shape[1])
+    text = evaluator.embed_texts(list(items.multi_texts))
+    gen = evaluator.embed_motions(features, lengths)
+    gt = evaluator.embed_motions(items.gt_features, lengths)
+    r = metrics.r_precision(text, gen, 32, 3, seed)
+    return {"r_precision_top1": 100.0 * float(r[0]), "r_precision_top3": 100.0 * float(r[2]),
+            "tmr_m2t": metrics.tmr_score(gen, text), "tmr_m2m": metrics.tmr_score(gen, gt),
+            "fid": metrics.fid(gen, pipe.reference_embeddings if reference is None
+                               else reference),
+            "transition_distance": transition_distance_cm(features),
+            "foot_skating": metrics.foot_skating(joints),
+            "jitter": metrics.jitter(joints).acceleration,
+            **_oracle_columns(joints, items.concepts)}
+
+
+def _oracle_columns(joints: np.ndarray, concepts: Sequence[Sequence[str]]) -> dict[str, float]:
+    """:func:`composition_metrics`' oracle columns; NaN without concepts (a data folder)."""
+    if not any(concepts):
+        return {"oracle_accuracy": float("nan"), "both_present": float("nan")}
+    presence = oracle_presence(joints, concepts)
+    return {"oracle_accuracy": float(presence.mean()),
+            "both_present": float(presence.all(axis=1).mean()),
+            **{f"oracle_accuracy_concept_{i + 1}": float(rate)
+               for i, rate in enumerate(presence.mean(axis=0))}}
+
+
+def pair_index(items: CompositionItems) -> np.ndarray:
+    """Each item's index in ``HELD_OUT_PAIRS`` (B,), to average per held-out pair."""
+    order = {pair: k for k, pair in enumerate(HELD_OUT_PAIRS)}
+    return np.array([order[tuple(c)] for c in items.concepts])
+
+
+def per_pair_mean(values: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """Mean of ``values`` (B,) within each held-out pair present → (P',)."""
+    return np.array([values[pairs == p].mean() for p in np.unique(pairs)])
+
+
+#: rng stream of every control (disjoint from the experiments' streams)
+CONTROL_STREAM = 13013
+
+
+def swap_motions(features: np.ndarray, fraction: float, rng: np.random.Generator,
+                 groups: np.ndarray) -> np.ndarray:
+    """``features`` with each item, with probability ``fraction``, replaced by the motion of a
+    random item of another group (another held-out pair): a text–motion mismatch. R-precision
+    falls linearly in expectation, from the clean value at 0 to the swapped one at 1."""
+    out = np.array(features, copy=True)
+    for i in np.flatnonzero(rng.uniform(size=len(features)) < fraction):
+        others = np.flatnonzero(groups != groups[i])
+        out[i] = features[int(rng.choice(others))]
+    return out
+
+
+def permute_motions(features: np.ndarray, fraction: float, rng: np.random.Generator
+                    ) -> np.ndarray:
+    """``features`` with a random subset (each item with probability ``fraction``) of motions
+    passed round within the subset (a random cycle): every chosen item gets another's motion,
+    and the set of motions is unchanged, so FID (a function of that set) is exactly unchanged
+    while R-precision falls."""
+    out = np.array(features, copy=True)
+    chosen = rng.permutation(np.flatnonzero(rng.uniform(size=len(features)) < fraction))
+    if len(chosen) > 1:
+        out[chosen] = features[np.roll(chosen, 1)]
+    return out
+
+
+def scale_movement(features: np.ndarray, factor: float) -> np.ndarray:
+    """``features`` whose root height and root-relative joints (features 3:67) move ``factor``
+    times as far about their temporal mean: every consecutive-frame displacement of
+    ``metrics.ric_joints`` scales by ``factor``, so the transition distance does exactly."""
+    out = np.array(features, dtype=np.float64, copy=True)
+    block = out[..., 3:67]
+    mean = block.mean(axis=-2, keepdims=True)
+    out[..., 3:67] = mean + factor * (block - mean)
+    return out.astype(np.asarray(features).dtype)
+
+
+def with_feature_noise(features: np.ndarray, std: np.ndarray, amplitude: float,
+                       rng: np.random.Generator) -> np.ndarray:
+    """features + amplitude·std·z, z ~ N(0, 1) in the features' dtype (float32: half the time)."""
+    noise = rng.standard_normal(features.shape, dtype=features.dtype)
+    return features + (amplitude * np.asarray(std)).astype(features.dtype) * noise
+
+
+def t2m_measurements(pipe: EnergyMoGenPipeline, test: TextToMotionTest, features: np.ndarray,
+                     seed: int, reference: np.ndarray) -> dict[str, float]:
+    """FID against the test clips (``reference``: their evaluator embeddings) and R@3
+    (fraction) of the test captions drawn with ``seed``, computed exactly as
+    ``generation_metrics`` computes those two (the same calls: random batches, or the
+    test's own batches when it is grouped, ``grouped_r_precision``)."""
+    gen = pipe.evaluator.embed_motions(features, test.lengths)
+    text = pipe.evaluator.embed_texts(test.texts(seed))
+    r = (grouped_r_precision(text, gen) if test.grouped
+         else metrics.r_precision(text, gen, 32, 3, seed))
+    return {"fid": metrics.fid(gen, reference), "r_precision_top3": float(r[2])}
+
+
+def reference_embeddings(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> np.ndarray:
+    """The evaluator embeddings of the test clips themselves (FID's reference)."""
+    return pipe.evaluator.embed_motions(test.features, test.lengths)
+
+
+#: the calibration grid around the base amplitude (the planted arms only lower FID from it)
+_AMPLITUDES = np.geomspace(0.2, 0.7, 6)
+_CALIBRATION_DRAWS = 4
+
+
+@dataclass(frozen=True)
+class FidCurve:
+    """FID of noised test clips against the clean ones as a power law of the noise amplitude,
+    FID ≈ c·aᵏ, fitted (least squares in log–log) to the mean FID over calibration draws of
+    its own on a grid around the base amplitude: the measured scale factor from which each
+    arm's amplitude is read (a fit, so one noisy calibration draw does not set it)."""
+
+    amplitudes: tuple[float, ...]
+    fids: tuple[float, ...]
+    log_c: float
+    k: float
+
+    def fid(self, amplitude: float) -> float:
+        return float(np.exp(self.log_c + self.k * np.log(amplitude)))
+
+    def amplitude(self, fid: float) -> float:
+        return float(np.exp((np.log(fid) - self.log_c) / self.k))
+
+
+def fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest, reference: np.ndarray
+              ) -> FidCurve:
+    """:class:`FidCurve` of the pipeline's evaluator on ``test`` (feature noise: amplitude ×
+    the data's per-feature std, :func:`with_feature_noise`)."""
+    rng = np.random.default_rng([CONTROL_STREAM, 77])
+    std = pipe.data.std
+    fids = np.mean([[t2m_measurements(pipe, test, with_feature_noise(test.features, std, a, rng),
+                                      0, reference)["fid"] for a in _AMPLITUDES]
+                    for _ in range(_CALIBRATION_DRAWS)], axis=0)
+    k, log_c = np.polyfit(np.log(_AMPLITUDES), np.log(fids), 1)
+    return FidCurve(tuple(_AMPLITUDES.tolist()), tuple(fids.tolist()), float(log_c), float(k))
+
+
+KINDS = ("positive", "null")
+
+
+def control_rng(seed: int, claim: int, kind: str) -> np.random.Generator:
+    """The randomness of one claim's control arm ``kind`` at ``seed``: independent per claim,
+    arm and seed."""
+    return np.random.default_rng([CONTROL_STREAM, claim, KINDS.index(kind), seed])
+
+
+def swap_fraction(clean: float, swapped: float, target: float) -> float:
+    """The swap fraction whose expected R@3 is ``target`` (linear between the endpoints)."""
+    if clean - swapped <= 0:
+        return 0.0
+    return float(np.clip((clean - target) / (clean - swapped), 0.0, 1.0))
+
+
+#: our choice: the compared arms' base noise (× the data's per-feature std)
+BASE_AMPLITUDE = 0.5

@@ -1,59 +1,117 @@
-"""EMG-7: the number N of latent vectors of the motion VAE (EnergyMoGen appendix D, Table 8).
+"""Notebook 07, EMG-7: the number N of latent vectors of the motion VAE (EnergyMoGen appendix D,
+Table 8: "For reconstruction, 7 latent vectors achieve the best results. ... Using 5 latent
+vectors ... obtains the best text-to-motion generation performance"); the settings are
+``settings.LatentCountSettings``.
 
-The sweep N ∈ {1, 3, 5, 7} retrains the VAE and the latent denoiser of the shared pipeline
-(``repro.energymogen``) with *everything else identical*: the same data, widths, training plan
-(with the pipeline's ``convergence.TrainingPlan`` every N trains to its own plateau under the
-same step cap, issue #16: "every N's VAE trained to its gate"), learning rates and schedule
-(``PipelineConfig`` with only ``latent_count`` replaced), the same
-frozen text encoder (the stand-in for CLIP, which the paper keeps fixed for every N) and the
-same evaluator. A *training seed* s seeds the VAE (initialisation, batches, reparameterisation
-noise) and the denoiser (initialisation, batches, timesteps, noise, text dropout); the data do
-not change with s. For N = 5 and s = the pipeline's ``data_seed`` the models *are* the
-pipeline's (notebooks 04/05), taken from it, not retrained.
+The sweep N ∈ ``settings.LATENT_COUNTS`` retrains the VAE and the latent denoiser of the
+shared pipeline (``repro.energymogen.pipeline``) with *everything else identical*: the same
+data, widths, training plan (with the pipeline's ``TrainingPlan`` every N's VAE trains to its
+own plateau under the same step cap), learning rates and schedule (``PipelineConfig`` with
+only ``latent_count`` replaced), the same frozen text encoder (the stand-in for CLIP, which
+the paper keeps fixed for every N) and the same evaluator (:func:`load_or_train_variant`). A
+*training seed* s seeds the VAE (initialisation, batches, reparameterisation noise) and the
+denoiser (initialisation, batches, timesteps, noise, text dropout); the data do not change
+with s. For N = 5 and s = the pipeline's ``data_seed`` the models *are* the pipeline's
+(notebooks 04/05), taken from it, not retrained.
 
 Measured on the held-out **text-to-motion test set** of ``repro.energymogen.harness``
 (``TextToMotionTest``, the stand-in for the HumanML3D test set): clips drawn exactly as the
 training clips (single concepts and the trained pairs, same probabilities) with random keys
-disjoint from the training ones.
+disjoint from the training ones (:func:`latent_count_study`).
 
 - reconstruction (Table 8 top): decode(μ(x)) of every test clip; our reconstruction error is
-  the **MPJPE** — mean per-joint position error in metres between the joints recovered from
-  the reconstructed and from the true features (global positions, root trajectory included,
-  as MLD's reconstruction MPJPE); beside it the MSE of normalised features and the Table 8
-  columns of the reconstructions (FID, R-precision, MM-Dist, Diversity);
+  the **MPJPE** (:func:`mpjpe`) — mean per-joint position error in metres between the joints
+  recovered from the reconstructed and from the true features (global positions, root
+  trajectory included, as MLD's reconstruction MPJPE); beside it the MSE of normalised
+  features and the Table 8 columns of the reconstructions (FID, R-precision, MM-Dist,
+  Diversity);
 - generation (Table 8 bottom): one caption per test clip (drawn with the seed), single-text
   classifier-free guidance with the pipeline's scale and DDIM steps, decoded; the Table 8
   columns against the test clips.
 
-Our choices are in the docstrings ("our choice").
+Beside the study: the gate records of every N's models (:func:`latent_count_records`), their
+training rows (:func:`latent_count_training`), the controls (:func:`latent_count_controls`:
+test clips with their root height offset, so the MPJPE is exactly the offset, and with
+Gaussian feature noise whose FID is read off ``harness.fid_curve``), the claim
+(:func:`emg7_result`) and the figures. Our choices are in the docstrings ("our choice").
 """
 
 from __future__ import annotations
 
+import dataclasses
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
+import matplotlib.pyplot as plt
 import numpy as np
 import torch
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
+from repro.claims.result import ClaimResult, Controls
 from repro.core import metrics
 from repro.core.tables import interval_text
 from repro.core.training import torch_threads
-from repro.energymogen.config import PipelineConfig
-from repro.energymogen.harness import TextToMotionTest, generation_metrics, oracle_accuracy
-from repro.energymogen.pipeline import EnergyMoGenPipeline, retrain_pipeline
+from repro.energymogen import settings as rule_settings
+from repro.energymogen.figures import Record
+from repro.energymogen.harness import (
+    BASE_AMPLITUDE,
+    KINDS,
+    TextToMotionTest,
+    control_rng,
+    fid_curve,
+    generation_metrics,
+    oracle_accuracy,
+    reference_embeddings,
+    t2m_measurements,
+    with_feature_noise,
+)
+from repro.energymogen.model_gates import (
+    REFERENCE_LATENT_COUNT,
+    data_sample_values,
+    denoiser_gate_values,
+    denoiser_record,
+    denoiser_sample_values,
+    gate_seed,
+    vae_record,
+    vae_sample_values,
+)
+from repro.energymogen.pipeline import (
+    EnergyMoGenPipeline,
+    retrain_pipeline,
+)
+from repro.energymogen.settings import (
+    LATENT_COUNTS,
+    LatentCountSettings,
+    PipelineConfig,
+)
 from repro.models.evaluator import evaluate_generated
 from repro.motion.features import features_to_joints
+from repro.motion.plotting import filmstrip
 from repro.standin.figures import NOT_MEASURABLE
 
 __all__ = [
-    "LATENT_COUNTS", "PAPER_REAL_MOTION", "PAPER_TABLE8", "TABLE8_COLUMNS",
-    "example_reconstructions", "latent_count_study", "load_or_train_variant", "mpjpe",
-    "real_motion_metrics", "reconstruction_metrics", "table8_markdown",
+    "PAPER_REAL_MOTION",
+    "PAPER_TABLE8",
+    "TABLE8_COLUMNS",
+    "emg7_result",
+    "example_reconstructions",
+    "latent_count_controls",
+    "latent_count_figure",
+    "latent_count_records",
+    "latent_count_study",
+    "latent_count_training",
+    "load_or_train_variant",
+    "mpjpe",
+    "real_motion_metrics",
+    "reconstruction_metrics",
+    "reconstructions_figure",
+    "table8_markdown",
 ]
 
-LATENT_COUNTS = (1, 3, 5, 7)
+
 #: Table 8 columns: (key, label).
 TABLE8_COLUMNS: tuple[tuple[str, str], ...] = (
     ("r_precision_top1", "Top-1"), ("r_precision_top2", "Top-2"), ("r_precision_top3", "Top-3"),
@@ -70,11 +128,6 @@ PAPER_TABLE8: dict[str, dict[str, dict[str, float]]] = {
 #: the paper's "Real motion" row on the HumanML3D test set (Table 4, the same test set).
 PAPER_REAL_MOTION = dict(zip((k for k, _ in TABLE8_COLUMNS),
                              (0.511, 0.703, 0.797, 0.002, 2.974, 9.503), strict=True))
-
-
-# ----------------------------------------------------------------------------------------------
-# Models with N latent vectors
-# ----------------------------------------------------------------------------------------------
 
 
 def load_or_train_variant(pipe: EnergyMoGenPipeline, latent_count: int, seed: int, *,
@@ -111,11 +164,6 @@ def _train_variant(pipe: EnergyMoGenPipeline, config: PipelineConfig, seed: int,
         log(f"N={config.latent_count} seed {seed}: VAE {variant.timings['vae']:.1f} s, "
             f"denoiser {variant.timings['denoiser']:.1f} s")
     return variant
-
-
-# ----------------------------------------------------------------------------------------------
-# Measurements
-# ----------------------------------------------------------------------------------------------
 
 
 def mpjpe(features_a: np.ndarray, features_b: np.ndarray) -> float:
@@ -181,7 +229,7 @@ def latent_count_study(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
     ``{"reconstruction": {str(N): {metric: per-seed list}},
     "generation": {...}, "real": {metric: per-seed list}, "seconds": {str(N): per-seed
     stage seconds (0 for ``pipe`` itself)}, "training": {str(N): per-seed {"vae", "denoiser"}
-    training records (``convergence.TrainingRecord.to_dict``: steps used, cap, converged,
+    training records (``pipeline.TrainingRecord.to_dict``: steps used, cap, converged,
     validation curve)}}``."""
     out: dict[str, Any] = {"reconstruction": {}, "generation": {}, "real": {}, "seconds": {},
                            "training": {}}
@@ -242,3 +290,197 @@ def table8_markdown(results: Mapping[str, Any], counts: Sequence[int] = LATENT_C
         cell(results["real"], m, PAPER_REAL_MOTION) if m != "mpjpe" else "—"
         for m, _ in columns) + " |")
     return "\n".join(lines)
+
+
+def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
+                         counts: Sequence[int], seeds: Sequence[int], test: TextToMotionTest,
+                         *, threads: int | None = 1,
+                         reads: Sequence[str] | None = None) -> list[dict[str, Any]]:
+    """EMG-7: the ``vae`` and ``latent_denoiser`` records of every (N, training seed) of
+    ``latent_count_study``'s ``results``: the VAE's concept preservation as the
+    study measured it (its reconstructions' ``oracle_accuracy`` against the real clips'), the
+    denoiser's x̂0 error measured here on ``test`` (:func:`denoiser_gate_values`,
+    :func:`gate_seed`); the models are reloaded from the cache
+    (``load_or_train_variant``). N = :data:`REFERENCE_LATENT_COUNT` is the
+    reference arm (its sample gates measured here too), every other N a treatment arm. On a
+    data folder the oracles' recall is NaN and the VAE gate reads "not measured"."""
+    records = []
+    reference = data_sample_values(pipe, test)
+    for i, seed in enumerate(seeds):
+        real_recall = float(results["real"]["oracle_accuracy"][i])
+        for n in counts:
+            role = "reference" if n == REFERENCE_LATENT_COUNT else "treatment"
+            with torch_threads(threads):     # the study's threads: the same cache entries
+                variant = load_or_train_variant(pipe, n, seed, threads=threads)
+                fit = denoiser_gate_values(variant, test, gate_seed(variant))
+                if role == "reference":
+                    fit.update(denoiser_sample_values(variant, test, gate_seed(variant)))
+            recall = results["reconstruction"][str(n)]["oracle_accuracy"][i]
+            values = {} if np.isnan(recall) else {"concept_preservation": recall}  # NaN: real
+            if role == "reference":
+                values.update(vae_sample_values(variant, test))
+            records.append(vae_record(variant, values,
+                                      {**reference, "concept_preservation": real_recall},
+                                      role=role, reads=reads))
+            records.append(denoiser_record(variant, fit, reference=reference, role=role,
+                                           reads=reads))
+    return records
+
+
+def _offset_height(features: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Test clips raised by ``offsets`` (per clip, m): the root height (feature 3) and the y of
+    every stored joint position (features 4:67, which carry their own height), so every
+    recovered joint moves up by exactly that much and MPJPE is the mean |offset|."""
+    out = np.array(features, copy=True)
+    lift = offsets[:, None].astype(out.dtype)
+    out[:, :, 3] += lift
+    out[:, :, 5:67:3] += lift[..., None]
+    return out
+
+
+def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
+                          counts: Sequence[int], seeds: Sequence[int], *, scale: float = 1.0
+                          ) -> Controls:
+    """EMG-7's controls: per N and seed, "reconstructions" = the test clips with per-clip root
+    height offsets |N(0, 1)|·√(π/2)·e (mean e, independent per N and seed; MPJPE through
+    ``mpjpe`` is exactly their mean) and "generations" = the test clips with
+    feature noise (FID as ``evaluate_generated`` computes it,
+    ``harness.t2m_measurements``).
+
+    Positive: N = 7's offsets scaled by 1 − 0.362 (δ: half the paper's 72.5 % margin, of the
+    other N's error), N = 5's FID at (1 − 0.177) of the others' (δ: half of 35.4 %), its noise
+    amplitude read off the FID curve fitted on calibration draws (:class:`FidCurve`). Null:
+    every N alike.
+    e = 0.05 m (the decision is scale-free in e)."""
+    base = 0.05
+    reference = reference_embeddings(pipe, test)
+    curve = fid_curve(pipe, test, reference)
+    other_fid = curve.fid(BASE_AMPLITUDE)
+    best_amplitude = curve.amplitude((1 - 0.177 * scale) * other_fid)
+    out: dict[str, Any] = {kind: {"reconstruction_error": {}, "generation_fid": {}}
+                           for kind in KINDS}
+    for seed in seeds:
+        for kind in KINDS:
+            rng = control_rng(seed, 7, kind)
+            for n in counts:
+                mean = base * (1 - 0.362 * scale if kind == "positive" and n == 7 else 1.0)
+                offsets = mean * np.sqrt(np.pi / 2) * np.abs(rng.standard_normal(len(test)))
+                recon = _offset_height(test.features, offsets)
+                amplitude = (best_amplitude if kind == "positive" and n == 5
+                             else BASE_AMPLITUDE)
+                generated = with_feature_noise(test.features, pipe.data.std, amplitude, rng)
+                out[kind]["reconstruction_error"].setdefault(str(n), []).append(
+                    mpjpe(recon, test.features))
+                out[kind]["generation_fid"].setdefault(str(n), []).append(
+                    t2m_measurements(pipe, test, generated, seed, reference)["fid"])
+    return Controls(null=out["null"], positive=out["positive"],
+                    planted={"offset_mean_m": base, "base_amplitude": BASE_AMPLITUDE,
+                             "best_amplitude": best_amplitude, "other_fid": other_fid,
+                             "fid_curve": dataclasses.asdict(curve)},
+                    null_text=(f"every N the test clips lifted by {base:g} m on average and "
+                               f"noised at {BASE_AMPLITUDE:g} × std, independent draws, "
+                               f"{len(seeds)} seed(s)"),
+                    positive_text=(f"N = 7's lift × {1 - 0.362 * scale:g}; N = 5's noise "
+                                   f"{best_amplitude:.3g} × std (FID × {1 - 0.177 * scale:g})"))
+
+
+def emg7_result(results: Mapping[str, Any], settings: LatentCountSettings,
+                seeds: Sequence[int], *, test_clips: int, threads: int, controls: Controls,
+                models: Sequence[Mapping[str, Any]], figures: Sequence[str | os.PathLike]
+                ) -> ClaimResult:
+    """EMG-7 as the ledger records it (appendix D, Table 8: "7 latent vectors achieve the best
+    results" for reconstruction, "5 latent vectors ... the best text-to-motion generation"):
+    the reconstruction MPJPE and generation FID of every N per seed from
+    ``latent_count_study`` (``results``), the Table 8 columns, training records
+    and the controls' calibration beside them; ``test_clips`` the test set's size, ``threads`` the
+    torch threads used for training."""
+    config, plan, counts = settings.pipeline, settings.plan, settings.counts
+    recon_error = {str(n): results["reconstruction"][str(n)]["mpjpe"] for n in counts}
+    gen_fid = {str(n): results["generation"][str(n)]["fid"] for n in counts}
+    notes = (
+        "Our choices: the notebooks 04/05 pipeline with only latent_count changed "
+        f"({config.n_train_clips} clips of {config.frames} frames; VAE width {config.vae_width}, "
+        f"{config.vae_layers}+{config.vae_layers} layers, d={config.latent_dim}, "
+        f"{plan.summary()}; denoiser width {config.denoiser_width}, {config.denoiser_layers} "
+        f"layers; N swept {list(counts)}"
+        + (f" (N = {list(settings.counts_not_run)} not run at the {settings.scale} scale: paper "
+           "scale only; 'every other N' is the N swept)" if settings.counts_not_run else "")
+        + f"; guidance "
+        f"{config.guidance_scale}, DDIM {config.ddim_steps}); the frozen text encoder shared by "
+        "every N; training seeds vary VAE and denoiser, not the data. Reconstruction error = "
+        "MPJPE (m) of decode(mu) "
+        f"on {test_clips} held-out in-distribution clips (global joints); FID/R-precision/"
+        f"MM-Dist/Diversity with the tiny {config.evaluator.dim}-d evaluator (its own scale). "
+        f"{threads} torch thread(s) for training.")
+    headline = (f"MPJPE N={'/'.join(str(n) for n in counts)}: "
+                + "/".join(f"{np.mean(recon_error[str(n)]):.3f}" for n in counts)
+                + " m; generation FID: " + "/".join(f"{np.mean(gen_fid[str(n)]):.3f}"
+                                                    for n in counts))
+    extra = {"table8": {k: results[k] for k in ("reconstruction", "generation", "real")},
+             "paper_table8": PAPER_TABLE8, "training_seconds": results["seconds"],
+             "training": results["training"], "plan": dataclasses.asdict(plan),
+             "scale": settings.scale, "counts": list(counts),
+             "counts_not_run": list(settings.counts_not_run),
+             "test_clips": test_clips, "control_calibration": controls.planted}
+    return ClaimResult("EMG-7", {"reconstruction_error": recon_error, "generation_fid": gen_fid},
+                       seeds=seeds, settings=rule_settings.emg7(settings, test_clips),
+                       controls=controls, models=models, figures=figures,
+                       headline=headline, notes=notes, extra=extra)
+
+
+def latent_count_figure(results: Mapping[str, Any], counts: Sequence[int]) -> Figure:
+    """EMG-7 (``latent_count_study``): MPJPE, reconstruction and generation FID
+    and generation R@3 by N, ours (dots: seeds) and the paper's Table 8 (dashed, right axis)."""
+
+    def dots(ax: Axes, part: str, metric: str) -> None:
+        means = [np.mean(results[part][str(n)][metric]) for n in counts]
+        ax.plot(counts, means, "-o", color="C0", label="ours")
+        for n in counts:
+            values = results[part][str(n)][metric]
+            ax.plot(np.full(len(values), n), values, ".", color="k", ms=4, alpha=0.6)
+
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7))
+    dots(axes[0, 0], "reconstruction", "mpjpe")
+    axes[0, 0].set_title("reconstruction error (MPJPE, m) — the rule's measurement", fontsize=9)
+    for ax, part, metric, title in ((axes[0, 1], "reconstruction", "fid", "reconstruction FID"),
+                                    (axes[1, 0], "generation", "fid", "generation FID"),
+                                    (axes[1, 1], "generation", "r_precision_top3",
+                                     "generation R-precision top-3")):
+        dots(ax, part, metric)
+        twin = ax.twinx()
+        twin.plot(counts, [PAPER_TABLE8[part][str(n)][metric] for n in counts], "--s",
+                  color="C1", label="paper (right axis)")
+        twin.set_ylabel(f"paper {metric}", color="C1")
+        ax.set_title(f"{title}: ours (dots: seeds) and paper (dashed)", fontsize=9)
+        handles = ax.get_legend_handles_labels()[0] + twin.get_legend_handles_labels()[0]
+        ax.legend(handles, [h.get_label() for h in handles], fontsize=7, loc="best")
+    for ax in axes.ravel():
+        ax.set_xlabel("N latent vectors")
+        ax.set_xticks(counts)
+    fig.tight_layout()
+    return fig
+
+
+def reconstructions_figure(clip_joints: np.ndarray, caption: str,
+                           reconstructions: Sequence[tuple[int, np.ndarray, float]]) -> Figure:
+    """One test clip (joints (T, 22, 3)) and its reconstruction by each N: ``reconstructions``
+    holds (N, joints, MPJPE in m)."""
+    fig, axes = plt.subplots(1 + len(reconstructions), 1,
+                             figsize=(10, 2.3 * (1 + len(reconstructions))))
+    filmstrip(clip_joints, ax=axes[0], title=f"test clip: {caption}")
+    for ax, (n, joints, error) in zip(axes[1:], reconstructions, strict=True):
+        filmstrip(joints, ax=ax, title=f"N = {n} reconstruction (MPJPE {error:.3f} m)")
+    fig.tight_layout()
+    return fig
+
+
+def latent_count_training(results: Mapping[str, Any], counts: Sequence[int],
+                          seeds: Sequence[int]) -> list[tuple[str, Record]]:
+    """``latent_count_study``'s training records as (name, record) rows: the
+    VAE and the denoiser of every (N, training seed)."""
+    rows: list[tuple[str, Record]] = []
+    for n in counts:
+        for i, seed in enumerate(seeds):
+            for part, record in results["training"][str(n)][i].items():
+                rows.append((f"{part} N={n} seed {seed}", record))
+    return rows

@@ -3,7 +3,7 @@
 One measurement function per model family, each on the held-out **text-to-motion test set**
 (``harness.TextToMotionTest``: clips drawn as the training clips, with keys no model or the
 evaluator ever trained on), and one record builder per family (``core.gates.model_record``);
-gates version 3 (issue #31) measures no quantity an EnergyMoGen claim compares (:data:`COMPARED`,
+no gate measures a quantity an EnergyMoGen claim compares (:data:`COMPARED`,
 :data:`FAMILIES_READ`):
 
 - ``vae`` — :func:`vae_gate_values`: the oracles' concept recall on decode(μ(x)) of the test
@@ -16,22 +16,22 @@ gates version 3 (issue #31) measures no quantity an EnergyMoGen claim compares (
   :data:`R_PRECISION_SHUFFLES` shuffles), and the FID of trivial fakes over the training clips'
   FID against the test clips (``core.fitness.trivial_fid_ratio``).
 
-Gates version 4 adds the reference arm's sample gates (``core.gates``): the VAE's
-reconstructions of the test clips (:func:`vae_sample_values`: joint jerk and foot skating)
-and the denoiser's decoded samples for the test captions (:func:`denoiser_sample_values`:
-mean joint and root speed, joint jerk, foot skating, the oracles' concept recall), each
-against the test clips themselves measured the same way (:func:`data_sample_values`). The
-reference arm is the pipeline every composition and guidance arm samples (notebooks 04 and
-05), the paper's N = 5 among EMG-7's latent counts, and the pretrained pipeline of EMG-8;
-N = 1, 3, 7 and the fine-tuned denoisers are treatment arms, judged on their fitness only.
+The reference arm also has sample gates (``core.gates``): the VAE's reconstructions of the
+test clips (:func:`vae_sample_values`: joint jerk and foot skating) and the denoiser's decoded
+samples for the test captions (:func:`denoiser_sample_values`: mean joint and root speed,
+joint jerk, foot skating, the oracles' concept recall), each against the test clips
+themselves measured the same way (:func:`data_sample_values`). The reference arm is the
+pipeline every composition and guidance arm samples (notebooks 04 and 05), the paper's N = 5
+among EMG-7's latent counts, and the pretrained pipeline of EMG-8; N = 1, 3, 7 and the
+fine-tuned denoisers are treatment arms, judged on their fitness only (their records:
+``latent_count.latent_count_records``, ``composed_augmentation.augmentation_records``).
 
 Our choice: a model is measured with seed ``train_seed − data_seed`` (the evaluation seed whose
 model it is, ``pipeline.train_seed_for``), so one model gets one gate value in every notebook.
 Steps, training seconds, whether it converged and the held-out validation curve come from the
 pipeline (``EnergyMoGenPipeline.training``: the records ``pipeline.load_pipeline`` read from
-exactly the models' own cache entries, ``convergence.TrainingRecord``); a model trained without
-validation has an empty curve. Fine-tuned denoisers (EMG-8) pass their own record, with the
-value ``augmentation.augmentation_study`` measured with :func:`denoiser_gate_values`.
+exactly the models' own cache entries, ``pipeline.TrainingRecord``); a model trained without
+validation has an empty curve.
 """
 
 from __future__ import annotations
@@ -45,24 +45,32 @@ from torch import Tensor, nn
 
 from repro.core import fitness, metrics
 from repro.core.gates import model_record
-from repro.core.training import torch_threads
-from repro.energymogen.convergence import TrainingRecord
-from repro.energymogen.data import NotMeasurable
 from repro.energymogen.harness import TextToMotionTest, oracle_accuracy
-from repro.energymogen.latent_count import load_or_train_variant
 from repro.energymogen.pipeline import (
     EnergyMoGenPipeline,
-    PipelineSource,
     Sampler,
-    pipeline_for,
+    TrainingRecord,
 )
 
 __all__ = [
-    "COMPARED", "FAMILIES_READ", "REFERENCE_LATENT_COUNT", "R_PRECISION_SHUFFLES",
-    "augmentation_records", "data_sample_values", "denoiser_gate_values", "denoiser_record",
-    "denoiser_sample_values", "evaluator_gate_values", "evaluator_record", "gate_seed",
-    "latent_count_records", "parameter_count", "pipeline_records", "real_concept_recall",
-    "vae_gate_values", "vae_record", "vae_sample_values",
+    "COMPARED",
+    "FAMILIES_READ",
+    "Models",
+    "REFERENCE_LATENT_COUNT",
+    "R_PRECISION_SHUFFLES",
+    "data_sample_values",
+    "denoiser_gate_values",
+    "denoiser_record",
+    "denoiser_sample_values",
+    "evaluator_gate_values",
+    "evaluator_record",
+    "gate_seed",
+    "parameter_count",
+    "pipeline_records",
+    "real_concept_recall",
+    "vae_gate_values",
+    "vae_record",
+    "vae_sample_values",
 ]
 
 #: shuffles of the R-precision batches whose mean R@3 is the ``evaluator`` gate's value
@@ -103,11 +111,6 @@ def gate_seed(pipe: EnergyMoGenPipeline) -> int:
 def parameter_count(model: nn.Module) -> int:
     """Number of parameters of ``model``."""
     return int(sum(p.numel() for p in model.parameters()))
-
-
-# ----------------------------------------------------------------------------------------------
-# Measurements
-# ----------------------------------------------------------------------------------------------
 
 
 def real_concept_recall(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> float:
@@ -205,11 +208,6 @@ def evaluator_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
     return {"r_precision_top3": float(np.mean(hits)), "trivial_fid_ratio": baselines["ratio"]}
 
 
-# ----------------------------------------------------------------------------------------------
-# Records
-# ----------------------------------------------------------------------------------------------
-
-
 def _record(*, name: str, family: str, values: Mapping[str, float],
             reference: Mapping[str, float], model: nn.Module,
             training: TrainingRecord | None, reads: Sequence[str] | None,
@@ -289,64 +287,4 @@ def pipeline_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
                             reads=reads)]
 
 
-def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
-                         counts: Sequence[int], seeds: Sequence[int], test: TextToMotionTest,
-                         *, threads: int | None = 1,
-                         reads: Sequence[str] | None = None) -> list[dict[str, Any]]:
-    """EMG-7: the ``vae`` and ``latent_denoiser`` records of every (N, training seed) of
-    ``latent_count.latent_count_study``'s ``results``: the VAE's concept preservation as the
-    study measured it (its reconstructions' ``oracle_accuracy`` against the real clips'), the
-    denoiser's x̂0 error measured here on ``test`` (:func:`denoiser_gate_values`,
-    :func:`gate_seed`); the models are reloaded from the cache
-    (``latent_count.load_or_train_variant``). N = :data:`REFERENCE_LATENT_COUNT` is the
-    reference arm (its sample gates measured here too), every other N a treatment arm. On a
-    data folder the oracles' recall is NaN and the VAE gate reads "not measured"."""
-    records = []
-    reference = data_sample_values(pipe, test)
-    for i, seed in enumerate(seeds):
-        real_recall = float(results["real"]["oracle_accuracy"][i])
-        for n in counts:
-            role = "reference" if n == REFERENCE_LATENT_COUNT else "treatment"
-            with torch_threads(threads):     # the study's threads: the same cache entries
-                variant = load_or_train_variant(pipe, n, seed, threads=threads)
-                fit = denoiser_gate_values(variant, test, gate_seed(variant))
-                if role == "reference":
-                    fit.update(denoiser_sample_values(variant, test, gate_seed(variant)))
-            recall = results["reconstruction"][str(n)]["oracle_accuracy"][i]
-            values = {} if np.isnan(recall) else {"concept_preservation": recall}  # NaN: real
-            if role == "reference":
-                values.update(vae_sample_values(variant, test))
-            records.append(vae_record(variant, values,
-                                      {**reference, "concept_preservation": real_recall},
-                                      role=role, reads=reads))
-            records.append(denoiser_record(variant, fit, reference=reference, role=role,
-                                           reads=reads))
-    return records
-
-
-def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
-                         results: Mapping[str, Any] | NotMeasurable, seeds: Sequence[int]
-                         ) -> dict[str, list[dict[str, Any]]]:
-    """EMG-8: per seed s, the records of the pretrained pipeline of s (``pipeline_for``: its
-    VAE and denoiser measured here on ``gate_test``, the denoiser with :func:`gate_seed`) and
-    of the control and augmented denoisers fine-tuned from it (the x̂0 error
-    ``augmentation.augmentation_study`` measured on its own test at s, its training records).
-    Returns ``{"vae": [...], "pretrained": [...], "control": [...], "augmented": [...]}``; for
-    a ``NotMeasurable`` study (a data folder: nothing fine-tuned) the pretrained models'
-    records only (``control`` and ``augmented`` empty)."""
-    out: dict[str, list[dict[str, Any]]] = {"vae": [], "pretrained": [], "control": [],
-                                            "augmented": []}
-    for i, seed in enumerate(seeds):
-        pipe = pipeline_for(source, seed)
-        vae, pretrained = pipeline_records(pipe, gate_test, role="reference")
-        out["vae"].append(vae)
-        out["pretrained"].append(pretrained)
-        if isinstance(results, NotMeasurable):
-            continue
-        for row in ("control", "augmented"):
-            out[row].append(denoiser_record(      # fine-tuned: the pretrained architecture
-                pipe, {"x0_error_vs_gaussian": results["fitness"][row][i]}, role="treatment",
-                name=f"EMG {row} denoiser (fine-tuned from train seed {pipe.train_seed}, "
-                     f"seed {seed})",
-                denoiser=pipe.denoiser, training=results["training"][row][i]))
-    return out
+Models = Sequence[Mapping[str, Any]]

@@ -1,8 +1,9 @@
-"""EnergyMoGen on the stand-in data: the trained pipeline and its sampling.
+"""EnergyMoGen on the stand-in data: the trained pipeline, its training records and its
+sampling.
 
 What it builds (every trained part cached by its full configuration, ``repro.infra.cache``),
 from the data of ``repro.energymogen.data`` and the configuration of
-``repro.energymogen.config``:
+``repro.energymogen.settings``:
 
 - **models** — an MLD-style motion VAE (``repro.models.vae``); the frozen text encoder
   standing in for CLIP (``repro.energymogen.text_stage``, pretrained contrastively against
@@ -13,24 +14,26 @@ from the data of ``repro.energymogen.data`` and the configuration of
   *training seed* seeds the VAE and the denoiser (:func:`load_pipeline`'s ``train_seed``,
   :func:`retrain_pipeline`), while the data, the frozen text encoder and the evaluator stay
   those of ``data_seed``; :class:`SeedPipelines` gives one trained model per evaluation seed.
-  With a ``convergence.TrainingPlan`` (``load_pipeline``'s ``plan``) the VAE and the denoiser
-  train to convergence on held-out validation clips with a step cap, and the pipeline keeps
-  each model's ``convergence.TrainingRecord`` (``EnergyMoGenPipeline.training``); without one
-  they train ``config``'s fixed step counts, with the cache keys they always had.
+  With a ``settings.TrainingPlan`` (``load_pipeline``'s ``plan``) the VAE and the denoiser
+  train to convergence on held-out validation clips with a step cap; without one they train
+  the configuration's fixed step counts.
+- **training records** — :class:`TrainingRecord` is what a trained model's own cache entry
+  says of its training (steps used, seconds, validation curve, whether it converged), read by
+  exactly its key (:func:`cached_training_record`), never by scanning the cache;
+  :func:`load_pipeline` keeps one per trained model on the pipeline
+  (``EnergyMoGenPipeline.training``), and ``model_gates`` takes them from there.
 - **sampling** — DDIM on latents with ε from ``repro.energymogen.compose``: single text
   (optionally with AGD, Eq. 3–4), latent-aware conjunction/negation (Eq. 7/8), semantic-aware
   composition (Eq. 9), SEF (Eq. 10); decoding to features and joints.
 
-What is measured on it lives beside it: ``repro.energymogen.studies`` (composition metrics,
-the rows of the paper's tables, the EMG-2/3/4/5 studies) and ``repro.energymogen.energy``
-(the energy view: EMG-1's Langevin form, energy linearity and Jacobian asymmetry, EMG-6's
-energy maps, EMG-9's FID check).
+What is measured on it is in ``repro.energymogen.harness`` (the test sets and the
+measurements the experiments share) and in the module of each notebook's claims.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
@@ -41,8 +44,6 @@ from torch import Tensor, nn
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import TrainConfig
 from repro.energymogen.compose import Condition, Mode, make_composed_eps_fn
-from repro.energymogen.config import PipelineConfig
-from repro.energymogen.convergence import TrainingPlan, TrainingRecord, cached_training_record
 from repro.energymogen.data import (
     CompositionItems,
     HeldOutClips,
@@ -52,8 +53,12 @@ from repro.energymogen.data import (
     load_or_build_data,
     load_or_build_validation_clips,
 )
+from repro.energymogen.settings import (
+    PipelineConfig,
+    TrainingPlan,
+)
 from repro.energymogen.text_stage import TextStage, train_text_stage
-from repro.infra import cache
+from repro.infra import cache, paths, storage
 from repro.models.evaluator import Evaluator, EvaluatorConfig, load_or_train_evaluator
 from repro.models.latent_denoiser import LatentDenoiser, train_latent_denoiser
 from repro.models.vae import (
@@ -67,13 +72,82 @@ from repro.motion.features import features_to_joints
 from repro.standin.text import TextEncoder, Vocabulary
 
 __all__ = [
-    "DenoiserRows", "DenoiserStage", "EnergyMoGenPipeline", "PipelineSource", "Sampler",
-    "SamplerMode", "SeedPipelines", "VAEStage", "denoiser_cache_key", "denoiser_kwargs",
-    "denoiser_rows", "denoiser_train_config", "encode_latents", "latent_diffusion",
-    "load_pipeline", "pipeline_for", "retrain_pipeline", "scaled_linear_betas",
-    "train_denoiser_stage", "train_seed_for", "train_vae_stage", "vae_kwargs",
-    "vae_train_config", "validation_clips", "validation_rows",
+    "DenoiserRows",
+    "DenoiserStage",
+    "EnergyMoGenPipeline",
+    "PipelineSource",
+    "Sampler",
+    "SamplerMode",
+    "SeedPipelines",
+    "TrainingRecord",
+    "VAEStage",
+    "cached_training_record",
+    "denoiser_cache_key",
+    "denoiser_kwargs",
+    "denoiser_rows",
+    "denoiser_train_config",
+    "encode_latents",
+    "latent_diffusion",
+    "load_pipeline",
+    "pipeline_for",
+    "retrain_pipeline",
+    "scaled_linear_betas",
+    "train_denoiser_stage",
+    "train_seed_for",
+    "train_vae_stage",
+    "vae_kwargs",
+    "vae_train_config",
+    "validation_clips",
+    "validation_rows",
 ]
+
+
+@dataclass(frozen=True)
+class TrainingRecord:
+    """How one model of the pipeline was trained, from its own cache entry (the metrics.json
+    written beside its weights): ``steps`` used, ``step_cap``, ``train_seconds`` (None when
+    the entry keeps none), ``converged`` (None: trained without validation), ``stop_reason``,
+    the held-out ``validation_curve`` [(step, loss)] (empty without validation) and the
+    per-step training ``losses``."""
+
+    steps: int | None
+    step_cap: int | None
+    train_seconds: float | None
+    converged: bool | None
+    stop_reason: str | None
+    validation_curve: tuple[tuple[int, float], ...]
+    losses: tuple[float, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"steps": self.steps, "step_cap": self.step_cap,
+                "train_seconds": self.train_seconds, "converged": self.converged,
+                "stop_reason": self.stop_reason,
+                "validation_curve": [list(p) for p in self.validation_curve]}
+
+
+def cached_training_record(kind: str, key: Mapping[str, Any],
+                           step_cap: int | None) -> TrainingRecord:
+    """The :class:`TrainingRecord` of the cache entry of ``kind`` under exactly ``key`` (its
+    metrics.json: ``losses``, ``seconds``, ``convergence``); ``step_cap`` is the configured
+    step count (the steps used when the run did not validate)."""
+    metrics_file = paths.cache_dir() / kind / cache.config_hash(dict(key)) / "metrics.json"
+    stored = storage.read_json(metrics_file) if metrics_file.exists() else {}
+    losses = stored.get("losses", [])
+    if isinstance(losses, Mapping):
+        losses = losses.get("loss", [])
+    convergence = stored.get("convergence")
+    if convergence is None:
+        return TrainingRecord(steps=len(losses) or step_cap, step_cap=step_cap,
+                              train_seconds=stored.get("seconds"), converged=None,
+                              stop_reason=None, validation_curve=(),
+                              losses=tuple(float(v) for v in losses))
+    return TrainingRecord(
+        steps=int(convergence["steps_used"]), step_cap=int(convergence["step_cap"]),
+        train_seconds=stored.get("seconds"), converged=bool(convergence["converged"]),
+        stop_reason=convergence["stop_reason"],
+        validation_curve=tuple((int(a), float(b)) for a, b in convergence["validation"]),
+        losses=tuple(float(v) for v in losses))
+
 
 #: how a :class:`Sampler` gets its ε̂: the unconditional model, or a composition mode of
 #: ``compose.make_composed_eps_fn`` (``compose.Mode``, defined there once).
@@ -87,11 +161,6 @@ def scaled_linear_betas(num_timesteps: int = 1000, beta_start: float = 0.00085,
         raise ValueError(f"need T ≥ 2 and 0 < β₀ < β₁ < 1, got {num_timesteps}, {beta_start}, "
                          f"{beta_end}")
     return np.linspace(beta_start ** 0.5, beta_end ** 0.5, num_timesteps) ** 2
-
-
-# ----------------------------------------------------------------------------------------------
-# The pipeline and its sampling
-# ----------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -139,7 +208,7 @@ class EnergyMoGenPipeline:
     #: how the VAE and the denoiser were trained (None: ``config``'s fixed step counts)
     plan: TrainingPlan | None = None
     #: the training records of ``"vae"`` and ``"denoiser"`` (their cache entries'
-    #: metrics.json, :class:`convergence.TrainingRecord`)
+    #: metrics.json, :class:`TrainingRecord`)
     training: dict[str, TrainingRecord] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -228,11 +297,6 @@ class EnergyMoGenPipeline:
                            batch=len(items))
 
 
-# ----------------------------------------------------------------------------------------------
-# Building (train or load)
-# ----------------------------------------------------------------------------------------------
-
-
 def vae_kwargs(config: PipelineConfig) -> dict[str, Any]:
     """``MotionVAE`` constructor arguments for ``config`` (part of the VAE's cache key)."""
     return {"latent_count": config.latent_count, "latent_dim": config.latent_dim,
@@ -276,7 +340,7 @@ class VAEStage:
     ``latents`` (M, N, d, CPU) are the scaled means of the training clips, ``latent_scale``
     = 1/std of the unscaled means (our choice, as Stable Diffusion's scale factor: the
     diffusion sees unit-variance latents), ``seconds`` the wall time of the stage,
-    ``training`` the record of its cache entry (:func:`convergence.cached_training_record`).
+    ``training`` the record of its cache entry (:func:`cached_training_record`).
     """
 
     vae: MotionVAE
@@ -458,7 +522,7 @@ def load_pipeline(config: PipelineConfig, device: str | torch.device = "cpu",
     VAE, the stand-in for a pretrained CLIP) and the evaluator (the measuring instrument) do
     not depend on it. ``train_seed = data_seed`` is the default pipeline. ``plan`` (None:
     the fixed step counts of ``config``) trains the VAEs and the denoiser to convergence
-    (:class:`convergence.TrainingPlan`); it is kept on the pipeline, so
+    (:class:`settings.TrainingPlan`); it is kept on the pipeline, so
     :func:`retrain_pipeline` and :class:`SeedPipelines` train as it says.
 
     - VAE: trained on the normalised training features (``load_or_train_vae``);
@@ -559,8 +623,8 @@ class SeedPipelines:
     Calling it with seed s gives the pipeline whose VAE and denoiser are trained with
     :func:`train_seed_for` (``base.config.data_seed + s``): ``base`` itself for s = 0, else
     :func:`retrain_pipeline` of ``base`` (shared data, frozen text encoder and evaluator; each
-    built once, then kept). The studies (``studies.run_rows``,
-    ``studies.composition_study``) take it in place of a single pipeline.
+    built once, then kept). The studies (``sef_ablation.run_rows``,
+    ``energy_contour_maps.composition_study``) take it in place of a single pipeline.
     """
 
     def __init__(self, base: EnergyMoGenPipeline, *,

@@ -2,13 +2,13 @@
 
 ``config.text_encoder`` chooses it:
 
-- "minilm" (the default, issue #16): all-MiniLM-L6-v2 with pretrained weights
+- "minilm" (the default): all-MiniLM-L6-v2 with pretrained weights
   (``repro.models.frozen_text``), frozen, with its own WordPiece tokenizer in place of the
   vocabulary; nothing is trained or cached. The denoiser reads its 384-wide token states
   (``config.text_dim`` = 384) in its cross-attention, and AGD (Eq. 3–4) refines those token
   states; its pooled unit vectors (``FrozenTextEncoder.forward`` / ``encode``) serve where one
   vector per text is needed.
-- "learned" (``config.with_learned_text``): a word-embedding + BiGRU encoder
+- "learned" (``settings.with_learned_text``): a word-embedding + BiGRU encoder
   (``repro.standin.text.TextEncoder``), pretrained contrastively (symmetric InfoNCE,
   CLIP-style) against linear maps of a VAE's scaled training latents and then frozen; never
   the evaluator's. Cached as kind ``emg_text_encoder`` (:func:`text_encoder_cache_key`).
@@ -25,15 +25,19 @@ import torch
 from torch import Tensor, nn
 
 from repro.core.training import train_loop
-from repro.energymogen.config import PipelineConfig
 from repro.energymogen.data import StandInData
+from repro.energymogen.settings import PipelineConfig
 from repro.infra import cache
 from repro.models.evaluator import caption_batches, info_nce, same_caption
 from repro.models.frozen_text import FrozenTextEncoder, WordPieceTokenizer, shared_minilm
 from repro.models.vae import array_fingerprint
 from repro.standin.text import TextEncoder, Vocabulary
 
-__all__ = ["TextStage", "text_encoder_cache_key", "train_text_stage"]
+__all__ = [
+    "TextStage",
+    "text_encoder_cache_key",
+    "train_text_stage",
+]
 
 
 class _LatentTextModel(nn.Module):

@@ -25,8 +25,8 @@ from torch import Tensor, nn
 
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.training import ema_decay_at, train_diffusion
-from repro.energymogen.config import PipelineConfig
 from repro.energymogen.pipeline import denoiser_kwargs, scaled_linear_betas, vae_kwargs
+from repro.energymogen.settings import PipelineConfig
 from repro.gmd.models import MOTION_ARCHITECTURE, GMDModelSpec, schedule_diffusion
 from repro.models.evaluator import (
     Evaluator,

@@ -1,5 +1,5 @@
-"""EMG-8 (repro.energymogen.augmentation): the composed set, training rows, fine-tuning from the
-pretrained denoiser without touching it, and a tiny end-to-end study."""
+"""EMG-8 (repro.energymogen.composed_augmentation): the composed set, training rows, fine-tuning
+from the pretrained denoiser without touching it, and a tiny end-to-end study."""
 
 from __future__ import annotations
 
@@ -8,18 +8,19 @@ import torch
 from conftest import TINY_AUGMENTATION_PIPELINE as TINY
 
 from repro.claims.registry import get_claim
-from repro.energymogen import augmentation as ag
-from repro.energymogen.config import FRAMES, HELD_OUT_PAIRS, PipelineConfig
+from repro.energymogen import composed_augmentation as ag
+from repro.energymogen import settings as emg_settings
 from repro.energymogen.harness import TextToMotionTest, load_or_build_text_to_motion_test
 from repro.energymogen.pipeline import EnergyMoGenPipeline, SeedPipelines, load_pipeline
+from repro.energymogen.settings import FRAMES, HELD_OUT_PAIRS, PipelineConfig
 
 
 def test_pairs_sizes_and_schedule() -> None:
     pairs = ag.composable_pairs()
     assert len(pairs) == 35 and {frozenset(p) for p in HELD_OUT_PAIRS} <= set(
         map(frozenset, pairs))
-    assert ag.composed_set_size(PipelineConfig()) == 342
-    config = ag.finetune_config(PipelineConfig(), seed=3)
+    assert emg_settings.composed_set_size(PipelineConfig()) == 342
+    config = emg_settings.finetune_config(PipelineConfig(), seed=3)
     assert (config.steps, config.lr, config.seed) == (833, 2.5e-4, 3)
     assert config.batch_size == 128 and config.cond_dropout == 0.1
 
@@ -54,7 +55,7 @@ def test_finetuning_starts_from_the_pretrained_denoiser(tiny) -> None:
     pipe, _ = tiny
     before = [p.detach().clone() for p in pipe.denoiser.parameters()]
     rows = ag.caption_rows(pipe, pipe.data.train_features[:8], pipe.data.train_captions[:8])
-    config = ag.finetune_config(pipe.config, seed=0)
+    config = emg_settings.finetune_config(pipe.config, seed=0)
     tuned, record = ag.load_or_finetune(pipe, rows, config)
     again, cached = ag.load_or_finetune(pipe, rows, config)  # from the cache
     assert record.steps == cached.steps == config.steps and record.train_seconds > 0
@@ -69,7 +70,7 @@ def test_finetuning_takes_a_third_of_the_steps_the_pretrained_denoiser_used(tiny
     pipe, _ = tiny
     assert ag.pipeline_finetune_config(pipe, 0).steps == round(
         pipe.training["denoiser"].steps / 3)
-    assert ag.finetune_config(pipe.config, 0, pretraining_steps=30).steps == 10
+    assert emg_settings.finetune_config(pipe.config, 0, pretraining_steps=30).steps == 10
 
 
 def test_every_seed_fine_tunes_its_own_pretrained_model(tiny) -> None:
