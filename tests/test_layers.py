@@ -110,3 +110,39 @@ def test_no_module_imports_itself_through_others() -> None:
         if name not in state:
             visit(name, [name])
     assert not cycles, "import cycles: " + "; ".join(" → ".join(c) for c in cycles)
+
+
+#: a paper package holds one module per claim group and the machinery below them; more than
+#: this many modules means ideas cut into fragments (the DESIGN.md rule, as a number)
+MAX_PAPER_MODULES = 12
+
+
+def _claim_group_module(notebook: Path) -> str:
+    """``x0_vs_eps`` for notebooks/01_x0_vs_eps.ipynb."""
+    return notebook.stem.split("_", 1)[1]
+
+
+@pytest.mark.parametrize("paper", sorted(PAPERS))
+def test_a_paper_package_holds_few_modules(paper: str) -> None:
+    modules = [p.stem for p in (PACKAGE / paper).glob("*.py") if p.stem != "__init__"]
+    assert len(modules) <= MAX_PAPER_MODULES, (
+        f"repro.{paper} has {len(modules)} modules (at most {MAX_PAPER_MODULES}): one module "
+        f"per claim group, shared machinery below it")
+
+
+def test_each_paper_notebook_has_its_claim_group_module() -> None:
+    """Notebook NN_name's settings, experiment, controls and result live in
+    ``repro.<paper>.name`` — in exactly one paper package."""
+    from repro.infra.paths import notebooks_dir
+
+    notebooks = sorted(notebooks_dir().glob("[0-9][0-9]_*.ipynb"))
+    assert notebooks
+    for notebook in notebooks:
+        if notebook.stem.startswith("00_"):   # the stand-in data, no paper's claim
+            continue
+        name = _claim_group_module(notebook)
+        homes = [paper for paper in PAPERS if (PACKAGE / paper / f"{name}.py").is_file()]
+        assert len(homes) == 1, f"{notebook.name}: repro.<paper>.{name} in {homes or 'neither'}"
+        text = notebook.read_text(encoding="utf-8")
+        assert f"repro.{homes[0]}.{name}" in text or f"repro.{homes[0]} import {name}" in text, (
+            f"{notebook.name} does not read its claim group's module repro.{homes[0]}.{name}")
