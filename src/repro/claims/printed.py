@@ -7,7 +7,7 @@ seed verbatim, in its table's block of the text and in its order; :func:`value` 
 number. The GMD appendix is seed ``000_…`` (Table B.1; Table D.1 holds settings, its numbers
 are in :data:`QUOTES`); EnergyMoGen is seed ``004_…`` (Tables 2–9; Table 1's numbers are not in
 the seed's text, only its caption). Row names: the label as printed; the λ, γ or N cells
-for Tables 7, 9 and 8, joined by commas as ``energymogen.studies`` spells them.
+for Tables 7, 9 and 8, joined by commas as ``energymogen.sef_ablation`` spells them.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ set (R@3 in percent over 64 items: 1.5625; in fractions over 256: 1/256; oracle 
 80 conjunction / 96 negation items); on the log scale, one item at the lower arm's level. How
 many seeds a run uses is in ``repro.energymogen.settings``; each part states what its run
 could see. Each rule's text quotes the run's settings (``{seeds}``, items, ...: the fields of
-``repro.energymogen.settings``' ``rule_settings``), rendered when the claim is recorded.
+``repro.energymogen.settings.RULE_SETTINGS``), rendered when the claim is recorded.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ its part tests the per-seed log ratio against the same boundary on the log scale
 (``claim.ratio_part``, ``verdicts.log_margin``). How many seeds a run uses is in the paper
 package's run settings (``repro.gmd.settings``); each part states what its run could see.
 Each rule's text quotes the run's settings (``{T}``, ``{stop_step}``, ...: the fields of
-``repro.gmd``'s ``rule_settings``), rendered when the claim is recorded.
+``repro.gmd.settings.RULE_SETTINGS``), rendered when the claim is recorded.
 """
 
 from __future__ import annotations

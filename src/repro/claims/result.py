@@ -57,7 +57,7 @@ class ClaimResult:
 
     ``settings``: what the run used that the claim's rule quotes (T, the stop step, the
     guidance strength, items, ...; ``Claim.rule_fields``), read from the experiment's own
-    settings object (the paper packages' ``rule_settings``), never typed."""
+    settings object (the paper packages' ``settings.RULE_SETTINGS``), never typed."""
 
     claim_id: str
     measured: dict[str, Any]
