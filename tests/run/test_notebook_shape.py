@@ -1,6 +1,6 @@
-"""Notebooks only call the library (issue #34): no code cell over 25 lines, no cell that
-branches on the run's parameters or its scale, every claim recorded through ``record``; every
-notebook names itself to ``setup_notebook`` (issue #33)."""
+"""Notebooks only call the library: no code cell over 25 lines, no cell that branches on the
+run's parameters or its scale, every claim recorded through ``record``, the run's settings
+taken one way (``Settings.for_run(ctx)``); every notebook names itself to ``setup_notebook``."""
 
 from __future__ import annotations
 
@@ -16,6 +16,8 @@ from repro.run import runner
 MAX_CELL_LINES = 25
 #: a branch in a cell on the raw parameters or on the context's scale
 BRANCH = re.compile(r"\b(if|elif)\b.*\b(quick|scale|seed|device|data_dir|build_dir)\b")
+#: a notebook's own settings taken from the scale instead of the run: ``settings = ….for_scale(``
+FOR_SCALE_OF_RUN = re.compile(r"^\s*\w*settings\w*\s*=.*\.for_scale\(ctx\.scale")
 
 
 def _code_cells(name: str) -> list[tuple[int, str]]:
@@ -32,6 +34,9 @@ def test_cells_only_call_the_library(name: str) -> None:
     branches = {i: line.strip() for i, src in _code_cells(name) for line in src.splitlines()
                 if BRANCH.search(line.split("#")[0])}
     assert not branches, f"{name}: cells branch on the run's parameters {branches}"
+    by_scale = {i: line.strip() for i, src in _code_cells(name) for line in src.splitlines()
+                if "settings" in line.lower() and FOR_SCALE_OF_RUN.search(line)}
+    assert not by_scale, f"{name}: the run's settings come from Settings.for_run(ctx) {by_scale}"
     direct = [i for i, src in _code_cells(name) if "record_claim(" in src]
     assert not direct, (f"{name}: cells {direct} call record_claim; return a ClaimResult and "
                         "record it")

@@ -50,7 +50,7 @@ from pathlib import Path
 from typing import Any, ClassVar, Self
 
 from repro.core.training import TrainConfig, fixed_steps_patience
-from repro.infra.context import QUICK_NOTE, RunContext, check_scale
+from repro.infra.context import QUICK_NOTE, RunContext, RunSettings, check_scale
 from repro.models.evaluator import EvaluatorConfig
 from repro.models.frozen_text import MINILM_WIDTH
 from repro.models.vae import VAETrainConfig
@@ -536,16 +536,12 @@ def folder_problems(data_dir: str, scale: str) -> list[str]:
                       for path, message in usability_problems(data_dir, folder_needs(scale))]
 
 
-class _NotebookSettings:
+class _NotebookSettings(RunSettings):
     """What the settings of every EnergyMoGen notebook share: the notebook they belong to and
     the check of a data folder (every notebook runs on one: its measurements that need the
     stand-in's labelled concepts then read "not measurable on real data", every other runs)."""
 
     NOTEBOOK: ClassVar[str]
-
-    @classmethod
-    def for_scale(cls, scale: str) -> Self:
-        raise NotImplementedError
 
     @classmethod
     def for_run(cls, ctx: RunContext) -> Self:

@@ -46,7 +46,7 @@ from repro.gmd.models import (
 from repro.gmd.settings import STANDARD_C4_TRAIN_STEPS, seeds_of
 from repro.gmd.windows import DataConfig, DataDir, FeatureSpace, MotionWindows
 from repro.infra import cache
-from repro.infra.context import check_scale
+from repro.infra.context import RunSettings, check_scale
 from repro.motion.features import (
     EMPHASIS_FEATURES,
     FEATURE_DIM,
@@ -708,7 +708,7 @@ TABLE_B1_VARIANTS = (Variant("loss_scaling", 1), Variant("emphasis", 10))
 
 
 @dataclass(frozen=True)
-class Settings:
+class Settings(RunSettings):
     """Every size and step count of GMD-C4 in notebook 03, fixed before any verdict was seen.
 
     Paper scale (the power plan in the GMD-C4 registry entry): loss scaling k and Emphasis
@@ -994,7 +994,7 @@ def run_experiment(settings: Settings, base: GMDModelSpec, train: MotionWindows,
 
 
 @dataclass(frozen=True)
-class ProjectionSettings:
+class ProjectionSettings(RunSettings):
     """The sample sizes of notebook 03's projection checks (GMD-C1…C3), fixed before the run:
     N(0, 1) vectors per simulated point, frame pairs for the distance ratios and frames for
     the inverse's round trip (per matrix), and the κ scan (matrix seeds, frames per seed).

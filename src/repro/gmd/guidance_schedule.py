@@ -68,7 +68,7 @@ from repro.gmd.windows import (
     load_windows,
 )
 from repro.gmd.x0_vs_eps import Settings as ModelSettings
-from repro.infra.context import check_scale
+from repro.infra.context import RunSettings, check_scale
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -463,7 +463,7 @@ def obstacle_experiment(trained: TrainedGMD, targets_xz: np.ndarray,
 
 
 @dataclass(frozen=True)
-class Settings:
+class Settings(RunSettings):
     """Every grid and size of notebook 06, fixed before any verdict was seen.
 
     The trajectory ε model is notebook 01's guidance model (``x0_vs_eps.Settings.

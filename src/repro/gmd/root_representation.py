@@ -82,7 +82,7 @@ from repro.gmd.windows import (
     short_label,
 )
 from repro.infra import paths
-from repro.infra.context import RunContext, check_scale
+from repro.infra.context import RunContext, RunSettings, check_scale
 from repro.models.evaluator import Evaluator, EvaluatorConfig, load_or_train_evaluator
 from repro.motion.features import (
     FEATURE_DIM,
@@ -339,7 +339,7 @@ def linearisation_error(features: np.ndarray, frame: int, deltas: Sequence[float
 # ------------------------------------------------------------------ the notebook's settings
 
 @dataclass(frozen=True)
-class Settings:
+class Settings(RunSettings):
     """Every size and step count of notebook 02 at one scale, fixed before any verdict was seen.
 
     GMD-B2 (paper scale) uses the guidance experiments' trajectory model (:meth:`trajectory_spec`:

@@ -31,6 +31,7 @@ __all__ = ["FULL_SEEDS", "QUICK_SEEDS", "RULE_SETTINGS", "STANDARD_C4_TRAIN_STEP
            "STANDARD_SEEDS", "a3", "a4", "b2", "b3", "c4", "f1", "scale_note", "seeds_of"]
 
 
+
 # ------------------------------------------------------------------------------------------------
 # How many seeds each GMD claim's experiment runs, per scale: the one table.
 #

@@ -74,7 +74,7 @@ from repro.gmd.windows import (
     Task,
     goal_targets,
 )
-from repro.infra.context import check_scale
+from repro.infra.context import RunSettings, check_scale
 from repro.models.evaluator import Evaluator, EvaluatorConfig
 from repro.motion.features import FEATURE_BLOCKS
 
@@ -314,7 +314,7 @@ def goal_reaching_experiment(trained: TrainedGMD, targets_xz: np.ndarray, *, see
 # ------------------------------------------------------------------------ notebook 01's settings
 
 @dataclass(frozen=True)
-class Settings:
+class Settings(RunSettings):
     """Every size and step count of notebook 01 at one scale, fixed before any verdict was seen.
 
     Paper scale (today's registered full settings): 48-frame windows (stride 24) of the

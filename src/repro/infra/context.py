@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Self
 
 import torch
 
@@ -108,3 +109,18 @@ class RunContext:
     def seeds(self, full: int, quick: int = 1) -> list[int]:
         """``full`` consecutive seeds from the base seed (``quick`` of them in quick mode)."""
         return [self.seed + i for i in range(quick if self.quick else full)]
+
+
+class RunSettings:
+    """A notebook's settings for its run, the one way every notebook gets them:
+    ``Settings.for_run(ctx, **overrides)`` — the settings table of ``ctx``'s scale
+    (``for_scale``, defined by each notebook's settings class) with the notebook's
+    overrides. A class that checks more of the run (a data folder) overrides ``for_run``."""
+
+    @classmethod
+    def for_scale(cls, scale: str, **overrides: Any) -> Self:
+        raise NotImplementedError(f"{cls.__name__} defines no settings table (for_scale)")
+
+    @classmethod
+    def for_run(cls, ctx: RunContext, **overrides: Any) -> Self:
+        return cls.for_scale(ctx.scale, **overrides)

@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from repro.core.tables import markdown_table, render
-from repro.infra.context import check_scale
+from repro.infra.context import RunSettings, check_scale
 from repro.motion import plotting
 from repro.motion.features import FEATURE_BLOCKS, Conformance
 from repro.standin.cooccurrence import CoOccurrence
@@ -27,7 +27,7 @@ __all__ = ["Settings", "agreement_tables", "block_std_rows", "co_occurrence_heat
 
 
 @dataclass(frozen=True)
-class Settings:
+class Settings(RunSettings):
     """How big the generated set is and how many concepts the filmstrips show.
 
     Standard and paper scales: 1000 clips (default compositions, ``DatasetConfig``), 12
