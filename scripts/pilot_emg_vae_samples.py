@@ -27,9 +27,9 @@ import torch
 from repro.core import metrics
 from repro.energymogen.data import load_or_build_data
 from repro.energymogen.harness import load_or_build_text_to_motion_test, oracle_accuracy
-from repro.energymogen.latent_count import mpjpe
+from repro.energymogen.latent_count import LatentCountSettings, mpjpe
 from repro.energymogen.pipeline import train_seed_for, vae_kwargs, vae_train_config
-from repro.energymogen.settings import LatentCountSettings, pipeline_config
+from repro.energymogen.settings import pipeline_config
 from repro.models.vae import MotionVAE
 from repro.motion.features import features_to_joints
 

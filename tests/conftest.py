@@ -28,17 +28,23 @@ def make_context(build_dir: str | Path, *, scale: str = "quick", seed: int = 0,
 def settings_classes() -> dict[str, Any]:
     """claim → the Settings class its notebook builds (``for_scale``; the EnergyMoGen ones'
     ``for_run`` is ``for_scale`` without a data folder)."""
-    from repro.energymogen import settings as emg
+    from repro.energymogen import (
+        composed_augmentation,
+        energy_contour_maps,
+        latent_count,
+        sef_ablation,
+    )
     from repro.gmd import emphasis_projection as emphasis_study
     from repro.gmd import guidance_schedule, root_representation, x0_vs_eps
 
     return {"GMD-A3": x0_vs_eps.Settings, "GMD-A4": x0_vs_eps.Settings,
             "GMD-B2": root_representation.Settings, "GMD-B3": root_representation.Settings,
             "GMD-C4": emphasis_study.Settings, "GMD-F1": guidance_schedule.Settings,
-            "EMG-1": emg.EnergyViewSettings, "EMG-2": emg.EnergyViewSettings,
-            "EMG-3": emg.EnergyViewSettings, "EMG-6": emg.EnergyViewSettings,
-            "EMG-4": emg.SEFAblationSettings, "EMG-5": emg.SEFAblationSettings,
-            "EMG-7": emg.LatentCountSettings, "EMG-8": emg.AugmentationSettings}
+            **dict.fromkeys(("EMG-1", "EMG-2", "EMG-3", "EMG-6"),
+                            energy_contour_maps.EnergyViewSettings),
+            "EMG-4": sef_ablation.SEFAblationSettings, "EMG-5": sef_ablation.SEFAblationSettings,
+            "EMG-7": latent_count.LatentCountSettings,
+            "EMG-8": composed_augmentation.AugmentationSettings}
 
 
 def run_settings(claim_id: str, scale: str = "standard") -> dict[str, Any]:

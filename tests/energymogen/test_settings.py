@@ -16,8 +16,11 @@ from conftest import make_context
 
 from repro.core.training import PlateauCriterion
 from repro.energymogen import pipeline as em
+from repro.energymogen.composed_augmentation import AugmentationSettings
 from repro.energymogen.data import trained_pairs
-from repro.energymogen.energy_contour_maps import energy_map_case
+from repro.energymogen.energy_contour_maps import EnergyViewSettings, energy_map_case
+from repro.energymogen.latent_count import LatentCountSettings
+from repro.energymogen.sef_ablation import SEFAblationSettings
 from repro.energymogen.settings import (
     ARM_CONCEPTS,
     EXTRA_TEST_SETS,
@@ -30,11 +33,7 @@ from repro.energymogen.settings import (
     SEEDS,
     THREE_CONCEPT_SETS,
     THREES_AS_PAIRS,
-    AugmentationSettings,
-    EnergyViewSettings,
-    LatentCountSettings,
     PipelineConfig,
-    SEFAblationSettings,
     TrainingPlan,
     config_summary,
     pipeline_config,

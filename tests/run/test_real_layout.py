@@ -30,18 +30,13 @@ import torch
 
 from repro.claims.ledger import load_sidecars
 from repro.energymogen import sef_ablation as em_studies
+from repro.energymogen.composed_augmentation import AugmentationSettings
 from repro.energymogen.data import build_folder_data, composition_items
+from repro.energymogen.energy_contour_maps import EnergyViewSettings
 from repro.energymogen.harness import oracle_accuracy
-from repro.energymogen.latent_count import table8_markdown
-from repro.energymogen.settings import (
-    FRAMES,
-    AugmentationSettings,
-    EnergyViewSettings,
-    LatentCountSettings,
-    SEFAblationSettings,
-    folder_problems,
-    pipeline_config,
-)
+from repro.energymogen.latent_count import LatentCountSettings, table8_markdown
+from repro.energymogen.sef_ablation import SEFAblationSettings
+from repro.energymogen.settings import FRAMES, folder_problems, pipeline_config
 from repro.gmd.windows import DataConfig, load_windows
 from repro.infra import paths
 from repro.infra.context import RunContext

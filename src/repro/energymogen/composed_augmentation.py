@@ -1,6 +1,6 @@
 """Notebook 08, EMG-8: composed motions as training data (EnergyMoGen Sec. 5.1 "CompML", Sec. 5.5:
 "the model's performance improves with additional training data from CompML", app. A); the
-settings are ``settings.AugmentationSettings``.
+settings are ``AugmentationSettings``.
 
 The paper composes 5000 motions from random sets of three STMC texts with EnergyMoGen,
 fine-tunes *only the latent diffusion model* on HumanML3D + CompML for 100K iterations with
@@ -59,7 +59,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -109,10 +109,17 @@ from repro.energymogen.settings import (
     ARM_CONCEPTS,
     HELD_OUT_PAIRS,
     LOWER_CONCEPTS,
-    AugmentationSettings,
+    ONE_THREAD,
+    NotebookSettings,
+    PipelineConfig,
+    TrainingPlan,
+    composed_set_size,
     finetune_config,
+    pipeline_config,
+    seeds_of,
 )
 from repro.infra import cache
+from repro.infra.context import check_scale
 from repro.models.latent_denoiser import LatentDenoiser, train_latent_denoiser
 from repro.models.vae import array_fingerprint
 from repro.motion.features import FPS
@@ -122,6 +129,7 @@ from repro.standin.concepts import can_be_simultaneous
 from repro.standin.generator import ClipSpec
 
 __all__ = [
+    "AugmentationSettings",
     "ComposedSet",
     "HELD_OUT_COLUMNS",
     "ROWS",
@@ -154,6 +162,51 @@ __all__ = [
     "seconds_text",
     "study_text",
 ]
+
+
+@dataclass(frozen=True)
+class AugmentationSettings(NotebookSettings):
+    """Notebook 08 (EMG-8): seeds (each with its own pretrained models,
+    ``pipeline.SeedPipelines``), the rule's test set — the shared-concept test of
+    ``harness.build_shared_concept_test``, 384 clips: one R-precision batch of 32 per concept
+    of the pool (12), 64 clips (2 batches) in quick runs —, the random-batch test set on which
+    the models' gates are measured (as notebook 07's: 256 clips, 64 quick), torch threads and
+    the training plan (notebook 07's); the composed set's size and the fine-tuning follow from
+    the pipeline (``composed_set_size``, ``finetune_config``).
+    On a data folder EMG-8 is recorded as not measurable on real data (its composed set
+    composes stand-in concept pairs, its test batches clips by concept); the pretrained
+    models, their gates and ground truth's R@3 on the folder's test windows still run."""
+
+    NOTEBOOK: ClassVar[str] = "08_composed_augmentation"
+    scale: str
+    pipeline: PipelineConfig
+    seeds: int
+    test_clips: int
+    gate_test_clips: int
+    plan: TrainingPlan
+    threads: int = ONE_THREAD
+
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
+    @classmethod
+    def for_scale(cls, scale: str) -> AugmentationSettings:
+        scale = check_scale(scale)
+        quick = scale == "quick"
+        return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-8", scale),
+                   test_clips=64 if quick else 384, gate_test_clips=64 if quick else 256,
+                   plan=TrainingPlan.for_scale(scale))
+
+    @property
+    def composed_set_size(self) -> int:
+        """CompML's size relative to HumanML3D's, of the pipeline's training clips."""
+        return composed_set_size(self.pipeline)
+
+    def finetune(self, seed: int, pretraining_steps: int | None = None) -> TrainConfig:
+        """The fine-tuning configuration of ``seed`` (appendix A's ratios): a third of the
+        pretrained denoiser's ``pretraining_steps`` (default the configured steps)."""
+        return finetune_config(self.pipeline, seed, self.threads, pretraining_steps)
 
 
 def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,

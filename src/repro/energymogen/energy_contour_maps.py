@@ -1,5 +1,5 @@
 """Notebook 04: the energy view of EnergyMoGen's latent diffusion and the composition it
-licenses, checked on the pipeline — the settings are ``settings.EnergyViewSettings``.
+licenses, checked on the pipeline — the settings are ``EnergyViewSettings``.
 
 - **EMG-1** (Sec. 3.2, Eq. 5–7: "diffusion models can be interpreted as EBMs under the
   gradient descent step η = 1") — a DDPM or DDIM step is a Langevin step on an energy
@@ -59,7 +59,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -108,13 +108,19 @@ from repro.energymogen.settings import (
     HELD_OUT_PAIRS,
     LOWER_CONCEPTS,
     NEGATION_CASES,
-    EnergyViewSettings,
+    NotebookSettings,
+    PipelineConfig,
+    TrainingPlan,
+    pipeline_config,
+    seeds_of,
 )
+from repro.infra.context import check_scale
 from repro.models.latent_denoiser import LatentDenoiser
 from repro.motion.plotting import filmstrip, save_figure
 from repro.standin.oracles import detect_concepts
 
 __all__ = [
+    "EnergyViewSettings",
     "EpsFn",
     "LOOP_POINTS",
     "LatentPlane",
@@ -167,6 +173,61 @@ __all__ = [
     "save_energy_map_figures",
     "smooth_energy_map",
 ]
+
+
+@dataclass(frozen=True)
+class EnergyViewSettings(NotebookSettings):
+    """Notebook 04 (EMG-1, 2, 3, 6, 9). On a data folder (real data, no concept labels):
+    EMG-1 (model identities on the folder's test windows and captions) and EMG-9 (no data)
+    are measured; EMG-2, 3 and 6, which compose the stand-in's labelled concepts, are
+    recorded as not measurable on real data (docs/RUNNING.md "The real HumanML3D").
+
+    ``emg1_samples`` noised test latents for EMG-1's identities; ``negation_items_per_case``
+    items per ``NEGATION_CASES`` case (EMG-2/3); the guidance-scale check (paper scale
+    only: its cost at standard was not measured below a CPU-minute; not recorded) reruns
+    EMG-2/3 at ``scale_check_scales`` on the first ``scale_check_seeds`` seeds with fewer
+    items; EMG-6's maps: a ``map_grid``² grid, ``map_noise_draws`` noise draws (standard 2,
+    paper 4), ``map_samples`` generated latents per row (the paper values are
+    ``energy_contour_maps.energy_map_case``'s defaults), ``map_cases`` cases per kind and seed
+    (None: every held-out pair and every negation case; quick runs take the
+    first two). ``plan``: the training plan of every EnergyMoGen notebook (the same trained
+    pipeline as 05, 07 and 08).
+    """
+
+    NOTEBOOK: ClassVar[str] = "04_energy_contour_maps"
+    scale: str
+    pipeline: PipelineConfig
+    plan: TrainingPlan
+    seeds: int
+    emg1_samples: int
+    negation_items_per_case: int
+    scale_check: bool
+    map_grid: int
+    map_noise_draws: int
+    map_samples: int
+    map_cases: int | None = None
+    jacobian_timesteps: tuple[int, ...] = (100, 300, 500, 700, 900)
+    linearity_timesteps: tuple[int, ...] = (100, 500, 900)
+    scale_check_scales: tuple[float, ...] = (1.5, 5.0)
+    scale_check_seeds: int = 3
+    scale_check_items_per_pair: int = 4
+    scale_check_items_per_case: int = 8
+
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
+    @classmethod
+    def for_scale(cls, scale: str) -> EnergyViewSettings:
+        scale = check_scale(scale)
+        common = {"scale": scale, "pipeline": pipeline_config(scale),
+                  "plan": TrainingPlan.for_scale(scale), "seeds": seeds_of("EMG-2", scale)}
+        if scale == "quick":
+            return cls(**common, emg1_samples=3, negation_items_per_case=6, scale_check=False,
+                       map_grid=6, map_noise_draws=1, map_samples=6, map_cases=2)
+        return cls(**common, emg1_samples=8, negation_items_per_case=16,
+                   scale_check=scale == "paper", map_grid=16,
+                   map_noise_draws=2 if scale == "standard" else 4, map_samples=16)
 
 
 def langevin_step_errors(diffusion: GaussianDiffusion, eps_fn: Callable[[Tensor, Tensor], Tensor],

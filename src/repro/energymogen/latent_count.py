@@ -1,7 +1,7 @@
 """Notebook 07, EMG-7: the number N of latent vectors of the motion VAE (EnergyMoGen appendix D,
 Table 8: "For reconstruction, 7 latent vectors achieve the best results. ... Using 5 latent
 vectors ... obtains the best text-to-motion generation performance"); the settings are
-``settings.LatentCountSettings``.
+``LatentCountSettings``.
 
 The sweep N ∈ ``settings.LATENT_COUNTS`` retrains the VAE and the latent denoiser of the
 shared pipeline (``repro.energymogen.pipeline``) with *everything else identical*: the same
@@ -41,8 +41,8 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import replace
-from typing import Any
+from dataclasses import dataclass, replace
+from typing import Any, ClassVar
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -84,15 +84,22 @@ from repro.energymogen.pipeline import (
 )
 from repro.energymogen.settings import (
     LATENT_COUNTS,
-    LatentCountSettings,
+    ONE_THREAD,
+    STANDARD_LATENT_COUNTS,
+    NotebookSettings,
     PipelineConfig,
+    TrainingPlan,
+    pipeline_config,
+    seeds_of,
 )
+from repro.infra.context import check_scale
 from repro.models.evaluator import evaluate_generated
 from repro.motion.features import features_to_joints
 from repro.motion.plotting import filmstrip
 from repro.standin.figures import NOT_MEASURABLE
 
 __all__ = [
+    "LatentCountSettings",
     "PAPER_REAL_MOTION",
     "PAPER_TABLE8",
     "TABLE8_COLUMNS",
@@ -110,6 +117,46 @@ __all__ = [
     "reconstructions_figure",
     "table8_markdown",
 ]
+
+
+@dataclass(frozen=True)
+class LatentCountSettings(NotebookSettings):
+    """Notebook 07 (EMG-7): the N swept, the training seeds, the size of the held-out
+    text-to-motion test set (256 clips: 8 R-precision batches of 32, FID of 32-d embeddings
+    from 256 samples; 64 in quick runs), the torch threads and the training plan
+    (``TrainingPlan.for_scale``: every N's VAE and denoiser trained to convergence
+    at paper, the VAE's cap from the pilot of pilots/pilot_emg_vae.md; fixed steps at standard).
+    On a data folder EMG-7 is measured (reconstruction error, and FID of generated motions
+    against the folder's test windows); its oracle columns read not measurable on real data."""
+
+    NOTEBOOK: ClassVar[str] = "07_latent_count"
+    scale: str
+    pipeline: PipelineConfig
+    seeds: int
+    test_clips: int
+    plan: TrainingPlan
+    counts: tuple[int, ...] = LATENT_COUNTS
+    threads: int = ONE_THREAD
+
+    @property
+    def quick(self) -> bool:
+        return self.scale == "quick"
+
+    @property
+    def counts_not_run(self) -> tuple[int, ...]:
+        """The N of ``LATENT_COUNTS`` this scale does not sweep (paper only)."""
+        return tuple(n for n in LATENT_COUNTS if n not in self.counts)
+
+    @classmethod
+    def for_scale(cls, scale: str) -> LatentCountSettings:
+        """Quick and standard runs sweep N = 5 and 7 only, the two the rule names (one extra
+        VAE and denoiser per seed: every other N runs the same code); N = 1, 3 are the paper
+        scale's."""
+        scale = check_scale(scale)
+        return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-7", scale),
+                   test_clips=64 if scale == "quick" else 256,
+                   plan=TrainingPlan.for_scale(scale),
+                   counts=LATENT_COUNTS if scale == "paper" else STANDARD_LATENT_COUNTS)
 
 
 #: Table 8 columns: (key, label).

@@ -61,12 +61,10 @@ from repro.standin.generator import (
 
 __all__ = [
     "ARM_CONCEPTS",
-    "AugmentationSettings",
     "COMPML_FRACTION",
     "DENOISER_TRAINING",
     "EVALUATOR",
     "EXTRA_TEST_SETS",
-    "EnergyViewSettings",
     "FOLDER_MIN_TEST",
     "FOLDER_MIN_TRAIN",
     "FOLDER_STRIDE",
@@ -78,16 +76,15 @@ __all__ = [
     "LEARNED_MAX_TEXT_LEN",
     "LEARNED_TEXT_DIM",
     "LOWER_CONCEPTS",
-    "LatentCountSettings",
     "MINILM_MAX_TEXT_LEN",
     "NEGATION_CASES",
     "NOTEBOOKS",
+    "NotebookSettings",
     "ONE_THREAD",
     "PipelineConfig",
     "RHYTHM_OVERRIDES",
     "RULE_SETTINGS",
     "SEEDS",
-    "SEFAblationSettings",
     "STANDARD_DENOISER_LAYERS",
     "STANDARD_DENOISER_STEPS",
     "STANDARD_DENOISER_WIDTH",
@@ -536,7 +533,7 @@ def folder_problems(data_dir: str, scale: str) -> list[str]:
                       for path, message in usability_problems(data_dir, folder_needs(scale))]
 
 
-class _NotebookSettings(RunSettings):
+class NotebookSettings(RunSettings):
     """What the settings of every EnergyMoGen notebook share: the notebook they belong to and
     the check of a data folder (every notebook runs on one: its measurements that need the
     stand-in's labelled concepts then read "not measurable on real data", every other runs)."""
@@ -556,189 +553,18 @@ class _NotebookSettings(RunSettings):
         return cls.for_scale(ctx.scale)
 
 
-@dataclass(frozen=True)
-class EnergyViewSettings(_NotebookSettings):
-    """Notebook 04 (EMG-1, 2, 3, 6, 9). On a data folder (real data, no concept labels):
-    EMG-1 (model identities on the folder's test windows and captions) and EMG-9 (no data)
-    are measured; EMG-2, 3 and 6, which compose the stand-in's labelled concepts, are
-    recorded as not measurable on real data (docs/RUNNING.md "The real HumanML3D").
-
-    ``emg1_samples`` noised test latents for EMG-1's identities; ``negation_items_per_case``
-    items per ``NEGATION_CASES`` case (EMG-2/3); the guidance-scale check (paper scale
-    only: its cost at standard was not measured below a CPU-minute; not recorded) reruns
-    EMG-2/3 at ``scale_check_scales`` on the first ``scale_check_seeds`` seeds with fewer
-    items; EMG-6's maps: a ``map_grid``² grid, ``map_noise_draws`` noise draws (standard 2,
-    paper 4), ``map_samples`` generated latents per row (the paper values are
-    ``energy_contour_maps.energy_map_case``'s defaults), ``map_cases`` cases per kind and seed
-    (None: every held-out pair and every negation case; quick runs take the
-    first two). ``plan``: the training plan of every EnergyMoGen notebook (the same trained
-    pipeline as 05, 07 and 08).
-    """
-
-    NOTEBOOK: ClassVar[str] = "04_energy_contour_maps"
-    scale: str
-    pipeline: PipelineConfig
-    plan: TrainingPlan
-    seeds: int
-    emg1_samples: int
-    negation_items_per_case: int
-    scale_check: bool
-    map_grid: int
-    map_noise_draws: int
-    map_samples: int
-    map_cases: int | None = None
-    jacobian_timesteps: tuple[int, ...] = (100, 300, 500, 700, 900)
-    linearity_timesteps: tuple[int, ...] = (100, 500, 900)
-    scale_check_scales: tuple[float, ...] = (1.5, 5.0)
-    scale_check_seeds: int = 3
-    scale_check_items_per_pair: int = 4
-    scale_check_items_per_case: int = 8
-
-    @property
-    def quick(self) -> bool:
-        return self.scale == "quick"
-
-    @classmethod
-    def for_scale(cls, scale: str) -> EnergyViewSettings:
-        scale = check_scale(scale)
-        common = {"scale": scale, "pipeline": pipeline_config(scale),
-                  "plan": TrainingPlan.for_scale(scale), "seeds": seeds_of("EMG-2", scale)}
-        if scale == "quick":
-            return cls(**common, emg1_samples=3, negation_items_per_case=6, scale_check=False,
-                       map_grid=6, map_noise_draws=1, map_samples=6, map_cases=2)
-        return cls(**common, emg1_samples=8, negation_items_per_case=16,
-                   scale_check=scale == "paper", map_grid=16,
-                   map_noise_draws=2 if scale == "standard" else 4, map_samples=16)
-
-
-@dataclass(frozen=True)
-class SEFAblationSettings(_NotebookSettings):
-    """Notebook 05 (EMG-4, EMG-5): the pipeline, the number of seeds and the MTT-style
-    timeline items per seed on which EMG-5's transitions are measured
-    (``sef_ablation.timeline_items``; 64 at standard and paper, our choice: 1–3 boundaries each,
-    about 150 transitions per row and seed, one item in eight of MTT's 500; 8 in quick runs)
-    and the training plan (every EnergyMoGen notebook's: one trained pipeline). On a data
-    folder EMG-4 is measured (Table 9's single-text rows with AGD, from the captions of the
-    folder's test windows, R@3 and FID against them); EMG-5 (the λ rows compose concepts; the
-    timelines and the sets of three are the stand-in's) is recorded as not measurable on real
-    data."""
-
-    NOTEBOOK: ClassVar[str] = "05_sef_ablation"
-    scale: str
-    pipeline: PipelineConfig
-    plan: TrainingPlan
-    seeds: int
-    timeline_items: int
-
-    @property
-    def quick(self) -> bool:
-        return self.scale == "quick"
-
-    @classmethod
-    def for_scale(cls, scale: str) -> SEFAblationSettings:
-        scale = check_scale(scale)
-        return cls(scale=scale, pipeline=pipeline_config(scale),
-                   plan=TrainingPlan.for_scale(scale), seeds=seeds_of("EMG-4", scale),
-                   timeline_items=8 if scale == "quick" else 64)
-
-
-@dataclass(frozen=True)
-class LatentCountSettings(_NotebookSettings):
-    """Notebook 07 (EMG-7): the N swept, the training seeds, the size of the held-out
-    text-to-motion test set (256 clips: 8 R-precision batches of 32, FID of 32-d embeddings
-    from 256 samples; 64 in quick runs), the torch threads and the training plan
-    (``TrainingPlan.for_scale``: every N's VAE and denoiser trained to convergence
-    at paper, the VAE's cap from the pilot of pilots/pilot_emg_vae.md; fixed steps at standard).
-    On a data folder EMG-7 is measured (reconstruction error, and FID of generated motions
-    against the folder's test windows); its oracle columns read not measurable on real data."""
-
-    NOTEBOOK: ClassVar[str] = "07_latent_count"
-    scale: str
-    pipeline: PipelineConfig
-    seeds: int
-    test_clips: int
-    plan: TrainingPlan
-    counts: tuple[int, ...] = LATENT_COUNTS
-    threads: int = ONE_THREAD
-
-    @property
-    def quick(self) -> bool:
-        return self.scale == "quick"
-
-    @property
-    def counts_not_run(self) -> tuple[int, ...]:
-        """The N of ``LATENT_COUNTS`` this scale does not sweep (paper only)."""
-        return tuple(n for n in LATENT_COUNTS if n not in self.counts)
-
-    @classmethod
-    def for_scale(cls, scale: str) -> LatentCountSettings:
-        """Quick and standard runs sweep N = 5 and 7 only, the two the rule names (one extra
-        VAE and denoiser per seed: every other N runs the same code); N = 1, 3 are the paper
-        scale's."""
-        scale = check_scale(scale)
-        return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-7", scale),
-                   test_clips=64 if scale == "quick" else 256,
-                   plan=TrainingPlan.for_scale(scale),
-                   counts=LATENT_COUNTS if scale == "paper" else STANDARD_LATENT_COUNTS)
-
-
-@dataclass(frozen=True)
-class AugmentationSettings(_NotebookSettings):
-    """Notebook 08 (EMG-8): seeds (each with its own pretrained models,
-    ``pipeline.SeedPipelines``), the rule's test set — the shared-concept test of
-    ``harness.build_shared_concept_test``, 384 clips: one R-precision batch of 32 per concept
-    of the pool (12), 64 clips (2 batches) in quick runs —, the random-batch test set on which
-    the models' gates are measured (as notebook 07's: 256 clips, 64 quick), torch threads and
-    the training plan (notebook 07's); the composed set's size and the fine-tuning follow from
-    the pipeline (``composed_set_size``, ``finetune_config``).
-    On a data folder EMG-8 is recorded as not measurable on real data (its composed set
-    composes stand-in concept pairs, its test batches clips by concept); the pretrained
-    models, their gates and ground truth's R@3 on the folder's test windows still run."""
-
-    NOTEBOOK: ClassVar[str] = "08_composed_augmentation"
-    scale: str
-    pipeline: PipelineConfig
-    seeds: int
-    test_clips: int
-    gate_test_clips: int
-    plan: TrainingPlan
-    threads: int = ONE_THREAD
-
-    @property
-    def quick(self) -> bool:
-        return self.scale == "quick"
-
-    @classmethod
-    def for_scale(cls, scale: str) -> AugmentationSettings:
-        scale = check_scale(scale)
-        quick = scale == "quick"
-        return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-8", scale),
-                   test_clips=64 if quick else 384, gate_test_clips=64 if quick else 256,
-                   plan=TrainingPlan.for_scale(scale))
-
-    @property
-    def composed_set_size(self) -> int:
-        """CompML's size relative to HumanML3D's, of the pipeline's training clips."""
-        return composed_set_size(self.pipeline)
-
-    def finetune(self, seed: int, pretraining_steps: int | None = None) -> TrainConfig:
-        """The fine-tuning configuration of ``seed`` (appendix A's ratios): a third of the
-        pretrained denoiser's ``pretraining_steps`` (default the configured steps)."""
-        return finetune_config(self.pipeline, seed, self.threads, pretraining_steps)
-
-
 #: the EnergyMoGen notebooks (``run.params`` checks a data folder against :func:`folder_needs`
 #: for these, against the GMD notebooks' windows for the others)
-NOTEBOOKS: tuple[str, ...] = tuple(settings.NOTEBOOK for settings in (
-    EnergyViewSettings, SEFAblationSettings, LatentCountSettings, AugmentationSettings))
+NOTEBOOKS: tuple[str, ...] = ("04_energy_contour_maps", "05_sef_ablation", "07_latent_count",
+                             "08_composed_augmentation")
 
 
-def emg1(settings: EnergyViewSettings) -> dict[str, Any]:
+def emg1(settings: Any) -> dict[str, Any]:
     """EMG-1: the t at which the residual Jacobian and the loop integrals are measured."""
     return {"timesteps": settings.jacobian_timesteps}
 
 
-def emg23(settings: EnergyViewSettings) -> dict[str, Any]:
+def emg23(settings: Any) -> dict[str, Any]:
     """EMG-2, EMG-3: seeds; conjunction and negation items per seed
     (``data.composition_items``, ``data.negation_items``)."""
     return {"seeds": settings.seeds,
@@ -746,30 +572,30 @@ def emg23(settings: EnergyViewSettings) -> dict[str, Any]:
             "negation_items": settings.negation_items_per_case * len(NEGATION_CASES)}
 
 
-def emg6(settings: EnergyViewSettings) -> dict[str, Any]:
+def emg6(settings: Any) -> dict[str, Any]:
     """EMG-6: seeds, the maps' grid and noise draws."""
     return {"seeds": settings.seeds, "map_grid": settings.map_grid,
             "map_noise_draws": settings.map_noise_draws}
 
 
-def emg4(settings: SEFAblationSettings) -> dict[str, Any]:
+def emg4(settings: Any) -> dict[str, Any]:
     """EMG-4: seeds."""
     return {"seeds": settings.seeds}
 
 
-def emg5(settings: SEFAblationSettings) -> dict[str, Any]:
+def emg5(settings: Any) -> dict[str, Any]:
     """EMG-5: seeds and the MTT-style timelines per seed."""
     return {"seeds": settings.seeds, "timeline_items": settings.timeline_items}
 
 
-def emg7(settings: LatentCountSettings, test_clips: int | None = None) -> dict[str, Any]:
+def emg7(settings: Any, test_clips: int | None = None) -> dict[str, Any]:
     """EMG-7: seeds, the N swept, the held-out test clips (``test_clips``: the test set as
     built, where it differs from the settings' size; None: the settings')."""
     return {"seeds": settings.seeds, "counts": settings.counts,
             "test_clips": settings.test_clips if test_clips is None else test_clips}
 
 
-def emg8(settings: AugmentationSettings, test_clips: int | None = None) -> dict[str, Any]:
+def emg8(settings: Any, test_clips: int | None = None) -> dict[str, Any]:
     """EMG-8: seeds and the shared-concept test's clips (``test_clips`` as for EMG-7)."""
     return {"seeds": settings.seeds,
             "test_clips": settings.test_clips if test_clips is None else test_clips}
