@@ -2,12 +2,12 @@
 (joint jerk ≤ 2×, foot skating ≤ 3× the held-out clips' own; concept recall ≥ 0.9×)?
 
 The standard scale's VAE (``pipeline_config("standard")``: width 64, 2 layers, N = 5,
-batch 32, AdamW lr 1e-3, KL 1e-4) on its training clips, with ``--width``, ``--lr`` and
-``--steps`` changed, checked every ``--every`` steps on notebook 07's held-out test clips: the
-gate values of ``model_gates.vae_gate_values`` / ``vae_sample_values``, MPJPE, and the
-training CPU seconds (``time.process_time``, one thread). The loop is ``train_vae``'s
-(``models.vae``), run step by step here so it can be checked on the way. One JSON line per
-check goes to ``--out``::
+batch 32, AdamW lr 1e-3, KL 1e-4) on its training clips, with ``--width``, ``--layers``,
+``--lr``, ``--kl`` and ``--steps`` changed, checked every ``--every`` steps on notebook 07's
+held-out test clips: the gate values of ``model_gates.vae_gate_values`` /
+``vae_sample_values``, MPJPE, and the training CPU seconds (``time.process_time``, one
+thread). The loop is ``train_vae``'s (``models.vae``), run step by step here so it can be
+checked on the way. One JSON line per check goes to ``--out``::
 
     PYTHONPATH=src python scripts/pilot_emg_vae_samples.py --width 64 --steps 3600 \\
         --every 900 --out pilots/emg_vae_samples.jsonl
@@ -45,6 +45,7 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=64)
     parser.add_argument("--layers", type=int, default=None)
     parser.add_argument("--lr", type=float, default=None)
+    parser.add_argument("--kl", type=float, default=1e-4, help="KL weight (MLD's 1e-4)")
     parser.add_argument("--steps", type=int, default=3600)
     parser.add_argument("--every", type=int, default=900)
     parser.add_argument("--seed", type=int, default=0)
@@ -57,6 +58,7 @@ def main() -> None:
     train_config = vae_train_config(config, train_seed_for(config, args.seed), threads=1)
     if args.lr is not None:
         train_config = replace(train_config, lr=args.lr)
+    train_config = replace(train_config, kl_weight=args.kl)
     data = load_or_build_data(config)
     test = load_or_build_text_to_motion_test(config,
                                              LatentCountSettings.for_scale("standard").test_clips)
@@ -97,7 +99,8 @@ def main() -> None:
             rj = joints(recon)
             stats = metrics.motion_statistics(rj)
             row = {"label": args.label, "width": args.width, "layers": config.vae_layers,
-                   "lr": train_config.lr, "seed": args.seed, "step": step,
+                   "lr": train_config.lr, "kl": train_config.kl_weight, "seed": args.seed,
+                   "step": step,
                    "train_cpu_s": round(spent, 1), "mpjpe": mpjpe(recon, test.features),
                    "concept_preservation": oracle_accuracy(rj, test.concepts) / real_recall,
                    **{f"{k}_ratio": stats[k] / real_stats[k] for k in stats},
