@@ -49,6 +49,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3600)
     parser.add_argument("--every", type=int, default=900)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--on-train", action="store_true",
+                        help="check on as many training clips instead (does it generalise?)")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -62,6 +64,9 @@ def main() -> None:
     data = load_or_build_data(config)
     test = load_or_build_text_to_motion_test(config,
                                              LatentCountSettings.for_scale("standard").test_clips)
+    if args.on_train:
+        test = replace(test, features=data.train_features[:len(test.features)],
+                       concepts=data.train_concepts[:len(test.features)])
     real = joints(test.features)
     real_stats = metrics.motion_statistics(real)
     real_recall = oracle_accuracy(real, test.concepts)
@@ -100,7 +105,7 @@ def main() -> None:
             stats = metrics.motion_statistics(rj)
             row = {"label": args.label, "width": args.width, "layers": config.vae_layers,
                    "lr": train_config.lr, "kl": train_config.kl_weight, "seed": args.seed,
-                   "step": step,
+                   "step": step, "clips": "train" if args.on_train else "test",
                    "train_cpu_s": round(spent, 1), "mpjpe": mpjpe(recon, test.features),
                    "concept_preservation": oracle_accuracy(rj, test.concepts) / real_recall,
                    **{f"{k}_ratio": stats[k] / real_stats[k] for k in stats},
