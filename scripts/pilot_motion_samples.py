@@ -28,7 +28,7 @@ import numpy as np
 import torch
 
 from repro.core import metrics
-from repro.gmd import measurements as table_b1
+from repro.gmd import measurements
 from repro.gmd import x0_vs_eps as x0eps
 from repro.gmd.guidance import sample, sample_classifier_free
 from repro.gmd.models import TrainedGMD, load_or_train_gmd
@@ -102,10 +102,10 @@ def main() -> None:
         ema_decay=args.ema, lr_schedule=args.schedule,
         feature_weights=None if args.root_weight is None else tuple(
             [args.root_weight] * 4 + [1.0] * 259))
-    evaluation = table_b1.evaluation_set(relative_test, args.n, seed=args.seed)
+    evaluation = measurements.evaluation_set(relative_test, args.n, seed=args.seed)
     data_joints = features_to_joints(evaluation.features.astype(np.float64))
     reference = motion_stats(data_joints)
-    reference["recall"] = table_b1.concept_recall(evaluation.features, evaluation.truth)
+    reference["recall"] = measurements.concept_recall(evaluation.features, evaluation.truth)
     started = time.perf_counter()
     diffusion = spec.diffusion()
     vocabulary = train.vocabulary
@@ -125,7 +125,7 @@ def main() -> None:
         with torch.no_grad():
             features = trained.space.relative_features(x).numpy().astype(np.float32)
         text = motion_stats(features_to_joints(features.astype(np.float64)))
-        text["recall"] = table_b1.concept_recall(features, evaluation.truth)
+        text["recall"] = measurements.concept_recall(features, evaluation.truth)
         sample_s = time.perf_counter() - t0
         spent["checks"] += time.perf_counter() - t0 + 0.0
         row = {"label": args.label, "step": step, "held_out_loss": loss,

@@ -34,12 +34,11 @@ def settings_classes() -> dict[str, Any]:
         latent_count,
         sef_ablation,
     )
-    from repro.gmd import emphasis_projection as emphasis_study
-    from repro.gmd import guidance_schedule, root_representation, x0_vs_eps
+    from repro.gmd import emphasis_projection, guidance_schedule, root_representation, x0_vs_eps
 
     return {"GMD-A3": x0_vs_eps.Settings, "GMD-A4": x0_vs_eps.Settings,
             "GMD-B2": root_representation.Settings, "GMD-B3": root_representation.Settings,
-            "GMD-C4": emphasis_study.Settings, "GMD-F1": guidance_schedule.Settings,
+            "GMD-C4": emphasis_projection.Settings, "GMD-F1": guidance_schedule.Settings,
             **dict.fromkeys(("EMG-1", "EMG-2", "EMG-3", "EMG-6"),
                             energy_contour_maps.EnergyViewSettings),
             "EMG-4": sef_ablation.SEFAblationSettings, "EMG-5": sef_ablation.SEFAblationSettings,

@@ -11,9 +11,8 @@ import pytest
 from repro.claims import printed, seed_text
 from repro.claims.printed import QUOTES, get_table, value
 from repro.claims.registry import CLAIMS
-from repro.energymogen import latent_count
-from repro.energymogen import sef_ablation as studies
-from repro.gmd import measurements as table_b1
+from repro.energymogen import latent_count, sef_ablation
+from repro.gmd import measurements
 
 EMG = "EnergyMoGen"
 
@@ -54,14 +53,15 @@ def test_a_changed_number_interval_bold_row_or_quote_fails_the_seed_check() -> N
 def test_the_package_copies_of_the_tables_are_the_printed_ones() -> None:
     names = {"r_precision_top1": "R@1", "r_precision_top3": "R@3", "tmr_m2t": "M2T",
              "tmr_m2m": "M2M", "fid": "FID", "transition_distance": "Transition"}
-    for copy, table in ((studies.PAPER_TABLE7, "Table 7"), (studies.PAPER_TABLE9, "Table 9")):
+    for copy, table in ((sef_ablation.PAPER_TABLE7, "Table 7"),
+                        (sef_ablation.PAPER_TABLE9, "Table 9")):
         for row, cells in copy.items():
             assert cells == {k: value(EMG, table, row, c) for k, c in names.items()}, row
     t3 = {"single text": "Ours", "single text + AGD": "Ours + AGD",
           "latent only": "Ours (latent only)", "semantic only": "Ours (semantic only)",
           "SEF": "Ours + SEF"}
     for ours, row in t3.items():
-        assert studies.PAPER_TABLE3[ours] == {k: value(EMG, "Table 3", row, c)
+        assert sef_ablation.PAPER_TABLE3[ours] == {k: value(EMG, "Table 3", row, c)
                                               for k, c in names.items()}
     t8 = {"r_precision_top1": "R@1", "r_precision_top2": "R@2", "r_precision_top3": "R@3",
           "fid": "FID", "mm_dist": "MM-Dist", "diversity": "Diversity"}
@@ -73,7 +73,7 @@ def test_the_package_copies_of_the_tables_are_the_printed_ones() -> None:
     labels = {"Real": "Real", "MDM (rel)": "MDM [10] (rel)", "MDM (abs)": "MDM [10] (abs)",
               "Ours (rel)": "Ours (rel)", "Ours (abs)": "Ours (abs)", "Ours xproj": "Ours xproj"}
     for ours, row in labels.items():
-        assert table_b1.PAPER_TABLE_B1[ours] == tuple(
+        assert measurements.PAPER_TABLE_B1[ours] == tuple(
             value("GMD", "Table B.1", row, c) for c in ("FID", "R@3", "Diversity"))
 
 

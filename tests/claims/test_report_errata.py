@@ -13,7 +13,7 @@ import pytest
 from repro.claims import printed
 from repro.claims.errata import errata_html, errata_markdown, load_errata, parse_errata
 from repro.claims.registry import CLAIMS
-from repro.energymogen import sef_ablation as studies
+from repro.energymogen import sef_ablation
 from repro.infra import paths
 
 
@@ -140,7 +140,7 @@ def test_eq3_k_prime_as_printed_cannot_left_multiply_k() -> None:
 
 
 def test_sef_rows_of_tables_3_and_7_differ_only_in_r_at_1() -> None:
-    table3, table7 = studies.PAPER_TABLE3["SEF"], studies.PAPER_TABLE7["0.1,0.7,0.2"]
+    table3, table7 = sef_ablation.PAPER_TABLE3["SEF"], sef_ablation.PAPER_TABLE7["0.1,0.7,0.2"]
     differing = sorted(k for k in table7 if table3[k] != table7[k])
     assert differing == ["r_precision_top1"]
     assert (table3["r_precision_top1"], table7["r_precision_top1"]) == (15.9, 15.7)
@@ -149,7 +149,7 @@ def test_sef_rows_of_tables_3_and_7_differ_only_in_r_at_1() -> None:
 
 
 def test_table_7_multi_concept_row_is_table_3_without_agd() -> None:
-    multi = studies.PAPER_TABLE7["0.0,0.0,1.0"]
-    assert multi == studies.PAPER_TABLE3["single text"] == studies.PAPER_TABLE9["0.0,0.0"]
-    assert multi != studies.PAPER_TABLE3["single text + AGD"]
-    assert studies.PAPER_TABLE7["0.0,1.0,0.0"] == studies.PAPER_TABLE3["semantic only"]
+    multi = sef_ablation.PAPER_TABLE7["0.0,0.0,1.0"]
+    assert multi == sef_ablation.PAPER_TABLE3["single text"] == sef_ablation.PAPER_TABLE9["0.0,0.0"]
+    assert multi != sef_ablation.PAPER_TABLE3["single text + AGD"]
+    assert sef_ablation.PAPER_TABLE7["0.0,1.0,0.0"] == sef_ablation.PAPER_TABLE3["semantic only"]

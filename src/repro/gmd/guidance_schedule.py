@@ -859,8 +859,6 @@ def plot_obstacles(space: FeatureSpace, arms: Sequence[ObstacleArm], obstacles: 
 # :class:`~repro.claims.result.ClaimResult` (:func:`f1_result`).
 # ------------------------------------------------------------------------------------------------
 
-key = strength_key
-
 
 def trajectory_records(trained: ScheduleModels, sweeps: Sweeps,
                        seeds: Sequence[int]) -> list[dict[str, Any]]:
@@ -1007,7 +1005,7 @@ class Sweeps:
         rows = ["| s | goal error (m), per seed | mean | ÷ unguided | root jerk (m/s³), per "
                 "seed | mean | ÷ unguided |", "|---|---|---|---|---|---|---|"]
         for v in settings.strengths:
-            goal, jerk = self.goal_by_s[key(v)], self.jerk_by_s[key(v)]
+            goal, jerk = self.goal_by_s[strength_key(v)], self.jerk_by_s[strength_key(v)]
             mark = " **(claimed range)**" if v in settings.rule_strengths else ""
             rows.append(f"| {v}{mark} | {', '.join(f'{e:.2f}' for e in goal)} | "
                         f"{np.mean(goal):.2f} | {np.mean(goal) / self.unguided_goal:.2f} | "
@@ -1062,9 +1060,9 @@ def run_sweeps(m: ScheduleModels, settings: Settings, seeds: Sequence[int], *,
     strengths = settings.strengths
     return Sweeps(
         seeds, targets, sweep, stop_sweep, imputed,
-        {key(v): per_seed(lambda s, v=v: sweep[s].mean_goal_error(v)) for v in strengths},
-        {key(v): per_seed(lambda s, v=v: sweep[s].mean_jerk(v)) for v in strengths},
-        {key(v): per_seed(lambda s, v=v: sweep[s].acceleration[sweep[s].index(v)])
+        {strength_key(v): per_seed(lambda s, v=v: sweep[s].mean_goal_error(v)) for v in strengths},
+        {strength_key(v): per_seed(lambda s, v=v: sweep[s].mean_jerk(v)) for v in strengths},
+        {strength_key(v): per_seed(lambda s, v=v: sweep[s].acceleration[sweep[s].index(v)])
          for v in strengths})
 
 
@@ -1145,8 +1143,8 @@ def obstacle_study(m: ScheduleModels, sweeps: Sweeps, settings: Settings) -> Obs
     """``guidance_schedule.obstacle_experiment`` per seed on the first
     ``settings.obstacle_goals`` goals, one obstacle each (``obstacles_between``), at GMD's s and
     at the guided strength with the lowest mean goal error of the sweep."""
-    sweep_goal_mean = {v: float(np.mean(sweeps.goal_by_s[key(v)])) for v in settings.strengths
-                       if v > 0}
+    sweep_goal_mean = {v: float(np.mean(sweeps.goal_by_s[strength_key(v)]))
+                       for v in settings.strengths if v > 0}
     s_lowest = min(sweep_goal_mean, key=sweep_goal_mean.get)
     strengths = sorted({settings.gmd_strength, s_lowest})
     runs, sets = {}, {}
@@ -1197,8 +1195,9 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
         "goal_error_stop_0": stop.goal[rule_arm][0],
         "goal_error_stop_20": stop.goal[rule_arm][stop_at],
     }
-    in_range = " / ".join(f"{np.mean(goal_by_s[key(v)]):.2f}" for v in settings.rule_strengths)
-    jerk_range = " / ".join(f"{np.mean(jerk_by_s[key(v)]) / sweeps.unguided_jerk:.3g}"
+    in_range = " / ".join(f"{np.mean(goal_by_s[strength_key(v)]):.2f}"
+                          for v in settings.rule_strengths)
+    jerk_range = " / ".join(f"{np.mean(jerk_by_s[strength_key(v)]) / sweeps.unguided_jerk:.3g}"
                             for v in settings.rule_strengths)
     s_lowest = obstacles.s_lowest
     headline = (f"goal error unguided {sweeps.unguided_goal:.2f} m → s = 100/150/200: "
