@@ -62,6 +62,7 @@ def main() -> None:
     parser.add_argument("--schedule", choices=("cosine",), default=None)
     parser.add_argument("--root-weight", type=float, default=None,
                         help="loss weight of the root features 0:4 (the rest 1)")
+    parser.add_argument("--caption-draw", choices=("mean", "one"), default="mean")
     parser.add_argument("--cfg", type=float, default=2.5)
     parser.add_argument("--n", type=int, default=64)
     parser.add_argument("--frames", type=int, default=48)
@@ -69,6 +70,8 @@ def main() -> None:
                         help="a stand-in set of these compositions, e.g. single=1")
     parser.add_argument("--pool", nargs="+", default=None, help="the stand-in's concept pool")
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--save-samples", type=Path, default=None,
+                        help="a folder for each check's samples and the windows (.npz)")
     args = parser.parse_args()
     torch.set_num_threads(1)
 
@@ -99,7 +102,7 @@ def main() -> None:
         base_channels=args.width, channel_mults=tuple(args.mults), steps=args.steps,
         batch_size=args.batch, lr=args.lr, validate_every=args.every, patience=10**6,
         autocast="bfloat16" if args.bf16 else None, input_skip=args.input_skip,
-        ema_decay=args.ema, lr_schedule=args.schedule,
+        ema_decay=args.ema, lr_schedule=args.schedule, caption_draw=args.caption_draw,
         feature_weights=None if args.root_weight is None else tuple(
             [args.root_weight] * 4 + [1.0] * 259))
     evaluation = measurements.evaluation_set(relative_test, args.n, seed=args.seed)
@@ -126,6 +129,14 @@ def main() -> None:
             features = trained.space.relative_features(x).numpy().astype(np.float32)
         text = motion_stats(features_to_joints(features.astype(np.float64)))
         text["recall"] = measurements.concept_recall(features, evaluation.truth)
+        if args.save_samples is not None:
+            args.save_samples.mkdir(parents=True, exist_ok=True)
+            np.savez_compressed(
+                args.save_samples / f"{args.label}_step{step}.npz", text=features,
+                uncond=trained.space.relative_features(
+                    sample(trained, args.n, seed=args.seed)).numpy().astype(np.float32),
+                data=evaluation.features, captions=np.array(evaluation.captions),
+                truth=np.array([json.dumps(sorted(t)) for t in evaluation.truth]))
         sample_s = time.perf_counter() - t0
         spent["checks"] += time.perf_counter() - t0 + 0.0
         row = {"label": args.label, "step": step, "held_out_loss": loss,
@@ -134,6 +145,7 @@ def main() -> None:
                "representation": args.representation, "input_skip": args.input_skip,
                "bf16": args.bf16, "schedule": args.schedule, "batch": args.batch, "lr": args.lr,
                "ema": args.ema, "root_weight": args.root_weight,
+               "caption_draw": args.caption_draw,
                "compositions": args.compositions, "pool": args.pool,
                "frames": args.frames, "seed": args.seed, "cfg": args.cfg,
                "parameters": sum(p.numel() for p in ema.parameters()),

@@ -398,3 +398,18 @@ def test_train_diffusion_result_plugs_into_the_cache(cache_root):
                           lambda m: pytest.fail("should have loaded from the cache"))
     for p1, p2 in zip(model.parameters(), again.parameters(), strict=True):
         assert torch.equal(p1, p2)
+
+
+def test_a_condition_with_alternatives_gives_one_of_them_per_example_and_batch():
+    """cond (N, K, D): each batch holds, for every example, one of its K alternatives, drawn
+    afresh per batch, so that over a run every alternative is seen."""
+    diffusion = GaussianDiffusion(cosine_betas(20), "epsilon")
+    data = torch.randn(4, 2, 4)
+    cond = torch.arange(4 * 3, dtype=torch.float32).reshape(4, 3, 1).expand(4, 3, 2).clone()
+    model = RecordingModel()
+    train_diffusion(model, diffusion, data, TrainConfig(steps=30, batch_size=4), cond=cond)
+    seen = torch.cat([c["cond"] for c in model.calls])
+    assert seen.shape == (120, 2) and torch.equal(seen[:, 0], seen[:, 1])
+    assert set(seen[:, 0].long().tolist()) == set(range(12))
+    assert all(sorted((c["cond"][:, 0].long() // 3).tolist()) == [0, 1, 2, 3]
+               for c in model.calls)

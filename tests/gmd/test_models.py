@@ -179,3 +179,28 @@ def test_full_mode_motion_trains_under_bf16_and_the_rest_in_fp32() -> None:
     assert models.training_fields("motion", scale="paper")["training"].autocast == "bfloat16"
     assert models.training_fields("trajectory", scale="paper")["training"].autocast is None
     assert models.training_fields("motion", scale="quick", step_cap=10)["training"].autocast is None
+
+
+def test_caption_draw_one_trains_on_one_caption_per_window_and_is_in_the_key() -> None:
+    """``caption_draw="one"`` (HumanML3D's loader: a caption drawn per item at every batch)
+    stacks each window's captions as alternatives (N, K, V), an item with fewer cycling its
+    own; "mean" leaves the key as it was."""
+    from types import SimpleNamespace
+
+    from repro.infra.cache import config_hash
+    from repro.standin.text import Vocabulary
+
+    vocabulary = Vocabulary.build(["a person walks", "a person runs", "someone jumps"])
+    alternatives = models.caption_alternatives(
+        vocabulary, [["a person walks", "a person runs"], ["someone jumps"]])
+    assert alternatives.shape == (2, 2, len(vocabulary))
+    assert torch.equal(alternatives[1, 0], alternatives[1, 1])
+    assert torch.equal(alternatives[0, 1], bag_of_words(vocabulary, ["a person runs"])[0])
+    data = SimpleNamespace(fingerprint="0123456789abcdef")
+    mean = GMDModelSpec(task="motion", text_conditioned=True)
+    one = mean.replace(caption_draw="one")
+    assert "caption_draw" not in mean.as_dict() and one.as_dict()["caption_draw"] == "one"
+    assert (config_hash(model_cache_config(mean, data))
+            != config_hash(model_cache_config(one, data)))
+    with pytest.raises(ValueError, match="caption_draw"):
+        GMDModelSpec(caption_draw="all")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -83,3 +84,27 @@ def test_a_path_data_dir_is_kept_as_its_string(tmp_path: Path) -> None:
     assert from_path == from_text and isinstance(from_path.data_dir, str)
     assert from_path.as_dict() == from_text.as_dict()
     assert DataConfig(data_dir=None).data_dir is None
+
+
+def test_a_stand_in_concept_pool_generates_only_those_concepts(cache: Path) -> None:
+    """``stand_in_concepts``/``stand_in_compositions`` choose the generated set: every clip's
+    labels come from the pool, the key changes only when they are set, and a name outside the
+    catalogue is refused before anything is generated."""
+    import json
+
+    from repro.gmd.windows import LOCOMOTION_COMPOSITIONS, LOCOMOTION_CONCEPTS
+
+    plain = DataConfig(stand_in_clips=12, stand_in_seed=3, frames=FRAMES, stride=8)
+    loco = dataclasses.replace(plain, stand_in_concepts=LOCOMOTION_CONCEPTS,
+                               stand_in_compositions=LOCOMOTION_COMPOSITIONS)
+    assert "stand_in_concepts" not in plain.as_dict()
+    assert loco.as_dict()["stand_in_concepts"] == list(LOCOMOTION_CONCEPTS)
+    root = loco.dataset_root()
+    assert root != plain.dataset_root()
+    labels = [json.loads(p.read_text()) for p in sorted((root / "labels").glob("*.json"))]
+    assert labels and all(set(lab["concepts"]) <= set(LOCOMOTION_CONCEPTS) for lab in labels)
+    assert {lab["composition"] for lab in labels} <= {"single", "sequential"}
+    with pytest.raises(ValueError, match="wave_hello"):
+        DataConfig(stand_in_concepts=("wave_hello",))
+    with_folder = DataConfig(data_dir="/tmp", stand_in_concepts=LOCOMOTION_CONCEPTS)
+    assert "stand_in_concepts" not in with_folder.as_dict()

@@ -211,10 +211,15 @@ def shuffled_indices(n: int, batch_size: int, generator: torch.Generator) -> Ite
 
 def _tensor_batches(x: Tensor, cond: Tensor | None, mask: Tensor | None, batch_size: int,
                     generator: torch.Generator) -> Iterator[dict[str, Tensor]]:
-    """Endless shuffled batches (``shuffled_indices``) of x and its cond and mask."""
+    """Endless shuffled batches (``shuffled_indices``) of x and its cond and mask. A ``cond``
+    of shape (N, K, D) holds K alternatives per example (e.g. its K captions): each batch
+    takes one of them per example, drawn uniformly with ``generator``."""
     for index in shuffled_indices(x.shape[0], batch_size, generator):
         batch = {"x": x[index]}
-        if cond is not None:
+        if cond is not None and cond.dim() == 3:
+            pick = torch.randint(cond.shape[1], (index.numel(),), generator=generator)
+            batch["cond"] = cond[index, pick]
+        elif cond is not None:
             batch["cond"] = cond[index]
         if mask is not None:
             batch["mask"] = mask[index]

@@ -218,6 +218,21 @@ def bag_of_words(vocabulary: Vocabulary, captions: Sequence[str | Sequence[str]]
     return torch.from_numpy(np.stack(rows))
 
 
+def caption_alternatives(vocabulary: Vocabulary, captions: Sequence[Sequence[str]]) -> Tensor:
+    """Text conditions (N, K, V): the bag of words of each of an item's captions, K the most
+    any item has (an item with fewer repeats its own in turn), for a loader that draws one
+    caption per item at every batch (``core.training``: a cond of shape (N, K, D))."""
+    k = max(len(options) for options in captions)
+    if k == 0:
+        raise ValueError("an item has no caption")
+    rows = []
+    for options in captions:
+        if not options:
+            raise ValueError("an item has no caption")
+        rows.append(bag_of_words(vocabulary, [options[i % len(options)] for i in range(k)]))
+    return torch.stack(rows)
+
+
 def trajectory_loss_weights(k: float, channels: int = FEATURE_DIM) -> list[float]:
     """GMD's trajectory loss scaling (appendix C.1, Eq. 5): weight k² on features 0:4."""
     weights = [1.0] * channels
@@ -276,6 +291,10 @@ class GMDModelSpec:
     validation_fraction: float = _DEFAULT_VALIDATION_FRACTION
     #: ``UNet1D(input_skip=True)``: a full-rank input-to-output path (in the key only when set)
     input_skip: bool = False
+    #: the caption condition of a training window: "mean" of its captions' bags of words, or
+    #: "one" of its captions drawn afresh at every batch (HumanML3D's loader; in the key only
+    #: when "one")
+    caption_draw: Literal["mean", "one"] = "mean"
 
     def __post_init__(self) -> None:
         check_task(self.task)
@@ -289,6 +308,8 @@ class GMDModelSpec:
             raise ValueError("validation_fraction only acts with training.validate_every set")
         if self.prediction not in ("x0", "epsilon"):
             raise ValueError(f"prediction must be 'x0' or 'epsilon', got {self.prediction!r}")
+        if self.caption_draw not in ("mean", "one"):
+            raise ValueError(f"caption_draw must be 'mean' or 'one', got {self.caption_draw!r}")
         if self.schedule not in ("cosine", "linear"):
             raise ValueError(f"schedule must be 'cosine' or 'linear', got {self.schedule!r}")
         if self.training.device != "cpu" or self.training.num_threads is not None:
@@ -335,6 +356,8 @@ class GMDModelSpec:
             config["autocast"] = training.autocast
         if self.input_skip:
             config["input_skip"] = True
+        if self.caption_draw != "mean":
+            config["caption_draw"] = self.caption_draw
         unlisted = set(_KEYED_TRAINING) | {"cond_dropout", "validate_every", "patience",
                                            "min_delta", "autocast", "device", "num_threads"}
         for name in sorted(TRAIN_CONFIG_FIELDS - unlisted):
@@ -496,11 +519,18 @@ def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
 
     def train(model: torch.nn.Module) -> tuple[torch.nn.Module, dict[str, Any]]:
         x = data.channels(spec.task).contiguous()
-        cond = bag_of_words(vocabulary, data.captions) if vocabulary is not None else None
+        cond = None
+        if vocabulary is not None and spec.caption_draw == "one":
+            cond = caption_alternatives(vocabulary, data.captions)
+        elif vocabulary is not None:
+            cond = bag_of_words(vocabulary, data.captions)
         validation = None
         if spec.training.validate_every is not None:
             fit, held = validation_split(data, spec.validation_fraction)
-            validation = ValidationSet(x[held], cond=None if cond is None else cond[held])
+            held_cond = None if cond is None else cond[held]
+            if held_cond is not None and held_cond.dim() == 3:
+                held_cond = held_cond[:, 0]          # a fixed caption per held-out window
+            validation = ValidationSet(x[held], cond=held_cond)
             x, cond = x[fit].contiguous(), None if cond is None else cond[fit]
         result = train_diffusion(model, diffusion, x, spec.train_config(device), cond=cond,
                                  validation=validation, on_validation=on_validation,

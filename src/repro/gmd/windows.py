@@ -35,9 +35,9 @@ from repro.motion.features import (
 from repro.motion.humanml3d import REPRESENTATIONS, MotionDataset, compute_statistics, cut_windows
 from repro.standin.text import Vocabulary
 
-__all__ = ["CHANNELS", "DataConfig", "DataDir", "FeatureSpace", "MotionWindows", "REPRESENTATIONS",
-           "Representation", "TASKS", "Task", "check_task", "goal_targets", "load_windows",
-           "short_label"]
+__all__ = ["CHANNELS", "LOCOMOTION_COMPOSITIONS", "LOCOMOTION_CONCEPTS", "DataConfig", "DataDir",
+           "FeatureSpace", "MotionWindows", "REPRESENTATIONS", "Representation", "TASKS", "Task",
+           "check_task", "goal_targets", "load_windows", "short_label"]
 
 Task = Literal["trajectory", "motion"]
 
@@ -56,6 +56,17 @@ TASKS = ("trajectory", "motion")
 #: number of model channels per task: the trajectory model sees (angle, x, z, y).
 CHANNELS = {"trajectory": TRAJECTORY_FEATURES.stop - TRAJECTORY_FEATURES.start,
             "motion": FEATURE_DIM}
+
+
+#: the stand-in's locomotion concepts: what GMD's claims are about (root trajectories, goals,
+#: foot contacts, the root's representation) without the gestures and in-place actions that
+#: EnergyMoGen composes (``DataConfig.stand_in_concepts``)
+LOCOMOTION_CONCEPTS = ("walk_forward", "walk_backward", "walk_left", "walk_right", "run",
+                       "turn_left", "turn_right", "walk_circle")
+
+#: the locomotion set's clips: one concept (80 %) or two in sequence (20 %); no simultaneous
+#: pair exists, every locomotion concept owning the root and the legs
+LOCOMOTION_COMPOSITIONS = (("single", 0.8), ("sequential", 0.2))
 
 
 def short_label(representation: str) -> str:
@@ -85,6 +96,10 @@ class DataConfig:
     stride: int = 24
     representation: Representation = "absolute"
     max_windows: int | None = None
+    #: the stand-in set's concept pool and composition weights (``standin.dataset``); None:
+    #: the whole catalogue and the generator's weights. Not read with ``data_dir``.
+    stand_in_concepts: tuple[str, ...] | None = None
+    stand_in_compositions: tuple[tuple[str, float], ...] | None = None
 
     def __post_init__(self) -> None:
         if self.data_dir is not None and not isinstance(self.data_dir, str):
@@ -100,15 +115,31 @@ class DataConfig:
             raise ValueError(f"stand_in_clips must be >= 1, got {self.stand_in_clips}")
         if self.max_windows is not None and self.max_windows < 1:
             raise ValueError(f"max_windows must be >= 1 or None, got {self.max_windows}")
+        if self.stand_in_concepts is not None:
+            from repro.standin.concepts import check_concept
+
+            object.__setattr__(self, "stand_in_concepts", tuple(self.stand_in_concepts))
+            if not self.stand_in_concepts:
+                raise ValueError("stand_in_concepts must name at least one concept or be None")
+            for name in self.stand_in_concepts:
+                check_concept(name)
+        if self.stand_in_compositions is not None:
+            object.__setattr__(self, "stand_in_compositions", tuple(
+                (str(kind), float(weight)) for kind, weight in self.stand_in_compositions))
 
     def as_dict(self) -> dict[str, Any]:
         config = dataclasses.asdict(self)
-        if self.max_windows is None:   # keeps the hashes of configs made before the field
-            config.pop("max_windows")
+        for name in ("max_windows", "stand_in_concepts", "stand_in_compositions"):
+            if config[name] is None:   # keeps the hashes of configs made before the field
+                config.pop(name)
+        for name in ("stand_in_concepts", "stand_in_compositions"):
+            if name in config:
+                config[name] = [list(v) if isinstance(v, tuple) else v for v in config[name]]
         if self.data_dir is not None:
             config["data_dir"] = str(Path(self.data_dir).resolve())
-            config.pop("stand_in_clips")
-            config.pop("stand_in_seed")
+            for name in ("stand_in_clips", "stand_in_seed", "stand_in_concepts",
+                         "stand_in_compositions"):
+                config.pop(name, None)
         return config
 
     def dataset_root(self) -> Path:
@@ -117,8 +148,13 @@ class DataConfig:
             return Path(self.data_dir)
         from repro.standin.dataset import DatasetConfig, ensure_dataset
 
+        options: dict[str, Any] = {}
+        if self.stand_in_concepts is not None:
+            options["concept_pool"] = self.stand_in_concepts
+        if self.stand_in_compositions is not None:
+            options["compositions"] = self.stand_in_compositions
         return ensure_dataset(DatasetConfig(n_clips=self.stand_in_clips,
-                                            seed=self.stand_in_seed))
+                                            seed=self.stand_in_seed, **options))
 
 
 @dataclass(frozen=True)
