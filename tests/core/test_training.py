@@ -401,15 +401,23 @@ def test_train_diffusion_result_plugs_into_the_cache(cache_root):
 
 
 def test_a_condition_with_alternatives_gives_one_of_them_per_example_and_batch():
-    """cond (N, K, D): each batch holds, for every example, one of its K alternatives, drawn
-    afresh per batch, so that over a run every alternative is seen."""
+    """With ``cond_choices``, cond (N, K, D): each batch holds, for every example, one of its K
+    alternatives, drawn afresh per batch, so that over a run every alternative is seen."""
     diffusion = GaussianDiffusion(cosine_betas(20), "epsilon")
     data = torch.randn(4, 2, 4)
     cond = torch.arange(4 * 3, dtype=torch.float32).reshape(4, 3, 1).expand(4, 3, 2).clone()
     model = RecordingModel()
-    train_diffusion(model, diffusion, data, TrainConfig(steps=30, batch_size=4), cond=cond)
+    train_diffusion(model, diffusion, data, TrainConfig(steps=30, batch_size=4), cond=cond,
+                    cond_choices=True)
     seen = torch.cat([c["cond"] for c in model.calls])
     assert seen.shape == (120, 2) and torch.equal(seen[:, 0], seen[:, 1])
     assert set(seen[:, 0].long().tolist()) == set(range(12))
     assert all(sorted((c["cond"][:, 0].long() // 3).tolist()) == [0, 1, 2, 3]
                for c in model.calls)
+    # without cond_choices a 3-D cond is one condition per example (token states), as it was
+    model = RecordingModel()
+    train_diffusion(model, diffusion, data, TrainConfig(steps=2, batch_size=4), cond=cond)
+    assert all(c["cond"].shape == (4, 3, 2) for c in model.calls)
+    with pytest.raises(ValueError, match="cond_choices"):
+        train_diffusion(RecordingModel(), diffusion, data, TrainConfig(steps=1),
+                        cond=cond[:, 0], cond_choices=True)

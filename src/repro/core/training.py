@@ -210,13 +210,14 @@ def shuffled_indices(n: int, batch_size: int, generator: torch.Generator) -> Ite
 
 
 def _tensor_batches(x: Tensor, cond: Tensor | None, mask: Tensor | None, batch_size: int,
-                    generator: torch.Generator) -> Iterator[dict[str, Tensor]]:
-    """Endless shuffled batches (``shuffled_indices``) of x and its cond and mask. A ``cond``
-    of shape (N, K, D) holds K alternatives per example (e.g. its K captions): each batch
-    takes one of them per example, drawn uniformly with ``generator``."""
+                    generator: torch.Generator, *,
+                    cond_choices: bool = False) -> Iterator[dict[str, Tensor]]:
+    """Endless shuffled batches (``shuffled_indices``) of x and its cond and mask. With
+    ``cond_choices`` the cond (N, K, …) holds K alternatives per example (e.g. its K
+    captions): each batch takes one of them per example, drawn uniformly with ``generator``."""
     for index in shuffled_indices(x.shape[0], batch_size, generator):
         batch = {"x": x[index]}
-        if cond is not None and cond.dim() == 3:
+        if cond is not None and cond_choices:
             pick = torch.randint(cond.shape[1], (index.numel(),), generator=generator)
             batch["cond"] = cond[index, pick]
         elif cond is not None:
@@ -412,6 +413,7 @@ def train_loop(model: nn.Module, loss_fn: Callable[[Any], Tensor], batches: Iter
 def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: GaussianDiffusion,
                     data: Tensor | Iterable[Any], config: TrainConfig, *,
                     cond: Tensor | None = None, mask: Tensor | None = None,
+                    cond_choices: bool = False,
                     validation: ValidationSet | None = None,
                     on_validation: Callable[[int, float, nn.Module], None] | None = None,
                     progress: bool = True) -> TrainResult:
@@ -428,7 +430,8 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
     each evaluation (e.g. a pilot measuring samples of the EMA weights on the way; it must not
     train them, and it draws nothing from the training generator, so the run is the same with
     or without it). The progress bar is shown only when ``progress`` is true and stderr is a
-    terminal.
+    terminal. With ``cond_choices`` a tensor ``cond`` (N, K, …) holds K alternative conditions
+    per example, one drawn per example and batch (HumanML3D's loader drawing one caption).
     """
     device = torch.device(config.device)
     torch.manual_seed(config.seed)
@@ -445,7 +448,10 @@ def train_diffusion(model: nn.Module | Callable[[], nn.Module], diffusion: Gauss
         for name, extra in (("cond", cond), ("mask", mask)):
             if extra is not None and extra.shape[0] != data.shape[0]:
                 raise ValueError(f"{name} has {extra.shape[0]} rows but data has {data.shape[0]}")
-        batches = _tensor_batches(data, cond, mask, config.batch_size, generator)
+        if cond_choices and (cond is None or cond.dim() < 3):
+            raise ValueError("cond_choices needs a cond of shape (N, K, …)")
+        batches = _tensor_batches(data, cond, mask, config.batch_size, generator,
+                                  cond_choices=cond_choices)
     else:
         if cond is not None or mask is not None:
             raise ValueError("with a data loader, put cond and mask in its batches")

@@ -533,6 +533,7 @@ def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
             validation = ValidationSet(x[held], cond=held_cond)
             x, cond = x[fit].contiguous(), None if cond is None else cond[fit]
         result = train_diffusion(model, diffusion, x, spec.train_config(device), cond=cond,
+                                 cond_choices=cond is not None and cond.dim() == 3,
                                  validation=validation, on_validation=on_validation,
                                  progress=progress)
         return result.for_cache()
