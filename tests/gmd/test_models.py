@@ -202,5 +202,6 @@ def test_caption_draw_one_trains_on_one_caption_per_window_and_is_in_the_key() -
     assert "caption_draw" not in mean.as_dict() and one.as_dict()["caption_draw"] == "one"
     assert (config_hash(model_cache_config(mean, data))
             != config_hash(model_cache_config(one, data)))
+    assert "caption_draw" not in GMDModelSpec(caption_draw="one").as_dict()   # reads no text
     with pytest.raises(ValueError, match="caption_draw"):
         GMDModelSpec(caption_draw="all")

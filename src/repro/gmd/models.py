@@ -293,7 +293,7 @@ class GMDModelSpec:
     input_skip: bool = False
     #: the caption condition of a training window: "mean" of its captions' bags of words, or
     #: "one" of its captions drawn afresh at every batch (HumanML3D's loader; in the key only
-    #: when "one")
+    #: when "one" and the model reads text)
     caption_draw: Literal["mean", "one"] = "mean"
 
     def __post_init__(self) -> None:
@@ -356,7 +356,7 @@ class GMDModelSpec:
             config["autocast"] = training.autocast
         if self.input_skip:
             config["input_skip"] = True
-        if self.caption_draw != "mean":
+        if self.text_conditioned and self.caption_draw != "mean":
             config["caption_draw"] = self.caption_draw
         unlisted = set(_KEYED_TRAINING) | {"cond_dropout", "validate_every", "patience",
                                            "min_delta", "autocast", "device", "num_threads"}
