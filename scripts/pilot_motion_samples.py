@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -76,25 +77,18 @@ def main() -> None:
     torch.set_num_threads(1)
 
     settings = x0eps.Settings.for_scale("standard")
-    data_dir = None
-    if args.compositions or args.pool:
-        from repro.standin.dataset import DatasetConfig, ensure_dataset
-        weights = tuple((k, float(v)) for k, v in (
-            item.split("=") for item in (args.compositions or "").split(",") if item))
-        config = DatasetConfig(n_clips=2000, seed=0,
-                               **({"compositions": weights} if weights else {}),
-                               concept_pool=tuple(args.pool) if args.pool else None)
-        data_dir = ensure_dataset(config)
-    data = settings.data(data_dir, representation=args.representation)
+    data = settings.data(None, representation=args.representation)
+    weights = tuple((k, float(v)) for k, v in (
+        item.split("=") for item in (args.compositions or "").split(",") if item))
+    data = dataclasses.replace(data, stand_in_concepts=tuple(args.pool) if args.pool else None,
+                               stand_in_compositions=weights or None)
     if args.frames != data.frames:
-        import dataclasses
         data = dataclasses.replace(data, frames=args.frames, stride=args.frames // 2)
     spec = settings.spec("motion", args.prediction, data, seed=args.seed)
     train = load_windows(data)
     test = load_windows(data, "test", statistics=(train.mean, train.std))
     relative_test = test
     if args.representation != "relative":
-        import dataclasses
         rel = dataclasses.replace(data, representation="relative")
         rel_train = load_windows(rel)
         relative_test = load_windows(rel, "test", statistics=(rel_train.mean, rel_train.std))

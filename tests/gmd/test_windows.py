@@ -106,5 +106,7 @@ def test_a_stand_in_concept_pool_generates_only_those_concepts(cache: Path) -> N
     assert {lab["composition"] for lab in labels} <= {"single", "sequential"}
     with pytest.raises(ValueError, match="wave_hello"):
         DataConfig(stand_in_concepts=("wave_hello",))
+    with pytest.raises(ValueError, match="parallel"):
+        DataConfig(stand_in_compositions=(("parallel", 1.0),))
     with_folder = DataConfig(data_dir="/tmp", stand_in_concepts=LOCOMOTION_CONCEPTS)
     assert "stand_in_concepts" not in with_folder.as_dict()

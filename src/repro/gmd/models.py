@@ -519,8 +519,9 @@ def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
 
     def train(model: torch.nn.Module) -> tuple[torch.nn.Module, dict[str, Any]]:
         x = data.channels(spec.task).contiguous()
+        choices = vocabulary is not None and spec.caption_draw == "one"
         cond = None
-        if vocabulary is not None and spec.caption_draw == "one":
+        if choices:
             cond = caption_alternatives(vocabulary, data.captions)
         elif vocabulary is not None:
             cond = bag_of_words(vocabulary, data.captions)
@@ -528,12 +529,12 @@ def load_or_train_gmd(spec: GMDModelSpec, data: MotionWindows | None = None, *,
         if spec.training.validate_every is not None:
             fit, held = validation_split(data, spec.validation_fraction)
             held_cond = None if cond is None else cond[held]
-            if held_cond is not None and held_cond.dim() == 3:
+            if choices:
                 held_cond = held_cond[:, 0]          # a fixed caption per held-out window
             validation = ValidationSet(x[held], cond=held_cond)
             x, cond = x[fit].contiguous(), None if cond is None else cond[fit]
         result = train_diffusion(model, diffusion, x, spec.train_config(device), cond=cond,
-                                 cond_choices=cond is not None and cond.dim() == 3,
+                                 cond_choices=choices,
                                  validation=validation, on_validation=on_validation,
                                  progress=progress)
         return result.for_cache()

@@ -124,8 +124,13 @@ class DataConfig:
             for name in self.stand_in_concepts:
                 check_concept(name)
         if self.stand_in_compositions is not None:
+            from repro.standin.clip_spec import COMPOSITIONS
+
             object.__setattr__(self, "stand_in_compositions", tuple(
                 (str(kind), float(weight)) for kind, weight in self.stand_in_compositions))
+            unknown = [k for k, _ in self.stand_in_compositions if k not in COMPOSITIONS]
+            if unknown:
+                raise ValueError(f"unknown stand-in compositions {unknown}; known: {COMPOSITIONS}")
 
     def as_dict(self) -> dict[str, Any]:
         config = dataclasses.asdict(self)
