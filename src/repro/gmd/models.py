@@ -187,8 +187,8 @@ TRAJECTORY_TRAINING = ConvergenceTraining(batch_size=64, lr=1e-3, validate_every
 #: fp32 (bf16 does not pay on a CPU without AMX, COMPUTE.md §1), validated every 150 steps
 #: without the plateau stop, so both arms of every comparison share the same budget.
 STANDARD_MOTION_TRAINING = ConvergenceTraining(
-    batch_size=32, lr=1e-3, validate_every=150, patience=fixed_steps_patience(900, 150),
-    step_cap=900)
+    batch_size=32, lr=1e-3, validate_every=500, patience=fixed_steps_patience(4500, 500),
+    step_cap=4500)
 
 
 #: the standard scale's trajectory models (COMPUTE.md §4 item 2: both arms pass from 300
@@ -294,7 +294,7 @@ class GMDModelSpec:
     #: the caption condition of a training window: "mean" of its captions' bags of words, or
     #: "one" of its captions drawn afresh at every batch (HumanML3D's loader; in the key only
     #: when "one" and the model reads text)
-    caption_draw: Literal["mean", "one"] = "mean"
+    caption_draw: Literal["mean", "one"] = "one"
 
     def __post_init__(self) -> None:
         check_task(self.task)
@@ -447,7 +447,7 @@ def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
         plan = STANDARD_MOTION_TRAINING if task == "motion" else STANDARD_TRAJECTORY_TRAINING
         steps = plan.step_cap if step_cap is None else int(step_cap)
         patience = fixed_steps_patience(steps, plan.validate_every)
-        skip = {"input_skip": True} if task == "motion" else {}
+        skip = {}
     else:
         architecture = MOTION_ARCHITECTURE if task == "motion" else TRAJECTORY_ARCHITECTURE
         plan = MOTION_TRAINING if task == "motion" else TRAJECTORY_TRAINING

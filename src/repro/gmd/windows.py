@@ -98,8 +98,8 @@ class DataConfig:
     max_windows: int | None = None
     #: the stand-in set's concept pool and composition weights (``standin.dataset``); None:
     #: the whole catalogue and the generator's weights. Not read with ``data_dir``.
-    stand_in_concepts: tuple[str, ...] | None = None
-    stand_in_compositions: tuple[tuple[str, float], ...] | None = None
+    stand_in_concepts: tuple[str, ...] | None = LOCOMOTION_CONCEPTS
+    stand_in_compositions: tuple[tuple[str, float], ...] | None = LOCOMOTION_COMPOSITIONS
 
     def __post_init__(self) -> None:
         if self.data_dir is not None and not isinstance(self.data_dir, str):
