@@ -17,7 +17,7 @@ from repro.claims.result import (
     recorded_markdown,
     summary_markdown,
 )
-from repro.claims.verdicts import INCONCLUSIVE, REPRODUCED
+from repro.claims.verdicts import INCONCLUSIVE, PARTIAL, REPRODUCED, SUPPORTED
 
 EMG2_RUN = run_settings("EMG-2")
 A3_RUN = run_settings("GMD-A3")
@@ -93,3 +93,40 @@ def test_a_claim_not_measurable_on_the_data_is_recorded_as_such(tmp_path: Path) 
     assert reason in recorded_markdown(ctx, recorded)
     with pytest.raises(ValueError, match="the rule needs measurements"):   # never silently
         record(ctx, ClaimResult("EMG-2", {}, seeds=[0], settings=EMG2_RUN))
+
+
+def test_a_part_its_scale_does_not_run_says_why_and_the_rest_is_decided(tmp_path: Path) -> None:
+    """A registered cut: the part is inconclusive, "not run at the <scale> scale: why", what
+    only it reads is not required, and the other parts and the controls are decided as
+    usual (Holm over the parts that run)."""
+    ctx = make_context(tmp_path, scale="standard")
+    cut = {"eps_keeps_more_of_best_gain": "its arm is not trained here"}
+    measured = {k: v for k, v in A3_GOOD.items() if not k.startswith("best_gain")}
+    recorded = record(ctx, ClaimResult("GMD-A3", measured, settings=A3_RUN, seeds=[0, 1, 2, 3, 4],
+                                       controls=Controls(null=A3_NONE, positive=A3_GOOD),
+                                       not_run=cut))
+    parts = {p.name: p for p in recorded.decision.parts}
+    assert parts["eps_keeps_more_of_best_gain"].outcome == INCONCLUSIVE
+    assert parts["eps_keeps_more_of_best_gain"].reason == (
+        "not run at the standard scale: its arm is not trained here")
+    assert parts["eps_reaches_goal_better"].outcome == SUPPORTED
+    assert recorded.verdict == PARTIAL        # a part not run is never reproduced
+    assert {c["status"] for c in recorded.controls.values()} == {"passed"}
+    sidecar = load_sidecars(ctx.claims_dir)["GMD-A3"]
+    assert sidecar["not_run"] == {"eps_keeps_more_of_best_gain":
+                                  "not run at the standard scale: its arm is not trained here"}
+    with pytest.raises(ValueError, match="the rule needs measurements"):   # the rest is required
+        record(ctx, ClaimResult("GMD-A3", {}, settings=A3_RUN, seeds=[0], not_run=cut))
+    with pytest.raises(ValueError, match="not its parts"):
+        record(ctx, ClaimResult("GMD-A3", A3_GOOD, settings=A3_RUN, seeds=[0],
+                                not_run={"no_such_part": "why"}))
+
+
+def test_a_claim_none_of_whose_parts_runs_has_no_controls_to_miss(tmp_path: Path) -> None:
+    ctx = make_context(tmp_path, scale="standard")
+    cut = {"eps_reaches_goal_better": "cut", "eps_keeps_more_of_best_gain": "cut"}
+    recorded = record(ctx, ClaimResult("GMD-A3", {}, settings=A3_RUN, seeds=[0, 1, 2],
+                                       not_run=cut))
+    assert recorded.verdict == INCONCLUSIVE
+    assert {p.reason for p in recorded.decision.parts} == {"not run at the standard scale: cut"}
+    assert {c["status"] for c in recorded.controls.values()} == {"not run"}

@@ -5,13 +5,22 @@ from __future__ import annotations
 
 import pytest
 
+from repro.claims.registry import get_claim
 from repro.core.training import TrainConfig
 from repro.gmd import emphasis_projection, guidance_schedule, models, root_representation, x0_vs_eps
 from repro.gmd import root_representation as rr
 from repro.gmd import x0_vs_eps as x0eps
 from repro.gmd.emphasis_projection import Variant
 from repro.gmd.models import GMDModelSpec, training_fields
-from repro.gmd.settings import FULL_SEEDS, QUICK_SEEDS, STANDARD_SEEDS, seeds_of
+from repro.gmd.settings import (
+    FULL_SEEDS,
+    QUICK_SEEDS,
+    STANDARD_NOT_RUN,
+    STANDARD_SEEDS,
+    not_run,
+    scale_note,
+    seeds_of,
+)
 from repro.models.evaluator import EvaluatorConfig
 from repro.run.params import notebook_parameters
 
@@ -42,6 +51,24 @@ def test_standard_runs_three_seeds_for_every_claim_but_c4() -> None:
     assert emphasis_projection.Settings.for_scale("standard").seeds == 1
 
 
+def test_the_standard_scale_cuts_only_registered_parts_and_says_so() -> None:
+    """The cuts name parts of their claims; quick runs them (a test of the code), the paper
+    scale decides them; the standard notebooks' scale note names them."""
+    for claim_id, parts in STANDARD_NOT_RUN.items():
+        assert set(parts) <= {p.name for p in get_claim(claim_id).parts}
+        assert all(why for why in parts.values())
+        assert not_run(claim_id, "standard") == parts
+        assert not_run(claim_id, "quick") == not_run(claim_id, "paper") == {}
+    assert set(STANDARD_NOT_RUN) == {"GMD-A4", "GMD-B3", "GMD-F1"}
+    assert not_run("GMD-A3", "standard") == {}
+    assert set(not_run("GMD-F1", "standard")) == {"stop_at_20_more_coherent"}
+    with pytest.raises(ValueError, match="GMD-A1"):
+        not_run("GMD-A1", "standard")
+    note = scale_note("standard")
+    assert all(claim_id in note.split("Not run at this scale")[1] for claim_id in STANDARD_NOT_RUN)
+    assert "input skip" not in note
+
+
 @pytest.mark.parametrize("notebook", ["01_x0_vs_eps", "06_guidance_schedule"])
 def test_notebook_seed_parameters_default_to_the_table(notebook: str) -> None:
     assert notebook_parameters(notebook)["n_seeds"]["default"] == "None"
@@ -59,9 +86,10 @@ def test_standard_motion_and_trajectory_models_are_the_plans() -> None:
         motion = settings.spec("motion", prediction, settings.motion_data())
         assert (motion.base_channels, motion.channel_mults) == (64, (1.0, 1.0))
         training = motion.training
-        assert motion.input_skip and training.autocast is None
-        assert (training.batch_size, training.lr, training.steps) == (32, 1e-3, 900)
-        assert training.validate_every == 150 and training.patience > 900 // 150  # no plateau
+        assert not motion.input_skip and training.autocast is None
+        assert motion.caption_draw == "one"      # one caption per window and batch
+        assert (training.batch_size, training.lr, training.steps) == (32, 1e-3, 4500)
+        assert training.validate_every == 500 and training.patience > 4500 // 500  # no plateau
         assert motion.diffusion_steps == 100 and motion.schedule == "cosine"
         trajectory = settings.spec("trajectory", prediction, settings.data())
         assert (trajectory.base_channels, trajectory.channel_mults) == (32, (1.0, 2.0))
@@ -72,7 +100,7 @@ def test_standard_motion_and_trajectory_models_are_the_plans() -> None:
         assert trajectory.diffusion_steps == 100
     # a step override keeps the run fixed (the patience outlasts it)
     fields = training_fields("motion", scale="standard", step_cap=1500)
-    assert fields["training"].steps == 1500 and fields["training"].patience > 1500 // 150
+    assert fields["training"].steps == 1500 and fields["training"].patience > 1500 // 500
     assert not settings.longer_eps_run and x0eps.Settings.for_scale("paper").longer_eps_run
     assert x0eps.Settings.for_scale("quick").longer_eps_run  # a test of the paper path
     assert settings.generated == 128
@@ -85,8 +113,8 @@ def test_every_standard_model_runs_t_100_and_the_stops_scale() -> None:
     assert nb02.guidance_stop_t == 2 and nb02.evaluation_windows == 128
     nb03 = emphasis_projection.Settings.for_scale("standard")
     assert nb03.base_spec().diffusion_steps == 100
-    assert nb03.base_spec().input_skip and nb03.base_spec().training.steps == 1500
-    assert nb02.motion_spec("absolute", 0).training.steps == 900
+    assert not nb03.base_spec().input_skip and nb03.base_spec().training.steps == 1500
+    assert nb02.motion_spec("absolute", 0).training.steps == 4500
     nb06 = guidance_schedule.Settings.for_scale("standard")
     assert nb06.num_timesteps == 100 and nb06.spec().diffusion_steps == 100
     assert nb06.stops() == {0: 0, 20: 2, 50: 5, 200: 20}

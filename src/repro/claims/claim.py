@@ -70,10 +70,26 @@ class Claim:
     new_measurements: dict[str, str] = field(default_factory=dict)
     example: Example | None = None
 
-    def decide(self, measured: Measured) -> Decision:
+    def decide(self, measured: Measured, not_run: Mapping[str, str] | None = None
+               ) -> Decision:
+        """The claim's decision from ``measured``; ``not_run``: the parts its run's scale does
+        not run, each with why (``verdicts.decide_effects``)."""
         if self.exact_rule is not None:
             return self.exact_rule(measured)
-        return decide_effects(self.parts, measured)
+        return decide_effects(self.parts, measured, not_run)
+
+    def required_measurements(self, not_run: Sequence[str] = ()) -> set[str]:
+        """The measurements a run must record: every registered one but those that only
+        parts in ``not_run`` read; none when no part runs."""
+        skipped = set(not_run)
+        if not skipped:
+            return set(self.measurements)
+        if skipped >= {p.name for p in self.parts}:
+            return set()
+        read = {name for p in self.parts if p.name not in skipped for name in p.needs}
+        only_skipped = {name for p in self.parts if p.name in skipped
+                        for name in p.needs} - read
+        return set(self.measurements) - only_skipped
 
     @property
     def rests_on_effects(self) -> bool:

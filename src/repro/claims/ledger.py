@@ -31,6 +31,7 @@ from repro.claims.verdicts import (
     Decision,
     PartResult,
     apply_controls,
+    combine,
     parts_in_words,
 )
 from repro.infra import paths
@@ -38,6 +39,8 @@ from repro.infra.context import RunContext
 from repro.infra.storage import read_json, write_json
 
 CONTROLS = ("positive", "null")
+#: a control's status when its claim's scale runs none of the claim's parts
+NOT_RUN = "not run"
 _EXPECTED = {"positive": f"{REPRODUCED} (the registered effect planted)",
              "null": f"neither {REPRODUCED} nor partially (no effect planted)"}
 
@@ -52,11 +55,20 @@ def _git_commit() -> str | None:
 
 
 def _control_record(claim_id: str, kind: str, measured: Mapping[str, Any] | None,
+                    not_run: Mapping[str, str] | None = None,
                     ) -> tuple[dict[str, Any], Decision | None]:
-    """A control decided by the claim's own rule, as the sidecar stores it."""
+    """A control decided by the claim's own rule over the parts the run runs, as the sidecar
+    stores it; "not run" when the run's scale runs none of the claim's parts."""
+    claim = get_claim(claim_id)
+    if claim.parts and set(not_run or ()) >= {p.name for p in claim.parts}:
+        return {"status": NOT_RUN, "expected": _EXPECTED[kind],
+                "reason": "no part of the claim runs at this scale"}, None
     if measured is None:
         return {"status": "missing", "expected": _EXPECTED[kind]}, None
-    decision = get_claim(claim_id).decide(measured)
+    decision = claim.decide(measured, not_run)
+    if not_run:   # a control sees what the run runs: its verdict over those parts alone
+        ran = [p for p in claim.parts if p.name not in not_run]
+        decision.verdict = combine([r for r in decision.parts if r.name not in not_run], ran)
     passed = (decision.verdict == REPRODUCED if kind == "positive"
               else decision.verdict not in (REPRODUCED, PARTIAL))
     return {"status": "passed" if passed else "failed", "expected": _EXPECTED[kind],
@@ -83,19 +95,27 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
                  quality_gates: Mapping[str, bool] | None = None,
                  gate_reads: Mapping[str, Sequence[str] | None] | None = None,
                  not_measurable: str | None = None,
+                 not_run: Mapping[str, str] | None = None,
                  ) -> tuple[Decision, dict[str, Any]]:
     """(the decision after controls and gates, the controls as stored); ``gate_reads``: the
     parts each gate's model is read by (absent: every part). ``not_measurable``: why the
     run's data cannot give the rule's measurements (e.g. "not measurable on real data: ...");
     then nothing is required, every part is inconclusive with that reason, and so is the
-    claim (its controls are recorded as missing)."""
+    claim (its controls are recorded as missing). ``not_run``: part → why the run's scale
+    does not run it (a registered cut, in words); those parts are inconclusive with it, the
+    measurements only they read are not required, and the controls are decided over the
+    parts that run."""
     claim = get_claim(claim_id)
+    unknown_parts = sorted(set(not_run or ()) - {p.name for p in claim.parts})
+    if unknown_parts:
+        raise ValueError(f"{claim_id}: parts not run {unknown_parts} are not its parts "
+                         f"{[p.name for p in claim.parts]}")
     if not_measurable is not None:
         stored = {kind: _control_record(claim_id, kind, None)[0] for kind in CONTROLS}
         parts = [PartResult(p.name, INCONCLUSIVE, not_measurable) for p in claim.parts]
         return Decision(INCONCLUSIVE, not_measurable, {p.name: p.outcome for p in parts},
                         parts), stored
-    missing = sorted(set(claim.measurements) - set(measured))
+    missing = sorted(claim.required_measurements(list(not_run or ())) - set(measured))
     if missing:
         raise ValueError(f"{claim_id}: the rule needs measurements {missing}; got "
                          f"{sorted(measured)}")
@@ -104,9 +124,10 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
         raise ValueError(f"{claim_id}: controls are {CONTROLS}; got {unknown}")
     stored, decided = {}, {}
     for kind in CONTROLS:
-        stored[kind], decided[kind] = _control_record(claim_id, kind, (controls or {}).get(kind))
-    decision = apply_controls(claim.decide(measured), decided, quality_gates, gate_reads,
-                              claim.parts)
+        stored[kind], decided[kind] = _control_record(claim_id, kind, (controls or {}).get(kind),
+                                                      not_run)
+    decision = apply_controls(claim.decide(measured, not_run), decided, quality_gates,
+                              gate_reads, claim.parts)
     return decision, stored
 
 
@@ -141,6 +162,7 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
                               headline: str = "",
                               extra: Mapping[str, Any] | None = None,
                               not_measurable: str | None = None,
+                              not_run: Mapping[str, str] | None = None,
                               ) -> tuple[Decision, dict[str, dict[str, Any]]]:
     """Apply the registered rules of ``claim_id`` to ``measured`` and write its sidecar; the
     decision and each control as the sidecar stores it.
@@ -175,15 +197,20 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
         extra: further numbers to keep beside the rule's inputs (tables, paper rows).
         not_measurable: why the run's data cannot give the measurements (``decide_claim``);
             the sidecar then keeps it as ``not_measurable`` (absent otherwise).
+        not_run: part → why the run's scale does not run it (the paper package's registered
+            cuts, e.g. ``gmd.settings.not_run``); each such part is inconclusive, "not run at
+            the <scale> scale: <why>", and the sidecar keeps them as ``not_run``.
     """
     claim = get_claim(claim_id)
     rule = rendered_rule(claim_id, seeds, settings)
     models = [{**_checked_model(claim_id, m), "scale": ctx.scale} for m in models]
     gates = {**(quality_gates or {}), **{f"model {m['name']}": bool(m["passed"]) for m in models}}
     reads = {f"model {m['name']}": m.get("reads") for m in models}
+    cut = {part: f"not run at the {ctx.scale} scale: {why}"
+           for part, why in (not_run or {}).items()}
     decision, stored_controls = decide_claim(claim_id, measured, controls=controls,
                                              quality_gates=gates or None, gate_reads=reads,
-                                             not_measurable=not_measurable)
+                                             not_measurable=not_measurable, not_run=cut)
     sidecar = {
         "id": claim.id,
         "registry_version": REGISTRY_VERSION,
@@ -215,6 +242,8 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
     }
     if not_measurable is not None:
         sidecar["not_measurable"] = not_measurable
+    if cut:
+        sidecar["not_run"] = cut
     write_json(ctx.claims_dir / f"{claim.id}.json", sidecar)
     return decision, stored_controls
 

@@ -72,6 +72,8 @@ class ClaimResult:
     quality_gates: Mapping[str, bool] | None = None
     #: why the run's data cannot give the measurements (``ledger.decide_claim``); None: measured
     not_measurable: str | None = None
+    #: part → why the run's scale does not run it (a registered cut; ``ledger.decide_claim``)
+    not_run: Mapping[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -112,7 +114,7 @@ def record(ctx: RunContext, result: ClaimResult) -> Recorded:
         controls=controls,
         quality_gates=result.quality_gates, models=result.models, figures=result.figures,
         notes=result.notes, headline=result.headline, extra=result.extra,
-        not_measurable=result.not_measurable)
+        not_measurable=result.not_measurable, not_run=result.not_run or None)
     return Recorded(result, decision, stored)
 
 

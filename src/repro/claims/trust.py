@@ -22,6 +22,7 @@ from typing import Any
 
 from repro.claims.changelog import EVERY_CLAIM, Change
 from repro.claims.claim import Claim
+from repro.claims.ledger import NOT_RUN
 from repro.claims.provenance import is_result, scale_of
 from repro.claims.registry import CLAIMS, REGISTRY_VERSION
 from repro.claims.verdicts import BELOW_RESOLUTION, INCONCLUSIVE, OUTCOMES, VERDICTS
@@ -62,6 +63,8 @@ def controls_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
     controls = sidecar.get("controls") or {}
     words = {"positive": {"passed": "positive seen", "failed": "positive **missed**"},
              "null": {"passed": "null silent", "failed": "null **fired**"}}
+    if all((controls.get(kind) or {}).get("status") == NOT_RUN for kind in ("positive", "null")):
+        return "not run at this scale"
     out = []
     for kind in ("positive", "null"):
         status = (controls.get(kind) or {}).get("status", "missing")
@@ -115,15 +118,18 @@ def unmeasured_short(sidecar: Mapping[str, Any]) -> str:
     """"not measured by this run (part, ...)" over the parts whose measurement the run did
     not record (a value its scale does not run); "" if none."""
     missing = [p["name"] for p in sidecar.get("parts", [])
-               if p["outcome"] == INCONCLUSIVE and "not recorded" in p.get("reason", "")]
+               if p["outcome"] == INCONCLUSIVE and ("not recorded" in p.get("reason", "")
+                                                    or p.get("reason", "").startswith("not run"))]
     return f"not measured by this run ({', '.join(missing)})" if missing else ""
 
 
 def _controls_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
-    """A measured claim whose controls are missing or failed."""
+    """A measured claim whose controls are missing or failed (not a claim its scale does not
+    run: its controls are "not run", and its parts say why)."""
     controls = sidecar.get("controls") or {}
     return claim.rests_on_effects and any(
-        (controls.get(kind) or {}).get("status") != "passed" for kind in ("positive", "null"))
+        (controls.get(kind) or {}).get("status") not in ("passed", NOT_RUN)
+        for kind in ("positive", "null"))
 
 
 def _gates(sidecar: Mapping[str, Any]) -> dict[str, bool]:

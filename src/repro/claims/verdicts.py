@@ -22,7 +22,8 @@ Per part (``decide_parts``):
   it into "inconclusive" when the run had fewer seeds than a power plan asked for).
 - **absent**: equivalence by two one-sided tests (TOST, Schuirmann 1987): the 90 % t-interval
   of the difference lies inside ±δ, for every comparison.
-- **inconclusive**: none of these; the reason says why — a measurement not recorded, one seed,
+- **inconclusive**: none of these; the reason says why — a measurement not recorded, a part
+  its scale does not run (``decide_effects``' ``not_run``: a registered cut), one seed,
   no spread to test with, or an interval that reaches beyond ±δ on both sides of zero, with
   the smallest effect this run could have seen (``power.minimum_detectable_effect`` at its n
   and its own spread) beside δ.
@@ -447,9 +448,20 @@ def combine(results: Sequence[PartResult], parts: Sequence[Part] | None = None) 
     return INCONCLUSIVE
 
 
-def decide_effects(parts: Sequence[Part], measured: Measured) -> Decision:
-    """Decide a claim whose verdict rests on measured effects."""
-    results = decide_parts(parts, measured)
+def decide_effects(parts: Sequence[Part], measured: Measured,
+                   not_run: Mapping[str, str] | None = None) -> Decision:
+    """Decide a claim whose verdict rests on measured effects. ``not_run``: part name → why
+    the run's scale does not run it (a cut registered before the run); such a part is
+    inconclusive with that reason and stays out of Holm's family, like one not recorded."""
+    skipped = dict(not_run or {})
+    unknown = sorted(set(skipped) - {p.name for p in parts})
+    if unknown:
+        raise ValueError(f"parts not run {unknown} are not the claim's parts "
+                         f"{[p.name for p in parts]}")
+    tested = {r.name: r for r in decide_parts([p for p in parts if p.name not in skipped],
+                                              measured)}
+    results = [tested[p.name] if p.name in tested
+               else PartResult(p.name, INCONCLUSIVE, skipped[p.name]) for p in parts]
     verdict = combine(results, parts)
     decision = Decision(verdict, "", {r.name: r.outcome for r in results}, results)
     decision.reason = decision.parts_in_words()

@@ -102,15 +102,17 @@ MOTION_ARCHITECTURE = Architecture(base_channels=288, channel_mults=(1, 0.5, 0.2
 TRAJECTORY_ARCHITECTURE = Architecture(base_channels=64, channel_mults=(1, 2, 4))
 
 
-#: the standard scale (docs/COMPUTE.md §3–§4; ``make reproduce`` on 2 CPU cores):
+#: the standard scale (docs/COMPUTE.md §3–§4, §15–§16; ``make reproduce`` on 2 CPU cores):
 #: every GMD model at T = 100 cosine (the guidance stop steps at the same fraction of T,
 #: ``guidance_schedule.model_stop_step``: GMD's 20 of 1000 → 2); the motion UNet 64 × (1, 1)
-#: with the full-rank input skip (``UNet1D(input_skip=True)``: without it the ε arm cannot
-#: carry 263-d noise through 64 channels, COMPUTE.md §4 item 1), the trajectory UNet
-#: 32 × (1, 2): the first run's 16 × (1, 2) at 1000 steps failed its path-length gate in 9 of
-#: 12 records (COMPUTE.md §8); the wider net passes at 1000 steps with a margin and costs less
-#: than 16 × (1, 2) at the 2000 steps that also pass (COMPUTE.md §11). Fixed from pilots, before
-#: the standard run that reports with it.
+#: without an input skip (a full-rank input-to-output path passes x_t's noise into an x0
+#: model's output: its samples were jagged, COMPUTE.md §14; without it an ε model cannot carry
+#: 263-d noise through 64 channels, so the standard scale does not train the ε motion arm,
+#: ``gmd.settings.STANDARD_NOT_RUN``), the trajectory UNet 32 × (1, 2): the first run's
+#: 16 × (1, 2) at 1000 steps failed its path-length gate in 9 of 12 records (COMPUTE.md §8); the
+#: wider net passes at 1000 steps with a margin and costs less than 16 × (1, 2) at the 2000
+#: steps that also pass (COMPUTE.md §11). Fixed from pilots, before the standard run that
+#: reports with it.
 STANDARD_DIFFUSION_STEPS = 100
 
 
@@ -182,10 +184,11 @@ TRAJECTORY_TRAINING = ConvergenceTraining(batch_size=64, lr=1e-3, validate_every
                                           patience=5, step_cap=12000)
 
 
-#: the standard scale's motion models (docs/COMPUTE.md §4 item 1, the pilot with the input
-#: skip: both arms pass the x̂0 gate from 900 steps): a fixed 900 steps × batch 32, lr 1e-3,
-#: fp32 (bf16 does not pay on a CPU without AMX, COMPUTE.md §1), validated every 150 steps
-#: without the plateau stop, so both arms of every comparison share the same budget.
+#: the standard scale's motion models (docs/COMPUTE.md §15: on the locomotion stand-in the x0
+#: reference arm passes every sample gate on three seeds at 4500 steps, none at 3000): a fixed
+#: 4500 steps × batch 32, lr 1e-3, fp32 (bf16 does not pay on a CPU without AMX, COMPUTE.md
+#: §1), validated every 500 steps without the plateau stop, so both arms of every comparison
+#: share the same budget.
 STANDARD_MOTION_TRAINING = ConvergenceTraining(
     batch_size=32, lr=1e-3, validate_every=500, patience=fixed_steps_patience(4500, 500),
     step_cap=4500)
@@ -427,9 +430,8 @@ def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
     - ``paper``: ``models``' architecture of the family and its ``ConvergenceTraining``
       (batch, lr, validation interval, patience, autocast, step cap; ``step_cap`` overrides the
       cap): today's registered full settings, the same keys.
-    - ``standard``: the family's standard architecture (the motion UNet with the input skip)
-      and ``STANDARD_*_TRAINING``: a fixed step count (``step_cap`` overrides it), validated
-      but never stopped on a plateau, fp32.
+    - ``standard``: the family's standard architecture and ``STANDARD_*_TRAINING``: a fixed
+      step count (``step_cap`` overrides it), validated but never stopped on a plateau, fp32.
     - ``quick``: only the convergence path (``QUICK_TRAINING``: validate every few steps,
       short patience) on the notebook's own tiny model, whose step count (``step_cap``,
       required) is the cap."""
@@ -447,17 +449,16 @@ def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
         plan = STANDARD_MOTION_TRAINING if task == "motion" else STANDARD_TRAJECTORY_TRAINING
         steps = plan.step_cap if step_cap is None else int(step_cap)
         patience = fixed_steps_patience(steps, plan.validate_every)
-        skip = {}
     else:
         architecture = MOTION_ARCHITECTURE if task == "motion" else TRAJECTORY_ARCHITECTURE
         plan = MOTION_TRAINING if task == "motion" else TRAJECTORY_TRAINING
         steps = plan.step_cap if step_cap is None else int(step_cap)
-        patience, skip = plan.patience, {}
+        patience = plan.patience
     training = dataclasses.replace(GMD_TRAINING, steps=steps, batch_size=plan.batch_size,
                                    lr=plan.lr, validate_every=plan.validate_every,
                                    patience=patience, autocast=plan.autocast, seed=int(seed))
     return {"base_channels": architecture.base_channels,
-            "channel_mults": architecture.channel_mults, "training": training, **skip}
+            "channel_mults": architecture.channel_mults, "training": training}
 
 
 def longer_run(spec: GMDModelSpec, factor: int = 2) -> GMDModelSpec:

@@ -2,6 +2,8 @@
 
 - ``FULL_SEEDS`` / ``STANDARD_SEEDS`` / ``QUICK_SEEDS`` (:func:`seeds_of`): how many seeds each
   claim's experiment runs, per scale — the one table;
+- ``STANDARD_NOT_RUN`` (:func:`not_run`): the parts the standard scale does not run, each with
+  why — registered before the run that uses it, so a verdict says what the scale cannot decide;
 - :func:`a3` … :func:`f1` (``RULE_SETTINGS``): what each claim's rule quotes of its run, read
   from the ``Settings`` object its experiment used, never typed;
 - :func:`scale_note`: what a notebook's reader must know about its run's scale.
@@ -28,7 +30,8 @@ from repro.gmd.models import (
 from repro.infra.context import QUICK_NOTE, check_scale
 
 __all__ = ["FULL_SEEDS", "QUICK_SEEDS", "RULE_SETTINGS", "STANDARD_C4_TRAIN_STEPS",
-           "STANDARD_SEEDS", "a3", "a4", "b2", "b3", "c4", "f1", "scale_note", "seeds_of"]
+           "STANDARD_NOT_RUN", "STANDARD_SEEDS", "a3", "a4", "b2", "b3", "c4", "f1",
+           "not_run", "scale_note", "seeds_of"]
 
 
 
@@ -82,6 +85,56 @@ STANDARD_C4_TRAIN_STEPS = 1500
 
 
 # ------------------------------------------------------------------------------------------------
+# What the standard scale does not run: arms cut to fit the 60-minute budget (docs/COMPUTE.md
+# §16), each a statement of what the scale cannot decide, fixed before the run that uses it.
+#
+# Only arms whose parts the standard design could not decide are cut: an arm that fails its
+# fitness gate by construction at the standard width (A4's ε motion model), and the models of
+# parts that read a measurement no standard design passes (B3's evaluator) or a model that
+# failed every sample gate (F1's second stage, the absolute-root motion model). The quick scale
+# runs them all (a test of the code); the paper scale decides them.
+# ------------------------------------------------------------------------------------------------
+
+_EPS_MOTION = (
+    "the ε motion arm is not trained: the standard motion UNet (64 channels, no full-rank "
+    "input path — one passes x_t's noise into the x0 arm's output, docs/COMPUTE.md §14) cannot "
+    "carry ε's 263 values per frame; trained once on this design its held-out x̂0 error was "
+    "7.7× the Gaussian denoiser's, a broken arm rather than a jagged one (COMPUTE.md §15a). "
+    "GMD's widths (the paper scale) decide it")
+
+_B3_EVALUATOR = (
+    "no motion model is trained for it: every part reads the motion evaluator, and no "
+    "evaluator piloted within the standard budget passes its gate — it is nearly blind to "
+    "frame order (shuffled frames score 1.2–1.9× the real windows' FID against a bound of 3×, "
+    "with convolutional or recurrent encoders, 500 or 3000 steps; docs/COMPUTE.md §15). The "
+    "paper scale decides it")
+
+_F1_SECOND_STAGE = (
+    "GMD's second stage is not run: its absolute-root x0 motion model generates jagged motion "
+    "within the standard budget (joint jerk 14–23× the windows', every sample gate failed in "
+    "the pilot and in a full run; docs/COMPUTE.md §15, §15a). The paper scale decides it")
+
+#: claim → part → why the standard scale does not run it
+STANDARD_NOT_RUN: dict[str, dict[str, str]] = {
+    "GMD-A4": dict.fromkeys(("eps_motion_more_jagged", "eps_motion_worse_fid",
+                             "choice_matters_less_for_trajectories"), _EPS_MOTION),
+    "GMD-B3": dict.fromkeys(("abs_lower_fid", "abs_diversity_closer_to_real",
+                             "abs_r_precision_not_worse"), _B3_EVALUATOR),
+    "GMD-F1": {"stop_at_20_more_coherent": _F1_SECOND_STAGE},
+}
+
+
+def not_run(claim_id: str, scale: str) -> dict[str, str]:
+    """The parts of ``claim_id`` that ``scale`` does not run, each with why (``{}``: every
+    part runs); ``ClaimResult.not_run`` takes it."""
+    check_scale(scale)
+    if claim_id not in FULL_SEEDS:
+        raise ValueError(f"no GMD claim {claim_id!r}; have {sorted(FULL_SEEDS)}")
+    return dict(STANDARD_NOT_RUN.get(claim_id, {})) if scale == "standard" else {}
+
+
+
+# ------------------------------------------------------------------------------------------------
 # What a GMD notebook's reader must know about its run's scale, rendered from the settings.
 #
 # The notebooks' design text describes GMD's own settings (T = 1000, its widths, the registered
@@ -105,14 +158,16 @@ def scale_note(scale: str) -> str:
                 f"{_widths(MOTION_ARCHITECTURE)}, trajectory UNet "
                 f"{_widths(TRAJECTORY_ARCHITECTURE)}, the registered seed counts).")
     seeds = ", ".join(f"{claim} {n}" for claim, n in STANDARD_SEEDS.items())
+    cuts = "; ".join(f"{claim} ({', '.join(parts)})" for claim, parts in STANDARD_NOT_RUN.items())
     return (f"**Standard scale** (`make reproduce`, docs/COMPUTE.md): every GMD model has "
             f"T = {STANDARD_DIFFUSION_STEPS} (guidance stop steps at the same fraction of T "
             f"as GMD's 20 of {GUIDANCE_DIFFUSION_STEPS}); motion UNet "
-            f"{_widths(STANDARD_MOTION_ARCHITECTURE)} with a full-rank input skip, "
+            f"{_widths(STANDARD_MOTION_ARCHITECTURE)}, "
             f"{STANDARD_MOTION_TRAINING.step_cap} steps (GMD-C4's arms "
             f"{STANDARD_C4_TRAIN_STEPS}); trajectory UNet "
             f"{_widths(STANDARD_TRAJECTORY_ARCHITECTURE)}, "
             f"{STANDARD_TRAJECTORY_TRAINING.step_cap} steps; seeds per claim: {seeds}. "
+            f"Not run at this scale (each part says why): {cuts}. "
             "Where the text below names GMD's T = 1000, its widths or more "
             "seeds, those are the paper scale's; the values this run used are printed by its "
             "cells and recorded in every claim's sidecar.")
