@@ -130,3 +130,14 @@ def test_a_claim_none_of_whose_parts_runs_has_no_controls_to_miss(tmp_path: Path
     assert recorded.verdict == INCONCLUSIVE
     assert {p.reason for p in recorded.decision.parts} == {"not run at the standard scale: cut"}
     assert {c["status"] for c in recorded.controls.values()} == {"not run"}
+
+
+def test_a_part_not_run_stays_not_run_when_a_model_it_would_read_fails(tmp_path: Path) -> None:
+    ctx = make_context(tmp_path, scale="standard")
+    cut = {"eps_keeps_more_of_best_gain": "cut"}
+    measured = {k: v for k, v in A3_GOOD.items() if not k.startswith("best_gain")}
+    recorded = record(ctx, ClaimResult("GMD-A3", measured, settings=A3_RUN, seeds=[0, 1, 2, 3, 4],
+                                       quality_gates={"evaluator": False}, not_run=cut))
+    reasons = {p.name: p.reason for p in recorded.decision.parts}
+    assert reasons["eps_keeps_more_of_best_gain"] == "not run at the standard scale: cut"
+    assert "failed its fitness gate" in reasons["eps_reaches_goal_better"]

@@ -347,3 +347,24 @@ def test_the_a3_study_reads_each_seed_in_order() -> None:
     assert study.per_seed("epsilon", "best_step") == [2.0, 4.0]
     assert study.survival["x0"] == [0.1, 0.3]
     assert finite(study.stop_survival["x0"]) == [None, None]
+
+
+def test_the_standard_scale_trains_no_eps_motion_arm_and_says_so() -> None:
+    """A4's ε motion arm is a registered cut at standard (``settings.STANDARD_NOT_RUN``): the
+    notebook trains x0 alone there; quick (a test of the code) and paper train both."""
+    standard = x0_vs_eps.Settings.for_scale("standard")
+    assert standard.motion_predictions == ("x0",)
+    assert set(standard.a4_not_run) == set(x0_vs_eps.A4_PARTS)
+    assert set(x0_vs_eps.A4_PARTS) == {p.name for p in get_claim("GMD-A4").parts}
+    for scale in ("quick", "paper"):
+        settings = x0_vs_eps.Settings.for_scale(scale)
+        assert settings.motion_predictions == ("x0", "epsilon") and settings.a4_not_run == {}
+    x0_only = {"motion_jitter_x0": [80.0, 90.0], "motion_fid_x0": [1.5, 2.5],
+               "trajectory_jitter_x0": [30.0, 40.0], "trajectory_jitter_eps": [60.0, 80.0]}
+    lines = x0_vs_eps.sample_quality_lines(x0_only, [0, 1]).splitlines()
+    assert lines[1] == ("seed 1: motion jerk x0 90; FID x0 2.5; trajectory jerk x0 40 / ε 80 "
+                        "(jerk m/s³)")
+    headline = x0_vs_eps._a4_headline(x0_only, {"trajectory_jitter": 2.0},
+                                      {"motion_fid": 1.0, "motion_jitter": 70.0}, "standard")
+    assert headline.startswith("ε motion arm not run at the standard scale; x0 motion samples: "
+                               "joint jerk 85 m/s³ (data 70)")

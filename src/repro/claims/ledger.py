@@ -128,6 +128,9 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
                                                       not_run)
     decision = apply_controls(claim.decide(measured, not_run), decided, quality_gates,
                               gate_reads, claim.parts)
+    if not_run:   # a part not run stays "not run", whatever a gate or control says of the rest
+        decision.parts = [PartResult(p.name, INCONCLUSIVE, not_run[p.name])
+                          if p.name in not_run else p for p in decision.parts]
     return decision, stored
 
 

@@ -198,8 +198,9 @@ def plot_goal_reaching(results: dict, spaces: dict, seeds: list[int], *,
 
 def plot_sample_quality(values: dict[str, list[float]], references: dict[str, float]) -> Figure:
     """GMD-A4: x0 vs ε bars (mean over seeds, dots: seeds) of joint jerk, FID and root jerk,
-    with the data's value dashed. ``references``: {"motion_jitter", "motion_fid",
-    "trajectory_jitter"} of the data."""
+    with the data's value dashed; an arm without values (not trained at the run's scale) has
+    no bar. ``references``: {"motion_jitter", "motion_fid", "trajectory_jitter"} of the
+    data."""
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
@@ -207,6 +208,8 @@ def plot_sample_quality(values: dict[str, list[float]], references: dict[str, fl
                            (axes[1], "motion_fid", "motion: FID (stand-in evaluator)"),
                            (axes[2], "trajectory_jitter", "trajectory: root jerk (m/s³)")):
         for i, (tag, colour) in enumerate((("x0", "tab:blue"), ("eps", "tab:orange"))):
+            if f"{key}_{tag}" not in values:
+                continue
             per_seed = values[f"{key}_{tag}"]
             ax.bar(i, np.mean(per_seed), color=colour, alpha=0.6, width=0.6)
             ax.plot(np.full(len(per_seed), i), per_seed, "ko", ms=4)

@@ -387,6 +387,19 @@ class Settings(RunSettings):
         return self.scale == "quick"
 
     @property
+    def motion_predictions(self) -> tuple[str, ...]:
+        """GMD-A4's motion arms this scale trains: both, or x0 alone where the scale does not
+        run the ε motion arm (``settings.not_run``: the standard scale's registered cut)."""
+        if set(rule_settings.not_run("GMD-A4", self.scale)) >= set(A4_PARTS):
+            return ("x0",)
+        return tuple(PREDICTIONS)
+
+    @property
+    def a4_not_run(self) -> dict[str, str]:
+        """GMD-A4's parts this scale does not run, each with why (``settings.not_run``)."""
+        return rule_settings.not_run("GMD-A4", self.scale)
+
+    @property
     def longer_eps_run(self) -> bool:
         """Whether GMD-A4's longer ε run (``models.longer_run``, 2× the motion budget; outside
         the rule) is trained: at the paper scale (docs/COMPUTE.md §3d), and in quick runs as a
@@ -461,6 +474,11 @@ def guidance_trajectory_spec(scale: str, prediction: Literal["x0", "epsilon"] = 
 PREDICTIONS = {"x0": "x0", "epsilon": "eps"}
 
 
+#: GMD-A4's registered parts (every one reads the ε motion arm)
+A4_PARTS = ("eps_motion_more_jagged", "eps_motion_worse_fid",
+            "choice_matters_less_for_trajectories")
+
+
 #: GMD-A4's parts that rest on each of its models' fitness gates, (task, prediction) → the
 #: record's ``reads`` (None: every part), as gates version 3 registered them: the motion
 #: models every part, A4's own T = 100 trajectory models the trajectory part only.
@@ -530,7 +548,8 @@ def sample_quality(models: dict[tuple[str, str, int], TrainedGMD], seeds: Sequen
                    n: int, evaluator: Evaluator, test_embeddings: np.ndarray) -> SampleQuality:
     """n unguided samples per model and seed (same noise for x0 and ε): joint jerk,
     acceleration, root jerk, FID against ``test_embeddings`` and foot skating of the motion
-    models, root jerk of the trajectory models."""
+    models, root jerk of the trajectory models. A motion arm not in ``models`` (a scale that
+    does not train it) has no values."""
     names = ("motion_jitter", "motion_fid", "trajectory_jitter", "motion_root_jitter",
              "motion_acceleration", "motion_foot_skating")
     values: dict[str, list[float]] = {f"{name}_{tag}": [] for name in names
@@ -538,6 +557,12 @@ def sample_quality(models: dict[tuple[str, str, int], TrainedGMD], seeds: Sequen
     examples = {}
     for s in seeds:
         for prediction, tag in PREDICTIONS.items():
+            trajectory_model = models[("trajectory", prediction, s)]
+            trajectories = sample(trajectory_model, n, seed=s)
+            values[f"trajectory_jitter_{tag}"].append(
+                float(jitter_of(trajectory_model, trajectories).jerk))
+            if ("motion", prediction, s) not in models:
+                continue
             motion_model = models[("motion", prediction, s)]
             x = sample(motion_model, n, seed=s)
             jitter = jitter_of(motion_model, x)
@@ -548,14 +573,23 @@ def sample_quality(models: dict[tuple[str, str, int], TrainedGMD], seeds: Sequen
             values[f"motion_fid_{tag}"].append(motion_fid(motion_model, x, evaluator,
                                                           test_embeddings))
             values[f"motion_foot_skating_{tag}"].append(float(foot_skating_of(motion_model, x)))
-            trajectory_model = models[("trajectory", prediction, s)]
-            trajectories = sample(trajectory_model, n, seed=s)
-            values[f"trajectory_jitter_{tag}"].append(
-                float(jitter_of(trajectory_model, trajectories).jerk))
             if s == seeds[0]:
                 examples[prediction] = motion_model.space.joints(x[:2]).numpy()
-    return SampleQuality(values, examples)
+    return SampleQuality({k: v for k, v in values.items() if v}, examples)
 
+
+
+def sample_quality_lines(values: Mapping[str, list[float]], seeds: Sequence[int]) -> str:
+    """One line per seed: each measurement of :func:`sample_quality` for the arms it has."""
+    arms = (("x0", "x0"), ("ε", "eps"))
+    lines = []
+    for k, s in enumerate(seeds):
+        cells = [f"{label} " + " / ".join(f"{arm} {values[f'{key}_{tag}'][k]:.3g}"
+                                          for arm, tag in arms if f"{key}_{tag}" in values)
+                 for key, label in (("motion_jitter", "motion jerk"), ("motion_fid", "FID"),
+                                    ("trajectory_jitter", "trajectory jerk"))]
+        lines.append(f"seed {s}: " + "; ".join(cells) + " (jerk m/s³)")
+    return "\n".join(lines)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1180,7 +1214,7 @@ def a4_model_records(models: Mapping[tuple[str, str, int], TrainedGMD],
         (p, s): model_gates.gmd_model_record(
             models[("motion", p, s)], family="gmd_motion", reads=A4_READS[("motion", p)],
             role=MOTION_ROLES[p], reference=samples.values, values=motion_values(p, s))
-        for p in PREDICTIONS for s in seeds}
+        for p in PREDICTIONS for s in seeds if ("motion", p, s) in models}
     reference = trajectory_reference(test)
     trajectory_records = {
         (p, s): model_gates.gmd_model_record(
@@ -1225,22 +1259,24 @@ def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], Trai
     data's ``motion_jitter``, ``motion_fid`` (train vs test) and ``trajectory_jitter``."""
     a4 = quality.values
     ratio = {k: float(np.mean(a4[f"{k}_eps"]) / np.mean(a4[f"{k}_x0"]))
-             for k in ("motion_jitter", "motion_fid", "trajectory_jitter", "motion_root_jitter")}
+             for k in ("motion_jitter", "motion_fid", "trajectory_jitter", "motion_root_jitter")
+             if f"{k}_eps" in a4}
+    # the controls plant on the ε motion arm: none where the scale runs no part of A4
+    runs = set(A4_PARTS) - set(settings.a4_not_run)
     controls = a4_controls(motion_train, seeds, n=settings.generated,
                            evaluator=evaluation.evaluator,
-                           test_embeddings=evaluation.test_embeddings, trajectory_train=train)
+                           test_embeddings=evaluation.test_embeddings,
+                           trajectory_train=train) if runs else None
     real_fid = references["motion_fid"]
     first = seeds[0]
     return ClaimResult(
         "GMD-A4",
         {k: a4[k] for k in ("motion_jitter_eps", "motion_jitter_x0", "motion_fid_eps",
-                            "motion_fid_x0", "trajectory_jitter_eps", "trajectory_jitter_x0")},
+                            "motion_fid_x0", "trajectory_jitter_eps", "trajectory_jitter_x0")
+         if k in a4},
         seeds=seeds, settings=rule_settings.a4(settings), figures=list(figures),
-        controls=controls, models=records.models,
-        headline=(f"motion jerk ε/x0 = {ratio['motion_jitter']:.2f}, FID ε "
-                  f"{np.mean(a4['motion_fid_eps']):.2f} vs x0 {np.mean(a4['motion_fid_x0']):.2f} "
-                  f"(real {real_fid:.2f}); trajectory jerk ε/x0 = "
-                  f"{ratio['trajectory_jitter']:.2f}"),
+        controls=controls, models=records.models, not_run=settings.a4_not_run,
+        headline=_a4_headline(a4, ratio, references, settings.scale),
         notes=(f"Ours: motion {describe(models[('motion', 'x0', first)].spec)}; trajectories "
                f"{describe(models[('trajectory', 'x0', first)].spec)}; x0 and ε of a task "
                "share the architecture and the budget; EMA; "
@@ -1257,17 +1293,36 @@ def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], Trai
                "real_fid_train_vs_test": float(real_fid),
                **{k: a4[k] for k in ("motion_root_jitter_x0", "motion_root_jitter_eps",
                                      "motion_acceleration_x0", "motion_acceleration_eps",
-                                     "motion_foot_skating_x0", "motion_foot_skating_eps")},
+                                     "motion_foot_skating_x0", "motion_foot_skating_eps")
+                  if k in a4},
                "parameters": {"num_timesteps": settings.diffusion_steps,
                               "guidance_stop_t": None,
-                              "x0_clamp": models[("motion", "epsilon", first)].x0_bound},
+                              "x0_clamp": (models[("motion", "epsilon", first)].x0_bound
+                                           if ("motion", "epsilon", first) in models
+                                           else None)},
                "parameter_counts": parameter_counts(models, seeds),
                "generated_per_seed": settings.generated,
                "motion_budget": {
                    p: [model_gates.training_summary(models[("motion", p, s)]) for s in seeds]
-                   for p in PREDICTIONS},
+                   for p in settings.motion_predictions},
                "longer_eps_run": _longer_eps_extra(long_eps, records, settings.scale),
-               "controls_planted": controls.planted})
+               "controls_planted": controls.planted if controls is not None else {}})
+
+
+def _a4_headline(a4: Mapping[str, list[float]], ratio: Mapping[str, float],
+                 references: Mapping[str, float], scale: str) -> str:
+    """GMD-A4's key numbers: the ε/x0 ratios, or, where the scale trains no ε motion arm, the
+    x0 arm's samples against the data's."""
+    real_fid = references["motion_fid"]
+    if "motion_jitter_eps" not in a4:
+        return (f"ε motion arm not run at the {scale} scale; x0 motion samples: joint jerk "
+                f"{np.mean(a4['motion_jitter_x0']):.0f} m/s³ (data "
+                f"{references['motion_jitter']:.0f}), FID {np.mean(a4['motion_fid_x0']):.2f} "
+                f"(real {real_fid:.2f}); trajectory jerk ε/x0 = "
+                f"{ratio['trajectory_jitter']:.2f}")
+    return (f"motion jerk ε/x0 = {ratio['motion_jitter']:.2f}, FID ε "
+            f"{np.mean(a4['motion_fid_eps']):.2f} vs x0 {np.mean(a4['motion_fid_x0']):.2f} "
+            f"(real {real_fid:.2f}); trajectory jerk ε/x0 = {ratio['trajectory_jitter']:.2f}")
 
 
 def a4_budget_markdown(models: Mapping[tuple[str, str, int], TrainedGMD],
@@ -1276,7 +1331,8 @@ def a4_budget_markdown(models: Mapping[tuple[str, str, int], TrainedGMD],
     """GMD-A4's training budget (``model_gates.budget_markdown``): the x0 and ε
     motion models per seed and, at the paper scale, the ε run at 2× the cap; below it, a line
     saying that run is not trained."""
-    arms = {"x0": "x0", "ε": "epsilon"}
+    arms = {label: p for label, p in (("x0", "x0"), ("ε", "epsilon"))
+            if p in settings.motion_predictions}
     budget_models = {label: [models[("motion", p, s)] for s in seeds] for label, p in arms.items()}
     budget_records = {label: [records.motion[(p, s)] for s in seeds] for label, p in arms.items()}
     note = ""
@@ -1287,4 +1343,6 @@ def a4_budget_markdown(models: Mapping[tuple[str, str, int], TrainedGMD],
         note = (f"*The longer ε run is not trained at the {settings.scale} scale "
                 f"(`settings.longer_eps_run` is {settings.longer_eps_run}): paper scale only.*"
                 "\n\n")
+    if "epsilon" not in settings.motion_predictions:
+        note += (f"*Nor is the ε motion arm: {settings.a4_not_run[A4_PARTS[0]]}.*\n\n")
     return note + model_gates.budget_markdown(budget_models, budget_records)
