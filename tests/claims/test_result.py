@@ -126,8 +126,9 @@ def test_a_claim_none_of_whose_parts_runs_has_no_controls_to_miss(tmp_path: Path
     ctx = make_context(tmp_path, scale="standard")
     cut = {"eps_reaches_goal_better": "cut", "eps_keeps_more_of_best_gain": "cut"}
     recorded = record(ctx, ClaimResult("GMD-A3", {}, settings=A3_RUN, seeds=[0, 1, 2],
-                                       not_run=cut))
+                                       quality_gates={"evaluator": False}, not_run=cut))
     assert recorded.verdict == INCONCLUSIVE
+    assert recorded.reason == "not run at the standard scale: cut"   # said once; no gate decides
     assert {p.reason for p in recorded.decision.parts} == {"not run at the standard scale: cut"}
     assert {c["status"] for c in recorded.controls.values()} == {"not run"}
 

@@ -127,10 +127,7 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
         stored[kind], decided[kind] = _control_record(claim_id, kind, (controls or {}).get(kind),
                                                       not_run)
     decision = apply_controls(claim.decide(measured, not_run), decided, quality_gates,
-                              gate_reads, claim.parts)
-    if not_run:   # a part not run stays "not run", whatever a gate or control says of the rest
-        decision.parts = [PartResult(p.name, INCONCLUSIVE, not_run[p.name])
-                          if p.name in not_run else p for p in decision.parts]
+                              gate_reads, claim.parts, not_run=list(not_run or ()))
     return decision, stored
 
 

@@ -462,6 +462,9 @@ def decide_effects(parts: Sequence[Part], measured: Measured,
                                               measured)}
     results = [tested[p.name] if p.name in tested
                else PartResult(p.name, INCONCLUSIVE, skipped[p.name]) for p in parts]
+    if not tested and parts and len(set(skipped.values())) == 1:   # one cut, said once
+        return Decision(combine(results, parts), next(iter(skipped.values())),
+                        {r.name: r.outcome for r in results}, results)
     verdict = combine(results, parts)
     decision = Decision(verdict, "", {r.name: r.outcome for r in results}, results)
     decision.reason = decision.parts_in_words()
@@ -486,7 +489,8 @@ def _missed_control(result: PartResult, control: str) -> PartResult:
 def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
                    quality_gates: Mapping[str, bool] | None = None,
                    gate_reads: Mapping[str, Sequence[str] | None] | None = None,
-                   parts: Sequence[Part] | None = None) -> Decision:
+                   parts: Sequence[Part] | None = None, not_run: Sequence[str] = ()
+                   ) -> Decision:
     """The claim's decision after its controls and fitness gates.
 
     The two controls guard different errors. The null control (no effect planted) guards
@@ -500,7 +504,10 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
     each with the reason, and the verdict is combined again from the parts. A failed gate
     makes inconclusive the parts that read its model (``gate_reads``: gate name → part names;
     absent or None: every part; []: a model no part rests on, shown but never deciding), and
-    the verdict is combined again (``parts``: their kinds)."""
+    the verdict is combined again (``parts``: their kinds). A part in ``not_run`` (its
+    scale does not run it) keeps its outcome and reason: no control or gate speaks to it, and
+    a gate read only by such parts is reported, never decides."""
+    kept = set(not_run)
     positive, null = controls.get("positive"), controls.get("null")
     if null is not None and null.verdict in (REPRODUCED, PARTIAL):
         problem = (f"the null control fired: the measurement finds an effect where none was "
@@ -515,7 +522,8 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
             return Decision(INCONCLUSIVE, f"failed positive control ({control}) — without "
                             f"controls: {decision.verdict}: {decision.reason}",
                             dict(decision.checks), list(decision.parts))
-        results = [_missed_control(p, control) if p.outcome in (ABSENT, INCONCLUSIVE) else p
+        results = [_missed_control(p, control)
+                   if p.outcome in (ABSENT, INCONCLUSIVE) and p.name not in kept else p
                    for p in decision.parts]
         controlled = Decision(combine(results, parts), "", {r.name: r.outcome for r in results},
                               results)
@@ -526,11 +534,17 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
     else:
         missed = ""
     # a gate whose model no part reads (``reads`` = []) is reported, never decides
+    names = [p.name for p in decision.parts]
+
+    def deciding(gate: str) -> bool:   # read by a part that runs
+        reads = (gate_reads or {}).get(gate)
+        return bool(set(names if reads is None else reads) - kept)
+
     failed = [name for name, ok in (quality_gates or {}).items()
-              if not ok and (gate_reads or {}).get(name, None) != []]
+              if not ok and (gate_reads or {}).get(name, None) != []
+              and (not names or deciding(name))]
     if not failed:
         return decision
-    names = [p.name for p in decision.parts]
     resting: dict[str, list[str]] = {}
     for gate in failed:
         reads = (gate_reads or {}).get(gate)
@@ -539,7 +553,8 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
             raise ValueError(f"gate {gate!r} reads parts {unknown}; the claim's parts are "
                              f"{names}")
         for name in (names if reads is None else reads):
-            resting.setdefault(name, []).append(gate)
+            if name not in kept:
+                resting.setdefault(name, []).append(gate)
     results = [PartResult(p.name, INCONCLUSIVE, f"rests on {', '.join(resting[p.name])}, which "
                           f"failed its fitness gate (without it: {p.outcome})", p.numbers)
                if p.name in resting else p for p in decision.parts]
