@@ -10,8 +10,9 @@ import pytest
 import torch
 from conftest import make_context
 
-from repro.claims.result import record
-from repro.claims.verdicts import REPRODUCED
+from repro.claims.registry import get_claim
+from repro.claims.result import record, recorded_markdown
+from repro.claims.verdicts import INCONCLUSIVE, REPRODUCED
 from repro.gmd import models
 from repro.gmd import root_representation as L
 from repro.gmd import root_representation as R
@@ -19,6 +20,7 @@ from repro.gmd import root_representation as results
 from repro.gmd.guidance import default_stop_step, sample
 from repro.gmd.models import TrainedGMD
 from repro.gmd.root_representation import Settings
+from repro.gmd.settings import STANDARD_NOT_RUN
 from repro.gmd.windows import DataConfig, FeatureSpace
 from repro.motion.features import FEATURE_DIM, recover_root, relative_to_absolute_root
 
@@ -288,3 +290,38 @@ def test_b3_controls_calibrate_briefly_only_in_a_quick_run() -> None:
     assert results.Settings.for_scale("standard").b3_control_options == {}
     assert results.Settings.for_scale("paper").b3_control_options == {}
     assert np.isfinite(results.LINEARISATION_DELTAS).all()
+
+
+def test_the_standard_scale_runs_no_part_of_b3_and_records_why(tmp_path: Path) -> None:
+    """Every part of GMD-B3 is a registered cut at standard (``settings.STANDARD_NOT_RUN``):
+    the notebook trains and samples nothing of it and records each part as not run with the
+    registered reason, the rule rendered from the settings; quick (a test of the code) and
+    paper run it."""
+    assert set(results.B3_PARTS) == {p.name for p in get_claim("GMD-B3").parts}
+    for scale in ("quick", "paper"):
+        settings = results.Settings.for_scale(scale)
+        assert settings.runs_b3 and settings.b3_not_run == {}
+        assert "B3 motion training steps" in results.settings_markdown(
+            settings, seeds=[0], motion_seeds=[0])
+        with pytest.raises(ValueError, match="runs GMD-B3"):
+            results.b3_not_run_result(settings, [0])
+    standard = results.Settings.for_scale("standard")
+    assert not standard.runs_b3
+    table = results.settings_markdown(standard, seeds=[0, 1, 2], motion_seeds=[0, 1, 2])
+    assert "not run at the standard scale" in table and "B3 motion training" not in table
+    why = STANDARD_NOT_RUN["GMD-B3"]["abs_lower_fid"]
+    assert results.b3_not_run_markdown(standard) == (
+        f"*GMD-B3 is not run at the standard scale: {why}.*")
+
+    ctx = make_context(tmp_path, scale="standard")
+    result = results.b3_not_run_result(standard, [0, 1, 2])
+    assert result.measured == {} and result.controls is None and not result.models
+    assert result.headline == f"not run at the standard scale: {why}"
+    recorded = record(ctx, result)
+    assert recorded.verdict == INCONCLUSIVE
+    assert {p.name: p.reason for p in recorded.decision.parts} == {
+        part: f"not run at the standard scale: {why}" for part in results.B3_PARTS}
+    assert {c["status"] for c in recorded.controls.values()} == {"not run"}
+    shown = recorded_markdown(ctx, recorded)
+    assert (f"3 seeds, {standard.evaluation_windows} samples per model and seed" in shown
+            and f"models of T = {standard.diffusion_steps}" in shown)

@@ -19,9 +19,10 @@ shifts every later frame by δv. In abs p_t depends on g_t alone.
 This module holds the logic of ``notebooks/02_root_representation.ipynb``, on top of the tiny-GMD
 modules of ``repro.gmd``: the notebook's fixed settings (:class:`Settings`); the exact round
 trip and the sensitivity study (GMD-B1); location imputation and guidance in both
-representations (GMD-B2); Table B.1's evaluation (GMD-B3, ``measurements``) run on both; each
-claim's controls, figures, reading and result. Representations are named as
-``motion.humanml3d.REPRESENTATIONS`` ("relative", "absolute"); "rel"/"abs"
+representations (GMD-B2); Table B.1's evaluation (GMD-B3, ``measurements``) run on both,
+except at a scale that runs none of B3's parts (``Settings.runs_b3``: the claim is recorded
+as not run, with why); each claim's controls, figures, reading and result. Representations
+are named as ``motion.humanml3d.REPRESENTATIONS`` ("relative", "absolute"); "rel"/"abs"
 (``windows.short_label``) only name measurements.
 """
 
@@ -97,18 +98,19 @@ from repro.motion.plotting import save_figure
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["B1Study", "B3Evaluation", "B3_DEGRADATION", "ImputationRun", "LINEARISATION_DELTAS",
-           "LocationTask", "METHODS", "REAL_CLIP", "REGISTERED_METHODS", "REPRESENTATION_ROLES",
-           "ROOT_PARAMETERS", "RoundTrip", "SensitivityResult", "SensitivitySetup", "Settings",
-           "abs_location_imputation", "b1_figures", "b1_reading", "b1_result", "b1_study",
-           "b2_controls", "b2_model_records", "b2_result", "b2_runs", "b2_table_markdown",
-           "b3_controls", "b3_evaluation", "b3_model_records", "b3_result", "b3_rows",
-           "facing_path_root", "global_root_xz", "impute_locations", "linearisation_error",
-           "load_clips", "load_or_train_per_representation", "location_errors", "location_loss",
-           "location_task", "perturbation_displacement", "plot_imputation", "plot_method_errors",
+__all__ = ["B1Study", "B3Evaluation", "B3_DEGRADATION", "B3_PARTS", "ImputationRun",
+           "LINEARISATION_DELTAS", "LocationTask", "METHODS", "REAL_CLIP", "REGISTERED_METHODS",
+           "REPRESENTATION_ROLES", "ROOT_PARAMETERS", "RoundTrip", "SensitivityResult",
+           "SensitivitySetup", "Settings", "abs_location_imputation", "b1_figures", "b1_reading",
+           "b1_result", "b1_study", "b2_controls", "b2_model_records", "b2_result", "b2_runs",
+           "b2_table_markdown", "b3_controls", "b3_evaluation", "b3_model_records",
+           "b3_not_run_markdown", "b3_not_run_result", "b3_result", "b3_rows", "facing_path_root",
+           "global_root_xz", "impute_locations", "linearisation_error", "load_clips",
+           "load_or_train_per_representation", "location_errors", "location_loss", "location_task",
+           "perturbation_displacement", "plot_imputation", "plot_method_errors",
            "plot_representations", "plot_sensitivity", "reading_b1", "reading_b2", "reading_b3",
            "real_clip_file", "registered_measurements", "rel_location_imputation", "root_jacobian",
-           "round_trip", "round_trip_markdown", "sensitivity_study"]
+           "round_trip", "round_trip_markdown", "sensitivity_study", "settings_markdown"]
 
 #: the root entries a perturbation touches: [0] rotation (ω or a), [1:3] linear (v or p).
 ROOT_PARAMETERS = slice(0, 3)
@@ -338,6 +340,10 @@ def linearisation_error(features: np.ndarray, frame: int, deltas: Sequence[float
 
 # ------------------------------------------------------------------ the notebook's settings
 
+#: GMD-B3's registered parts (every one reads the motion models and the evaluator)
+B3_PARTS = ("abs_lower_fid", "abs_diversity_closer_to_real", "abs_r_precision_not_worse")
+
+
 @dataclass(frozen=True)
 class Settings(RunSettings):
     """Every size and step count of notebook 02 at one scale, fixed before any verdict was seen.
@@ -351,9 +357,10 @@ class Settings(RunSettings):
     classifier-free guidance at GMD's scale (``guidance.sample_classifier_free``). ``seeds``
     (B2) and ``motion_seeds`` (B3) come from ``settings.seeds_of``. The standard scale
     (docs/COMPUTE.md §3) trains the standard architectures for a fixed step count, T = 100 for
-    every model (the stop step at the same fraction, 2), 3 seeds each and 128 B3 samples. Quick
-    mode shrinks everything, T included (a test of the code, never a result).
-    """
+    every model (the stop step at the same fraction, 2), 3 seeds each and 128 B3 samples —
+    B3's the settings its rule quotes, for the standard scale runs none of its parts
+    (:attr:`runs_b3`, a registered cut). Quick mode shrinks everything, T included (a test of
+    the code, never a result)."""
 
     scale: str
     seeds: int
@@ -417,6 +424,18 @@ class Settings(RunSettings):
         return X0_CLAMP
 
     @property
+    def b3_not_run(self) -> dict[str, str]:
+        """GMD-B3's parts this scale does not run, each with why (``settings.not_run``)."""
+        return rule_settings.not_run("GMD-B3", self.scale)
+
+    @property
+    def runs_b3(self) -> bool:
+        """Whether this scale runs GMD-B3's experiment (its motion models, evaluator, samples,
+        gates and controls): not where every part is a registered cut (``settings.not_run``:
+        the standard scale), which records the claim with :func:`b3_not_run_result`."""
+        return not set(B3_PARTS) <= set(self.b3_not_run)
+
+    @property
     def b3_control_options(self) -> dict[str, int]:
         """The calibration of GMD-B3's positive control (``b3_controls``'
         keywords): its registered defaults, or in a quick run one calibration draw and one
@@ -461,6 +480,29 @@ class Settings(RunSettings):
                             diffusion_steps=self.diffusion_steps,
                             **training_fields("motion", scale=self.scale,
                                               step_cap=self.motion_steps, seed=seed))
+
+
+def settings_markdown(settings: Settings, *, seeds: Sequence[int],
+                      motion_seeds: Sequence[int]) -> str:
+    """The table of this run's numbers: B2's sampling, targets and seeds and B3's guidance
+    scale, training steps, windows and seeds — or, where the scale does not run GMD-B3
+    (``Settings.runs_b3``), one row saying so in place of B3's."""
+    sampling = settings.sampling_parameters()
+    rows: list[list[Any]] = [
+        ["B2 trajectory model T / stop t / x̂0 clamp",
+         f"{sampling['num_timesteps']} / {sampling['guidance_stop_t']} / "
+         f"±{sampling['x0_clamp']:g}"],
+        ["B2 targets per seed", settings.targets]]
+    if settings.runs_b3:
+        rows += [["B3 classifier-free guidance scale", GMD_CFG_SCALE],
+                 ["B3 motion training steps", settings.motion_steps],
+                 ["B3 evaluation windows / evaluator steps",
+                  f"{settings.evaluation_windows} / {settings.evaluator_steps}"],
+                 ["seeds: B2 / B3", f"{len(seeds)} / {len(motion_seeds)}"]]
+    else:
+        rows += [["B3", f"not run at the {settings.scale} scale (why: GMD-B3 below)"],
+                 ["seeds: B2", len(seeds)]]
+    return markdown_table(["setting", "value"], rows)
 
 
 def load_clips(root: Path, split: str, *, min_frames: int, n: int) -> tuple[list[str],
@@ -1517,3 +1559,35 @@ def b3_result(rows: Mapping[str, list[dict[str, float]]], b3: B3Evaluation,
                "classifier_free_scale": GMD_CFG_SCALE,
                "evaluation_windows": len(b3.evaluation),
                "controls_planted": controls.planted})
+
+
+def _b3_why(settings: Settings) -> str:
+    """Why this scale runs no part of GMD-B3 (the registered reasons, each once)."""
+    return "; ".join(dict.fromkeys(settings.b3_not_run.values()))
+
+
+def b3_not_run_markdown(settings: Settings) -> str:
+    """A markdown line where GMD-B3's experiment would be: that this scale does not run it
+    and why (``Settings.b3_not_run``)."""
+    return f"*GMD-B3 is not run at the {settings.scale} scale: {_b3_why(settings)}.*"
+
+
+def b3_not_run_result(settings: Settings, seeds: Sequence[int]) -> ClaimResult:
+    """GMD-B3 at a scale that runs none of its parts (``Settings.runs_b3`` false): nothing
+    measured, no models, no controls, every part not run with its registered reason
+    (``settings.not_run``); the rule is rendered from the settings a run of it would use
+    (``seeds``, the evaluation windows, T, GMD's CFG scale), so the record says what was not
+    run."""
+    if settings.runs_b3:
+        raise ValueError(f"the {settings.scale} scale runs GMD-B3: record its measurements "
+                         "(b3_result)")
+    why = _b3_why(settings)
+    return ClaimResult(
+        "GMD-B3", {}, seeds=list(seeds), settings=rule_settings.b3(settings),
+        not_run=settings.b3_not_run,
+        headline=f"not run at the {settings.scale} scale: {why}",
+        notes=(f"Not run at the {settings.scale} scale (a registered cut, "
+               "repro.gmd.settings.STANDARD_NOT_RUN): no relative- or absolute-root motion "
+               "model is trained, no evaluator, no sample drawn; every part "
+               f"({', '.join(B3_PARTS)}) is recorded inconclusive with why: {why}. The rule "
+               "states what a run of it measures."))
