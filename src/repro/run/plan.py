@@ -67,14 +67,14 @@ PAPER_SHARED_CPU_HOURS: dict[str, dict[str, float]] = {
     "08_composed_augmentation": {"04_energy_contour_maps": 3.7 * 3 / 5},
 }
 
-#: docs/COMPUTE.md §3c and §5 (as built): the notebooks whose bank models a notebook reads
-#: at the standard scale — 02 and 06 read 01's absolute-root trajectory models, 06 also 02's
-#: absolute-root x0 text model, 05, 07 (N = 5) and 08 the pipelines 04 trains. §3c does not
-#: split a share by model, so a reader's request adds its lenders' whole shares (an upper
-#: bound).
+#: docs/COMPUTE.md §3c, §5 and §16 (as built): the notebooks whose bank models a notebook
+#: reads at the standard scale — 02 and 06 read 01's absolute-root trajectory models (06's
+#: second stage, which read 02's absolute-root x0 text model, is not run at this scale), 05,
+#: 07 (N = 5) and 08 the pipelines 04 trains. §3c does not split a share by model, so a
+#: reader's request adds its lenders' whole shares (an upper bound).
 STANDARD_READS: dict[str, tuple[str, ...]] = {
     "02_root_representation": ("01_x0_vs_eps",),
-    "06_guidance_schedule": ("01_x0_vs_eps", "02_root_representation"),
+    "06_guidance_schedule": ("01_x0_vs_eps",),
     "05_sef_ablation": ("04_energy_contour_maps",),
     "07_latent_count": ("04_energy_contour_maps",),
     "08_composed_augmentation": ("04_energy_contour_maps",),
