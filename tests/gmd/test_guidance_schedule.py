@@ -296,7 +296,8 @@ def test_only_the_standard_scale_skips_the_second_stage() -> None:
     standard = gs.Settings.for_scale("standard")
     assert not standard.runs_second_stage
     assert standard.not_run == {gs.WHOLE_BODY_PART: WHY}
-    assert standard.second_stage_note().endswith(f"not run at the standard scale: {WHY}.")
+    assert standard.second_stage_note() == (
+        f"**Not run at the standard scale** (GMD-F1's part `{gs.WHOLE_BODY_PART}`): {WHY}.")
     part = {p.name: p for p in get_claim("GMD-F1").parts}[gs.WHOLE_BODY_PART]
     assert set(part.needs) == set(gs.WHOLE_BODY_MEASUREMENTS)
 

@@ -563,8 +563,8 @@ class Settings(RunSettings):
         decide and the registered reason, as the ledger records it."""
         if self.runs_second_stage:
             raise ValueError(f"the {self.scale} scale runs the second stage")
-        return (f"**GMD's second stage** (part `{WHOLE_BODY_PART}`): not run at the "
-                f"{self.scale} scale: {self.not_run[WHOLE_BODY_PART]}.")
+        return (f"**Not run at the {self.scale} scale** (GMD-F1's part `{WHOLE_BODY_PART}`): "
+                f"{self.not_run[WHOLE_BODY_PART]}.")
 
 
 
@@ -1263,8 +1263,8 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
         second = f"and its x0 motion model ({describe(m.motion_spec)}) as GMD's second stage"
     else:
         whole = ""
-        second = (f"GMD's second stage (part {WHOLE_BODY_PART}) not run at the "
-                  f"{settings.scale} scale: {settings.not_run[WHOLE_BODY_PART]}")
+        second = (f"the whole-body part ({WHOLE_BODY_PART}) not run at the {settings.scale} "
+                  f"scale: {settings.not_run[WHOLE_BODY_PART]}")
     in_range = " / ".join(f"{np.mean(goal_by_s[strength_key(v)]):.2f}"
                           for v in settings.rule_strengths)
     jerk_range = " / ".join(f"{np.mean(jerk_by_s[strength_key(v)]) / sweeps.unguided_jerk:.3g}"
