@@ -229,6 +229,29 @@ def test_f1_whole_body_positive_is_smoother_by_the_planted_factor(windows) -> No
     assert null["joint_jerk_stop_20"] != null["joint_jerk_stop_0"]  # independent draws
 
 
+def test_f1_controls_without_the_second_stage_are_decided_over_the_parts_that_run(
+        windows: MotionWindows) -> None:
+    """At a scale that runs no second stage the controls have no whole-body arms; their other
+    arms are the same draws, and the ledger decides them over the parts that run."""
+    from repro.claims.ledger import decide_claim
+    from repro.gmd.settings import not_run
+
+    kwargs = {"goals": 16, "min_distance": 0.0, "margin": 6.0}
+    full = guidance_schedule.f1_controls(windows, SEEDS, (100, 150, 200), **kwargs)
+    cut = guidance_schedule.f1_controls(windows, SEEDS, (100, 150, 200), whole_body=False,
+                                        **kwargs)
+    for kind in ("null", "positive"):
+        got = getattr(cut, kind)
+        assert not set(guidance_schedule.WHOLE_BODY_MEASUREMENTS) & set(got)
+        assert got == {k: v for k, v in getattr(full, kind).items()
+                       if k not in guidance_schedule.WHOLE_BODY_MEASUREMENTS}
+    assert "whole body: not run at this scale" in cut.positive_text
+    _, stored = decide_claim("GMD-F1", cut.positive, controls=cut.as_controls(),
+                             not_run=not_run("GMD-F1", "standard"))
+    assert stored["positive"]["verdict"] == REPRODUCED and stored["positive"]["status"] == "passed"
+    assert stored["null"]["status"] == "passed"
+
+
 # --- GMD-B3 ----------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -11,11 +11,14 @@ import torch
 from conftest import make_context
 
 from repro.claims.ledger import load_sidecars
-from repro.claims.result import Controls, record, recorded_markdown
+from repro.claims.registry import get_claim
+from repro.claims.result import ClaimResult, Controls, record, recorded_markdown
+from repro.claims.verdicts import INCONCLUSIVE, REPRODUCED
 from repro.core.diffusion import Guidance
 from repro.gmd import guidance_schedule as gs
 from repro.gmd.guidance import goal_reaching_loss, sample
 from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd, schedule_diffusion
+from repro.gmd.settings import not_run
 from repro.gmd.windows import DataConfig, load_windows
 from repro.standin.dataset import write_dataset
 
@@ -274,3 +277,105 @@ def test_the_experiment_returns_the_rules_lists_and_records_them(
     assert sidecar["measured"]["jitter_unguided"] == sweeps.jerk_by_s["0"]
     shown = recorded_markdown(make_context(tmp_path), recorded)
     assert shown.startswith("**GMD-F1 — ") and "**GMD-F1 controls**" not in shown
+
+
+# ------------------------------------------------------------------------------------------------
+# The standard scale registers GMD-F1's whole-body part as not run (gmd.settings.not_run): no
+# second stage, no motion model, and the part recorded "not run at the standard scale: why".
+# ------------------------------------------------------------------------------------------------
+
+WHY = not_run("GMD-F1", "standard")[gs.WHOLE_BODY_PART]
+
+
+def test_only_the_standard_scale_skips_the_second_stage() -> None:
+    for scale in ("quick", "paper"):
+        settings = gs.Settings.for_scale(scale)
+        assert settings.runs_second_stage and settings.not_run == {}
+        with pytest.raises(ValueError, match="runs the second stage"):
+            settings.second_stage_note()
+    standard = gs.Settings.for_scale("standard")
+    assert not standard.runs_second_stage
+    assert standard.not_run == {gs.WHOLE_BODY_PART: WHY}
+    assert standard.second_stage_note() == (
+        f"**Not run at the standard scale** (GMD-F1's part `{gs.WHOLE_BODY_PART}`): {WHY}.")
+    part = {p.name: p for p in get_claim("GMD-F1").parts}[gs.WHOLE_BODY_PART]
+    assert set(part.needs) == set(gs.WHOLE_BODY_MEASUREMENTS)
+
+
+def test_load_models_asks_for_no_motion_model_without_the_second_stage(
+        trained: TrainedGMD, loaded: gs.ScheduleModels, monkeypatch: pytest.MonkeyPatch) -> None:
+    asked: list[list[GMDModelSpec]] = []
+
+    def load_or_train_many(specs: list[GMDModelSpec], train: object,
+                           device: object) -> list[TrainedGMD]:
+        asked.append(list(specs))
+        return [trained] * len(specs)
+
+    monkeypatch.setattr(gs, "load_windows", lambda *args, **kwargs: loaded.train)
+    monkeypatch.setattr(gs, "is_cached", lambda spec, train: False)
+    monkeypatch.setattr(gs, "load_or_train_many", load_or_train_many)
+    standard = gs.load_models(gs.Settings.for_scale("standard"), [0, 1, 2])
+    assert [(s.task, s.training.seed) for s in asked[-1]] == [("trajectory", s) for s in (0, 1, 2)]
+    assert standard.motion_spec is None and standard.motion_models == {}
+    assert len(standard.was_cached) == 3
+    shown = dataclasses.replace(standard, stops={0: 0}).summary()   # the stand-in has T = 20
+    assert "second stage: no motion model (not run at this scale)" in shown
+    quick = gs.load_models(gs.Settings.for_scale("quick"), [0])
+    assert [s.task for s in asked[-1]] == ["trajectory", "motion"]
+    assert set(quick.motion_models) == {0} and quick.motion_spec is not None
+
+
+def test_f1_without_the_second_stage_records_that_part_as_not_run(
+        loaded: gs.ScheduleModels, tmp_path: Path) -> None:
+    quick = _settings()
+    standard = dataclasses.replace(quick, scale="standard")
+    sweeps = gs.run_sweeps(loaded, standard, [0], log=lambda _: None)
+    stop = sweeps.stop_reading(standard)
+    assert gs.second_stage(loaded, sweeps, standard) is None
+    obstacles = gs.obstacle_study(loaded, sweeps, standard)
+    common = dict(controls=Controls(null={}, positive={}), first_step={3: 0.1},
+                  peak_state={3: 1.0}, timings={}, model_records=[])
+    result = gs.f1_result(loaded, sweeps, stop, None, obstacles, standard, **common)
+    assert result.not_run == {gs.WHOLE_BODY_PART: WHY}
+    assert not set(gs.WHOLE_BODY_MEASUREMENTS) & set(result.measured)
+    assert result.measured["goal_error_stop_20"] == stop.goal[stop.rule_arm][20]
+    assert result.headline.endswith("whole body: not run at the standard scale")
+    assert "joint jerk" not in result.headline and WHY in result.notes
+    assert not {"motion_stop_steps", "whole_body_goal_error"} & set(result.extra)
+    with pytest.raises(ValueError, match="does not run GMD's second stage"):
+        gs.f1_result(loaded, sweeps, stop, gs.SecondStage({}, {}, {}), obstacles, standard,
+                     **common)
+    with pytest.raises(ValueError, match="runs GMD's second stage; got no"):
+        gs.f1_result(loaded, sweeps, stop, None, obstacles, quick, **common)
+    record(make_context(tmp_path, scale="standard"), dataclasses.replace(result, controls=None))
+    sidecar = load_sidecars(tmp_path / "claims")["GMD-F1"]
+    assert sidecar["not_run"] == {gs.WHOLE_BODY_PART: f"not run at the standard scale: {WHY}"}
+
+
+def test_f1_recorded_without_the_whole_body_decides_the_rest_and_its_controls(
+        tmp_path: Path) -> None:
+    """The registry's example measurements without the second stage's: the whole-body part
+    is "not run at the standard scale: why", the other parts and the controls are decided
+    over the parts that run."""
+    claim, rng = get_claim("GMD-F1"), np.random.default_rng(0)
+
+    def without_body(measured: dict) -> dict:
+        return {k: v for k, v in measured.items() if k not in gs.WHOLE_BODY_MEASUREMENTS}
+
+    settings = gs.Settings.for_scale("standard")
+    result = ClaimResult(
+        "GMD-F1", without_body(claim.example_at(rng, 1.0, 3)), seeds=[0, 1, 2],
+        settings={**gs.rule_settings.f1(settings), "seeds": 3},
+        controls=Controls(null=without_body(claim.example_at(rng, 0.0, 3)),
+                          positive=without_body(claim.example_at(rng, 4.0, 3))),
+        not_run=settings.not_run)
+    recorded = record(make_context(tmp_path, scale="standard"), result)
+    parts = {p.name: p for p in recorded.decision.parts}
+    assert parts[gs.WHOLE_BODY_PART].outcome == INCONCLUSIVE
+    assert parts[gs.WHOLE_BODY_PART].reason == f"not run at the standard scale: {WHY}"
+    assert all(p.reason != parts[gs.WHOLE_BODY_PART].reason
+               for name, p in parts.items() if name != gs.WHOLE_BODY_PART)
+    assert recorded.verdict != REPRODUCED            # a part not run is never reproduced
+    assert recorded.controls["positive"]["status"] == "passed"
+    assert recorded.controls["positive"]["verdict"] == REPRODUCED   # over the parts that run
+    assert recorded.controls["null"]["status"] == "passed"

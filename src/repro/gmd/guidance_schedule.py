@@ -17,7 +17,8 @@ functions it reuses unchanged):
 - goal-keypoint and point-to-point imputation targets (GMD's two imputations, absolute root);
 - per-sample circular obstacles: a hinge cost, penetration depth, collisions;
 - GMD's second stage (``whole_body``): the x0 motion model with a guided trajectory imputed
-  into its root channels, for the whole-body coherence of GMD-F1;
+  into its root channels, for the whole-body coherence of GMD-F1 — run where the scale runs
+  that part (``Settings.runs_second_stage``; the standard scale registers it as not run);
 - the study: the models, the sweeps over the seeds in the notebook's order, the per-seed lists
   the registered rule reads, GMD-F1's controls, figures and :func:`f1_result`.
 """
@@ -75,13 +76,14 @@ if TYPE_CHECKING:
 
 __all__ = ["GMD_NUM_TIMESTEPS", "ObstacleArm", "ObstacleSet", "ObstacleStudy", "ROOT_CHANNELS",
            "ScheduleModels", "SecondStage", "Settings", "StopReading", "StrengthSweep", "Sweeps",
-           "WholeBody", "f1_controls", "f1_result", "goal_keypoint_imputation", "load_models",
-           "model_stop_step", "motion_records", "obstacle_cost", "obstacle_experiment",
-           "obstacle_study", "obstacles_between", "penetration_depth", "plot_example_paths",
-           "plot_guidance_per_step", "plot_obstacles", "plot_stop_sweep", "plot_strength_sweep",
-           "plot_whole_body_stop", "point_to_point_imputation", "run_sweeps", "second_stage",
-           "shared_start_noise", "strength_key", "sweep_strengths", "trajectory_imputation",
-           "trajectory_records", "weighted_guidance", "whole_body"]
+           "WHOLE_BODY_MEASUREMENTS", "WHOLE_BODY_PART", "WholeBody", "f1_controls", "f1_result",
+           "goal_keypoint_imputation", "load_models", "model_stop_step", "motion_records",
+           "obstacle_cost", "obstacle_experiment", "obstacle_study", "obstacles_between",
+           "penetration_depth", "plot_example_paths", "plot_guidance_per_step", "plot_obstacles",
+           "plot_stop_sweep", "plot_strength_sweep", "plot_whole_body_stop",
+           "point_to_point_imputation", "run_sweeps", "second_stage", "shared_start_noise",
+           "strength_key", "sweep_strengths", "trajectory_imputation", "trajectory_records",
+           "weighted_guidance", "whole_body"]
 
 #: GMD's number of diffusion steps (Table D.1): its "t = 20" is a step of T = 1000.
 GMD_NUM_TIMESTEPS = GUIDANCE_DIFFUSION_STEPS
@@ -277,6 +279,13 @@ def sweep_strengths(trained: TrainedGMD, targets_xz: np.ndarray,
 
 #: the root channels (heading angle, x, z, y) shared by the trajectory and motion features
 ROOT_CHANNELS = slice(0, 4)
+
+#: GMD-F1's part that reads the second stage (whole-body coherence), and only that part
+WHOLE_BODY_PART = "stop_at_20_more_coherent"
+
+#: the measurements of ``WHOLE_BODY_PART``: joint jerk and foot skating at GMD's stops 0 and 20
+WHOLE_BODY_MEASUREMENTS = ("joint_jerk_stop_0", "joint_jerk_stop_20", "foot_skating_stop_0",
+                           "foot_skating_stop_20")
 
 
 def trajectory_imputation(motion: TrainedGMD, trajectory_space: FeatureSpace,
@@ -476,7 +485,9 @@ class Settings(RunSettings):
     are GMD's stop steps of T = 1000, which are the model's own at T = 1000 (quick mode's
     T = 50 takes the same fraction, :func:`model_stop_step`); the stop sweep runs at
     ``stop_sweep_strengths``. Quick mode shrinks the model and the goal counts (a test of
-    the code, never a result).
+    the code, never a result). A scale that registers GMD-F1's whole-body part as not run
+    (``gmd.settings.not_run``: the standard scale) runs no second stage
+    (``runs_second_stage``): its motion model is neither trained nor loaded.
     """
 
     scale: str
@@ -535,6 +546,26 @@ class Settings(RunSettings):
         """{GMD stop step: the trajectory model's stop step} for ``gmd_stops``."""
         return {g: model_stop_step(g, self.num_timesteps) for g in self.gmd_stops}
 
+    @property
+    def not_run(self) -> dict[str, str]:
+        """GMD-F1's parts this scale does not run, each with why (``gmd.settings.not_run``:
+        registered before the run; ``ClaimResult.not_run`` takes it)."""
+        return rule_settings.not_run("GMD-F1", self.scale)
+
+    @property
+    def runs_second_stage(self) -> bool:
+        """Whether this scale runs GMD's second stage (``motion_spec``, ``whole_body``): not
+        where the only part that reads it, ``WHOLE_BODY_PART``, is registered as not run."""
+        return WHOLE_BODY_PART not in self.not_run
+
+    def second_stage_note(self) -> str:
+        """A markdown line for a scale that does not run the second stage: the part it would
+        decide and the registered reason, as the ledger records it."""
+        if self.runs_second_stage:
+            raise ValueError(f"the {self.scale} scale runs the second stage")
+        return (f"**Not run at the {self.scale} scale** (GMD-F1's part `{WHOLE_BODY_PART}`): "
+                f"{self.not_run[WHOLE_BODY_PART]}.")
+
 
 
 # --- GMD-F1's controls: the data as the model, strength and stop effects planted -----------------
@@ -559,7 +590,8 @@ def _smoother_body(space: FeatureSpace, x: Tensor, jerk_factor: float) -> Tensor
 
 
 def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[float], *,
-                goals: int, min_distance: float, margin: float = 1.0) -> Controls:
+                goals: int, min_distance: float, margin: float = 1.0,
+                whole_body: bool = True) -> Controls:
     """GMD-F1's controls: test trajectories toward the experiment's goals stand in for the
     samples, measured as ``guidance_schedule.sweep_strengths`` measures them (mean goal error
     of the last frame, root jerk). Every arm is an independent draw; the unguided and the
@@ -575,7 +607,9 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
     lower by at least as much), paired as the experiment's two stops are (same x_T and
     noise). The worst of the three strengths is taken over
     independent arms, so the planted effect on "worst" is at most δ. Tests plant larger
-    effects through ``margin`` (a multiple of every δ)."""
+    effects through ``margin`` (a multiple of every δ). ``whole_body`` False (a scale that runs
+    no second stage, ``Settings.runs_second_stage``): no whole-body arms, and the controls
+    measure only what the parts that run read (the ledger decides them over those parts)."""
     space = test.space("trajectory")
     sizes = {"null": (0.5, 1.5, 1.0, 1.2),
              "positive": (0.5 - 0.05 * margin, 1.5 - 0.1 * margin, 1 - 0.05 * margin,
@@ -585,8 +619,9 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                "goal_error_by_strength": {strength_key(v): [] for v in (0, *strengths)},
                "jitter_by_strength": {strength_key(v): [] for v in (0, *strengths)},
                "jitter_stop_0": [], "jitter_stop_20": [], "goal_error_stop_0": [],
-               "goal_error_stop_20": [], "joint_jerk_stop_0": [], "joint_jerk_stop_20": [],
-               "foot_skating_stop_0": [], "foot_skating_stop_20": []} for kind in sizes}
+               "goal_error_stop_20": [],
+               **({key: [] for key in WHOLE_BODY_MEASUREMENTS} if whole_body else {})}
+        for kind in sizes}
     motion = test.space("motion")
 
     def measure(x: Tensor, targets: np.ndarray) -> tuple[float, float]:
@@ -614,6 +649,8 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                                         goal_factor=stop_goal_f), targets)
             m["goal_error_stop_20"].append(g)
             m["jitter_stop_20"].append(j)
+        if not whole_body:
+            continue
         bodies = [test.x[draw_indices(test, goals, control_seed(s, k, stream=31))] for k in (0, 1)]
         for kind, (_, _, stop_jerk_f, _) in sizes.items():
             stop_20 = bodies[1] if kind == "null" else _smoother_body(motion, bodies[0],
@@ -623,6 +660,11 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                 out[kind][f"joint_jerk_{key}"].append(coherent[0])
                 out[kind][f"foot_skating_{key}"].append(coherent[1])
     null_f, pos_f = sizes["null"], sizes["positive"]
+    body_null = (f"; whole body: {goals} test motion windows per stop, independent draws"
+                 if whole_body else "; whole body: not run at this scale")
+    body_positive = (f"; whole body: the stop-0 motion windows, joint jerk × {pos_f[2]:.3g} "
+                     "(exact), foot skating lower by at least as much" if whole_body
+                     else "; whole body: not run at this scale")
     return Controls(null=out["null"], positive=out["positive"],
                     planted={"null": dict(zip(("goal", "jerk", "stop_jerk", "stop_goal"), null_f,
                                               strict=True)),
@@ -632,14 +674,12 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                     null_text=(f"{goals} test trajectories per arm (independent draws, "
                                f"{len(seeds)} seed(s)), every part at its threshold: guided "
                                f"goal error × {null_f[0]:g}, jerk × {null_f[1]:g}; stop 20: jerk "
-                               f"× {null_f[2]:g}, goal error × {null_f[3]:g} (exact); whole "
-                               f"body: {goals} test motion windows per stop, independent draws"),
+                               f"× {null_f[2]:g}, goal error × {null_f[3]:g} (exact)"
+                               f"{body_null}"),
                     positive_text=(f"the same draws beyond every threshold by δ: guided goal "
                                    f"error × {pos_f[0]:.3g}, jerk × {pos_f[1]:.3g}; stop 20: "
-                                   f"jerk × {pos_f[2]:.3g}, goal error × {pos_f[3]:.3g} (exact); "
-                                   f"whole body: the stop-0 motion windows, joint jerk × "
-                                   f"{pos_f[2]:.3g} (exact), foot skating lower by at least as "
-                                   f"much"))
+                                   f"jerk × {pos_f[2]:.3g}, goal error × {pos_f[3]:.3g} (exact)"
+                                   f"{body_positive}"))
 
 
 
@@ -887,7 +927,7 @@ def motion_records(trained: ScheduleModels, seeds: Sequence[int], *,
     test, train = trained.test, trained.train
     samples = model_gates.sample_gate_data(test, seed=seed)
     return [model_gates.gmd_model_record(
-        trained.motion_models[s], family="gmd_motion", reads=["stop_at_20_more_coherent"],
+        trained.motion_models[s], family="gmd_motion", reads=[WHOLE_BODY_PART],
         role="reference", reference=samples.values,
         values={**model_gates.denoising_gate_values(trained.motion_models[s], test, train,
                                                     seed=s),
@@ -898,11 +938,12 @@ def motion_records(trained: ScheduleModels, seeds: Sequence[int], *,
 @dataclass
 class ScheduleModels:
     """Notebook 06's data and models: one trajectory ε model and one second-stage motion model
-    per seed, whether each was cached, and the stop steps mapped to the trajectory model's T
-    (``stops``: GMD step of 1000 → ours) with ᾱ of both schedules."""
+    per seed (none, and ``motion_spec`` None, where the scale runs no second stage), whether
+    each was cached, and the stop steps mapped to the trajectory model's T (``stops``: GMD
+    step of 1000 → ours) with ᾱ of both schedules."""
 
     spec: GMDModelSpec
-    motion_spec: GMDModelSpec
+    motion_spec: GMDModelSpec | None
     train: MotionWindows
     test: MotionWindows
     models: dict[int, TrainedGMD]
@@ -918,8 +959,10 @@ class ScheduleModels:
         return self.spec.diffusion_steps
 
     def summary(self) -> str:
-        """Both specs, the window counts, the cache, and each stop step on both schedules."""
-        lines = [describe(self.spec), describe(self.motion_spec),
+        """The specs, the window counts, the cache, and each stop step on both schedules."""
+        motion = (describe(self.motion_spec) if self.motion_spec is not None
+                  else "second stage: no motion model (not run at this scale)")
+        lines = [describe(self.spec), motion,
                  f"{len(self.train)} training / {len(self.test)} test windows; models were "
                  f"cached: {self.was_cached}"]
         lines += [f"GMD t = {g:3d}/1000 (ᾱ = {self.gmd_alpha_bar[g]:.4f}) → our t = {t:3d}/"
@@ -931,17 +974,21 @@ class ScheduleModels:
 def load_models(settings: Settings, seeds: Sequence[int], *, data_dir: DataDir = None,
                 device: str | torch.device = "cpu") -> ScheduleModels:
     """Load (or train) notebook 01's trajectory ε model and the second stage's motion model
-    for each of ``seeds`` (``Settings.spec``, ``Settings.motion_spec``) on their windows."""
+    for each of ``seeds`` (``Settings.spec``, ``Settings.motion_spec``) on their windows; no
+    motion model where the scale runs no second stage (``Settings.runs_second_stage``)."""
     spec = settings.spec(data_dir)
     train = load_windows(spec.data)
     test = load_windows(spec.data, "test", statistics=(train.mean, train.std))
-    motion_spec = settings.motion_spec(data_dir)
-    specs = [spec.replace(seed=s) for s in seeds] + [motion_spec.replace(seed=s) for s in seeds]
+    motion_spec = settings.motion_spec(data_dir) if settings.runs_second_stage else None
+    specs = [spec.replace(seed=s) for s in seeds]
+    if motion_spec is not None:
+        specs += [motion_spec.replace(seed=s) for s in seeds]
     was_cached = [is_cached(one, train) for one in specs]
     trained = load_or_train_many(specs, train, device=device)
     models = dict(zip(seeds, trained[:len(seeds)], strict=True))
-    return ScheduleModels(spec, motion_spec, train, test, models,
-                          dict(zip(seeds, trained[len(seeds):], strict=True)), was_cached,
+    motion_models = (dict(zip(seeds, trained[len(seeds):], strict=True))
+                     if motion_spec is not None else {})
+    return ScheduleModels(spec, motion_spec, train, test, models, motion_models, was_cached,
                           settings.stops(), models[seeds[0]].diffusion.alphas_cumprod,
                           schedule_diffusion("cosine", GMD_NUM_TIMESTEPS).alphas_cumprod)
 
@@ -1095,10 +1142,13 @@ class SecondStage:
         return "\n".join(rows)
 
 
-def second_stage(m: ScheduleModels, sweeps: Sweeps, settings: Settings) -> SecondStage:
+def second_stage(m: ScheduleModels, sweeps: Sweeps, settings: Settings) -> SecondStage | None:
     """GMD's ``gen_two_stages`` per seed: the motion model with the stop sweep's s = GMD's
     trajectories imputed into its root channels (``guidance_schedule.whole_body``), the
-    imputation stopped at GMD's 0 and 20 (same fraction of its T; same seed for both)."""
+    imputation stopped at GMD's 0 and 20 (same fraction of its T; same seed for both).
+    None where the scale runs no second stage (``Settings.runs_second_stage``)."""
+    if not settings.runs_second_stage:
+        return None
     gmd_s, stop = settings.gmd_strength, settings.gmd_stop
     bodies = {(s, g): whole_body(m.motion_models[s], m.models[s].space,
                                  sweeps.stop_sweep[(s, g)].samples[
@@ -1166,7 +1216,7 @@ def obstacle_study(m: ScheduleModels, sweeps: Sweeps, settings: Settings) -> Obs
 
 # --- the claim ------------------------------------------------------------------------------
 
-def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: SecondStage,
+def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: SecondStage | None,
               obstacles: ObstacleStudy, settings: Settings, *, controls: Controls,
               first_step: Mapping[float, float], peak_state: Mapping[float, float],
               timings: Mapping[str, float], model_records: Sequence[Mapping[str, Any]],
@@ -1176,10 +1226,18 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
     stop-0 against stop-20 goal error, root jerk and the second stage's joint jerk and foot
     skating; the settings the run used (``guidance_parameters``), the stop sweep's other
     arms, the per-step diagnostic (``first_step``, ``peak_state`` of the first seed), the
-    obstacle extra and the ``timings`` (s) so far in ``extra``."""
+    obstacle extra and the ``timings`` (s) so far in ``extra``.
+
+    Where the scale runs no second stage (``Settings.runs_second_stage``; ``body`` None) the
+    whole-body part is recorded as not run with its registered reason (``Settings.not_run``),
+    without its measurements, and the headline and notes say so."""
+    if (body is not None) != settings.runs_second_stage:
+        raise ValueError(f"the {settings.scale} scale "
+                         f"{'runs' if settings.runs_second_stage else 'does not run'} GMD's "
+                         f"second stage; got {'a' if body is not None else 'no'} second stage")
     first, T, stops = sweeps.seeds[0], m.num_timesteps, m.stops
     stop_at, rule_arm = settings.gmd_stop, stop.rule_arm
-    goal_by_s, jerk_by_s, coherent = sweeps.goal_by_s, sweeps.jerk_by_s, body.coherence
+    goal_by_s, jerk_by_s = sweeps.goal_by_s, sweeps.jerk_by_s
     parameters = guidance_parameters(m.models[first], stop=stops[stop_at])
     measured = {
         "goal_error_unguided": goal_by_s["0"],
@@ -1188,13 +1246,25 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
         "jitter_by_strength": jerk_by_s,
         "jitter_stop_0": stop.jerk[rule_arm][0],
         "jitter_stop_20": stop.jerk[rule_arm][stop_at],
-        "joint_jerk_stop_0": coherent["joint_jerk"][0],
-        "joint_jerk_stop_20": coherent["joint_jerk"][stop_at],
-        "foot_skating_stop_0": coherent["foot_skating"][0],
-        "foot_skating_stop_20": coherent["foot_skating"][stop_at],
         "goal_error_stop_0": stop.goal[rule_arm][0],
         "goal_error_stop_20": stop.goal[rule_arm][stop_at],
     }
+    if body is not None:
+        coherent = body.coherence
+        measured.update({
+            "joint_jerk_stop_0": coherent["joint_jerk"][0],
+            "joint_jerk_stop_20": coherent["joint_jerk"][stop_at],
+            "foot_skating_stop_0": coherent["foot_skating"][0],
+            "foot_skating_stop_20": coherent["foot_skating"][stop_at]})
+        whole = (f"whole-body joint jerk {np.mean(coherent['joint_jerk'][stop_at]):.4g} vs "
+                 f"{np.mean(coherent['joint_jerk'][0]):.4g} m/s³, foot skating "
+                 f"{np.mean(coherent['foot_skating'][stop_at]):.3g} vs "
+                 f"{np.mean(coherent['foot_skating'][0]):.3g} m/s, ")
+        second = f"and its x0 motion model ({describe(m.motion_spec)}) as GMD's second stage"
+    else:
+        whole = ""
+        second = (f"the whole-body part ({WHOLE_BODY_PART}) not run at the {settings.scale} "
+                  f"scale: {settings.not_run[WHOLE_BODY_PART]}")
     in_range = " / ".join(f"{np.mean(goal_by_s[strength_key(v)]):.2f}"
                           for v in settings.rule_strengths)
     jerk_range = " / ".join(f"{np.mean(jerk_by_s[strength_key(v)]) / sweeps.unguided_jerk:.3g}"
@@ -1203,17 +1273,15 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
     headline = (f"goal error unguided {sweeps.unguided_goal:.2f} m → s = 100/150/200: "
                 f"{in_range} m (best s = {s_lowest}: {obstacles.sweep_goal_mean[s_lowest]:.2f} "
                 f"m); root jerk × {jerk_range} of unguided; stop at t = {stops[stop_at]} vs 0 "
-                f"of {T} at s = 100: whole-body joint jerk "
-                f"{np.mean(coherent['joint_jerk'][stop_at]):.4g} vs "
-                f"{np.mean(coherent['joint_jerk'][0]):.4g} m/s³, foot skating "
-                f"{np.mean(coherent['foot_skating'][stop_at]):.3g} vs "
-                f"{np.mean(coherent['foot_skating'][0]):.3g} m/s, goal error "
+                f"of {T} at s = 100: {whole}goal error "
                 f"{np.mean(stop.goal[rule_arm][stop_at]):.2f} vs "
                 f"{np.mean(stop.goal[rule_arm][0]):.2f} m")
+    if body is None:
+        headline += f"; whole body: not run at the {settings.scale} scale"
     gmd_stops = list(settings.gmd_stops)
     notes = (
         f"Ours: notebook 01's guidance trajectory ε model ({describe(m.spec)}), one per seed, "
-        f"and its x0 motion model ({describe(m.motion_spec)}) as GMD's second stage; "
+        f"{second}; "
         f"{settings.goals} goals per seed = last-frame root x/z of random test windows "
         "travelling ≥ 0.5 m; GMD's guidance (½·L1 on the last-frame root x/z of the "
         "un-normalised x̂0, "
@@ -1223,15 +1291,20 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
         f"stop steps {gmd_stops} of {T}; the rule's arm is guidance only (imputing the goal "
         "keypoint down to t = 0 makes the final goal error exactly 0); the stop comparison at "
         "s = 100 is paired (same x_T and per-step noise); strength jitter = mean root jerk "
-        "(m/s³); whole-body coherence = joint jerk and foot skating of the second stage's "
-        "motion (the guided trajectory imputed into the motion model's root channels while "
-        "t ≥ the stop at the same fraction of its T, same seed for both stops). s = 1 and 3 and "
+        "(m/s³); "
+        + ("whole-body coherence = joint jerk and foot skating of the second stage's "
+           "motion (the guided trajectory imputed into the motion model's root channels while "
+           "t ≥ the stop at the same fraction of its T, same seed for both stops). "
+           if body is not None else "")
+        + "s = 1 and 3 and "
         "the per-step diagnostic were added after a pilot (seed 0, s = 10, 100, at T = 100) "
         "showed guidance raising the goal error; the rule's inputs were not changed by it.")
     extra = {
         "parameters": parameters,
-        "motion_stop_steps": {str(g): body.bodies[(first, g)].motion_stop for g in (0, stop_at)},
-        "whole_body_goal_error": {str(g): v for g, v in body.goal.items()},
+        **({"motion_stop_steps": {str(g): body.bodies[(first, g)].motion_stop
+                                  for g in (0, stop_at)},
+            "whole_body_goal_error": {str(g): v for g, v in body.goal.items()}}
+           if body is not None else {}),
         "strengths": list(settings.strengths),
         "stop_steps_gmd": gmd_stops,
         "stop_steps_ours": [stops[g] for g in gmd_stops],
@@ -1257,4 +1330,4 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
     return ClaimResult("GMD-F1", measured, seeds=sweeps.seeds,
                        settings=rule_settings.f1(settings), controls=controls,
                        models=list(model_records), figures=list(figures), headline=headline,
-                       notes=notes, extra=extra)
+                       notes=notes, extra=extra, not_run=settings.not_run)
