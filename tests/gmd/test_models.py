@@ -77,15 +77,17 @@ def test_load_or_train_many_trains_missing_models_in_worker_processes(small_conf
 #: again with #14's trajectory pilot (GMD's widths 64 × (1, 2, 4), cap 12000); every key with
 #: cache version 2 (the initialisation is seeded from the spec's seed, issue #14); nb03_k5_full
 #: again with the motion family's cap 4000 → 12000 (issue #14, session 11), and with its bf16
-#: autocast (session 13, pilots/pilot_bf16_motion.md; quick and trajectory keys unchanged).
+#: autocast (session 13, pilots/pilot_bf16_motion.md; quick and trajectory keys unchanged);
+#: every key with the fourth standard design (docs/COMPUTE.md §16: GMD's stand-in is the
+#: locomotion pool by default, a text model draws one caption per window and batch).
 PINNED_MODEL_KEYS = {
-    "default": "6ce1b03ba300719e",
-    "nb01_quick_motion_x0": "651d6ce53dddfa4c",
-    "nb02_traj_rel_full": "5d1275cc32eb5600",
-    "nb02_motion_abs_quick": "ede8bcaa678fa0a2",
-    "nb03_k5_full": "b47b3082e895e349",
-    "nb03_c10_quick": "f1fdc75515d65e59",
-    "max_windows": "5ee81027de0ca770",
+    "default": "f404c269f4481ef1",
+    "nb01_quick_motion_x0": "1940edf5cf9ef4fa",
+    "nb02_traj_rel_full": "db87a4df2b1d91e2",
+    "nb02_motion_abs_quick": "5da2d7cb1ad217e5",
+    "nb03_k5_full": "c343960f21e3f130",
+    "nb03_c10_quick": "3a96e9aa72c5c446",
+    "max_windows": "d8d336cf2fe0cf09",
 }
 #: window fingerprints (part of every model key) of the 10-clip seed-3 stand-in folder;
 #: changed on purpose with generator v3 (issue #16: partial captions, free body parts).
@@ -197,8 +199,9 @@ def test_caption_draw_one_trains_on_one_caption_per_window_and_is_in_the_key() -
     assert torch.equal(alternatives[1, 0], alternatives[1, 1])
     assert torch.equal(alternatives[0, 1], bag_of_words(vocabulary, ["a person runs"])[0])
     data = SimpleNamespace(fingerprint="0123456789abcdef")
-    mean = GMDModelSpec(task="motion", text_conditioned=True)
+    mean = GMDModelSpec(task="motion", text_conditioned=True, caption_draw="mean")
     one = mean.replace(caption_draw="one")
+    assert GMDModelSpec().caption_draw == "one"      # the default, as HumanML3D's loaders
     assert "caption_draw" not in mean.as_dict() and one.as_dict()["caption_draw"] == "one"
     assert (config_hash(model_cache_config(mean, data))
             != config_hash(model_cache_config(one, data)))

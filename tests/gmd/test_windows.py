@@ -87,16 +87,18 @@ def test_a_path_data_dir_is_kept_as_its_string(tmp_path: Path) -> None:
 
 
 def test_a_stand_in_concept_pool_generates_only_those_concepts(cache: Path) -> None:
-    """``stand_in_concepts``/``stand_in_compositions`` choose the generated set: every clip's
-    labels come from the pool, the key changes only when they are set, and a name outside the
-    catalogue is refused before anything is generated."""
+    """``stand_in_concepts``/``stand_in_compositions`` choose the generated set (GMD's default:
+    the locomotion pool): every clip's labels come from the pool, the key names them only when
+    they are set (None: the whole catalogue, the key as before the option), and a name outside
+    the catalogue is refused before anything is generated."""
     import json
 
     from repro.gmd.windows import LOCOMOTION_COMPOSITIONS, LOCOMOTION_CONCEPTS
 
-    plain = DataConfig(stand_in_clips=12, stand_in_seed=3, frames=FRAMES, stride=8)
-    loco = dataclasses.replace(plain, stand_in_concepts=LOCOMOTION_CONCEPTS,
-                               stand_in_compositions=LOCOMOTION_COMPOSITIONS)
+    loco = DataConfig(stand_in_clips=12, stand_in_seed=3, frames=FRAMES, stride=8)
+    assert (loco.stand_in_concepts, loco.stand_in_compositions) == (   # GMD's default pool
+        LOCOMOTION_CONCEPTS, LOCOMOTION_COMPOSITIONS)
+    plain = dataclasses.replace(loco, stand_in_concepts=None, stand_in_compositions=None)
     assert "stand_in_concepts" not in plain.as_dict()
     assert loco.as_dict()["stand_in_concepts"] == list(LOCOMOTION_CONCEPTS)
     root = loco.dataset_root()
