@@ -258,3 +258,32 @@ def test_a_sidecar_of_another_registry_version_says_so() -> None:
     row = next(r for r in trust_rows({"GMD-A2": sidecar}) if r.claim_id == "GMD-A2")
     assert row.limits.startswith(f"decided under registry v1, not v{REGISTRY_VERSION}")
     assert row.parts == "—"
+
+
+def test_parts_not_run_are_named_and_only_gates_a_running_part_reads_limit(
+        tmp_path: Path) -> None:
+    """A part its scale does not run is "not measured by this run"; a failed model read only
+    by such parts is shown but limits nothing; a claim none of whose parts runs has no
+    controls or gates to blame."""
+    rng = np.random.default_rng(2)
+    measured = {k: v for k, v in A3.planted_example(rng).items()
+                if not k.startswith("best_gain")}
+    cut = {"eps_keeps_more_of_best_gain": "its arm is not trained"}
+    only_cut = {**FAILED_MODEL, "reads": ["eps_keeps_more_of_best_gain"]}
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", measured, settings=A3_RUN,
+                 seeds=list(range(5)), models=[only_cut], not_run=cut)
+    sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
+    limits = trust.limits_text(A3, sidecar)
+    assert limits.startswith("not measured by this run (eps_keeps_more_of_best_gain)")
+    assert "quality gates" not in limits
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", measured, settings=A3_RUN,
+                 seeds=list(range(5)), models=[{**FAILED_MODEL, "reads": None}], not_run=cut)
+    assert "quality gates" in trust.limits_text(A3, load_sidecars(tmp_path / "claims")["GMD-A3"])
+    every = {part.name: "cut" for part in A3.parts}
+    record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", {}, settings=A3_RUN,
+                 seeds=[0, 1, 2], models=[FAILED_MODEL], not_run=every)
+    sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
+    row = next(r for r in trust_rows({"GMD-A3": sidecar}) if r.claim_id == "GMD-A3")
+    assert row.controls == "not run at this scale"
+    assert row.models.endswith("; no part runs")
+    assert "controls" not in row.limits and "quality gates" not in row.limits

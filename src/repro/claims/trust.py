@@ -72,18 +72,32 @@ def controls_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
     return ", ".join(out)
 
 
+def _running_parts(sidecar: Mapping[str, Any]) -> set[str]:
+    """The claim's parts its run's scale runs (all but the sidecar's ``not_run``)."""
+    return {p["name"] for p in sidecar.get("parts", [])} - set(sidecar.get("not_run") or {})
+
+
+def _runs_nothing(sidecar: Mapping[str, Any]) -> bool:
+    """A claim with parts, none of which its run's scale runs."""
+    return bool(sidecar.get("not_run")) and not _running_parts(sidecar)
+
+
 def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
     """"3/3 pass" or "**1 of 3 fail**" over the sidecar's quality gates (each model's
-    gate is one of them); "none recorded" when a measured claim has none."""
+    gate is one of them); "none recorded" when a measured claim has none; a claim none of
+    whose parts runs says so (its models, if any, are shown but decide nothing)."""
     gates = dict(sidecar.get("quality_gates") or {})
     for model in sidecar.get("models", []):
         gates.setdefault(f"model {model['name']}", bool(model["passed"]))
+    idle = "; no part runs" if _runs_nothing(sidecar) else ""
     if not gates:
+        if idle:
+            return "— (not run at this scale)"
         return "— (no model)" if not claim.rests_on_effects else "none recorded"
     failed = [name for name, passed in gates.items() if not passed]
     if failed:
-        return f"**{len(failed)} of {len(gates)} fail** (see Models)"
-    return f"{len(gates)}/{len(gates)} pass"
+        return f"**{len(failed)} of {len(gates)} fail** (see Models){idle}"
+    return f"{len(gates)}/{len(gates)} pass{idle}"
 
 
 def power_short(sidecar: Mapping[str, Any]) -> str:
@@ -138,11 +152,29 @@ def _gates(sidecar: Mapping[str, Any]) -> dict[str, bool]:
     return gates
 
 
+def _deciding_gates(sidecar: Mapping[str, Any]) -> dict[str, bool]:
+    """The gates a running part rests on: every quality gate but a model's read only by
+    parts its scale does not run (``reads``: None, every part)."""
+    running = _running_parts(sidecar)
+    if not sidecar.get("not_run"):
+        return _gates(sidecar)
+    if not running:
+        return {}
+    gates = {k: v for k, v in (sidecar.get("quality_gates") or {}).items()
+             if not k.startswith("model ")}
+    gates.update({m["name"]: bool(m["passed"]) for m in sidecar.get("models", [])
+                  if m.get("reads") is None or set(m["reads"]) & running})
+    return gates
+
+
 def _gates_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
     """A measured claim with no gate recorded; any claim with a gate (or model) that
-    failed."""
-    gates = _gates(sidecar)
-    return (claim.rests_on_effects and not gates) or not all(gates.values())
+    failed and that a part its scale runs rests on; never a claim none of whose parts runs
+    (its parts say why)."""
+    if _runs_nothing(sidecar):
+        return False
+    return ((claim.rests_on_effects and not _gates(sidecar))
+            or not all(_deciding_gates(sidecar).values()))
 
 
 def limits_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:

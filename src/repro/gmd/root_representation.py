@@ -1585,7 +1585,7 @@ def b3_not_run_result(settings: Settings, seeds: Sequence[int]) -> ClaimResult:
     return ClaimResult(
         "GMD-B3", {}, seeds=list(seeds), settings=rule_settings.b3(settings),
         not_run=settings.b3_not_run,
-        headline=f"not run at the {settings.scale} scale: {why}",
+        headline=f"not run at the {settings.scale} scale (each part says why)",
         notes=(f"Not run at the {settings.scale} scale (a registered cut, "
                "repro.gmd.settings.STANDARD_NOT_RUN): no relative- or absolute-root motion "
                "model is trained, no evaluator, no sample drawn; every part "

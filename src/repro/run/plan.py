@@ -1,11 +1,12 @@
 """The compute plan per notebook: the standard scale's measured minutes (docs/COMPUTE.md §3c,
-§13), for honest progress, and the paper scale's counted CPU-hours (§2), for the workflow's
+§16a), for honest progress, and the paper scale's counted CPU-hours (§2), for the workflow's
 job requests (``run.workflow``).
 
 ``make reproduce`` estimates what is left from these shares until a run of the same scale has
 measured its own times (``runner.known_seconds``); the step caps and the times of other
 scales' runs never enter the estimate. A share is the wall minutes a notebook takes with one
-torch thread, two notebooks at a time on two cores (measured, not padded). The set-up and the
+torch thread, two notebooks at a time on two cores (measured on the fast CPU and scaled to
+the slow one, not padded). The set-up and the
 report (about 5 minutes) are outside the notebooks.
 """
 
@@ -14,19 +15,19 @@ from __future__ import annotations
 __all__ = ["PAPER_CPU_HOURS", "PAPER_SHARED_CPU_HOURS", "STANDARD_PLAN_MINUTES",
            "STANDARD_READS", "planned_seconds"]
 
-#: docs/COMPUTE.md §13 (the third standard design): the second standard run's measured wall
-#: minutes per notebook (§12), with notebook 03's GMD-C4 at one seed of two arms trained 1500
-#: steps (2 × 1500 × 0.127 CPU-s, plus a third of its sampling) in place of 3 seeds at 900
+#: docs/COMPUTE.md §16a (the fourth standard design): the wall minutes per notebook of its
+#: cold standard run on the Intel with AMX, doubled — the plan is sized for the slowest CPU,
+#: the Intel without AMX, about twice as slow on these models (§0)
 STANDARD_PLAN_MINUTES: dict[str, float] = {
-    "00_stand_in_data": 0.8,
-    "01_x0_vs_eps": 21.5,
-    "02_root_representation": 23.3,
-    "03_emphasis_projection": 8.0,
-    "04_energy_contour_maps": 17.1,
-    "05_sef_ablation": 10.9,
-    "06_guidance_schedule": 6.4,
-    "07_latent_count": 15.4,
-    "08_composed_augmentation": 8.6,
+    "00_stand_in_data": 0.5,
+    "01_x0_vs_eps": 31.2,
+    "02_root_representation": 6.9,
+    "03_emphasis_projection": 6.8,
+    "04_energy_contour_maps": 15.6,
+    "05_sef_ablation": 9.9,
+    "06_guidance_schedule": 3.9,
+    "07_latent_count": 13.4,
+    "08_composed_augmentation": 6.5,
 }
 
 
