@@ -3,8 +3,8 @@
 
 The standard scale's VAE (``pipeline_config("standard")``: width 64, 2 layers, N = 5,
 batch 32, AdamW lr 1e-3, KL 1e-4) on its training clips, with ``--width``, ``--layers``,
-``--lr``, ``--kl`` and ``--steps`` changed, checked every ``--every`` steps on notebook 07's
-held-out test clips: the gate values of ``model_gates.vae_gate_values`` /
+``--lr``, ``--kl``, ``--latent-dim`` and ``--steps`` changed, checked every ``--every`` steps
+on notebook 07's held-out test clips: the gate values of ``model_gates.vae_gate_values`` /
 ``vae_sample_values``, MPJPE, and the training CPU seconds (``time.process_time``, one
 thread). The loop is ``train_vae``'s (``models.vae``), run step by step here so it can be
 checked on the way. One JSON line per check goes to ``--out``::
@@ -46,6 +46,8 @@ def main() -> None:
     parser.add_argument("--layers", type=int, default=None)
     parser.add_argument("--lr", type=float, default=None)
     parser.add_argument("--kl", type=float, default=1e-4, help="KL weight (MLD's 1e-4)")
+    parser.add_argument("--latent-dim", type=int, default=None,
+                        help="d of each latent token (the standard pipeline's: 32)")
     parser.add_argument("--steps", type=int, default=3600)
     parser.add_argument("--every", type=int, default=900)
     parser.add_argument("--seed", type=int, default=0)
@@ -57,6 +59,8 @@ def main() -> None:
     config = replace(pipeline_config("standard"), vae_width=args.width)
     if args.layers is not None:
         config = replace(config, vae_layers=args.layers)
+    if args.latent_dim is not None:
+        config = replace(config, latent_dim=args.latent_dim)
     train_config = vae_train_config(config, train_seed_for(config, args.seed), threads=1)
     if args.lr is not None:
         train_config = replace(train_config, lr=args.lr)
@@ -104,6 +108,7 @@ def main() -> None:
             rj = joints(recon)
             stats = metrics.motion_statistics(rj)
             row = {"label": args.label, "width": args.width, "layers": config.vae_layers,
+                   "latent_dim": config.latent_dim,
                    "lr": train_config.lr, "kl": train_config.kl_weight, "seed": args.seed,
                    "step": step, "clips": "train" if args.on_train else "test",
                    "train_cpu_s": round(spent, 1), "mpjpe": mpjpe(recon, test.features),
