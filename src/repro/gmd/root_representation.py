@@ -358,7 +358,7 @@ class Settings(RunSettings):
     (B2) and ``motion_seeds`` (B3) come from ``settings.seeds_of``. The standard scale
     (docs/COMPUTE.md §3) trains the standard architectures for a fixed step count, T = 100 for
     every model (the stop step at the same fraction, 2), 3 seeds each and 128 B3 samples —
-    B3's the settings its rule quotes, for the standard scale runs none of its parts
+    for B3 only the numbers its rule quotes: the standard scale runs none of B3's parts
     (:attr:`runs_b3`, a registered cut). Quick mode shrinks everything, T included (a test of
     the code, never a result)."""
 
