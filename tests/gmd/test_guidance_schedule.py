@@ -290,12 +290,12 @@ WHY = not_run("GMD-F1", "standard")[gs.WHOLE_BODY_PART]
 def test_only_the_standard_scale_skips_the_second_stage() -> None:
     for scale in ("quick", "paper"):
         settings = gs.Settings.for_scale(scale)
-        assert settings.runs_second_stage and settings.not_run == {}
+        assert settings.runs_second_stage and settings.f1_not_run == {}
         with pytest.raises(ValueError, match="runs the second stage"):
             settings.second_stage_note()
     standard = gs.Settings.for_scale("standard")
     assert not standard.runs_second_stage
-    assert standard.not_run == {gs.WHOLE_BODY_PART: WHY}
+    assert standard.f1_not_run == {gs.WHOLE_BODY_PART: WHY}
     assert standard.second_stage_note() == (
         f"**Not run at the standard scale** (GMD-F1's part `{gs.WHOLE_BODY_PART}`): {WHY}.")
     part = {p.name: p for p in get_claim("GMD-F1").parts}[gs.WHOLE_BODY_PART]
@@ -368,7 +368,7 @@ def test_f1_recorded_without_the_whole_body_decides_the_rest_and_its_controls(
         settings={**gs.rule_settings.f1(settings), "seeds": 3},
         controls=Controls(null=without_body(claim.example_at(rng, 0.0, 3)),
                           positive=without_body(claim.example_at(rng, 4.0, 3))),
-        not_run=settings.not_run)
+        not_run=settings.f1_not_run)
     recorded = record(make_context(tmp_path, scale="standard"), result)
     parts = {p.name: p for p in recorded.decision.parts}
     assert parts[gs.WHOLE_BODY_PART].outcome == INCONCLUSIVE

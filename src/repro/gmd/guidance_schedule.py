@@ -547,7 +547,7 @@ class Settings(RunSettings):
         return {g: model_stop_step(g, self.num_timesteps) for g in self.gmd_stops}
 
     @property
-    def not_run(self) -> dict[str, str]:
+    def f1_not_run(self) -> dict[str, str]:
         """GMD-F1's parts this scale does not run, each with why (``gmd.settings.not_run``:
         registered before the run; ``ClaimResult.not_run`` takes it)."""
         return rule_settings.not_run("GMD-F1", self.scale)
@@ -556,7 +556,7 @@ class Settings(RunSettings):
     def runs_second_stage(self) -> bool:
         """Whether this scale runs GMD's second stage (``motion_spec``, ``whole_body``): not
         where the only part that reads it, ``WHOLE_BODY_PART``, is registered as not run."""
-        return WHOLE_BODY_PART not in self.not_run
+        return WHOLE_BODY_PART not in self.f1_not_run
 
     def second_stage_note(self) -> str:
         """A markdown line for a scale that does not run the second stage: the part it would
@@ -564,7 +564,7 @@ class Settings(RunSettings):
         if self.runs_second_stage:
             raise ValueError(f"the {self.scale} scale runs the second stage")
         return (f"**Not run at the {self.scale} scale** (GMD-F1's part `{WHOLE_BODY_PART}`): "
-                f"{self.not_run[WHOLE_BODY_PART]}.")
+                f"{self.f1_not_run[WHOLE_BODY_PART]}.")
 
 
 
@@ -1229,7 +1229,7 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
     obstacle extra and the ``timings`` (s) so far in ``extra``.
 
     Where the scale runs no second stage (``Settings.runs_second_stage``; ``body`` None) the
-    whole-body part is recorded as not run with its registered reason (``Settings.not_run``),
+    whole-body part is recorded as not run with its registered reason (``Settings.f1_not_run``),
     without its measurements, and the headline and notes say so."""
     if (body is not None) != settings.runs_second_stage:
         raise ValueError(f"the {settings.scale} scale "
@@ -1264,7 +1264,7 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
     else:
         whole = ""
         second = (f"the whole-body part ({WHOLE_BODY_PART}) not run at the {settings.scale} "
-                  f"scale: {settings.not_run[WHOLE_BODY_PART]}")
+                  f"scale: {settings.f1_not_run[WHOLE_BODY_PART]}")
     in_range = " / ".join(f"{np.mean(goal_by_s[strength_key(v)]):.2f}"
                           for v in settings.rule_strengths)
     jerk_range = " / ".join(f"{np.mean(jerk_by_s[strength_key(v)]) / sweeps.unguided_jerk:.3g}"
@@ -1330,4 +1330,4 @@ def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: Second
     return ClaimResult("GMD-F1", measured, seeds=sweeps.seeds,
                        settings=rule_settings.f1(settings), controls=controls,
                        models=list(model_records), figures=list(figures), headline=headline,
-                       notes=notes, extra=extra, not_run=settings.not_run)
+                       notes=notes, extra=extra, not_run=settings.f1_not_run)
