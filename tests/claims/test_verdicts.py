@@ -178,6 +178,28 @@ def test_zero_spread_is_decided_by_the_resolution() -> None:
     assert outcome([-2.0, -2.0, -2.0, -2.0, -2.0]) == CONTRADICTED
 
 
+def test_a_control_on_paired_draws_is_decided_exactly() -> None:
+    """A control whose arms are the same draws with δ planted exactly has no sampling error:
+    differences identical in every seed are decided by their sign (an experiment's are left
+    without an error estimate), and rounding ties of an exact plant are zero, so a null on
+    paired draws stays silent where a t-test on rounding noise would fire."""
+    planted = {"x": [0.1054, 0.1054, 0.1054]}
+    assert decide_parts([_part(delta=0.1054)], planted)[0].outcome == INCONCLUSIVE
+    assert decide_parts([_part(delta=0.1054)], planted, exact=True)[0].outcome == SUPPORTED
+    against = {"x": [-0.1054, -0.1054, -0.1054]}
+    assert decide_parts([_part(delta=0.1054)], against, exact=True)[0].outcome == CONTRADICTED
+    rounding = {"x": [1.0e-9, 2.0e-9, 1.5e-9]}   # a t-test alone calls this significant
+    assert decide_parts([_part(delta=0.1)], rounding)[0].outcome == SUPPORTED
+    assert decide_parts([_part(delta=0.1)], rounding, exact=True)[0].outcome not in (
+        SUPPORTED, CONTRADICTED)
+    # a part of one arm against a constant keeps its draws' spread and its t-test
+    noisy = {"x": [0.02, 0.5, -0.3]}
+    assert (decide_parts([_part(delta=0.1)], noisy, exact=True)[0].outcome
+            == decide_parts([_part(delta=0.1)], noisy)[0].outcome == INCONCLUSIVE)
+    # one seed decides no direction, exact or not
+    assert decide_parts([_part(delta=0.1)], {"x": [0.5]}, exact=True)[0].outcome == INCONCLUSIVE
+
+
 def test_a_fired_null_control_and_a_failed_gate_make_a_claim_inconclusive() -> None:
     good = Decision(REPRODUCED, "fine")
     assert apply_controls(good, {"positive": good, "null": None}) is good

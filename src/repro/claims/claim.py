@@ -70,13 +70,14 @@ class Claim:
     new_measurements: dict[str, str] = field(default_factory=dict)
     example: Example | None = None
 
-    def decide(self, measured: Measured, not_run: Mapping[str, str] | None = None
-               ) -> Decision:
+    def decide(self, measured: Measured, not_run: Mapping[str, str] | None = None, *,
+               control: bool = False) -> Decision:
         """The claim's decision from ``measured``; ``not_run``: the parts its run's scale does
-        not run, each with why (``verdicts.decide_effects``)."""
+        not run, each with why; ``control``: ``measured`` is a control's, built on paired
+        draws with δ planted exactly (``verdicts.decide_effects``' ``exact``)."""
         if self.exact_rule is not None:
             return self.exact_rule(measured)
-        return decide_effects(self.parts, measured, not_run)
+        return decide_effects(self.parts, measured, not_run, exact=control)
 
     def required_measurements(self, not_run: Sequence[str] = ()) -> set[str]:
         """The measurements a run must record: every registered one but those that only

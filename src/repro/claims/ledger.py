@@ -65,7 +65,7 @@ def _control_record(claim_id: str, kind: str, measured: Mapping[str, Any] | None
                 "reason": "no part of the claim runs at this scale"}, None
     if measured is None:
         return {"status": "missing", "expected": _EXPECTED[kind]}, None
-    decision = claim.decide(measured, not_run)
+    decision = claim.decide(measured, not_run, control=True)
     if not_run:   # a control sees what the run runs: its verdict over those parts alone
         ran = [p for p in claim.parts if p.name not in not_run]
         decision.verdict = combine([r for r in decision.parts if r.name not in not_run], ran)

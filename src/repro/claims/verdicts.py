@@ -159,17 +159,40 @@ def _spread(differences: Sequence[float], floor: float) -> float:
 
 
 def one_sided_p(differences: Sequence[float], null_value: float,
-                alternative: Literal["greater", "less"], floor: float = 0.0) -> float:
+                alternative: Literal["greater", "less"], floor: float = 0.0, *,
+                exact: bool = False) -> float:
     """p of the one-sided one-sample t-test of mean(differences) vs ``null_value``, the spread
-    taken as at least ``floor`` (:func:`spread_floor`). Without two seeds, or without any
-    spread (identical differences of a continuous measurement), nothing is tested: p = 1."""
+    taken as at least ``floor`` (:func:`spread_floor`). Without two seeds nothing is tested:
+    p = 1. Without any spread (identical differences of a continuous measurement) an
+    experiment has no error estimate (p = 1); an ``exact`` comparison (a control built on
+    paired draws, :func:`exact_differences`) has no error to estimate, and its sign decides it:
+    p = 0 when every difference lies strictly on the alternative's side of ``null_value``."""
     array = np.asarray(differences, dtype=np.float64)
     spread = _spread(array, floor)
-    if array.size < 2 or spread == 0.0:
+    if array.size < 2:
         return 1.0
+    if spread == 0.0:
+        side = array > null_value if alternative == "greater" else array < null_value
+        return 0.0 if exact and bool(side.all()) else 1.0
     t = (float(array.mean()) - null_value) / (spread / np.sqrt(array.size))
     tail = stats.t.sf if alternative == "greater" else stats.t.cdf
     return float(tail(t, array.size - 1))
+
+
+#: in a control built on paired draws, a difference within this fraction of δ is a tie: the
+#: floating-point rounding of an exact plant (float32 features: ~1e-7 of the measured level,
+#: itself at most δ/φ with every registered φ ≥ 0.035), not an effect
+EXACT_TIE = 1e-3
+
+
+def exact_differences(comparison: Comparison) -> Comparison:
+    """A control's comparison with its rounding ties set to exactly zero (``EXACT_TIE``): the
+    arms of a paired control are the same draws, so a difference that is zero up to rounding
+    is zero, and an exact comparison is decided by its sign (:func:`one_sided_p`)."""
+    tie = EXACT_TIE * abs(comparison.smallest_effect)
+    return Comparison(comparison.label, [0.0 if abs(d) <= tie else float(d)
+                                         for d in comparison.differences],
+                      comparison.smallest_effect, comparison.resolution)
 
 
 def equivalent(differences: Sequence[float], smallest_effect: float,
@@ -326,8 +349,13 @@ def _part_numbers(part: Part, comparisons: list[Comparison], parts_tested: int
     return numbers
 
 
-def decide_parts(parts: Sequence[Part], measured: Measured) -> list[PartResult]:
-    """Every part's outcome, with Holm over the claim's testable parts (module docstring)."""
+def decide_parts(parts: Sequence[Part], measured: Measured, *, exact: bool = False
+                 ) -> list[PartResult]:
+    """Every part's outcome, with Holm over the claim's testable parts (module docstring).
+    ``exact``: the measurements are a control's, its arms built on the same draws with δ
+    planted exactly (paired like the experiment): rounding ties are zero
+    (:func:`exact_differences`) and a comparison identical in every seed is decided by its
+    sign, not left without an error estimate."""
     evaluated: list[tuple[Part, list[Comparison]] | PartResult] = []
     for part in parts:
         missing = [name for name in part.needs if name not in measured]
@@ -336,7 +364,8 @@ def decide_parts(parts: Sequence[Part], measured: Measured) -> list[PartResult]:
                                         f"measurement {', '.join(missing)} not recorded"))
             continue
         try:
-            comparisons = [c for c in part.compare(measured) if c.differences]
+            comparisons = [exact_differences(c) if exact else c
+                           for c in part.compare(measured) if c.differences]
         except KeyError as error:  # a nested row (e.g. one λ) the notebook did not record
             evaluated.append(PartResult(part.name, INCONCLUSIVE,
                                         f"measurement {error.args[0]} not recorded"))
@@ -349,7 +378,7 @@ def decide_parts(parts: Sequence[Part], measured: Measured) -> list[PartResult]:
 
     def p_of(part: Part, c: Comparison, alternative: Literal["greater", "less"]) -> float:
         null = -c.smallest_effect if part.kind == "non-inferiority" else 0.0
-        return one_sided_p(c.differences, null, alternative, _floor(c, part))
+        return one_sided_p(c.differences, null, alternative, _floor(c, part), exact=exact)
 
     # a part with a comparison below resolution cannot be supported: it enters Holm's family
     # with p = 1, so it cannot loosen the other parts' thresholds; the comparisons it does
@@ -371,7 +400,7 @@ def decide_parts(parts: Sequence[Part], measured: Measured) -> list[PartResult]:
         numbers = _part_numbers(part, comparisons, len(testable))
         numbers["p_support"], numbers["p_contradict"] = support_p[index], contra_p[index]
         results.append(_outcome(part, comparisons, supported[index], contradicted[index],
-                                numbers))
+                                numbers, exact=exact))
         index += 1
     return results
 
@@ -399,7 +428,7 @@ def _could_see(comparisons: list[Comparison], numbers: Mapping[str, Any]) -> str
 
 
 def _outcome(part: Part, comparisons: list[Comparison], supported: bool, contradicted: bool,
-             numbers: dict[str, Any]) -> PartResult:
+             numbers: dict[str, Any], *, exact: bool = False) -> PartResult:
     n = min(len(c.differences) for c in comparisons)
     ties = [c.label or "difference" for c in comparisons if _below(c, part)]
     if len(ties) == len(comparisons):
@@ -409,7 +438,7 @@ def _outcome(part: Part, comparisons: list[Comparison], supported: bool, contrad
     if n < 2:
         return PartResult(part.name, INCONCLUSIVE, "one seed cannot decide a direction",
                           numbers)
-    if all(_spread(c.differences, _floor(c, part)) == 0.0 for c in comparisons):
+    if not exact and all(_spread(c.differences, _floor(c, part)) == 0.0 for c in comparisons):
         return PartResult(part.name, INCONCLUSIVE, "the same difference in every seed of a "
                           "continuous measurement: no spread to test with (the seeds vary "
                           "nothing this measurement sees)", numbers)
@@ -449,17 +478,19 @@ def combine(results: Sequence[PartResult], parts: Sequence[Part] | None = None) 
 
 
 def decide_effects(parts: Sequence[Part], measured: Measured,
-                   not_run: Mapping[str, str] | None = None) -> Decision:
+                   not_run: Mapping[str, str] | None = None, *, exact: bool = False
+                   ) -> Decision:
     """Decide a claim whose verdict rests on measured effects. ``not_run``: part name → why
     the run's scale does not run it (a cut registered before the run); such a part is
-    inconclusive with that reason and stays out of Holm's family, like one not recorded."""
+    inconclusive with that reason and stays out of Holm's family, like one not recorded.
+    ``exact``: a control's measurements (:func:`decide_parts`)."""
     skipped = dict(not_run or {})
     unknown = sorted(set(skipped) - {p.name for p in parts})
     if unknown:
         raise ValueError(f"parts not run {unknown} are not the claim's parts "
                          f"{[p.name for p in parts]}")
     tested = {r.name: r for r in decide_parts([p for p in parts if p.name not in skipped],
-                                              measured)}
+                                              measured, exact=exact)}
     results = [tested[p.name] if p.name in tested
                else PartResult(p.name, INCONCLUSIVE, skipped[p.name]) for p in parts]
     if not tested and parts and len(set(skipped.values())) == 1:   # one cut, said once
