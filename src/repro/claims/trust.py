@@ -241,7 +241,9 @@ def trust_markdown(rows: list[TrustRow], figure: str | None = None,
                   "part's outcome. Each claim's parts, with what the run could see, are in "
                   "its section below.*"]
     lines += ["", "Parts: each registered part's outcome. Controls: the claim's own rule on a "
-              "planted effect (must be seen) and on no effect (must stay silent). Gates: the "
+              "planted effect (must be seen) and on no effect (must stay silent), their arms "
+              "paired as the experiment's (what the seeds could see is each part's own "
+              "minimum detectable effect). Gates: the "
               "models behind the measurements against their registered fitness gates. A null "
               "control that fires makes a verdict inconclusive; a missed positive control, "
               "the parts that were not significant; a failed gate, the parts that read its "

@@ -1,4 +1,4 @@
-"""Verdicts of registry version 5: five outcomes per part, five verdicts per claim.
+"""Verdicts of registry version 6: five outcomes per part, five verdicts per claim.
 
 A claim is decided from *parts*; each part is one or more per-seed paired differences
 (``Comparison``), oriented so that a positive difference is the paper's direction, each with
@@ -43,7 +43,9 @@ formulas. A null control that fires (it guards false positives) makes the claim
 inconclusive; a missed positive control (it guards false negatives) makes inconclusive only
 the parts that were not significant (absent, inconclusive) — a supported or contradicted
 part stands; a model that failed its fitness gate makes inconclusive the parts that read it
-(``apply_controls``).
+(``apply_controls``). A control's arms are the experiment's pairing (the same draws, δ
+planted exactly): its rounding ties are zero and a difference identical in every seed is
+decided by its sign (``decide_parts``' ``exact``).
 """
 
 from __future__ import annotations
