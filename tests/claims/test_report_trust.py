@@ -285,5 +285,5 @@ def test_parts_not_run_are_named_and_only_gates_a_running_part_reads_limit(
     sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
     row = next(r for r in trust_rows({"GMD-A3": sidecar}) if r.claim_id == "GMD-A3")
     assert row.controls == "not run at this scale"
-    assert row.models.endswith("; no part runs")
+    assert row.models.endswith("deciding nothing; no part runs") and "**" not in row.models
     assert "controls" not in row.limits and "quality gates" not in row.limits

@@ -85,7 +85,8 @@ def _runs_nothing(sidecar: Mapping[str, Any]) -> bool:
 def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
     """"3/3 pass" or "**1 of 3 fail**" over the sidecar's quality gates (each model's
     gate is one of them); "none recorded" when a measured claim has none; a claim none of
-    whose parts runs says so (its models, if any, are shown but decide nothing)."""
+    whose parts runs says so (its models, if any, are shown but decide nothing: their failures
+    are not in bold)."""
     gates = dict(sidecar.get("quality_gates") or {})
     for model in sidecar.get("models", []):
         gates.setdefault(f"model {model['name']}", bool(model["passed"]))
@@ -95,8 +96,10 @@ def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
             return "— (not run at this scale)"
         return "— (no model)" if not claim.rests_on_effects else "none recorded"
     failed = [name for name, passed in gates.items() if not passed]
+    if failed and idle:   # shown, deciding nothing: not in bold
+        return f"{len(failed)} of {len(gates)} fail (see Models), deciding nothing{idle}"
     if failed:
-        return f"**{len(failed)} of {len(gates)} fail** (see Models){idle}"
+        return f"**{len(failed)} of {len(gates)} fail** (see Models)"
     return f"{len(gates)}/{len(gates)} pass{idle}"
 
 
