@@ -1691,38 +1691,44 @@ def c3_result(check: UnitVarianceCheck, *, figures: Sequence[str | Path] = ()) -
 
 def c4_controls(test: MotionWindows, seeds: Sequence[int], values: Sequence[float], *,
                 n: int, factor: float = TENTH_FACTOR) -> Controls:
-    """GMD-C4's controls: ``n`` test windows per arm, value and seed stand in for the
-    imputed samples, measured with the experiment's ``coherence`` (foot skating).
+    """GMD-C4's controls: ``n`` test windows per seed stand in for the imputed samples,
+    measured with the experiment's ``coherence`` (foot skating).
 
-    Null: independent draws for the two arms. Positive: the loss-scaling arm's joints
-    scaled horizontally by 1/0.9 (:func:`scale_world`: heights and contacts kept, foot speed
-    × 1/0.9 exactly), so loss − emphasis = 10 % of loss scaling's foot skating (every value's
-    δ) in expectation. Tests plant a larger effect through ``factor``."""
+    Paired as the experiment (``run_experiment``: the same targets and sampling noise for every
+    variant of a seed): one draw of ``n`` windows per seed (:func:`control_seed` with arm 0)
+    is both arms at every value; different seeds draw different windows. Null: that draw in
+    both arms (loss scaling − Emphasis = 0 in every seed). Positive: the loss-scaling arm's
+    joints scaled horizontally by 1/0.9 (:func:`scale_world`: heights and contacts kept, foot
+    speed × 1/0.9 exactly), so log(loss / Emphasis) = −log 0.9, every value's δ, exactly in
+    every seed. Tests plant a larger effect through ``factor``."""
     space = test.space("motion")
     null: dict[str, Any] = {"values": [int(v) for v in values],
                             "foot_skating_loss_scaling": {}, "foot_skating_emphasis": {}}
     positive: dict[str, Any] = {"values": [int(v) for v in values],
                                 "foot_skating_loss_scaling": {}, "foot_skating_emphasis": {}}
-    for k, v in enumerate(values):
-        key = f"{v:g}"
-        for out in (null, positive):
-            out["foot_skating_loss_scaling"][key], out["foot_skating_emphasis"][key] = [], []
-        for s in seeds:
-            loss = test.x[draw_indices(test, n, control_seed(s, 0, stream=10 + k))]
-            emphasis = test.x[draw_indices(test, n, control_seed(s, 1, stream=10 + k))]
-            skating = coherence(space, emphasis)["foot_skating"]
-            for out, x in ((null, loss), (positive, scale_world(space, loss, factor,
-                                                                 horizontal_only=True))):
-                out["foot_skating_loss_scaling"][key].append(coherence(space, x)["foot_skating"])
+    for out in (null, positive):
+        for name in ("foot_skating_loss_scaling", "foot_skating_emphasis"):
+            out[name].update({f"{v:g}": [] for v in values})
+    for s in seeds:
+        x = test.x[draw_indices(test, n, control_seed(s, 0, stream=10))]
+        skating = coherence(space, x)["foot_skating"]
+        planted = coherence(space, scale_world(space, x, factor,
+                                               horizontal_only=True))["foot_skating"]
+        for v in values:
+            key = f"{v:g}"
+            for out, loss in ((null, skating), (positive, planted)):
+                out["foot_skating_loss_scaling"][key].append(loss)
                 out["foot_skating_emphasis"][key].append(skating)
     return Controls(null=null, positive=positive,
                     planted={"foot_skating_factor_loss_scaling": factor,
-                             "model": f"{n} test windows per arm, value and seed"},
-                    null_text=(f"{n} test windows per arm, value and seed, independent draws, "
-                               f"{len(seeds)} seed(s)"),
-                    positive_text=(f"the same draws; the loss-scaling arm's motion stretched "
-                                   f"horizontally × {factor:.3g} (foot skating × {factor:.3g}, "
-                                   f"exact)"))
+                             "model": f"{n} test windows per seed, the same in both arms and "
+                                      f"at every value"},
+                    null_text=(f"paired as the experiment: the same {n} test windows in both "
+                               f"arms and at every value of a seed (another draw per seed), "
+                               f"{len(seeds)} seed(s); no plant (equal arms)"),
+                    positive_text=(f"the same paired windows; the loss-scaling arm's motion "
+                                   f"stretched horizontally × {factor:.3g} (foot skating × "
+                                   f"{factor:.3g}, exact)"))
 
 
 
