@@ -594,22 +594,28 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                 whole_body: bool = True) -> Controls:
     """GMD-F1's controls: test trajectories toward the experiment's goals stand in for the
     samples, measured as ``guidance_schedule.sweep_strengths`` measures them (mean goal error
-    of the last frame, root jerk). Every arm is an independent draw; the unguided and the
-    stop-0 arms are left as drawn, each other arm is built by :func:`planted_path`.
+    of the last frame, root jerk).
+
+    Paired as the experiment (``run_sweeps``: the same goals and the same x_T for every
+    strength and stop of a seed, the two stops paired sample by sample): one draw of ``goals``
+    test windows per seed (:func:`control_seed` with arm 0; another draw per seed) is every
+    arm — unguided, each strength, stop 0, stop 20 — toward the seed's goals. The unguided and
+    the stop-0 arms are the draw as it is; each other arm is the draw moved by
+    :func:`planted_path` (an exact change of its jerk and goal errors, sample by sample).
 
     Null (every part exactly at its threshold, no effect): each strength's arm with goal
-    errors × 0.5 and jerk × 1.5; the stop-20 arm with jerk × 1 and goal errors × 1.2.
-    Positive (every part beyond its threshold by δ): goal errors × 0.45 (0.5·unguided −
-    guided = 5 % of unguided), jerk × 1.4 (10 %), the stop-20 arm's jerk × 0.95 (5 % of stop
-    0) and goal errors × 1.15 (5 %). Whole body (test motion windows): the null's stop-0 and
-    stop-20 arms are two independent draws; the positive's stop-20 arm is the stop-0 draw
-    itself made smoother by :func:`_smoother_body` (joint jerk × 0.95 exactly, foot skating
-    lower by at least as much), paired as the experiment's two stops are (same x_T and
-    noise). The worst of the three strengths is taken over
-    independent arms, so the planted effect on "worst" is at most δ. Tests plant larger
-    effects through ``margin`` (a multiple of every δ). ``whole_body`` False (a scale that runs
-    no second stage, ``Settings.runs_second_stage``): no whole-body arms, and the controls
-    measure only what the parts that run read (the ledger decides them over those parts)."""
+    errors × 0.5 and jerk × 1.5; the stop-20 arm with jerk × 1 and goal errors × 1.2 (every
+    log ratio 0). Positive (every part beyond its threshold by δ, exactly): goal errors × 0.45
+    (0.5·unguided − guided = 5 % of unguided), jerk × 1.4 (10 %), the stop-20 arm's jerk ×
+    0.95 (5 % of stop 0) and goal errors × 1.15 (5 %); every strength carries the same plant,
+    so the worst of them is at δ. Whole body: the same windows' motions (``test.x``) as both
+    stops (the experiment's two second-stage runs share x_T and noise); the null's stop-20
+    arm is the stop-0 arm itself, the positive's the stop-0 arm made smoother by
+    :func:`_smoother_body` (joint jerk × 0.95 exactly, foot skating lower by at least as
+    much). Tests plant larger effects through ``margin`` (a multiple of every δ).
+    ``whole_body`` False (a scale that runs no second stage, ``Settings.runs_second_stage``):
+    no whole-body arms, and the controls measure only what the parts that run read (the
+    ledger decides them over those parts)."""
     space = test.space("trajectory")
     sizes = {"null": (0.5, 1.5, 1.0, 1.2),
              "positive": (0.5 - 0.05 * margin, 1.5 - 0.1 * margin, 1 - 0.05 * margin,
@@ -629,55 +635,56 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
 
     for s in seeds:
         targets = goal_targets(test, goals, seed=s, min_distance=min_distance)
-        arm = {name: test.trajectory()[draw_indices(test, goals, control_seed(s, k, stream=30))]
-               for k, name in enumerate(("unguided", "stop_0", "stop_20",
-                                         *(strength_key(v) for v in strengths)))}
-        unguided, stop_0 = measure(arm["unguided"], targets), measure(arm["stop_0"], targets)
+        picks = draw_indices(test, goals, control_seed(s, 0, stream=30))
+        drawn = test.trajectory()[picks]
+        unguided = measure(drawn, targets)
         for kind, (goal_f, jerk_f, stop_jerk_f, stop_goal_f) in sizes.items():
             m = out[kind]
-            for key, (g, j) in (("unguided", unguided), ("stop_0", stop_0)):
-                m["goal_error_unguided" if key == "unguided" else "goal_error_stop_0"].append(g)
-                m["jitter_unguided" if key == "unguided" else "jitter_stop_0"].append(j)
+            for name in ("unguided", "stop_0"):
+                m[f"goal_error_{name}"].append(unguided[0])
+                m["jitter_unguided" if name == "unguided" else "jitter_stop_0"].append(
+                    unguided[1])
             m["goal_error_by_strength"]["0"].append(unguided[0])
             m["jitter_by_strength"]["0"].append(unguided[1])
+            g, j = measure(planted_path(space, drawn, targets, jerk_factor=jerk_f,
+                                        goal_factor=goal_f), targets)
             for v in strengths:
-                g, j = measure(planted_path(space, arm[strength_key(v)], targets,
-                                            jerk_factor=jerk_f, goal_factor=goal_f), targets)
                 m["goal_error_by_strength"][strength_key(v)].append(g)
                 m["jitter_by_strength"][strength_key(v)].append(j)
-            g, j = measure(planted_path(space, arm["stop_20"], targets, jerk_factor=stop_jerk_f,
+            g, j = measure(planted_path(space, drawn, targets, jerk_factor=stop_jerk_f,
                                         goal_factor=stop_goal_f), targets)
             m["goal_error_stop_20"].append(g)
             m["jitter_stop_20"].append(j)
         if not whole_body:
             continue
-        bodies = [test.x[draw_indices(test, goals, control_seed(s, k, stream=31))] for k in (0, 1)]
+        body = test.x[picks]
         for kind, (_, _, stop_jerk_f, _) in sizes.items():
-            stop_20 = bodies[1] if kind == "null" else _smoother_body(motion, bodies[0],
-                                                                       stop_jerk_f)
-            for key, x in (("stop_0", bodies[0]), ("stop_20", stop_20)):
+            stop_20 = body if kind == "null" else _smoother_body(motion, body, stop_jerk_f)
+            for key, x in (("stop_0", body), ("stop_20", stop_20)):
                 coherent = _coherence(motion, x)
                 out[kind][f"joint_jerk_{key}"].append(coherent[0])
                 out[kind][f"foot_skating_{key}"].append(coherent[1])
     null_f, pos_f = sizes["null"], sizes["positive"]
-    body_null = (f"; whole body: {goals} test motion windows per stop, independent draws"
+    body_null = ("; whole body: the same windows' motions at both stops (equal arms)"
                  if whole_body else "; whole body: not run at this scale")
-    body_positive = (f"; whole body: the stop-0 motion windows, joint jerk × {pos_f[2]:.3g} "
-                     "(exact), foot skating lower by at least as much" if whole_body
-                     else "; whole body: not run at this scale")
+    body_positive = (f"; whole body: the stop-20 arm the stop-0 motions with joint jerk × "
+                     f"{pos_f[2]:.3g} (exact), foot skating lower by at least as much"
+                     if whole_body else "; whole body: not run at this scale")
     return Controls(null=out["null"], positive=out["positive"],
                     planted={"null": dict(zip(("goal", "jerk", "stop_jerk", "stop_goal"), null_f,
                                               strict=True)),
                              "positive": dict(zip(("goal", "jerk", "stop_jerk", "stop_goal"),
                                                   pos_f, strict=True)),
-                             "model": f"{goals} test trajectories per arm and seed"},
-                    null_text=(f"{goals} test trajectories per arm (independent draws, "
-                               f"{len(seeds)} seed(s)), every part at its threshold: guided "
-                               f"goal error × {null_f[0]:g}, jerk × {null_f[1]:g}; stop 20: jerk "
-                               f"× {null_f[2]:g}, goal error × {null_f[3]:g} (exact)"
+                             "model": f"{goals} test trajectories per seed, the same in "
+                                      f"every arm"},
+                    null_text=(f"paired as the experiment: the same {goals} test trajectories "
+                               f"toward the same goals in every arm of a seed (another draw "
+                               f"per seed), {len(seeds)} seed(s); every part at its threshold: "
+                               f"guided goal error × {null_f[0]:g}, jerk × {null_f[1]:g}; stop "
+                               f"20: jerk × {null_f[2]:g}, goal error × {null_f[3]:g} (exact)"
                                f"{body_null}"),
-                    positive_text=(f"the same draws beyond every threshold by δ: guided goal "
-                                   f"error × {pos_f[0]:.3g}, jerk × {pos_f[1]:.3g}; stop 20: "
+                    positive_text=(f"the same paired draws beyond every threshold by δ: guided "
+                                   f"goal error × {pos_f[0]:.3g}, jerk × {pos_f[1]:.3g}; stop 20: "
                                    f"jerk × {pos_f[2]:.3g}, goal error × {pos_f[3]:.3g} (exact)"
                                    f"{body_positive}"))
 
