@@ -762,13 +762,14 @@ def registered_measurements(runs: dict[int, dict[str, ImputationRun]]) -> dict[s
 
 # ------------------------------------------------------------------------------------------------
 # GMD-B3's controls (Table B.1, notebook 02), beside ``repro.gmd.controls``: the evaluation
-# windows themselves, degraded by a fixed recipe, stand in for both models' samples; the positive
-# control degrades the abs arm less, by sizes measured on calibration draws to plant the FID and
-# diversity-gap effects at their registered δ.
+# windows themselves, degraded by a fixed recipe with the same noise in both arms of a seed, stand
+# in for both models' samples; the positive control degrades the abs arm less, by sizes measured
+# on calibration draws to plant the FID and diversity-gap effects at their registered δ.
 # ------------------------------------------------------------------------------------------------
 
 #: the rel arm's degradation, fixed before any control ran: shrink toward the mean window by
-#: 30 %, a shift of 0.25 std along a fixed direction, white noise of 0.1 std (fresh per arm)
+#: 30 %, a shift of 0.25 std along a fixed direction, white noise of 0.1 std (one draw per seed,
+#: the same in both arms)
 B3_DEGRADATION = {"shrink": 0.3, "shift": 0.25, "noise": 0.1}
 
 
@@ -801,12 +802,17 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
     and ``measurements.registered_measurements`` (FID, R@3, Diversity against the same
     evaluation set).
 
-    Null: both arms degraded by :data:`B3_DEGRADATION` with independent noise. Positive: the
-    abs arm degraded less — the shrink and shift that, measured on ``calibration_draws``
-    further noise draws (alternating bisections, ``rounds`` times), give FID × (1 − 0.1525)
-    and a diversity gap to real × (1 − 0.412) of the rel arm's: part 1's and part 2's δ (R@3
-    is left to come out as it does). Each bisection takes ``iterations`` steps (quick runs
-    pass fewer draws, rounds and steps: a test of the code)."""
+    Paired as the experiment (``b3_rows``: both representations generate for the same
+    evaluation captions from the same seed, x_T included, and are scored with the same seed):
+    in a seed both arms degrade the same windows with the same white-noise draw
+    (:func:`control_seed` with arm 0; another draw per seed) and are scored with the seed.
+    Null: both arms degraded by :data:`B3_DEGRADATION` (identical arms: every log ratio 0).
+    Positive: the abs arm degraded less — the shrink and shift that, measured on
+    ``calibration_draws`` noise draws disjoint from the control's (alternating bisections,
+    ``rounds`` times), give FID × (1 − 0.1525) and a diversity gap to real × (1 − 0.412) of
+    the rel arm's: part 1's and part 2's δ (no exact transformation moves an FID by a set
+    ratio; R@3 is left to come out as it does). Each bisection takes ``iterations`` steps
+    (quick runs pass fewer draws, rounds and steps: a test of the code)."""
     features, lengths = evaluation.features, evaluation.lengths
     direction = np.random.default_rng(control_seed(0, 0, stream=40)).standard_normal(
         features.shape[-1])
@@ -841,17 +847,16 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
     rows: dict[str, dict[str, list[dict[str, float]]]] = {
         "null": {"relative": [], "absolute": []}, "positive": {"relative": [], "absolute": []}}
     for s in seeds:
-        def arm(k: int, b: float, a: float, s: int = s) -> dict[str, float]:
+        def arm(b: float, a: float, s: int = s) -> dict[str, float]:
             generated = _degraded(features, shrink=b, shift=a, noise=B3_DEGRADATION["noise"],
-                                  direction=direction, seed=control_seed(s, k, stream=42))
+                                  direction=direction, seed=control_seed(s, 0, stream=42))
             return table_row(evaluator, generated, evaluation, seed=s)
 
-        rel = arm(0, B3_DEGRADATION["shrink"], B3_DEGRADATION["shift"])
+        rel = arm(B3_DEGRADATION["shrink"], B3_DEGRADATION["shift"])
         rows["null"]["relative"].append(rel)
         rows["positive"]["relative"].append(rel)
-        rows["null"]["absolute"].append(arm(1, B3_DEGRADATION["shrink"],
-                                            B3_DEGRADATION["shift"]))
-        rows["positive"]["absolute"].append(arm(1, shrink, shift))
+        rows["null"]["absolute"].append(dict(rel))
+        rows["positive"]["absolute"].append(arm(shrink, shift))
     return Controls(
         null=measurements.registered_measurements(dict(real_row), rows["null"]),
         positive=measurements.registered_measurements(dict(real_row), rows["positive"]),
@@ -859,13 +864,15 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
                  "calibrated_fid_ratio": reached[0] / fid_rel,
                  "calibrated_gap_ratio": reached[1] / gap_rel,
                  "calibration_draws": calibration_draws},
-        null_text=(f"the {len(features)} evaluation windows degraded alike in both arms "
-                   f"(shrink {B3_DEGRADATION['shrink']:g}, shift {B3_DEGRADATION['shift']:g} "
-                   f"std, noise {B3_DEGRADATION['noise']:g} std), independent noise, "
-                   f"{len(seeds)} seed(s)"),
-        positive_text=(f"the same; the abs arm degraded less (shrink {shrink:.3g}, shift "
-                       f"{shift:.3g}: FID × {reached[0] / fid_rel:.3g}, diversity gap × "
-                       f"{reached[1] / gap_rel:.3g} on {calibration_draws} calibration draws)"))
+        null_text=(f"paired as the experiment: the same {len(features)} evaluation windows "
+                   f"with the same noise draw in both arms of a seed (another draw per seed), "
+                   f"{len(seeds)} seed(s); no plant: both degraded alike (shrink "
+                   f"{B3_DEGRADATION['shrink']:g}, shift {B3_DEGRADATION['shift']:g} std, noise "
+                   f"{B3_DEGRADATION['noise']:g} std), identical arms"),
+        positive_text=(f"the same paired draws; the abs arm degraded less (shrink "
+                       f"{shrink:.3g}, shift {shift:.3g}: FID × {reached[0] / fid_rel:.3g}, "
+                       f"diversity gap × {reached[1] / gap_rel:.3g} on {calibration_draws} "
+                       f"calibration draws disjoint from the control's)"))
 
 
 
@@ -878,17 +885,22 @@ _RAYLEIGH_MEAN = float(np.sqrt(np.pi / 2))
 def b2_controls(test: MotionWindows, tasks: Mapping[int, Any], seeds: Sequence[int], *,
                 mean_error: float = 0.1, abs_factor: float = 0.9) -> Controls:
     """GMD-B2's controls: constructed samples whose location errors are known, measured with
-    the experiment's ``location_errors`` (mean over samples and the two
-    target frames). Each arm (``REGISTERED_METHODS``: imputation and
-    guidance in each representation) is a draw of test trajectories (as many as the seed's
-    task has targets) with the root at the waypoint and goal frames placed at the target plus
-    a Gaussian offset d ~ N(0, σ²I₂), σ = ``mean_error``/√(π/2), so E‖d‖ = ``mean_error``.
+    the experiment's ``location_errors`` (mean over samples and the two target frames). A
+    seed's sample set is a draw of test trajectories (as many as the seed's task has targets)
+    with the root at the waypoint and goal frames placed at the target plus a Gaussian offset
+    d ~ N(0, σ²I₂), σ = ``mean_error``/√(π/2), so E‖d‖ = ``mean_error``.
 
-    Null: every arm at 0.1 m (equal arms; abs imputation exactly at the 10 cm threshold).
-    Positive: the same draws with both abs arms' offsets × 0.9 — abs error 0.09 m: rel − abs =
-    0.01 m = 10 % of rel's (the δ of both difference parts) and 0.1 m − abs = 1 cm (the
-    threshold part's δ), in expectation. Tests plant larger effects through ``abs_factor``.
-    The rule's two further names are filled as the experiment fills them (rel guidance, abs
+    Paired as the experiment (``impute_locations``: the four methods — imputation and
+    guidance in each representation, ``REGISTERED_METHODS`` — sample the seed's task from the
+    same x_T and per-step noise): one draw of trajectories and offsets per seed
+    (:func:`control_seed` with arm 0; another draw per seed) is all four arms, toward the
+    seed's targets. Null: every arm that draw (equal arms: log(rel / abs) = 0 in every seed).
+    Positive: both abs arms' offsets × 0.9, so abs error = 0.9 × rel error exactly and
+    log(rel / abs) = −log 0.9, the δ of both ratio parts, in every seed. The threshold part
+    (0.1 m − abs imputation error, δ 1 cm) compares one arm with a constant: nothing pairs
+    it, and it keeps the draw's own noise — the null's abs error is 0.1 m and the positive's
+    0.09 m in expectation only. Tests plant larger effects through ``abs_factor``. The rule's
+    two further names are filled as the experiment fills them (rel guidance, abs
     imputation)."""
     space = test.space("trajectory")
     sigma = mean_error / _RAYLEIGH_MEAN
@@ -897,11 +909,11 @@ def b2_controls(test: MotionWindows, tasks: Mapping[int, Any], seeds: Sequence[i
     for s in seeds:
         task = tasks[s]
         frames = list(task.frames)
-        for k, method in enumerate(REGISTERED_METHODS):
-            x = test.trajectory()[draw_indices(test, task.n, control_seed(s, k, stream=20))]
-            offsets = sigma * np.random.default_rng(control_seed(s, k, stream=21)).standard_normal(
-                (task.n, len(frames), 2))
-            for out, factor in ((null, 1.0), (positive, abs_factor)):
+        x = test.trajectory()[draw_indices(test, task.n, control_seed(s, 0, stream=20))]
+        offsets = sigma * np.random.default_rng(control_seed(s, 0, stream=21)).standard_normal(
+            (task.n, len(frames), 2))
+        for out, factor in ((null, 1.0), (positive, abs_factor)):
+            for method in REGISTERED_METHODS:
                 scale = factor if method.startswith("abs") else 1.0
                 placed = located(space, x, frames, task.targets, scale * offsets)
                 out[f"{method}_error"].append(float(location_errors(space, placed, task).mean()))
@@ -910,11 +922,14 @@ def b2_controls(test: MotionWindows, tasks: Mapping[int, Any], seeds: Sequence[i
         out["abs_location_error"] = out["abs_imputation_error"]
     return Controls(null=null, positive=positive,
                     planted={"mean_location_error_m": mean_error, "abs_offset_factor": abs_factor},
-                    null_text=(f"test trajectories placed at the targets + Gaussian offsets of "
-                               f"mean length {mean_error:g} m in all four arms, independent "
-                               f"draws, {len(seeds)} seed(s)"),
-                    positive_text=(f"the same draws; both abs arms' offsets × {abs_factor:g} "
-                                   f"(mean {abs_factor * mean_error:.3g} m)"))
+                    null_text=(f"paired as the experiment: the same test trajectories, targets "
+                               f"and Gaussian offsets (mean length {mean_error:g} m) in all four "
+                               f"arms of a seed (another draw per seed), {len(seeds)} seed(s); "
+                               f"no plant (equal arms; abs imputation at the 10 cm threshold in "
+                               f"expectation, with its draw's own noise)"),
+                    positive_text=(f"the same paired draws; both abs arms' offsets × "
+                                   f"{abs_factor:g} (abs error {abs_factor:g} × rel's exactly; "
+                                   f"mean {abs_factor * mean_error:.3g} m in expectation)"))
 
 
 
