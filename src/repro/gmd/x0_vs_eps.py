@@ -86,7 +86,7 @@ __all__ = ["A3Study", "A4Records", "CLAMPS", "EpsilonOfX0", "ExactGaussianDenois
            "c_identity_error", "clamp_sensitivity", "coefficient_shares", "exact_model",
            "exact_pair", "finite", "goal_error_kept", "goal_reaching_experiment",
            "goal_reaching_study", "guidance_trajectory_spec", "guided_change_survival",
-           "late_reverting_model", "longer_eps_description", "longer_eps_models",
+           "jagged_by", "late_reverting_model", "longer_eps_description", "longer_eps_models",
            "parameter_counts", "peak_fraction", "posterior_mean_forms", "printed_c_relative_error",
            "reading_a3", "reading_clamp", "sample_quality", "trajectory_model_values",
            "trajectory_reference"]
@@ -775,83 +775,97 @@ def a3_controls(trajectory_models: Mapping[tuple[str, int], TrainedGMD], test: M
 
 # --- GMD-A4's controls: the data as the model, jitter and FID planted in the ε arm ---------------
 
+def jagged_by(space: FeatureSpace, x: Tensor, factor: float, seed: int) -> tuple[Tensor, float]:
+    """(x made jagged, amplitude): :func:`jag` with the white-noise draw of ``seed`` at the
+    amplitude (m, by bisection) that makes the mean joint jerk of these very samples
+    ``factor`` × theirs — an exact plant on them, up to the bisection's 2⁻³⁰ of its bracket."""
+    clean = float(jitter_of(space, x).jerk)
+
+    def ratio(amplitude: float) -> float:
+        return float(jitter_of(space, jag(space, x, amplitude, seed)).jerk) / clean
+
+    amplitude = calibrate_increasing(ratio, factor, high=1e-3)
+    return jag(space, x, amplitude, seed), amplitude
+
+
 def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator: Any,
                 test_embeddings: np.ndarray, trajectory_train: MotionWindows | None = None,
-                calibration_draws: int = 4, factor: float = 1.1) -> Controls:
-    """GMD-A4's controls: ``n`` training windows per arm and seed stand in for each model's
-    samples, measured with the experiment's code (joint jerk, FID against
-    ``test_embeddings``, root jerk of the trajectory channels). ``train``: the motion models'
-    windows; ``trajectory_train``: the trajectory models' (default ``train``).
+                factor: float = 1.1) -> Controls:
+    """GMD-A4's controls: ``n`` training windows per seed stand in for each model's samples,
+    measured with the experiment's code (joint jerk, FID against ``test_embeddings``, root
+    jerk of the trajectory channels). ``train``: the motion models' windows;
+    ``trajectory_train``: the trajectory models' (default ``train``).
 
-    Null: independent draws for the two arms. Positive: the ε motion arm made jagged — white
-    noise on every joint position, of the amplitude that raises the mean joint jerk of
-    ``calibration_draws`` further draws by 10 % (part 1's δ; |log ratio| = log 1.1 with the
-    trajectories left equal: part 3's δ) — and its non-joint features shifted along a fixed
-    direction by the size that raises the FID of those jagged draws to 1.1 × that of the
-    clean ones (part 2's δ; zero, and recorded, if the noise alone raises it further). Tests
-    plant a larger effect through ``factor`` (both ratios)."""
+    Paired as the experiment (``sample_quality``: the x0 and the ε model of a seed sample
+    from the same noise): one draw of ``n`` motion windows and one of ``n`` trajectory windows
+    per seed (:func:`control_seed` with arm 0; another draw per seed) are both arms. Null:
+    those draws in both arms (every log ratio 0). Positive: the ε motion arm made jagged —
+    white noise (one draw per seed) on every joint position at the amplitude that makes its
+    joint jerk exactly ``factor`` × the x0 arm's (:func:`jagged_by`: part 1's δ, log 1.1; with
+    the trajectory arms equal, the |log ratio| gap is log 1.1 exactly: part 3's δ) — and its
+    non-joint features (which no joint reads: the jerk stays) shifted along a fixed direction
+    by the size that makes its FID ``factor`` × the x0 arm's on the same draw (part 2's δ,
+    by bisection on the draw itself: an FID of ``n`` samples varies from draw to draw by far
+    more than 10 %, so a size calibrated on other draws does not carry over; zero, and
+    recorded, where the noise alone raises the FID further). Tests plant a larger effect
+    through ``factor`` (both ratios)."""
     trajectory_train = train if trajectory_train is None else trajectory_train
     motion, trajectory = train.space("motion"), trajectory_train.space("trajectory")
     unread = motion.channels - FEATURE_BLOCKS["ric_positions"].stop
     direction = torch.from_numpy(
         np.random.default_rng(control_seed(0, 0, stream=9)).standard_normal(unread)).float()
     direction = direction / direction.norm()
-    calibration = [train.x[draw_indices(train, n, control_seed(k, 0, stream=8))]
-                   for k in range(calibration_draws)]
-    noise_seeds = [control_seed(k, 1, stream=8) for k in range(calibration_draws)]
-    clean_jerk = np.mean([jitter_of(motion, x).jerk for x in calibration])
-    clean_fid = np.mean([motion_fid(motion, x, evaluator, test_embeddings) for x in calibration])
 
-    def jerk_ratio(amplitude: float) -> float:
-        return float(np.mean([jitter_of(motion, jag(motion, x, amplitude, k)).jerk
-                              for x, k in zip(calibration, noise_seeds, strict=True)])
-                     / clean_jerk)
+    def fid(x: Tensor) -> float:
+        return float(motion_fid(motion, x, evaluator, test_embeddings))
 
-    amplitude = calibrate_increasing(jerk_ratio, factor, high=1e-3)
-    jagged = [jag(motion, x, amplitude, k) for x, k in zip(calibration, noise_seeds,
-                                                             strict=True)]
-
-    def fid_ratio(size: float) -> float:
-        return float(np.mean([motion_fid(motion, offset_unread_features(motion, x, size,
-                                                                        direction),
-                                         evaluator, test_embeddings) for x in jagged])
-                     / clean_fid)
-
-    size = calibrate_increasing(fid_ratio, factor, high=0.5)
     null: dict[str, list[float]] = {}
     positive: dict[str, list[float]] = {}
+    amplitudes, sizes, noise_alone = [], [], []
     for s in seeds:
-        arms = {tag: train.x[draw_indices(train, n, control_seed(s, k, stream=1))]
-                for k, tag in enumerate(("x0", "eps"))}
-        tracks = {tag: trajectory_train.trajectory()[draw_indices(trajectory_train, n,
-                                                                  control_seed(s, k, stream=2))]
-                  for k, tag in enumerate(("x0", "eps"))}
-        planted = offset_unread_features(
-            motion, jag(motion, arms["eps"], amplitude, control_seed(s, 1, stream=3)), size,
-            direction)
-        for out, eps_motion in ((null, arms["eps"]), (positive, planted)):
-            for tag, x in (("x0", arms["x0"]), ("eps", eps_motion)):
-                out.setdefault(f"motion_jitter_{tag}", []).append(float(jitter_of(motion,
-                                                                                  x).jerk))
-                out.setdefault(f"motion_fid_{tag}", []).append(
-                    motion_fid(motion, x, evaluator, test_embeddings))
-                out.setdefault(f"trajectory_jitter_{tag}", []).append(
-                    float(jitter_of(trajectory, tracks[tag]).jerk))
+        drawn = train.x[draw_indices(train, n, control_seed(s, 0, stream=1))]
+        track = trajectory_train.trajectory()[draw_indices(trajectory_train, n,
+                                                           control_seed(s, 0, stream=2))]
+        clean = {"motion_jitter": float(jitter_of(motion, drawn).jerk),
+                 "motion_fid": fid(drawn),
+                 "trajectory_jitter": float(jitter_of(trajectory, track).jerk)}
+        rough, amplitude = jagged_by(motion, drawn, factor, control_seed(s, 0, stream=3))
+        size = calibrate_increasing(
+            lambda a, x=rough: fid(offset_unread_features(motion, x, a, direction)),
+            factor * clean["motion_fid"], high=0.5)
+        planted = offset_unread_features(motion, rough, size, direction)
+        amplitudes.append(amplitude)
+        sizes.append(size)
+        noise_alone.append(fid(rough) / clean["motion_fid"])
+        for name, value in clean.items():
+            for out in (null, positive):
+                out.setdefault(f"{name}_x0", []).append(value)
+            null.setdefault(f"{name}_eps", []).append(value)
+        positive.setdefault("motion_jitter_eps", []).append(float(jitter_of(motion,
+                                                                            planted).jerk))
+        positive.setdefault("motion_fid_eps", []).append(fid(planted))
+        positive.setdefault("trajectory_jitter_eps", []).append(clean["trajectory_jitter"])
+
+    def ratios(name: str) -> np.ndarray:
+        return np.asarray(positive[f"{name}_eps"]) / np.asarray(positive[f"{name}_x0"])
+
+    jerk_ratio, fid_ratio = ratios("motion_jitter"), ratios("motion_fid")
     return Controls(null=null, positive=positive,
-                    planted={"jitter_noise_amplitude_m": amplitude,
-                             "calibrated_jerk_ratio": jerk_ratio(amplitude),
-                             "unread_feature_offset": size,
-                             "calibrated_fid_ratio": fid_ratio(size),
-                             "fid_ratio_of_noise_alone": fid_ratio(0.0),
-                             "calibration_draws": calibration_draws,
-                             "model": f"{n} training windows per arm and seed"},
-                    null_text=(f"{n} training windows per arm, independent draws, "
-                               f"{len(seeds)} seed(s)"),
-                    positive_text=(f"the same draws; the ε motion arm jagged (white noise of "
-                                   f"{1000 * amplitude:.3g} mm on every joint position: jerk × "
-                                   f"{jerk_ratio(amplitude):.3g}) and its non-joint features "
-                                   f"shifted (FID × {fid_ratio(size):.3g}), measured on "
-                                   f"{calibration_draws} calibration draws"))
+                    planted={"jitter_noise_amplitude_m": amplitudes,
+                             "jerk_ratio": jerk_ratio.tolist(),
+                             "unread_feature_offset": sizes,
+                             "fid_ratio": fid_ratio.tolist(),
+                             "fid_ratio_of_noise_alone": noise_alone,
+                             "model": f"{n} training windows per seed, the same in both arms"},
+                    null_text=(f"paired as the experiment: the same {n} training windows (and "
+                               f"{n} trajectory windows) in both arms of a seed (another draw "
+                               f"per seed), {len(seeds)} seed(s); no plant (equal arms)"),
+                    positive_text=(f"the same paired draws; the ε motion arm jagged (white "
+                                   f"noise of {1000 * float(np.mean(amplitudes)):.3g} mm mean "
+                                   f"amplitude on every joint position: jerk × "
+                                   f"{jerk_ratio.mean():.3g}) and its non-joint features "
+                                   f"shifted (FID × {fid_ratio.min():.3g}–{fid_ratio.max():.3g}),"
+                                   f" both sized on each seed's draw itself"))
 
 
 
