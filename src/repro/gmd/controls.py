@@ -2,13 +2,20 @@
 
 A claim's controls (in its claim module) run the *same measurement code* as its experiment, on
 the same number of seeds and items, on inputs whose truth is known: an exact model (GMD-A3) or
-the stand-in data themselves (GMD-A4, B2, C4, F1) as the "model". The **null** control draws
-both arms from the same source with independent randomness per seed (no effect); the
-**positive** control takes the null's inputs and plants every part's effect at its registered size δ
-(``repro.claims.registry_gmd``), by an exact transformation wherever one exists (radial
-scaling about the goal, a world-space scale of the body) and by a measured scale factor on
-calibration draws (disjoint from the control's) where none does (FID). ``record_claim(...,
-controls=...)`` decides both with the claim's own rule.
+the stand-in data themselves (GMD-A4, B2, C4, F1) as the "model". They are paired as the
+experiment is: within one seed every arm is built from the same draw — the same windows or
+trajectories, targets and random noise — wherever the experiment's arms share their starting
+noise, items or test set; different seeds get different draws (one per seed and stream,
+:func:`control_seed` with arm 0). The **null** control uses that pairing with no effect (the
+arms identical, or one placed exactly at a rule's threshold); the **positive** control plants
+every part's effect at its registered size δ (``repro.claims.registry_gmd``) as a
+deterministic change to one arm of those paired draws, by an exact transformation wherever one
+exists (radial scaling about the goal, a world-space scale of the body, a scale of the
+offsets) and by a size measured on calibration draws disjoint from the control's where none
+does (FID). A part that compares one arm with a constant keeps its draw's own noise: nothing
+pairs it. ``record_claim(..., controls=...)`` decides both with the claim's own rule, exactly
+(``claim.decide(..., control=True)``: rounding ties are zero, a difference identical in every
+seed is decided by its sign).
 
 Here: the seeds of control draws (:func:`control_seed`), the bisection that calibrates a
 planted size (:func:`calibrate_increasing`) and the exact plantings (:func:`scale_world`,
@@ -56,8 +63,10 @@ _NOT_JOINTS = slice(_RIC.stop, None)
 
 
 def control_seed(seed: int, arm: int, stream: int = 0) -> int:
-    """The sampling/draw seed of one control arm (``arm`` < 100, ``seed`` < 1000): distinct
-    for every stream, seed and arm, and apart from the experiment's seeds."""
+    """The sampling/draw seed of a control (``arm`` < 100, ``seed`` < 1000): distinct for
+    every stream, seed and arm, and apart from the experiment's seeds. Paired arms share one
+    draw (arm 0); another arm index gives a draw apart from it (e.g. a calibration draw's
+    noise)."""
     return CONTROL_SEED_BASE + 100_000 * stream + 100 * int(seed) + arm
 
 
@@ -84,7 +93,7 @@ def calibrate_increasing(effect: Callable[[float], float], target: float, *, hig
 
 def draw_indices(windows: MotionWindows, n: int, seed: int) -> Tensor:
     """``n`` indices of ``windows`` drawn with ``seed`` (with replacement only when there are
-    fewer than ``n``), sorted: one control arm's windows."""
+    fewer than ``n``), sorted: one seed's windows, shared by the arms a control pairs."""
     picks = np.random.default_rng(seed).choice(len(windows), n, replace=len(windows) < n)
     return torch.from_numpy(np.sort(picks))
 
