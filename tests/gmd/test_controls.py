@@ -1,4 +1,6 @@
-"""The GMD controls: exact planting, no effect in the null, a larger planted effect is seen."""
+"""The GMD controls: exact planting; the arms of a seed are the same draws (paired as the
+experiment); the positive control at δ itself is seen and the null stays silent, decided as the
+ledger decides a control (``claim.decide(..., control=True)``)."""
 
 from __future__ import annotations
 
@@ -64,19 +66,26 @@ def test_calibrate_increasing_finds_the_size() -> None:
                                          doublings=3) == 8.0  # never reached: the largest
 
 
-# --- the null has no effect, the positive the registered one --------------------------------
+# --- the arms of a seed are the same draws; δ is seen, the null stays silent ----------------
 
-def test_c4_null_arms_are_equal_in_expectation_and_positive_plants_a_tenth(
-        windows: MotionWindows) -> None:
-    result = emphasis_projection.c4_controls(windows, SEEDS, (1, 10), n=6)
-    for v in ("1", "10"):
-        loss = np.asarray(result.null["foot_skating_loss_scaling"][v])
+def test_c4_arms_are_paired_and_positive_plants_a_tenth_exactly(windows: MotionWindows) -> None:
+    result = emphasis_projection.c4_controls(windows, SEEDS[:3], (2, 10), n=6)
+    first = result.null["foot_skating_emphasis"]["2"]
+    assert len(set(first)) == 3  # another draw per seed
+    for v in ("2", "10"):
         emphasis = np.asarray(result.null["foot_skating_emphasis"][v])
-        difference = loss - emphasis
-        assert abs(difference.mean()) < 3 * difference.std(ddof=1) / np.sqrt(len(SEEDS))
-        planted = np.asarray(result.positive["foot_skating_loss_scaling"][v])
-        np.testing.assert_allclose(planted, loss / 0.9, rtol=1e-3)  # δ: 10 % of loss's arm
+        assert result.null["foot_skating_loss_scaling"][v] == list(emphasis)  # the same draw
+        assert list(emphasis) == first  # the same windows at every value, as the experiment
+        np.testing.assert_allclose(result.positive["foot_skating_loss_scaling"][v],
+                                   emphasis / 0.9, rtol=1e-4)  # δ: 10 % of loss's arm
         assert result.positive["foot_skating_emphasis"][v] == list(emphasis)
+
+
+def test_c4_positive_at_delta_is_seen_and_null_is_silent(windows: MotionWindows) -> None:
+    claim = get_claim("GMD-C4")
+    result = emphasis_projection.c4_controls(windows, SEEDS[:3], C4_VALUES, n=6)
+    assert claim.decide(result.positive, control=True).verdict == REPRODUCED
+    assert claim.decide(result.null, control=True).verdict not in (REPRODUCED, PARTIAL)
 
 
 @pytest.fixture(scope="module")
@@ -86,18 +95,36 @@ def evaluator(windows: MotionWindows):
                            EvaluatorConfig(hidden=16, dim=8).replace(steps=3, batch_size=16))
 
 
-def test_a4_positive_plants_the_jitter_and_fid_ratios(windows: MotionWindows, evaluator) -> None:
+def test_a4_arms_are_paired_and_positive_plants_the_jitter_ratio_exactly(
+        windows: MotionWindows, evaluator) -> None:
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
     test_embeddings = evaluator.embed_motions(features, lengths)
     result = x0_vs_eps.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
-                                   test_embeddings=test_embeddings, calibration_draws=2)
-    assert result.planted["calibrated_jerk_ratio"] == pytest.approx(1.1, rel=1e-3)
-    assert result.planted["calibrated_fid_ratio"] == pytest.approx(1.1, rel=1e-3)
-    jerk = _mean(result.positive["motion_jitter_eps"]) / _mean(result.null["motion_jitter_eps"])
-    assert jerk == pytest.approx(1.1, rel=0.05)  # on the control's own draws: measured size
-    assert result.positive["motion_jitter_x0"] == result.null["motion_jitter_x0"]
-    assert result.positive["trajectory_jitter_eps"] == result.null["trajectory_jitter_eps"]
+                                   test_embeddings=test_embeddings)
+    null, positive = result.null, result.positive
+    for name in ("motion_jitter", "motion_fid", "trajectory_jitter"):
+        assert null[f"{name}_eps"] == null[f"{name}_x0"]  # the same draw in both arms
+        assert positive[f"{name}_x0"] == null[f"{name}_x0"]
+    assert len(set(null["motion_jitter_x0"])) == 3  # another draw per seed
+    np.testing.assert_allclose(positive["motion_jitter_eps"],
+                               1.1 * np.asarray(null["motion_jitter_x0"]), rtol=1e-5)
+    assert positive["trajectory_jitter_eps"] == null["trajectory_jitter_x0"]
+    fid = np.asarray(positive["motion_fid_eps"]) / np.asarray(positive["motion_fid_x0"])
+    noise_alone = np.asarray(result.planted["fid_ratio_of_noise_alone"])
+    # FID × 1.1 on each draw, or more where the jag alone raises it further (no shift then)
+    np.testing.assert_allclose(fid, np.maximum(noise_alone, 1.1), rtol=1e-5)
+    assert all(size >= 0 for size in result.planted["unread_feature_offset"])
     assert metrics.fid(test_embeddings, test_embeddings) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_jagged_by_plants_the_jerk_ratio_on_the_samples_themselves(
+        windows: MotionWindows) -> None:
+    space = windows.space("motion")
+    x = windows.x[:6]
+    rough, amplitude = x0_vs_eps.jagged_by(space, x, 1.3, seed=5)
+    assert amplitude > 0
+    assert jitter_of(space, rough).jerk == pytest.approx(1.3 * jitter_of(space, x).jerk,
+                                                         rel=1e-5)
 
 
 @pytest.fixture(scope="module")
@@ -128,35 +155,25 @@ def test_a4_controls_take_relative_motion_and_absolute_trajectory_windows(
     features, lengths = evaluator_inputs(relative.space("motion"), relative.x)
     result = x0_vs_eps.a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
                                    test_embeddings=evaluator.embed_motions(features, lengths),
-                                   trajectory_train=windows, calibration_draws=2)
-    assert result.planted["calibrated_jerk_ratio"] == pytest.approx(1.1, rel=1e-3)
-    assert result.planted["calibrated_fid_ratio"] == pytest.approx(1.1, rel=1e-3)
-    # the trajectory arms are draws of the absolute windows, measured in their space
+                                   trajectory_train=windows)
+    np.testing.assert_allclose(result.positive["motion_jitter_eps"],
+                               1.1 * np.asarray(result.positive["motion_jitter_x0"]), rtol=1e-5)
+    assert min(result.planted["fid_ratio"]) == pytest.approx(1.1, rel=1e-5) or min(
+        result.planted["fid_ratio_of_noise_alone"]) > 1.1
+    # the trajectory arms are one draw of the absolute windows, measured in their space
     same = [float(jitter_of(windows.space("trajectory"), windows.trajectory()[controls.draw_indices(
         windows, 8, controls.control_seed(s, 0, stream=2))]).jerk) for s in SEEDS[:2]]
-    assert result.null["trajectory_jitter_x0"] == same
+    assert result.null["trajectory_jitter_x0"] == same == result.null["trajectory_jitter_eps"]
 
 
-# --- decisions: a clearly larger planted effect is seen, the null never fires ---------------
-
-def test_c4_decision_sees_a_large_planted_effect(windows: MotionWindows) -> None:
-    claim = get_claim("GMD-C4")
-    big = emphasis_projection.c4_controls(windows, SEEDS, C4_VALUES, n=8, factor=4.0)
-    assert claim.decide(big.positive).verdict == REPRODUCED
-    assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
-
-
-def test_a4_decision_sees_a_large_planted_effect(windows: MotionWindows, evaluator) -> None:
+def test_a4_positive_at_delta_is_seen_and_null_is_silent(windows: MotionWindows,
+                                                          evaluator) -> None:
     claim = get_claim("GMD-A4")
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
-    big = x0_vs_eps.a4_controls(windows, SEEDS, n=16, evaluator=evaluator,
-                                test_embeddings=evaluator.embed_motions(features, lengths),
-                                calibration_draws=2, factor=3.0)
-    assert claim.decide(big.positive).verdict == REPRODUCED
-    assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
-    for name in ("motion_jitter", "motion_fid", "trajectory_jitter"):  # null: equal arms
-        gap = np.asarray(big.null[f"{name}_eps"]) - np.asarray(big.null[f"{name}_x0"])
-        assert abs(gap.mean()) < 3 * gap.std(ddof=1) / np.sqrt(len(gap))
+    result = x0_vs_eps.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
+                                   test_embeddings=evaluator.embed_motions(features, lengths))
+    assert claim.decide(result.positive, control=True).verdict == REPRODUCED
+    assert claim.decide(result.null, control=True).verdict not in (REPRODUCED, PARTIAL)
 
 
 # --- GMD-B2 and GMD-F1 -------------------------------------------------------------------
@@ -168,27 +185,38 @@ def location_tasks(windows: MotionWindows) -> dict:
     return {s: location_task(windows, 6, seed=s) for s in SEEDS}
 
 
-def test_b2_null_sits_at_the_threshold_and_positive_plants_delta(windows, location_tasks
-                                                                 ) -> None:
+def test_b2_arms_are_paired_and_positive_plants_delta_exactly(windows, location_tasks
+                                                              ) -> None:
     result = root_representation.b2_controls(windows, location_tasks, SEEDS)
+    null, positive = result.null, result.positive
+    first = null["rel_imputation_error"]
+    assert len(set(first)) == len(SEEDS)  # another draw per seed
+    for method in root_representation.REGISTERED_METHODS:
+        assert null[f"{method}_error"] == first  # one draw, targets and offsets in every arm
+    # E‖d‖ = 0.1 m: 8 seeds × 12 offsets, σ = 0.1/√(π/2): SE ≈ 0.05/√96 m
+    assert np.mean(first) == pytest.approx(0.1, abs=0.02)
     for mechanism in ("imputation", "guidance"):
-        rel, abs_ = (np.asarray(result.null[f"{k}_{mechanism}_error"]) for k in ("rel", "abs"))
-        # E‖d‖ = 0.1 m in every arm: 8 seeds × 12 offsets, σ = 0.1/√(π/2): SE ≈ 0.05/√96 m
-        assert rel.mean() == pytest.approx(0.1, abs=0.02)
-        assert abs_.mean() == pytest.approx(0.1, abs=0.02)
-        np.testing.assert_allclose(result.positive[f"abs_{mechanism}_error"], 0.9 * abs_,
-                                   rtol=1e-4)
-        assert result.positive[f"rel_{mechanism}_error"] == list(rel)
+        np.testing.assert_allclose(positive[f"abs_{mechanism}_error"], 0.9 * np.asarray(first),
+                                   rtol=1e-5)
+        assert positive[f"rel_{mechanism}_error"] == first
     # v1's names carry v1's meaning: rel guidance and abs imputation
-    assert result.null["rel_location_error"] == result.null["rel_guidance_error"]
-    assert result.null["abs_location_error"] == result.null["abs_imputation_error"]
+    assert null["rel_location_error"] == null["rel_guidance_error"]
+    assert null["abs_location_error"] == null["abs_imputation_error"]
 
 
-def test_b2_decision_sees_a_large_planted_effect(windows, location_tasks) -> None:
+def test_b2_positive_at_delta_is_seen_and_null_is_silent(windows) -> None:
+    """At δ itself; enough targets (128 per seed) that the threshold part, which keeps its
+    draw's own noise (0.1 m − abs error: nothing pairs it), is seen too."""
+    from repro.gmd.root_representation import location_task
+
     claim = get_claim("GMD-B2")
-    big = root_representation.b2_controls(windows, location_tasks, SEEDS, abs_factor=0.3)
-    assert claim.decide(big.positive).verdict == REPRODUCED
-    assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
+    tasks = {s: location_task(windows, 128, seed=s) for s in SEEDS[:4]}
+    result = root_representation.b2_controls(windows, tasks, SEEDS[:4])
+    assert claim.decide(result.positive, control=True).verdict == REPRODUCED
+    silent = claim.decide(result.null, control=True)
+    assert silent.verdict not in (REPRODUCED, PARTIAL)
+    assert silent.checks["abs_imputes_better"] != "supported"
+    assert silent.checks["abs_guides_better"] != "supported"
 
 
 def test_f1_arms_carry_the_planted_factors_exactly(windows: MotionWindows) -> None:
@@ -204,17 +232,32 @@ def test_f1_arms_carry_the_planted_factors_exactly(windows: MotionWindows) -> No
                                0.45 * goal_error(space, x, targets), rtol=1e-4)
 
 
-def test_f1_decision_sees_a_large_planted_effect_and_null_does_not_fire(windows) -> None:
+def test_f1_arms_are_paired_and_carry_the_planted_factors(windows: MotionWindows) -> None:
+    result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
+                                           min_distance=0.0)
+    null, positive = result.null, result.positive
+    unguided = np.asarray(null["goal_error_unguided"])
+    assert len(set(unguided)) == 3  # another draw per seed
+    assert null["goal_error_stop_0"] == list(unguided)  # one draw in every arm
+    for kind, goal_f, jerk_f in ((null, 0.5, 1.5), (positive, 0.45, 1.4)):
+        for v in ("100", "150", "200"):
+            np.testing.assert_allclose(kind["goal_error_by_strength"][v], goal_f * unguided,
+                                       rtol=1e-4)
+            np.testing.assert_allclose(kind["jitter_by_strength"][v],
+                                       jerk_f * np.asarray(kind["jitter_unguided"]), rtol=1e-4)
+    np.testing.assert_allclose(null["goal_error_stop_20"], 1.2 * unguided, rtol=1e-4)
+    np.testing.assert_allclose(positive["goal_error_stop_20"], 1.15 * unguided, rtol=1e-4)
+    # whole body: the same motions at both stops in the null
+    assert null["joint_jerk_stop_20"] == null["joint_jerk_stop_0"]
+    assert null["foot_skating_stop_20"] == null["foot_skating_stop_0"]
+
+
+def test_f1_positive_at_delta_is_seen_and_null_is_silent(windows) -> None:
     claim = get_claim("GMD-F1")
-    base = guidance_schedule.f1_controls(windows, SEEDS, (100, 150, 200), goals=6, min_distance=0.0)
-    assert claim.decide(base.null).verdict not in (REPRODUCED, PARTIAL)
-    null = base.null  # each guided arm at the threshold: 0.5·unguided − guided ≈ 0
-    gap = 0.5 * np.asarray(null["goal_error_unguided"]) - np.asarray(
-        null["goal_error_by_strength"]["100"])
-    assert abs(gap.mean()) < 3 * gap.std(ddof=1) / np.sqrt(len(gap))
-    big = guidance_schedule.f1_controls(windows, SEEDS, (100, 150, 200), goals=16, min_distance=0.0,
-                                        margin=6.0)
-    assert claim.decide(big.positive).verdict == REPRODUCED
+    result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
+                                           min_distance=0.0)
+    assert claim.decide(result.positive, control=True).verdict == REPRODUCED
+    assert claim.decide(result.null, control=True).verdict not in (REPRODUCED, PARTIAL)
 
 
 def test_f1_whole_body_positive_is_smoother_by_the_planted_factor(windows) -> None:
@@ -226,7 +269,6 @@ def test_f1_whole_body_positive_is_smoother_by_the_planted_factor(windows) -> No
                                0.95 * np.asarray(null["joint_jerk_stop_0"]), rtol=1e-3)
     assert np.all(np.asarray(positive["foot_skating_stop_20"])
                   <= 0.95 * np.asarray(null["foot_skating_stop_0"]) + 1e-9)
-    assert null["joint_jerk_stop_20"] != null["joint_jerk_stop_0"]  # independent draws
 
 
 def test_f1_controls_without_the_second_stage_are_decided_over_the_parts_that_run(
@@ -236,9 +278,9 @@ def test_f1_controls_without_the_second_stage_are_decided_over_the_parts_that_ru
     from repro.claims.ledger import decide_claim
     from repro.gmd.settings import not_run
 
-    kwargs = {"goals": 16, "min_distance": 0.0, "margin": 6.0}
-    full = guidance_schedule.f1_controls(windows, SEEDS, (100, 150, 200), **kwargs)
-    cut = guidance_schedule.f1_controls(windows, SEEDS, (100, 150, 200), whole_body=False,
+    kwargs = {"goals": 6, "min_distance": 0.0}
+    full = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), **kwargs)
+    cut = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), whole_body=False,
                                         **kwargs)
     for kind in ("null", "positive"):
         got = getattr(cut, kind)
@@ -267,28 +309,27 @@ def table_b1_setup():
     return evaluator, evaluation, ground_truth_row(evaluator, evaluation, features, seed=0)
 
 
-def test_b3_null_degrades_alike_and_positive_reaches_the_registered_ratios(table_b1_setup
-                                                                           ) -> None:
+def test_b3_arms_are_paired_and_positive_is_seen_at_delta(table_b1_setup) -> None:
     from repro.gmd.root_representation import B3_FID_RATIO, B3_GAP_RATIO, b3_controls
 
     evaluator, evaluation, real = table_b1_setup
-    result = b3_controls(evaluator, evaluation, real, SEEDS[:2], calibration_draws=1)
+    result = b3_controls(evaluator, evaluation, real, SEEDS[:3], calibration_draws=1)
+    null, positive = result.null, result.positive
     assert result.planted["calibrated_fid_ratio"] == pytest.approx(B3_FID_RATIO, rel=0.02)
     assert result.planted["calibrated_gap_ratio"] == pytest.approx(B3_GAP_RATIO, rel=0.05)
-    assert result.positive["fid_rel"] == result.null["fid_rel"]  # the rel arm is untouched
-    assert result.null["diversity_real"] == real["diversity"]
-
-
-def test_b3_decision_sees_a_large_planted_effect(table_b1_setup) -> None:
-    from repro.gmd.root_representation import b3_controls
-
-    evaluator, evaluation, real = table_b1_setup
-    big = b3_controls(evaluator, evaluation, real, SEEDS, calibration_draws=1,
-                      fid_ratio=0.6, gap_ratio=0.35)
+    for metric in ("fid", "r_precision_top3", "diversity"):
+        assert null[f"{metric}_abs"] == null[f"{metric}_rel"]  # one noise draw in both arms
+        assert positive[f"{metric}_rel"] == null[f"{metric}_rel"]  # the rel arm is untouched
+    assert len(set(null["fid_rel"])) == 3  # another draw per seed
+    assert null["diversity_real"] == real["diversity"]
     claim = get_claim("GMD-B3")
-    seen = claim.decide(big.positive)
-    # both effect parts are seen; R@3's non-inferiority needs the registered 32 seeds (8 here)
+    seen = claim.decide(positive, control=True)
     assert seen.checks["abs_lower_fid"] == "supported"
     assert seen.checks["abs_diversity_closer_to_real"] == "supported"
+    # R@3 is not planted (no degradation sets it): its non-inferiority comes out as this tiny
+    # evaluator reads the less degraded arm, and alone never makes a claim partial
     assert seen.verdict in (REPRODUCED, PARTIAL)
-    assert claim.decide(big.null).verdict not in (REPRODUCED, PARTIAL)
+    silent = claim.decide(null, control=True)
+    assert silent.verdict not in (REPRODUCED, PARTIAL)
+    assert silent.checks["abs_lower_fid"] != "supported"
+    assert silent.checks["abs_diversity_closer_to_real"] != "supported"

@@ -284,6 +284,9 @@ def test_a3_null_does_not_fire_and_positive_is_seen(windows, models) -> None:
     assert positive["goal_error_eps"] == null["goal_error_eps"]
     assert claim.decide(null).verdict not in (REPRODUCED, PARTIAL)
     assert claim.decide(positive).verdict == REPRODUCED
+    # as the ledger decides a control: exactly, rounding ties zero
+    assert claim.decide(null, control=True).verdict not in (REPRODUCED, PARTIAL)
+    assert claim.decide(positive, control=True).verdict == REPRODUCED
     assert result.planted["survival_drop_in_delta"] >= 1
     assert result.planted["goal_error_gap_in_delta"] >= 1
     assert result.planted["revert_below_t"] == 1  # GMD's 20/1000 at T = 50
