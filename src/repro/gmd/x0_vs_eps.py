@@ -864,8 +864,14 @@ def a4_controls(train: MotionWindows, seeds: Sequence[int], *, n: int, evaluator
                                    f"noise of {1000 * float(np.mean(amplitudes)):.3g} mm mean "
                                    f"amplitude on every joint position: jerk × "
                                    f"{jerk_ratio.mean():.3g}) and its non-joint features "
-                                   f"shifted (FID × {fid_ratio.min():.3g}–{fid_ratio.max():.3g}),"
-                                   f" both sized on each seed's draw itself"))
+                                   f"shifted (FID × {_span(fid_ratio)}), both sized on each "
+                                   f"seed's draw itself"))
+
+
+def _span(values: np.ndarray) -> str:
+    """"a" where every value rounds to a (3 digits), else "a–b": the least and the largest."""
+    low, high = f"{values.min():.3g}", f"{values.max():.3g}"
+    return low if low == high else f"{low}–{high}"
 
 
 
