@@ -25,26 +25,32 @@ measurements several claims share, and the planted sample sets of their controls
 - **transitions where they happen** (EMG-5): :func:`transition_distances_at_cm` (TEACH/STMC's
   distance at a timeline's boundary frames) and :func:`transition_speed_ratio` (the same over
   the clip's own mean speed, which standing still does not win);
-- **the controls' sample sets** — ground-truth motions with a known change planted: a
-  fraction swapped to another item's motion (:func:`swap_motions`: R-precision falls linearly
-  in it), passed round within a subset (:func:`permute_motions`: FID exactly unchanged), the
-  body's movement scaled about its temporal mean (:func:`scale_movement`: every
-  consecutive-frame displacement scales); and the feature-noised test clips that EMG-7's and
-  EMG-8's controls read their planted noise amplitudes off: the test clips plus Gaussian
-  feature noise of amplitude × the data's per-feature std (:func:`with_feature_noise`),
-  measured as :func:`generation_metrics` measures FID and R@3 (:func:`t2m_measurements`), and
-  a power law FID ≈ c·aᵏ fitted on calibration draws of its own (:class:`FidCurve`,
-  :func:`fid_curve`).
+- **the controls' sample sets** — ground-truth motions with a known change planted: items
+  swapped to another item's motion one after another in a drawn order (:func:`swap_draw`,
+  :func:`swap_motions`: R-precision falls item by item), motions passed round within a chosen
+  subset (:func:`permute_motions`: FID exactly unchanged), the body's movement scaled about its
+  temporal mean (:func:`scale_movement`: every consecutive-frame displacement scales); and the
+  feature-noised test clips that EMG-7's and EMG-8's controls read their planted noise
+  amplitudes off: the test clips plus one draw of Gaussian feature noise times an amplitude ×
+  the data's per-feature std (:func:`feature_noise`, :func:`with_feature_noise`), measured as
+  :func:`generation_metrics` measures FID and R@3 (:func:`t2m_measurements`,
+  :func:`r_precision_top3`), and a power law FID ≈ c·aᵏ fitted on calibration draws of its
+  own (:class:`FidCurve`, :func:`fid_curve`).
 
 Each claim's positive and null controls (in its notebook's module) run the experiment's own
-measurement code on these sets: *positive* plants every part's registered effect δ, *null*
-plants none (the compared arms come from one source, with independent randomness per seed).
-Sizes are set analytically or from a scale factor measured on the data before the arms are
-drawn (never by trying until a control passes); ``planted`` records those numbers (the
-sidecar's ``control_calibration``). ``scale`` multiplies every planted effect: 1 (the
-registered δ) in the notebooks; the tests plant larger effects to show that the
-measurement sees them. A control with one seed cannot decide a direction: in quick runs both
-controls come out inconclusive, and the claim with them.
+measurement code on these sets, paired as the experiment pairs its arms: within a seed every
+arm is built from one draw (:func:`control_rng`: the same items, texts, clips and random
+noise) wherever the experiment's arms share their starting noise, items or test set, and
+different seeds get different draws. *Positive* plants every part's registered effect δ as a
+deterministic change to one arm of that draw — exact where an exact transformation exists, and
+in whole items for a counted measurement (the fewest items whose move reaches δ by the rule's
+own comparison, :func:`first_reaching`) — *null* plants none (the arms identical, or exactly
+at a rule's threshold). Where no exact transformation exists (FID) the size is read off a
+scale factor measured on calibration draws disjoint from the control's (never by trying
+until a control passes); ``planted`` records those numbers (the sidecar's
+``control_calibration``). ``scale`` multiplies every planted effect: 1 (the registered δ) in
+the notebooks. A control with one seed cannot decide a direction: in quick runs both controls
+come out inconclusive, and the claim with them.
 """
 
 from __future__ import annotations
@@ -84,7 +90,9 @@ __all__ = [
     "clip_count",
     "composition_metrics",
     "control_rng",
+    "feature_noise",
     "fid_curve",
+    "first_reaching",
     "folder_test",
     "generation_metrics",
     "ground_truth_r_precision",
@@ -98,10 +106,11 @@ __all__ = [
     "per_frame_displacement_cm",
     "per_pair_mean",
     "permute_motions",
+    "r_precision_top3",
     "reference_embeddings",
     "scale_movement",
     "shared_concept_anchors",
-    "swap_fraction",
+    "swap_draw",
     "swap_motions",
     "t2m_measurements",
     "transition_distance_at_transitions_cm",
@@ -463,29 +472,47 @@ def per_pair_mean(values: np.ndarray, pairs: np.ndarray) -> np.ndarray:
 CONTROL_STREAM = 13013
 
 
-def swap_motions(features: np.ndarray, fraction: float, rng: np.random.Generator,
-                 groups: np.ndarray) -> np.ndarray:
-    """``features`` with each item, with probability ``fraction``, replaced by the motion of a
-    random item of another group (another held-out pair): a text–motion mismatch. R-precision
-    falls linearly in expectation, from the clean value at 0 to the swapped one at 1."""
-    out = np.array(features, copy=True)
-    for i in np.flatnonzero(rng.uniform(size=len(features)) < fraction):
+def swap_draw(rng: np.random.Generator, groups: np.ndarray) -> list[tuple[int, int]]:
+    """A control's swaps: every item once, in a random order, each with a donor drawn from
+    another group (another held-out pair): (item, donor) pairs for :func:`swap_motions`."""
+    out = []
+    for i in rng.permutation(len(groups)):
         others = np.flatnonzero(groups != groups[i])
-        out[i] = features[int(rng.choice(others))]
+        out.append((int(i), int(rng.choice(others))))
     return out
 
 
-def permute_motions(features: np.ndarray, fraction: float, rng: np.random.Generator
-                    ) -> np.ndarray:
-    """``features`` with a random subset (each item with probability ``fraction``) of motions
-    passed round within the subset (a random cycle): every chosen item gets another's motion,
-    and the set of motions is unchanged, so FID (a function of that set) is exactly unchanged
-    while R-precision falls."""
+def swap_motions(features: np.ndarray, swaps: Sequence[tuple[int, int]]) -> np.ndarray:
+    """``features`` with the motion of each ``(item, donor)`` of ``swaps`` replaced by the
+    donor's original motion (:func:`swap_draw`: another group's): a text–motion mismatch per
+    swapped item; the first k swaps of one draw are the arm with k items swapped."""
     out = np.array(features, copy=True)
-    chosen = rng.permutation(np.flatnonzero(rng.uniform(size=len(features)) < fraction))
-    if len(chosen) > 1:
-        out[chosen] = features[np.roll(chosen, 1)]
+    for item, donor in swaps:
+        out[item] = features[donor]
     return out
+
+
+def permute_motions(features: np.ndarray, chosen: Sequence[int]) -> np.ndarray:
+    """``features`` with the motions of ``chosen`` passed round among themselves in that
+    order (item chosen[k] gets chosen[k − 1]'s motion): every chosen item gets another's
+    motion, and the set of motions is unchanged, so FID (a function of that set) is exactly
+    unchanged while R-precision falls."""
+    out = np.array(features, copy=True)
+    index = np.asarray(chosen, dtype=int)
+    if len(index) > 1:
+        out[index] = features[np.roll(index, 1)]
+    return out
+
+
+def first_reaching(candidates: Sequence[int], effect: Callable[[int], float], delta: float
+                   ) -> int:
+    """The first of ``candidates`` (plants in whole items, in the order they grow) whose
+    ``effect``, the rule's own comparison of the planted arm, reaches ``delta``; the last
+    candidate (the largest plant there is) when none does."""
+    for candidate in candidates:
+        if effect(candidate) >= delta:
+            return int(candidate)
+    return int(candidates[-1])
 
 
 def scale_movement(features: np.ndarray, factor: float) -> np.ndarray:
@@ -499,24 +526,39 @@ def scale_movement(features: np.ndarray, factor: float) -> np.ndarray:
     return out.astype(np.asarray(features).dtype)
 
 
+def feature_noise(features: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """One draw z ~ N(0, 1) of the features' shape and dtype (float32: half the time), to be
+    scaled by :func:`with_feature_noise`; a control's arms share it."""
+    return rng.standard_normal(features.shape, dtype=features.dtype)
+
+
 def with_feature_noise(features: np.ndarray, std: np.ndarray, amplitude: float,
-                       rng: np.random.Generator) -> np.ndarray:
-    """features + amplitude·std·z, z ~ N(0, 1) in the features' dtype (float32: half the time)."""
-    noise = rng.standard_normal(features.shape, dtype=features.dtype)
-    return features + (amplitude * np.asarray(std)).astype(features.dtype) * noise
+                       noise: np.random.Generator | np.ndarray) -> np.ndarray:
+    """features + amplitude·std·z; ``noise``: z itself (:func:`feature_noise`) or a generator
+    to draw it from."""
+    z = feature_noise(features, noise) if isinstance(noise, np.random.Generator) else noise
+    return features + (amplitude * np.asarray(std)).astype(features.dtype) * z
+
+
+def r_precision_top3(test: TextToMotionTest, text: np.ndarray, motion: np.ndarray,
+                     seed: int) -> float:
+    """R@3 (fraction) of text against motion embeddings, one per test clip, as
+    ``generation_metrics`` ranks them: random batches drawn with ``seed``, or the test's own
+    batches when it is grouped (``grouped_r_precision``)."""
+    r = (grouped_r_precision(text, motion) if test.grouped
+         else metrics.r_precision(text, motion, 32, 3, seed))
+    return float(r[2])
 
 
 def t2m_measurements(pipe: EnergyMoGenPipeline, test: TextToMotionTest, features: np.ndarray,
                      seed: int, reference: np.ndarray) -> dict[str, float]:
     """FID against the test clips (``reference``: their evaluator embeddings) and R@3
     (fraction) of the test captions drawn with ``seed``, computed exactly as
-    ``generation_metrics`` computes those two (the same calls: random batches, or the
-    test's own batches when it is grouped, ``grouped_r_precision``)."""
+    ``generation_metrics`` computes those two (the same calls: :func:`r_precision_top3`)."""
     gen = pipe.evaluator.embed_motions(features, test.lengths)
     text = pipe.evaluator.embed_texts(test.texts(seed))
-    r = (grouped_r_precision(text, gen) if test.grouped
-         else metrics.r_precision(text, gen, 32, 3, seed))
-    return {"fid": metrics.fid(gen, reference), "r_precision_top3": float(r[2])}
+    return {"fid": metrics.fid(gen, reference),
+            "r_precision_top3": r_precision_top3(test, text, gen, seed)}
 
 
 def reference_embeddings(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> np.ndarray:
@@ -564,17 +606,10 @@ def fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest, reference: np.n
 KINDS = ("positive", "null")
 
 
-def control_rng(seed: int, claim: int, kind: str) -> np.random.Generator:
-    """The randomness of one claim's control arm ``kind`` at ``seed``: independent per claim,
-    arm and seed."""
-    return np.random.default_rng([CONTROL_STREAM, claim, KINDS.index(kind), seed])
-
-
-def swap_fraction(clean: float, swapped: float, target: float) -> float:
-    """The swap fraction whose expected R@3 is ``target`` (linear between the endpoints)."""
-    if clean - swapped <= 0:
-        return 0.0
-    return float(np.clip((clean - target) / (clean - swapped), 0.0, 1.0))
+def control_rng(seed: int, claim: int) -> np.random.Generator:
+    """The one draw of a claim's controls at ``seed``, shared by every arm of both its
+    controls (the arms are paired as the experiment's are); different per claim and seed."""
+    return np.random.default_rng([CONTROL_STREAM, claim, seed])
 
 
 #: our choice: the compared arms' base noise (× the data's per-feature std)

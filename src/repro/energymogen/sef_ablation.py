@@ -66,7 +66,9 @@ import torch
 from matplotlib.figure import Figure
 from torch import Tensor
 
+from repro.claims.registry_energymogen import R3_PERCENT_64
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
+from repro.claims.verdicts import log_margin
 from repro.core import metrics, tables
 from repro.core.tables import interval_text
 from repro.energymogen import settings as rule_settings
@@ -84,10 +86,11 @@ from repro.energymogen.harness import (
     KINDS,
     composition_metrics,
     control_rng,
+    first_reaching,
     pair_index,
     per_frame_displacement_cm,
     scale_movement,
-    swap_fraction,
+    swap_draw,
     swap_motions,
     transition_distance_at_transitions_cm,
     transition_distance_cm,
@@ -318,7 +321,7 @@ def real_then_clips(items: TimelineItems, seed: int, stream: Sequence[int] = (17
                     ) -> RealThenClips:
     """One generator "then" clip of each item's (A, B), drawn with
     ``default_rng([seed, *stream, k])`` for item k (heading, start, generator seed; the
-    controls draw independent sets with streams of their own)."""
+    controls draw their set with a stream of their own)."""
     specs, seeds, concepts = [], [], []
     for k, item in enumerate(items.items):
         rng = np.random.default_rng([seed, *stream, k])
@@ -694,140 +697,175 @@ def _swap_groups(items: Any) -> np.ndarray:
     return pair_index(items) if any(items.concepts) else np.arange(len(items))
 
 
-def _row_plan(source: PipelineSource, seeds: Sequence[int], claim: int,
-              rows: Callable[[EnergyMoGenPipeline, Any, int, str], dict[str, dict[str, Any]]]
+class _SwapPath:
+    """One seed's draw for the R@3 rows of EMG-4's and EMG-5's controls: the seed's
+    ground-truth composition motions (the data as the model) and one random order of swaps
+    (``harness.swap_draw``: each item once, to another held-out pair's motion). The arm with
+    k items swapped is the first k swaps of that order, so every row of a seed is the same
+    motions, texts and batches and two rows differ on whole items. ``r3(k)``: its R@3 (%) as
+    ``composition_metrics`` ranks (the evaluator embeds each motion on its own, so a swapped
+    item's embedding is its donor's)."""
+
+    def __init__(self, pipe: EnergyMoGenPipeline, items: Any, seed: int, claim: int) -> None:
+        self.pipe, self.items, self.seed = pipe, items, seed
+        self.swaps = swap_draw(control_rng(seed, claim), _swap_groups(items))
+        self.text = pipe.evaluator.embed_texts(list(items.multi_texts))
+        self.motion = pipe.evaluator.embed_motions(
+            items.gt_features, np.full(len(items), items.gt_features.shape[1]))
+        self._r3: dict[int, float] = {}
+
+    def __len__(self) -> int:
+        return len(self.swaps)
+
+    def r3(self, count: int) -> float:
+        if count not in self._r3:
+            motion = self.motion.copy()
+            for item, donor in self.swaps[:count]:
+                motion[item] = self.motion[donor]
+            self._r3[count] = 100.0 * float(
+                metrics.r_precision(self.text, motion, 32, 3, self.seed)[2])
+        return self._r3[count]
+
+    def log_ratio(self, fewer: int, more: int) -> float:
+        """log(R@3 after ``fewer`` swaps / R@3 after ``more``), each offset by half of the
+        rule's item (R@3 in percent over 64 items), as EMG-4/5's rules compare rows."""
+        half = R3_PERCENT_64 / 2
+        return float(np.log((self.r3(fewer) + half) / (self.r3(more) + half)))
+
+    def measure(self, count: int) -> dict[str, float]:
+        """The arm with ``count`` items swapped, measured by :func:`row_measurements`."""
+        features = swap_motions(self.items.gt_features, self.swaps[:count])
+        return row_measurements(self.pipe, features, self.items, self.seed)
+
+
+def _row_arms(source: PipelineSource, seeds: Sequence[int], claim: int,
+              plant: Callable[[_SwapPath], dict[str, int]], rows: Sequence[str]
               ) -> dict[str, Any]:
+    """Per seed one :class:`_SwapPath` (the seed's items); positive: each row the number of
+    swaps ``plant`` gives it, null: every row unswapped (the rows identical). Returns kind →
+    metric → row → per-seed list, and ``"swaps"``: the positive rows' counts per seed."""
     out: dict[str, Any] = {kind: {"r_precision_top3": {}, "transition_distance": {}}
                            for kind in KINDS}
-    calibration: dict[str, list[Any]] = {}
+    counts = []
     for seed in seeds:
         pipe = pipeline_for(source, seed)
-        items = energy_view_items(pipe.data, seed, pipe.config.items_per_pair)
-        groups = _swap_groups(items)
+        path = _SwapPath(pipe, energy_view_items(pipe.data, seed, pipe.config.items_per_pair),
+                         seed, claim)
+        planted = plant(path)
+        counts.append({**planted, "items": len(path)})
+        measured = {count: path.measure(count) for count in {0, *planted.values()}}
         for kind in KINDS:
-            rng = control_rng(seed, claim, kind)
-            plan = rows(pipe, items, seed, kind)
-            calibration.setdefault(kind, []).append(plan)
-            for row, spec in plan.items():
-                moved = scale_movement(items.gt_features, spec["movement"])
-                features = swap_motions(moved, spec["swap"], rng, groups)
-                values = row_measurements(pipe, features, items, seed)
+            for row in rows:
+                values = measured[planted[row] if kind == "positive" else 0]
                 for metric in ("r_precision_top3", "transition_distance"):
                     out[kind][metric].setdefault(row, []).append(values[metric])
-    out["calibration"] = calibration
+    out["swaps"] = counts
     return out
-
-
-def _endpoints(pipe: EnergyMoGenPipeline, items: Any, seed: int, movement: float
-               ) -> tuple[float, float]:
-    """R@3 of the ground truth (moved by ``movement``) clean and with every motion swapped, on
-    a calibration draw of its own."""
-    groups = _swap_groups(items)
-    moved = scale_movement(items.gt_features, movement)
-    clean = row_measurements(pipe, moved, items, seed)["r_precision_top3"]
-    rng = np.random.default_rng([CONTROL_STREAM, 99, seed])
-    swapped = row_measurements(pipe, swap_motions(moved, 1.0, rng, groups), items,
-                               seed)["r_precision_top3"]
-    return clean, swapped
 
 
 def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: Sequence[str],
                        *, scale: float = 1.0) -> Controls:
     """EMG-4's controls: every Table 9 row is the seed's ground-truth composition motions with
-    a fraction swapped (:func:`swap_motions`), measured as ``composition_metrics`` measures
-    (:func:`row_measurements`).
+    some items swapped to another pair's motion (:class:`_SwapPath`), measured as
+    ``composition_metrics`` measures (:func:`row_measurements`). ``run_rows`` gives every row
+    of a seed the same model, items and starting noise, so every row here is the same draw:
+    the same motions, texts, R@3 batches and order of swaps.
 
-    Positive: [0.001, 0.002] clean (R₀); every other row at R₀/1.035 (the claimed best exceeds
-    it by δ = 3.5 % of the other row); [0.1, 0.2] at (1 − 0.417) of γ = 0's (δ: half the
-    paper's 83.5 % drop). Null: every row at R₀/1.035, independent swaps. Swap fractions
-    from R₀ and the all-swapped R@3 measured per seed (a linear scale factor). On a data
-    folder the rows are its test windows (``data.energy_view_items``, as ``run_rows``), a swap
-    takes any other window's motion."""
+    Positive: [0.001, 0.002] unswapped (R₀); every other row the fewest swaps that bring
+    log(R₀ / its R@3) to δ = log 1.035 (the claimed best exceeds it by 3.5 % of the other row),
+    the same items in every other row; [0.1, 0.2] γ = 0's swaps and the fewest further ones
+    that bring log(R@3 γ = 0 / [0.1, 0.2]) to δ = −log(1 − 0.417) (half the paper's 83.5 %
+    drop); each log ratio with the rule's offset of half an item (R@3 in percent over 64
+    items), each row's count read off the path's R@3 and the row then measured. Null: every
+    row unswapped (the rows identical). On a data folder the rows are its test windows
+    (``data.energy_view_items``, as ``run_rows``), a swap takes any other window's motion."""
     best, large = "0.001,0.002", "0.1,0.2"
+    small_delta = log_margin(0.035 * scale, of="denominator")
+    large_delta = log_margin(0.417 * scale, of="numerator")
 
-    def rows(pipe: EnergyMoGenPipeline, items: Any, seed: int, kind: str
-             ) -> dict[str, dict[str, Any]]:
-        clean, swapped = _endpoints(pipe, items, seed, 1.0)
-        other = clean / (1 + 0.035 * (scale if kind == "positive" else 1.0))
-        targets = {key: other for key in row_keys}
-        if kind == "positive":
-            targets[best], targets[large] = clean, other * (1 - 0.417 * scale)
-        return {key: {"movement": 1.0, "swap": swap_fraction(clean, swapped, target),
-                      "target": target, "clean": clean, "swapped": swapped}
-                for key, target in targets.items()}
+    def plant(path: _SwapPath) -> dict[str, int]:
+        other = first_reaching(range(len(path) + 1), lambda k: path.log_ratio(0, k),
+                               small_delta)
+        dropped = first_reaching(range(other, len(path) + 1),
+                                 lambda k: path.log_ratio(other, k), large_delta)
+        counts = {key: other for key in row_keys}
+        counts[best], counts[large] = 0, dropped
+        return counts
 
-    out = _row_plan(source, seeds, 4, rows)
+    out = _row_arms(source, seeds, 4, plant, row_keys)
     r3 = {kind: {"r_precision_top3": out[kind]["r_precision_top3"]} for kind in KINDS}
-    return Controls(null=r3["null"], positive=r3["positive"], planted=out["calibration"],
-                    null_text=(f"every row the ground truth at R@3 R₀/1.035, independent swaps, "
-                               f"{len(seeds)} seed(s)"),
-                    positive_text=(f"[{best}] clean (R₀), the other rows at R₀/"
-                                   f"{1 + 0.035 * scale:g}, [{large}] at {1 - 0.417 * scale:g} "
-                                   "of γ = 0's"))
+    return Controls(null=r3["null"], positive=r3["positive"],
+                    planted={"swaps": out["swaps"], "small_step_log_delta": small_delta,
+                             "large_step_log_delta": large_delta},
+                    null_text=(f"every row the seed's ground-truth motions unswapped: one draw "
+                               f"per seed, the rows identical, {len(seeds)} seed(s)"),
+                    positive_text=(f"one draw per seed: [{best}] unswapped (R₀), the other rows "
+                                   f"the same items with the fewest swaps to log(R₀ / R@3) ≥ "
+                                   f"{small_delta:.3g}, [{large}] γ = 0's swaps and the fewest "
+                                   f"more to log(γ = 0 / R@3) ≥ {large_delta:.3g}"))
 
 
 def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float = 1.0,
                  timeline_items_per_seed: int = 16) -> Controls | None:
-    """EMG-5's controls: R@3 on the seed's ground-truth composition motions (held-out pairs)
-    with a fraction swapped (:func:`swap_motions`, R@3 linear in it; movement scaled with
-    :func:`scale_movement` as before, for the all-frames distance kept as context); the
-    transition measurements on ground-truth "then" clips of the seed's MTT-style timeline
-    items (``real_then_clips``, an independent draw per row, kind and seed),
+    """EMG-5's controls, paired as the experiment pairs its rows (every row of a seed: the
+    same model, items and starting noise). R@3: the seed's ground-truth composition motions
+    (held-out pairs) with some items swapped to another pair's motion, one draw per seed
+    (:class:`_SwapPath`), measured as ``composition_metrics`` measures (the all-frames
+    transition distance, context that no part reads, measured beside it on the same arms, not
+    planted). The transition measurements: one draw per seed of ground-truth "then" clips of
+    the seed's MTT-style timeline items (``real_then_clips``), shared by the three rows and
     measured at their labelled transitions as ``timeline_measurements`` measures.
 
     Positive (every part's δ, half the paper's relative effects): transition measurements
-    latent 1, semantic 1.1875 (+18.75 %), SEF 1.1875·(1 − 0.1364) × their clean values, both
-    planted exactly (:func:`plant_transitions`); R@3 SEF clean at its movement (R₀), latent
-    R₀/1.2143 (SEF − latent = 21.43 % of latent), semantic 1.2015 × latent's target. Null:
-    all three rows clean (independent draws), movement 1 and the latent row's swap
-    fraction. None on a data folder (EMG-5 composes concepts: not measurable there)."""
+    latent 1, semantic 1.1875 (+18.75 %), SEF 1.1875·(1 − 0.1364) × the clips' clean values,
+    both planted exactly (:func:`plant_transitions`); R@3: SEF unswapped (R₀), latent the
+    fewest swaps that bring log(R₀ / latent) to δ = log 1.2143, semantic the fewest swaps
+    undone from latent's (the same items) that bring log(semantic / latent) to δ = log 1.2015
+    (R@3 offset by half the rule's item). Null: the three rows the same unswapped motions and
+    the same clean clips (identical rows). None on a data folder (EMG-5 composes concepts: not
+    measurable there)."""
     if not pipeline_for(source, seeds[0]).data.labelled:
         return None
-    lat, sem, sef = "1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"
+    lat, sem, sef = _LAT, _SEM, _SEF
+    sef_delta = log_margin(0.2143 * scale, of="denominator")
+    sem_delta = log_margin(0.2015 * scale, of="denominator")
 
-    def rows(pipe: EnergyMoGenPipeline, items: Any, seed: int, kind: str
-             ) -> dict[str, dict[str, Any]]:
-        if kind == "null":
-            clean, swapped = _endpoints(pipe, items, seed, 1.0)
-            swap = swap_fraction(clean, swapped, clean / 1.2143)
-            return {key: {"movement": 1.0, "swap": swap, "clean": clean, "swapped": swapped}
-                    for key in (lat, sem, sef)}
-        semantic = 1 + 0.1875 * scale
-        movement = {lat: 1.0, sem: semantic, sef: semantic * (1 - 0.1364 * scale)}
-        ends = {key: _endpoints(pipe, items, seed, factor) for key, factor in movement.items()}
-        target_lat = ends[sef][0] / (1 + 0.2143 * scale)
-        targets = {lat: target_lat, sem: (1 + 0.2015 * scale) * target_lat, sef: ends[sef][0]}
-        return {key: {"movement": movement[key], "target": targets[key],
-                      "swap": swap_fraction(*ends[key], targets[key]), "clean": ends[key][0],
-                      "swapped": ends[key][1]} for key in movement}
+    def plant(path: _SwapPath) -> dict[str, int]:
+        latent = first_reaching(range(len(path) + 1), lambda k: path.log_ratio(0, k),
+                                sef_delta)
+        undone = first_reaching(range(latent + 1),
+                                lambda u: path.log_ratio(latent - u, latent), sem_delta)
+        return {lat: latent, sem: latent - undone, sef: 0}
 
-    out = _row_plan(source, seeds, 5, rows)
+    out = _row_arms(source, seeds, 5, plant, (lat, sem, sef))
+    semantic = 1 + 0.1875 * scale
+    factors = {lat: 1.0, sem: semantic, sef: semantic * (1 - 0.1364 * scale)}
     planted: dict[str, list[float]] = {}
     for seed in seeds:
         frames = pipeline_for(source, seed).data.frames
-        items = timeline_items(seed, timeline_items_per_seed, frames)
-        for kind in KINDS:
-            m = out[kind]
-            for index, key in enumerate((lat, sem, sef)):
-                factor = 1.0
-                if kind == "positive":
-                    factor = {lat: 1.0, sem: 1 + 0.1875 * scale,
-                              sef: (1 + 0.1875 * scale) * (1 - 0.1364 * scale)}[key]
-                clips = real_then_clips(items, seed, (CONTROL_STREAM, 5, KINDS.index(kind),
-                                                      index))
-                features, f = plant_transitions(clips, factor)
-                planted.setdefault(f"{kind} {key}", []).append(f)
-                values = timeline_measurements(features, clips.transitions)
-                for metric in ("transition_distance_at_transitions", "transition_speed_ratio"):
-                    m.setdefault(metric, {}).setdefault(key, []).append(values[metric])
+        clips = real_then_clips(timeline_items(seed, timeline_items_per_seed, frames), seed,
+                                (CONTROL_STREAM, 5))
+        clean = timeline_measurements(clips.features, clips.transitions)
+        for key, factor in factors.items():
+            features, f = plant_transitions(clips, factor)
+            planted.setdefault(key, []).append(f)
+            values = timeline_measurements(features, clips.transitions)
+            for metric in ("transition_distance_at_transitions", "transition_speed_ratio"):
+                out["positive"].setdefault(metric, {}).setdefault(key, []).append(
+                    values[metric])
+                out["null"].setdefault(metric, {}).setdefault(key, []).append(clean[metric])
     return Controls(null=out["null"], positive=out["positive"],
-                    planted={"rows": out["calibration"], "transition_step_factor": planted},
-                    null_text=(f"the three rows clean ground truth (R@3 at R₀/1.2143), "
-                               f"independent draws, {len(seeds)} seed(s)"),
-                    positive_text=(f"transitions latent × 1, semantic × {1 + 0.1875 * scale:g}, "
-                                   f"SEF × {(1 + 0.1875 * scale) * (1 - 0.1364 * scale):.4g}; "
-                                   f"R@3 SEF R₀, latent R₀/{1 + 0.2143 * scale:g}, semantic "
-                                   f"{1 + 0.2015 * scale:g} × latent's"))
+                    planted={"swaps": out["swaps"], "sef_r3_log_delta": sef_delta,
+                             "semantic_r3_log_delta": sem_delta,
+                             "transition_step_factor": planted},
+                    null_text=(f"one draw per seed, the three rows identical: the same unswapped "
+                               f"ground truth (R@3) and the same clean \"then\" clips "
+                               f"(transitions), {len(seeds)} seed(s)"),
+                    positive_text=(f"the same draws; transitions latent × 1, semantic × "
+                                   f"{semantic:g}, SEF × {factors[sef]:.4g}; R@3 SEF "
+                                   f"unswapped, latent the fewest swaps to log(SEF / latent) ≥ "
+                                   f"{sef_delta:.3g}, semantic the fewest of them undone to "
+                                   f"log(semantic / latent) ≥ {sem_delta:.3g}"))
 
 
 #: EMG-5's rows: latent only, semantic only, SEF (Table 3's λ)
