@@ -1238,7 +1238,7 @@ def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]
                 multi = _standardised(smooth(rng.standard_normal((grid, grid))))
                 floor = map_similarity(floor_map, multi)
                 seed_arms["floor"].append(floor)
-                seed_arms["null"].append(map_similarity(floor_map, multi))
+                seed_arms["null"].append(floor)   # the composed arm is the floor's map
                 seed_arms["positive"].append(
                     map_similarity(_turned(floor_map, multi, floor + delta), multi))
             for key, values in seed_arms.items():

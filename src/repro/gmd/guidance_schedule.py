@@ -642,8 +642,7 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
             m = out[kind]
             for name in ("unguided", "stop_0"):
                 m[f"goal_error_{name}"].append(unguided[0])
-                m["jitter_unguided" if name == "unguided" else "jitter_stop_0"].append(
-                    unguided[1])
+                m[f"jitter_{name}"].append(unguided[1])
             m["goal_error_by_strength"]["0"].append(unguided[0])
             m["jitter_by_strength"]["0"].append(unguided[1])
             g, j = measure(planted_path(space, drawn, targets, jerk_factor=jerk_f,
