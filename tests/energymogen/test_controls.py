@@ -250,7 +250,8 @@ def test_composition_controls_at_delta_are_decided_by_the_rule_at_three_seeds(
 
 @pytest.fixture(scope="module")
 def step_size_controls(composition_pipe: EnergyMoGenPipeline) -> Controls:
-    return sef.step_size_controls(composition_pipe, THREE, [gamma_key(g) for g in TABLE9_GAMMAS])
+    return sef.step_size_controls(composition_pipe, THREE, [gamma_key(g) for g in TABLE9_GAMMAS],
+                                  items_per_pair=composition_pipe.config.items_per_pair)
 
 
 def test_step_size_controls_pair_their_rows(step_size_controls: Controls) -> None:
@@ -260,7 +261,7 @@ def test_step_size_controls_pair_their_rows(step_size_controls: Controls) -> Non
     rows = list(null.values())
     assert all(row == rows[0] for row in rows)                     # the null's rows identical
     assert positive["0.001,0.002"] == rows[0]                     # the best row unswapped
-    half = 100 / 64 / 2
+    half = 100 / 320 / 2                                           # EMG-4's item (v7)
     others = [key for key in positive if key not in ("0.001,0.002", "0.1,0.2")]
     assert all(positive[key] == positive["0.0,0.0"] for key in others)
     small = np.log((np.asarray(positive["0.001,0.002"]) + half)

@@ -89,10 +89,15 @@ def test_notebook_05_figures() -> None:
         _rows(keys + ["real"], ("transition_distance_at_transitions", "transition_speed_ratio")),
         [("SEF", "0.1,0.7,0.2"), ("latent only", "1.0,0.0,0.0")])
     assert len(fig.axes) == 2 and len(fig.axes[0].patches) == 2
-    fig = sef.agd_step_size_figure(results)
+    change = {gamma_key(g): [0.0 if g == (0.0, 0.0) else 10 * g[0], 12 * g[0]]
+              for g in TABLE9_GAMMAS}
+    fig = sef.agd_step_size_figure(results, {"relative_change": change, "target_change": 1.0,
+                                             "t": 500})
     heights = [p.get_height() for p in fig.axes[0].patches]
     assert heights == pytest.approx([np.mean(results[gamma_key(g)]["r_precision_top3"])
                                      for g in TABLE9_GAMMAS])
+    dots = [line.get_ydata().tolist() for line in fig.axes[2].lines[:-1]]   # the rows with AGD
+    assert dots == [change[gamma_key(g)] for g in TABLE9_GAMMAS[1:]]
     rows = [("SEF", "0.1,0.7,0.2"), ("latent only", "1.0,0.0,0.0")]
     fig = sef.three_concepts_figure(rows, results, results, results)
     assert len(fig.axes) == 2 and len(fig.axes[0].patches) == 3 * len(rows)

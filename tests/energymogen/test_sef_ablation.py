@@ -7,12 +7,14 @@ harness.transition_speed_ratio)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from repro.claims.registry import get_claim
+from repro.claims.registry_energymogen import R3_PERCENT_320
 from repro.claims.verdicts import VERDICTS
 from repro.energymogen import energy_contour_maps as ecm
 from repro.energymogen import harness as em_harness
@@ -64,6 +66,41 @@ def test_rows_sampling_and_metrics(tiny_pipeline: EnergyMoGenPipeline) -> None:
     assert "[28.0]" in table
     assert sef.agd_relative_change(pipe, items.multi_texts[:4], (0.1, 0.2)) > 0.0
     assert sef.agd_relative_change(pipe, items.multi_texts[:4], (0.0, 0.0)) == 0.0
+
+
+def test_the_transfer_moves_the_largest_row_by_its_target_and_keeps_the_ratios(
+        tiny_pipeline: EnergyMoGenPipeline) -> None:
+    pipe = tiny_pipeline
+    texts = list(composition_items(pipe.data, seed=0, per_pair=2).multi_texts)
+    kappa = sef.agd_scale(pipe, texts, 0.5, seed=0)
+    assert sef.agd_relative_change(pipe, texts, (0.1 * kappa, 0.2 * kappa)) == pytest.approx(
+        0.5, rel=1e-4)
+    assert sef.agd_scale(pipe, texts, 0.25, seed=0) < kappa          # a smaller step, less κ
+    rows = sef.transferred_rows(kappa)
+    assert rows["0.0,0.0"].gammas == (0.0, 0.0)
+    assert np.divide(rows["0.1,0.2"].gammas, rows["0.001,0.002"].gammas) == pytest.approx(100)
+    with pytest.raises(ValueError, match="not reached"):
+        sef.agd_scale(pipe, texts, 1e12, seed=0)
+
+
+def test_table9_rows_run_the_transferred_rows_on_their_own_items(
+        tiny_pipeline: EnergyMoGenPipeline) -> None:
+    settings = replace(sef.SEFAblationSettings.for_scale("quick"), table9_items_per_pair=4,
+                       agd_largest_change=0.5)
+    results, transfer = sef.table9_rows(tiny_pipeline, [0, 1], settings)
+    assert set(results) == {sef.gamma_key(g) for g in sef.TABLE9_GAMMAS} | {"real"}
+    assert all(len(v["r_precision_top3"]) == 2 for v in results.values())
+    assert transfer["relative_change"]["0.1,0.2"] == pytest.approx([0.5, 0.5], rel=1e-4)
+    assert transfer["relative_change"]["0.0,0.0"] == [0.0, 0.0]
+    assert len(transfer["kappa"]) == 2 and transfer["kappa"][0] != transfer["kappa"][1]
+    assert "| 1 |" in sef.transfer_markdown(transfer, [0, 1])
+
+
+@pytest.mark.parametrize("scale", ["standard", "paper"])
+def test_table9_ranks_the_items_the_registered_resolution_counts(scale: str) -> None:
+    settings = sef.SEFAblationSettings.for_scale(scale)
+    assert settings.table9_items == round(100 / R3_PERCENT_320) == 320
+    assert settings.table9_items % 32 == 0                         # every item ranked
 
 
 def test_rows_on_the_sets_of_three(tiny_pipeline: EnergyMoGenPipeline, tmp_path: Path,

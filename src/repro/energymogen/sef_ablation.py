@@ -58,7 +58,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -66,7 +66,7 @@ import torch
 from matplotlib.figure import Figure
 from torch import Tensor
 
-from repro.claims.registry_energymogen import R3_PERCENT_64
+from repro.claims.registry_energymogen import R3_PERCENT_64, R3_PERCENT_320
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
 from repro.claims.verdicts import log_margin
 from repro.core import metrics, tables
@@ -99,10 +99,13 @@ from repro.energymogen.harness import (
 from repro.energymogen.model_gates import Models
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
 from repro.energymogen.settings import (
+    AGD_CHANGE_T,
+    AGD_LARGEST_CHANGE,
     ARM_CONCEPTS,
     FRAMES,
     HELD_OUT_PAIRS,
     LOWER_CONCEPTS,
+    TABLE9_ITEMS_PER_PAIR,
     THREE_CONCEPT_SETS,
     THREES_AS_PAIRS,
     NotebookSettings,
@@ -130,12 +133,14 @@ __all__ = [
     "Rows",
     "Study",
     "TABLE7_LAMBDAS",
+    "TABLE9_COLUMNS",
     "TABLE9_GAMMAS",
     "TimelineInterval",
     "TimelineItem",
     "TimelineItems",
     "add_timelines",
     "agd_relative_change",
+    "agd_scale",
     "agd_step_size_figure",
     "amplify_transition_steps",
     "control_markdown",
@@ -154,6 +159,7 @@ __all__ = [
     "sef_tradeoff_figure",
     "step_size_controls",
     "summary_line",
+    "table9_rows",
     "three_concepts_figure",
     "threes_markdown",
     "timeline_item",
@@ -162,6 +168,8 @@ __all__ = [
     "timeline_rows",
     "timeline_table",
     "transition_frames",
+    "transfer_markdown",
+    "transferred_rows",
     "transition_measures_figure",
 ]
 
@@ -178,11 +186,15 @@ class SEFAblationSettings(NotebookSettings):
     timeline items per seed on which EMG-5's transitions are measured
     (``sef_ablation.timeline_items``; 64 at standard and paper, our choice: 1–3 boundaries each,
     about 150 transitions per row and seed, one item in eight of MTT's 500; 8 in quick runs)
-    and the training plan (every EnergyMoGen notebook's: one trained pipeline). On a data
-    folder EMG-4 is measured (Table 9's single-text rows with AGD, from the captions of the
-    folder's test windows, R@3 and FID against them); EMG-5 (the λ rows compose concepts; the
-    timelines and the sets of three are the stand-in's) is recorded as not measurable on real
-    data."""
+    and the training plan (every EnergyMoGen notebook's: one trained pipeline). EMG-4's
+    Table 9 rows run on ``table9_items_per_pair`` items per held-out pair
+    (``settings.TABLE9_ITEMS_PER_PAIR``, 32, at standard and paper; the pipeline's in quick runs)
+    at the paper's step sizes transferred: κ × [γ_attn, γ_reg] per seed, κ such that
+    [0.1, 0.2] moves the text embedding by ‖Δc‖/‖c‖ = ``agd_largest_change`` at t =
+    ``agd_change_t`` (:func:`agd_scale`). On a data folder EMG-4 is measured (Table 9's
+    single-text rows with AGD, from the captions of the folder's test windows, R@3 and FID
+    against them); EMG-5 (the λ rows compose concepts; the timelines and the sets of three are
+    the stand-in's) is recorded as not measurable on real data."""
 
     NOTEBOOK: ClassVar[str] = "05_sef_ablation"
     scale: str
@@ -190,17 +202,28 @@ class SEFAblationSettings(NotebookSettings):
     plan: TrainingPlan
     seeds: int
     timeline_items: int
+    table9_items_per_pair: int
+    agd_largest_change: float = AGD_LARGEST_CHANGE
+    agd_change_t: int = AGD_CHANGE_T
 
     @property
     def quick(self) -> bool:
         return self.scale == "quick"
 
+    @property
+    def table9_items(self) -> int:
+        """Table 9's test items per row and seed (every held-out pair's)."""
+        return self.table9_items_per_pair * len(HELD_OUT_PAIRS)
+
     @classmethod
     def for_scale(cls, scale: str) -> SEFAblationSettings:
         scale = check_scale(scale)
-        return cls(scale=scale, pipeline=pipeline_config(scale),
-                   plan=TrainingPlan.for_scale(scale), seeds=seeds_of("EMG-4", scale),
-                   timeline_items=8 if scale == "quick" else 64)
+        config = pipeline_config(scale)
+        return cls(scale=scale, pipeline=config, plan=TrainingPlan.for_scale(scale),
+                   seeds=seeds_of("EMG-4", scale),
+                   timeline_items=8 if scale == "quick" else 64,
+                   table9_items_per_pair=(config.items_per_pair if scale == "quick"
+                                          else TABLE9_ITEMS_PER_PAIR))
 
 
 @dataclass(frozen=True)
@@ -398,7 +421,8 @@ def timeline_measurements(features: Sequence[np.ndarray], transitions: Sequence[
 
 
 def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequence[int],
-             log: Callable[[str], None] | None = None, *, test_set: str = "pairs"
+             log: Callable[[str], None] | None = None, *, test_set: str = "pairs",
+             items_per_pair: int | None = None
              ) -> dict[str, dict[str, list[float]]] | NotMeasurable:
     """Every row of a table on the composition items of every seed: row → metric → per-seed
     list. Seed s uses ``pipeline_for(source, s)`` (one pipeline, or one trained model per seed:
@@ -406,10 +430,10 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
     noise; rows with the same canonical sampler are sampled once. The ground truth is measured
     as row ``"real"``.
 
-    ``test_set``: ``"pairs"`` (the held-out pairs, ``items_per_pair`` each; FID against
-    ``pipe.reference_embeddings``) or a name of ``EXTRA_TEST_SETS`` (``"threes"``: the sets
-    of three; ``"threes_as_pairs"``: their control; ``items_per_extra_set`` each; FID against
-    that set's own ground-truth pool).
+    ``test_set``: ``"pairs"`` (the held-out pairs, ``items_per_pair`` each, by default the
+    pipeline's; FID against ``pipe.reference_embeddings``) or a name of ``EXTRA_TEST_SETS``
+    (``"threes"``: the sets of three; ``"threes_as_pairs"``: their control;
+    ``items_per_extra_set`` each; FID against that set's own ground-truth pool).
 
     On a data folder (``data.labelled`` False) the items of ``"pairs"`` are its test windows
     with their captions (``data.energy_view_items``; FID against all its test windows) and
@@ -424,7 +448,8 @@ def run_rows(source: PipelineSource, rows: Mapping[str, Sampler], seeds: Sequenc
         pipe = pipeline_for(source, seed)
         reference = None
         if test_set == "pairs":
-            items = energy_view_items(pipe.data, seed, pipe.config.items_per_pair)
+            items = energy_view_items(pipe.data, seed, items_per_pair
+                                      or pipe.config.items_per_pair)
         else:
             pool = load_or_build_test_pool(pipe.config, test_set)
             items = composition_items(pipe.data, seed, pipe.config.items_per_extra_set, pool)
@@ -523,6 +548,92 @@ def agd_relative_change(pipe: EnergyMoGenPipeline, texts: Sequence[str],
         hook.remove()
     change = (captured[-1] - tokens).norm(dim=-1) / tokens.norm(dim=-1).clamp_min(1e-12)
     return float(change[mask].mean())
+
+
+def agd_scale(pipe: EnergyMoGenPipeline, texts: Sequence[str], target: float, *,
+              t: int = AGD_CHANGE_T, seed: int = 0) -> float:
+    """κ such that κ × Table 9's largest row, [0.1, 0.2], moves the text embedding of ``texts``
+    by ‖Δc‖/‖c‖ = ``target`` (:func:`agd_relative_change` at ``t`` with ``seed``'s latents):
+    bisection on log κ over [10⁻³, 10⁴], 40 halvings. It reads the embedding only — no sample,
+    no R@3. A ValueError when ``target`` lies outside the change over that range."""
+    largest = TABLE9_GAMMAS[1]
+
+    def change(log_kappa: float) -> float:
+        kappa = float(np.exp(log_kappa))
+        return agd_relative_change(pipe, texts, (kappa * largest[0], kappa * largest[1]),
+                                   t=t, seed=seed)
+
+    low, high = float(np.log(1e-3)), float(np.log(1e4))
+    ends = (change(low), change(high))
+    if not ends[0] < target < ends[1]:
+        raise ValueError(f"‖Δc‖/‖c‖ = {target} is not reached between κ = 1e-3 and 1e4 "
+                         f"(the change there: {ends[0]:.3g}, {ends[1]:.3g})")
+    for _ in range(40):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if change(mid) < target else (low, mid)
+    return float(np.exp(0.5 * (low + high)))
+
+
+def transferred_rows(kappa: float) -> dict[str, Sampler]:
+    """Table 9's rows at κ × the paper's [γ_attn, γ_reg], keyed by the paper's
+    (:func:`gamma_key`): the ratios between rows are Table 9's."""
+    return {gamma_key(g): Sampler("single", gammas=(kappa * g[0], kappa * g[1]))
+            for g in TABLE9_GAMMAS}
+
+
+def table9_rows(source: PipelineSource, seeds: Sequence[int], settings: SEFAblationSettings,
+                log: Callable[[str], None] | None = None
+                ) -> tuple[dict[str, dict[str, list[float]]], dict[str, Any]]:
+    """EMG-4's experiment: Table 9's rows transferred (registry v7) on
+    ``settings.table9_items_per_pair`` items per held-out pair. Per seed: κ by
+    :func:`agd_scale` on the seed's test texts (the largest row at ‖Δc‖/‖c‖ =
+    ``settings.agd_largest_change``), then every row of :func:`transferred_rows` sampled by
+    :func:`run_rows` (the rows of a seed share model, items and noise). Returns row → metric
+    → per-seed list (and ``"real"``), and the transfer: κ per seed, each row's γ and
+    ‖Δc‖/‖c‖ per seed."""
+    out: dict[str, dict[str, list[float]]] = {}
+    transfer: dict[str, Any] = {"kappa": [], "gammas": {}, "relative_change": {},
+                                "target_change": settings.agd_largest_change,
+                                "t": settings.agd_change_t}
+    for seed in seeds:
+        pipe = pipeline_for(source, seed)
+        texts = list(energy_view_items(pipe.data, seed,
+                                       settings.table9_items_per_pair).multi_texts)
+        kappa = agd_scale(pipe, texts, settings.agd_largest_change, t=settings.agd_change_t,
+                          seed=seed)
+        rows = transferred_rows(kappa)
+        transfer["kappa"].append(kappa)
+        for key, sampler in rows.items():
+            transfer["gammas"].setdefault(key, []).append(list(sampler.gammas))
+            transfer["relative_change"].setdefault(key, []).append(agd_relative_change(
+                pipe, texts, sampler.gammas, t=settings.agd_change_t, seed=seed))
+        if log is not None:
+            log(f"seed {seed}: κ = {kappa:.4g} (‖Δc‖/‖c‖ of [0.1,0.2]: "
+                f"{transfer['relative_change']['0.1,0.2'][-1]:.3f})")
+        measured = cast(dict[str, dict[str, list[float]]], run_rows(   # pairs: never a
+            source, rows, [seed], log,                                   # NotMeasurable
+            items_per_pair=settings.table9_items_per_pair))
+        for row, values in measured.items():
+            for metric, per_seed in values.items():
+                out.setdefault(row, {}).setdefault(metric, []).extend(per_seed)
+    return out, transfer
+
+
+def transfer_markdown(transfer: Mapping[str, Any], seeds: Sequence[int]) -> str:
+    """A table of the transfer (:func:`table9_rows`): per seed κ, and per row the γ it ran and
+    the embedding change ‖Δc‖/‖c‖ it made."""
+    keys = [gamma_key(g) for g in TABLE9_GAMMAS]
+    header = ["seed", "κ"] + [f"[{k}]: γ run, ‖Δc‖/‖c‖" for k in keys]
+    body = [[str(seed), f"{transfer['kappa'][i]:.4g}"]
+            + [f"[{transfer['gammas'][k][i][0]:.3g}, {transfer['gammas'][k][i][1]:.3g}], "
+               f"{transfer['relative_change'][k][i]:.2e}" for k in keys]
+            for i, seed in enumerate(seeds)]
+    return tables.markdown_table(header, body)
+
+
+#: Table 9's columns on EMG-4's own test (no timelines there: no transition column)
+TABLE9_COLUMNS = (("r_precision_top1", "R@1 %"), ("r_precision_top3", "R@3 %"),
+                  ("tmr_m2t", "M2T"), ("tmr_m2m", "M2M"), ("fid", "FID"))
 
 
 #: the paper's column a measurement of ours stands beside: Table 3/7/9's transition distance is
@@ -704,10 +815,12 @@ class _SwapPath:
     k items swapped is the first k swaps of that order, so every row of a seed is the same
     motions, texts and batches and two rows differ on whole items. ``r3(k)``: its R@3 (%) as
     ``composition_metrics`` ranks (the evaluator embeds each motion on its own, so a swapped
-    item's embedding is its donor's)."""
+    item's embedding is its donor's); ``step``: one item of R@3 in percent as the claim's rule
+    counts it."""
 
-    def __init__(self, pipe: EnergyMoGenPipeline, items: Any, seed: int, claim: int) -> None:
-        self.pipe, self.items, self.seed = pipe, items, seed
+    def __init__(self, pipe: EnergyMoGenPipeline, items: Any, seed: int, claim: int,
+                 step: float) -> None:
+        self.pipe, self.items, self.seed, self.step = pipe, items, seed, step
         self.swaps = swap_draw(control_rng(seed, claim), _swap_groups(items))
         self.text = pipe.evaluator.embed_texts(list(items.multi_texts))
         self.motion = pipe.evaluator.embed_motions(
@@ -728,8 +841,8 @@ class _SwapPath:
 
     def log_ratio(self, fewer: int, more: int) -> float:
         """log(R@3 after ``fewer`` swaps / R@3 after ``more``), each offset by half of the
-        rule's item (R@3 in percent over 64 items), as EMG-4/5's rules compare rows."""
-        half = R3_PERCENT_64 / 2
+        rule's item (``step``), as EMG-4/5's rules compare rows."""
+        half = self.step / 2
         return float(np.log((self.r3(fewer) + half) / (self.r3(more) + half)))
 
     def measure(self, count: int) -> dict[str, float]:
@@ -739,9 +852,10 @@ class _SwapPath:
 
 
 def _row_arms(source: PipelineSource, seeds: Sequence[int], claim: int,
-              plant: Callable[[_SwapPath], dict[str, int]], rows: Sequence[str]
-              ) -> dict[str, Any]:
-    """Per seed one :class:`_SwapPath` (the seed's items); positive: each row the number of
+              plant: Callable[[_SwapPath], dict[str, int]], rows: Sequence[str], *,
+              items_per_pair: int, step: float) -> dict[str, Any]:
+    """Per seed one :class:`_SwapPath` (the seed's ``items_per_pair`` items per held-out pair,
+    the rule's item ``step``); positive: each row the number of
     swaps ``plant`` gives it, null: every row unswapped (the rows identical). Returns kind →
     metric → row → per-seed list, and ``"swaps"``: the positive rows' counts per seed."""
     out: dict[str, Any] = {kind: {"r_precision_top3": {}, "transition_distance": {}}
@@ -749,8 +863,8 @@ def _row_arms(source: PipelineSource, seeds: Sequence[int], claim: int,
     counts = []
     for seed in seeds:
         pipe = pipeline_for(source, seed)
-        path = _SwapPath(pipe, energy_view_items(pipe.data, seed, pipe.config.items_per_pair),
-                         seed, claim)
+        path = _SwapPath(pipe, energy_view_items(pipe.data, seed, items_per_pair), seed, claim,
+                         step)
         planted = plant(path)
         counts.append({**planted, "items": len(path)})
         measured = {count: path.measure(count) for count in {0, *planted.values()}}
@@ -764,7 +878,7 @@ def _row_arms(source: PipelineSource, seeds: Sequence[int], claim: int,
 
 
 def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: Sequence[str],
-                       *, scale: float = 1.0) -> Controls:
+                       *, items_per_pair: int, scale: float = 1.0) -> Controls:
     """EMG-4's controls: every Table 9 row is the seed's ground-truth composition motions with
     some items swapped to another pair's motion (:class:`_SwapPath`), measured as
     ``composition_metrics`` measures (:func:`row_measurements`). ``run_rows`` gives every row
@@ -775,10 +889,12 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
     log(R₀ / its R@3) to δ = log 1.035 (the claimed best exceeds it by 3.5 % of the other row),
     the same items in every other row; [0.1, 0.2] γ = 0's swaps and the fewest further ones
     that bring log(R@3 γ = 0 / [0.1, 0.2]) to δ = −log(1 − 0.417) (half the paper's 83.5 %
-    drop); each log ratio with the rule's offset of half an item (R@3 in percent over 64
+    drop); each log ratio with the rule's offset of half an item (R@3 in percent over 320
     items), each row's count read off the path's R@3 and the row then measured. Null: every
-    row unswapped (the rows identical). On a data folder the rows are its test windows
-    (``data.energy_view_items``, as ``run_rows``), a swap takes any other window's motion."""
+    row unswapped (the rows identical). ``items_per_pair``: the experiment's
+    (``SEFAblationSettings.table9_items_per_pair``). On a data folder the rows are its test
+    windows (``data.energy_view_items``, as ``run_rows``), a swap takes any other window's
+    motion."""
     best, large = "0.001,0.002", "0.1,0.2"
     small_delta = log_margin(0.035 * scale, of="denominator")
     large_delta = log_margin(0.417 * scale, of="numerator")
@@ -792,7 +908,8 @@ def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: S
         counts[best], counts[large] = 0, dropped
         return counts
 
-    out = _row_arms(source, seeds, 4, plant, row_keys)
+    out = _row_arms(source, seeds, 4, plant, row_keys, items_per_pair=items_per_pair,
+                    step=R3_PERCENT_320)
     r3 = {kind: {"r_precision_top3": out[kind]["r_precision_top3"]} for kind in KINDS}
     return Controls(null=r3["null"], positive=r3["positive"],
                     planted={"swaps": out["swaps"], "small_step_log_delta": small_delta,
@@ -837,7 +954,9 @@ def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float =
                                 lambda u: path.log_ratio(latent - u, latent), sem_delta)
         return {lat: latent, sem: latent - undone, sef: 0}
 
-    out = _row_arms(source, seeds, 5, plant, (lat, sem, sef))
+    out = _row_arms(source, seeds, 5, plant, (lat, sem, sef),
+                    items_per_pair=pipeline_for(source, seeds[0]).config.items_per_pair,
+                    step=R3_PERCENT_64)
     semantic = 1 + 0.1875 * scale
     factors = {lat: 1.0, sem: semantic, sef: semantic * (1 - 0.1364 * scale)}
     planted: dict[str, list[float]] = {}
@@ -934,33 +1053,43 @@ def emg5_result(results: Results, timelines: Results | NotMeasurable,
                        notes=_common_notes(settings) + " λ grid with AGD off.", extra=extra)
 
 
-def emg4_result(results: Results, agd_change: Mapping[str, float],
+def emg4_result(results: Results, transfer: Mapping[str, Any],
                 settings: SEFAblationSettings, seeds: Sequence[int], *, controls: Controls,
-                models: Models, figures: Figures,
+                models: Models, figures: Figures, at_paper_gammas: Results | None = None,
                 data_dir: str | os.PathLike | None = None) -> ClaimResult:
-    """EMG-4 from the Table 9 rows of ``run_rows`` (``results``, single-text
-    generation with AGD) and ``agd_relative_change`` (``agd_change``: γ row → the
-    text embedding's relative change, the first seed's model). ``data_dir``: the run's data
-    folder (None: the stand-in set), whose test windows and captions the rows then used
-    (the notes say so)."""
+    """EMG-4 from :func:`table9_rows` (``results``: Table 9's rows transferred, single-text
+    generation with AGD, on ``settings.table9_items`` items per seed; ``transfer``: κ per seed,
+    each row's γ and embedding change). ``at_paper_gammas``: the same rows at the paper's own
+    γ on the pipeline's items (:func:`run_rows` of the notebook's tables), kept as context.
+    ``data_dir``: the run's data folder (None: the stand-in set), whose test windows and
+    captions the rows then used (the notes say so)."""
     gkeys = [gamma_key(g) for g in TABLE9_GAMMAS]
     table = _table(results)
-    headline = ("R@3 by [γattn, γreg]: " + ", ".join(
-        f"[{k}] {np.mean(results[k]['r_precision_top3']):.1f}" for k in gkeys)
-        + " %; ‖Δc‖/‖c‖ at [0.1,0.2] = " + f"{agd_change['0.1,0.2']:.1e}")
+    kappas = ", ".join(f"{k:.3g}" for k in transfer["kappa"])
+    headline = ("R@3 by Table 9's row (κ·[γattn, γreg], κ per seed " + kappas + "): "
+                + ", ".join(f"[{k}] {np.mean(results[k]['r_precision_top3']):.1f}"
+                            for k in gkeys)
+                + " %; ‖Δc‖/‖c‖ of [0.001,0.002] = "
+                f"{np.mean(transfer['relative_change']['0.001,0.002']):.1e}")
     notes = _common_notes(settings) + (
-        " Single-text generation with AGD in every cross-attention layer (restarting from the "
-        "encoder's embedding at every step). Our text embedding's scale differs from CLIP's, "
-        "so γ values are not directly comparable: relative embedding change per row (first "
-        "seed's model) is in extra.")
+        f" Table 9: single-text generation with AGD in every cross-attention layer "
+        f"(restarting from the encoder's embedding at every step), on "
+        f"{settings.table9_items_per_pair} items per held-out pair ({settings.table9_items} "
+        f"per row and seed, every one ranked). The paper's γ moves our embedding by another "
+        f"amount than CLIP's, so every row runs κ × its γ, κ per seed such that [0.1,0.2] "
+        f"moves the text embedding by ‖Δc‖/‖c‖ = {settings.agd_largest_change:g} at t = "
+        f"{settings.agd_change_t} (registry v7; extra.transfer).")
     if data_dir is not None:
         notes += (f" Data folder {data_dir} (real data): the rows generate from the captions of "
                   "its test windows (data.energy_view_items: one caption per window, as many "
-                  "windows as the pairs' items, at most all), R@3 against those windows in "
+                  "windows as the rows' items, at most all), R@3 against those windows in "
                   "batches of 32, FID against all its test windows; no held-out pair, timeline "
                   "or oracle is read (EMG-5's compositions are not measurable there).")
-    extra = {"agd_relative_embedding_change": agd_change, "paper_table9": PAPER_TABLE9,
-             "table": {k: table[k] for k in gkeys}, "control_calibration": controls.planted}
+    extra = {"transfer": dict(transfer), "paper_table9": PAPER_TABLE9,
+             "table": {k: table[k] for k in [*gkeys, "real"] if k in table},
+             "table_at_paper_gammas": (None if at_paper_gammas is None else
+                                       {k: dict(at_paper_gammas[k]) for k in gkeys}),
+             "control_calibration": controls.planted}
     return ClaimResult("EMG-4", {"r_precision_top3": {key: results[key]["r_precision_top3"]
                                                       for key in gkeys}},
                        seeds=seeds, settings=rule_settings.emg4(settings), controls=controls,
@@ -1098,9 +1227,11 @@ def transition_measures_figure(timelines: Results, rows: Sequence[tuple[str, str
     return fig
 
 
-def agd_step_size_figure(results: Results) -> Figure:
-    """EMG-4: R@3 by AGD step size, ours (mean ± s.e., dots per seed) beside Table 9's."""
-    fig, axes = plt.subplots(1, 2, figsize=(12, 3.6))
+def agd_step_size_figure(results: Results, transfer: Mapping[str, Any]) -> Figure:
+    """EMG-4: R@3 by Table 9's row, ours transferred (:func:`table9_rows`; mean ± s.e., dots
+    per seed) beside Table 9's, and the text embedding's change each row made (dots per
+    seed) — what the transfer sets."""
+    fig, axes = plt.subplots(1, 3, figsize=(15, 3.6))
     labels = [f"[{gamma_key(g)}]" for g in TABLE9_GAMMAS]
     keys = [gamma_key(g) for g in TABLE9_GAMMAS]
     ours = [_mean_sem(results, k, "r_precision_top3") for k in keys]
@@ -1109,12 +1240,21 @@ def agd_step_size_figure(results: Results) -> Figure:
     for k, key in enumerate(keys):
         values = results[key]["r_precision_top3"]
         axes[0].plot(np.full(len(values), k), values, "k.", ms=4)
-    axes[0].set_title("ours: R@3 by AGD step size (dots: seeds)", fontsize=9)
+    axes[0].set_title("ours: R@3 by row at κ·γ (dots: seeds)", fontsize=9)
     axes[1].bar(range(len(keys)), [PAPER_TABLE9[k]["r_precision_top3"] for k in keys],
                 color="C1", alpha=0.7)
     axes[1].set_title("paper (Table 9): R@3 by AGD step size", fontsize=9)
+    for k, key in enumerate(keys[1:], start=1):
+        changes = transfer["relative_change"][key]
+        axes[2].plot(np.full(len(changes), k), changes, "k.", ms=5)
+    axes[2].axhline(transfer["target_change"], color="C3", lw=0.8, ls="--")
+    axes[2].set_yscale("log")
+    axes[2].set_ylabel("‖Δc‖/‖c‖ (last block)")
+    axes[2].set_title(f"ours: the embedding change each row made (t = {transfer['t']})",
+                      fontsize=9)
     for ax in axes:
         ax.set_xticks(range(len(keys)), labels, rotation=20, fontsize=8)
-        ax.set_xlabel("[γ_attn, γ_reg]")
+        ax.set_xlabel("[γ_attn, γ_reg] (Table 9's row)")
+    for ax in axes[:2]:
         ax.set_ylabel("R@3 (%)")
     return fig

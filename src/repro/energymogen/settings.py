@@ -36,7 +36,8 @@ the trained models, and what each notebook runs at each scale.
   recorded (``ClaimResult.settings``): the seeds, the items each seed's measurement is counted
   over (conjunction items: ``items_per_pair`` for each held-out pair; negation items:
   ``negation_items_per_case`` for each negation case), the timelines, the test clips, the N
-  swept, the energy maps' grid and noise draws, EMG-1's grid of t.
+  swept, the energy maps' grid and noise draws, EMG-1's grid of t, EMG-4's Table 9 items and
+  the transfer of its step sizes (:data:`AGD_LARGEST_CHANGE` at :data:`AGD_CHANGE_T`).
 
 Our choices where the paper is silent or too large for 2 CPU cores are collected here and in
 the docstrings ("our choice").
@@ -60,6 +61,8 @@ from repro.standin.generator import (
 )
 
 __all__ = [
+    "AGD_CHANGE_T",
+    "AGD_LARGEST_CHANGE",
     "ARM_CONCEPTS",
     "COMPML_FRACTION",
     "DENOISER_TRAINING",
@@ -94,6 +97,7 @@ __all__ = [
     "TEXT_TRAINING",
     "THREES_AS_PAIRS",
     "THREE_CONCEPT_SETS",
+    "TABLE9_ITEMS_PER_PAIR",
     "TrainingPlan",
     "VAE_TRAINING",
     "composed_set_size",
@@ -464,6 +468,16 @@ def finetune_config(config: PipelineConfig, seed: int, threads: int | None = 1,
 #: ``core.training.torch_threads``)
 ONE_THREAD = 1
 
+#: EMG-4's transfer of Table 9's step sizes (registry v7): per seed every row runs κ × the
+#: paper's [γ_attn, γ_reg], κ set so that the largest row, [0.1, 0.2], moves the text embedding
+#: by ‖Δc‖/‖c‖ = AGD_LARGEST_CHANGE (a step as long as the embedding itself), read by the last
+#: block at t = AGD_CHANGE_T (``sef_ablation.agd_relative_change``)
+AGD_LARGEST_CHANGE = 1.0
+AGD_CHANGE_T = 500
+#: Table 9's test items per held-out pair at standard and paper scale (EMG-4; registry v7):
+#: 320 items, every one ranked (ten R@3 batches of 32), so δ is several items, not one
+TABLE9_ITEMS_PER_PAIR = 32
+
 #: the N of a quick or standard notebook 07: the pipeline's own 5 and the rule's other named N
 #: (N = 1 and 3 are the paper scale's, docs/COMPUTE.md §3d)
 STANDARD_LATENT_COUNTS = (5, 7)
@@ -579,8 +593,11 @@ def emg6(settings: Any) -> dict[str, Any]:
 
 
 def emg4(settings: Any) -> dict[str, Any]:
-    """EMG-4: seeds."""
-    return {"seeds": settings.seeds}
+    """EMG-4: seeds, Table 9's test items per row and the transfer of its step sizes (the
+    largest row's embedding change and the t it is read at)."""
+    return {"seeds": settings.seeds, "table9_items": settings.table9_items,
+            "agd_largest_change": settings.agd_largest_change,
+            "agd_change_t": settings.agd_change_t}
 
 
 def emg5(settings: Any) -> dict[str, Any]:
