@@ -124,6 +124,22 @@ def test_an_exact_check_of_a_trained_model_does_not_say_no_trained_model(
     no_model = {"registry_version": REGISTRY_VERSION, "parts": []}
     assert trust.limits_text(CLAIMS["GMD-A1"], no_model) == (
         "none (an exact computation, no trained model)")
+    assert trust.controls_text(claim, exact_of_model) == "— (exact check)"
+
+
+def test_an_exact_check_with_controls_shows_them_and_is_limited_by_a_failed_one() -> None:
+    """EMG-1 records controls (a gradient field, one twice the tolerance away): the row shows
+    them as for a claim on effects, and a fired null limits it."""
+    claim = CLAIMS["EMG-1"]
+    sidecar = {"registry_version": REGISTRY_VERSION, "parts": [],
+               "models": [{"name": "denoiser", "passed": True}],
+               "controls": {"positive": {"status": "passed"}, "null": {"status": "passed"}}}
+    assert trust.controls_text(claim, sidecar) == "positive seen, null silent"
+    assert "controls" not in trust.limits_text(claim, sidecar)
+    fired = {**sidecar, "controls": {"positive": {"status": "passed"},
+                                     "null": {"status": "failed"}}}
+    assert trust.controls_text(claim, fired) == "positive seen, null **fired**"
+    assert "controls" in trust.limits_text(claim, fired)
 
 
 def test_verdict_changes_cite_the_changelog(tmp_path: Path,

@@ -196,3 +196,44 @@ def test_the_identity_term_changes_only_the_denominator() -> None:
     assert residual_asymmetry(jac, 5.0) != residual_asymmetry(jac, 0.0)
     assert residual_asymmetry(jac + 5.0 * torch.eye(8, dtype=torch.float64), 5.0) == \
         residual_asymmetry(jac, 0.0)
+
+
+def _nonlinear_field(dim: int = 8) -> ecm.EpsFn:
+    """A field with a Jacobian neither symmetric nor antisymmetric (tanh of a random map)."""
+    w = torch.randn(dim, dim, dtype=torch.float64, generator=torch.Generator().manual_seed(3))
+    return lambda x: torch.tanh(x @ w.T) + 0.5 * x
+
+
+@pytest.mark.parametrize("radius", [0.2, 1.0])
+def test_emg1_controls_read_zero_for_the_gradient_and_twice_the_tolerance_for_the_null(
+        radius: float) -> None:
+    eps = _nonlinear_field()
+    z = torch.randn(1, 8, dtype=torch.float64, generator=torch.Generator().manual_seed(4))
+    jac = flat_jacobian(eps, z)
+    planted = ecm.planted_fields(eps, z, jac, 2.0, radius)
+    asym, loop, k = planted["positive"]
+    assert asym < 1e-12 and loop < 1e-9 and k == 0.0
+    asym, loop, k = planted["null"]
+    assert asym >= ecm.EMG1_NULL_READING - 1e-9 and loop >= ecm.EMG1_NULL_READING
+    assert k > 0 and min(asym, loop) < ecm.EMG1_NULL_READING + 0.01   # the smallest such k
+    assert ecm.linear_field(eps(z), z, jac)(z) == pytest.approx(eps(z))   # ε₀ at the centre
+
+
+def test_emg1_controls_are_decided_by_the_rule_on_the_tiny_pipeline(
+        tiny_pipeline: EnergyMoGenPipeline) -> None:
+    from repro.claims.registry import get_claim
+
+    field = ecm.gradient_field_study(tiny_pipeline, 0, samples=2, timesteps=(100, 900))
+    assert set(field["controls"]) == {"positive", "null"}
+    assert len(field["null_scale_by_t"]["100"]) == 4          # every point: 2 samples × 2 conds
+    measured = {"langevin_step_max_abs_error": 1e-14, "sum_of_energies_max_abs_error": 1e-14,
+                "jacobian_relative_asymmetry": 0.5,
+                "residual_jacobian_asymmetry_by_t": field["residual_jacobian_asymmetry_by_t"],
+                "loop_integral_relative_by_t": field["loop_integral_relative_by_t"]}
+    controls = ecm.gradient_field_controls(measured, field)
+    claim = get_claim("EMG-1")
+    assert claim.decide(controls.positive, control=True).verdict == "reproduced"
+    assert claim.decide(controls.null, control=True).verdict == "not reproduced"
+    assert controls.null["langevin_step_max_abs_error"] == 1e-14     # the experiment's algebra
+    assert all(v >= ecm.EMG1_NULL_READING - 1e-6
+               for v in controls.null["loop_integral_relative_by_t"].values())

@@ -56,9 +56,19 @@ def _parts_text(counts: Mapping[str, int]) -> str:
     return ", ".join(f"{n} {outcome}" for outcome, n in counts.items()) or "—"
 
 
+def _has_controls(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
+    """A claim decided on effects, or an exact check that records its controls (EMG-1's: a
+    trained model's field made a gradient field, and one twice the tolerance away)."""
+    controls = sidecar.get("controls") or {}
+    return claim.rests_on_effects or any(
+        (controls.get(kind) or {}).get("status") in ("passed", "failed")
+        for kind in ("positive", "null"))
+
+
 def controls_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
-    """"positive seen, null silent" and the like; "—" for exact checks (no effect to plant)."""
-    if not claim.rests_on_effects:
+    """"positive seen, null silent" and the like; "—" for exact checks without controls (no
+    effect to plant)."""
+    if not _has_controls(claim, sidecar):
         return "— (exact check)"
     controls = sidecar.get("controls") or {}
     words = {"positive": {"passed": "positive seen", "failed": "positive **missed**"},
@@ -144,7 +154,7 @@ def _controls_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
     """A measured claim whose controls are missing or failed (not a claim its scale does not
     run: its controls are "not run", and its parts say why)."""
     controls = sidecar.get("controls") or {}
-    return claim.rests_on_effects and any(
+    return _has_controls(claim, sidecar) and any(
         (controls.get(kind) or {}).get("status") not in ("passed", NOT_RUN)
         for kind in ("positive", "null"))
 

@@ -18,7 +18,11 @@ licenses, checked on the pipeline — the settings are ``EnergyViewSettings``.
   rule is spectrally accurate on a periodic integrand). The ratio grows with the radius (for a
   linear field it is r·σ/‖ε‖), so the radius is part of the measurement and is stated beside
   it. Both conditions (the joined text and ∅) are pooled: per t the median over samples ×
-  conditions. The claim: :func:`emg1_result`.
+  conditions. Its controls at the same points (:func:`planted_fields`,
+  :func:`gradient_field_controls`): the model's field made a gradient (its Jacobian's
+  symmetric part, linearly about each point) must pass; the same with the model's own
+  antisymmetric part at twice the tolerance in both readings must fail. The claim:
+  :func:`emg1_result`.
 - **EMG-2 / EMG-3** (Sec. 3.2 ❶ Eq. 7–8, ❷ Eq. 9: latent- and semantic-aware conjunction and
   negation), oracle-measured (:func:`composition_study`) and recorded by
   :func:`emg23_results`; the guidance-scale check beside them (paper scale only, not
@@ -70,6 +74,7 @@ from matplotlib.figure import Figure
 from torch import Tensor, nn
 
 from repro.claims.registry import get_claim
+from repro.claims.registry_energymogen import EMG1_LIMIT
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
 from repro.claims.verdicts import log_margin
 from repro.core import metrics
@@ -122,6 +127,7 @@ from repro.standin.oracles import detect_concepts
 
 __all__ = [
     "EnergyViewSettings",
+    "EMG1_NULL_READING",
     "EpsFn",
     "LOOP_POINTS",
     "LatentPlane",
@@ -154,6 +160,8 @@ __all__ = [
     "fixed_cases",
     "flat_jacobian",
     "float64_copy",
+    "field_readings",
+    "gradient_field_controls",
     "gradient_field_study",
     "guidance_scale_check",
     "jacobian_asymmetry",
@@ -161,12 +169,14 @@ __all__ = [
     "langevin_step_errors",
     "latent_plane",
     "line_integral_energy",
+    "linear_field",
     "loop_plane",
     "map_cases_markdown",
     "map_similarities",
     "map_similarity",
     "map_similarity_figure",
     "map_similarity_markdown",
+    "planted_fields",
     "raw_maps_markdown",
     "relative_circulation",
     "residual_asymmetry",
@@ -780,39 +790,126 @@ def relative_circulation(eps_fn: EpsFn, centre: Tensor, u: Tensor, v: Tensor, ra
     return float(work.abs() / path.clamp_min(1e-30))
 
 
+def field_readings(eps: EpsFn, centre: Tensor, identity_coefficient: float, radius: float,
+                   jac: Tensor | None = None) -> tuple[float, float]:
+    """EMG-1's two readings of a field at one point ``centre`` (1, ...): the residual Jacobian
+    asymmetry (:func:`residual_asymmetry` of the Jacobian ``jac``, by default
+    :func:`flat_jacobian`'s, identity coefficient c) and the relative loop integral on a circle
+    of ``radius`` in the plane of :func:`loop_plane`."""
+    jac = flat_jacobian(eps, centre) if jac is None else jac
+    u, v = loop_plane(jac)
+    return (residual_asymmetry(jac, identity_coefficient),
+            relative_circulation(eps, centre, u, v, radius))
+
+
+def linear_field(eps0: Tensor, centre: Tensor, matrix: Tensor) -> EpsFn:
+    """z ↦ ε₀ + M (z − z₀), flattened: the field whose Jacobian is M everywhere. With M
+    symmetric it is the gradient of E(z) = ε₀·(z − z₀) + ½ (z − z₀)ᵀ M (z − z₀)."""
+    origin, offset = centre.reshape(-1), eps0.reshape(-1)
+
+    def eps(z: Tensor) -> Tensor:
+        return (offset + (z.reshape(z.shape[0], -1) - origin) @ matrix.T).reshape(z.shape)
+    return eps
+
+
+#: EMG-1's null control: a field twice the rule's tolerance in both readings
+EMG1_NULL_READING = 2 * EMG1_LIMIT
+
+
+def planted_fields(eps: EpsFn, centre: Tensor, jac: Tensor, identity_coefficient: float,
+                   radius: float, reading: float = EMG1_NULL_READING
+                   ) -> dict[str, tuple[float, float, float]]:
+    """EMG-1's two controls at one of the experiment's points (its ``centre``, the model's
+    ``eps`` and Jacobian ``jac`` there, its c and radius), each read by :func:`field_readings`:
+
+    - **positive** (a gradient field): ε₀ + S (z − z₀), ε₀ = ε_θ(z₀) and S = (J + Jᵀ)/2 the
+      model's own symmetric part — the gradient of a quadratic energy, so both readings are 0
+      up to rounding;
+    - **null** (no gradient field): ε₀ + (S + k K̂)(z − z₀), K̂ = (J − Jᵀ)/‖J − Jᵀ‖_F the
+      model's own antisymmetric direction, k the smallest that brings both readings to
+      ``reading``: the asymmetry in closed form (with M = S − cI, ‖A − Aᵀ‖ = 2k and ‖A‖² =
+      ‖M‖² + k², so k = r‖M‖/√(4 − r²)), the loop integral by bisection on k above it.
+
+    Returns kind → (residual asymmetry, relative loop integral, k; 0 for the positive)."""
+    eps0 = eps(centre).detach()
+    symmetric = 0.5 * (jac + jac.T)
+    turning = jac - jac.T
+    turning = turning / turning.norm().clamp_min(1e-30)
+    residual = symmetric - identity_coefficient * torch.eye(jac.shape[0], dtype=jac.dtype,
+                                                            device=jac.device)
+    positive = field_readings(linear_field(eps0, centre, symmetric), centre,
+                              identity_coefficient, radius)
+
+    def loop(k: float) -> float:
+        field = linear_field(eps0, centre, symmetric + k * turning)
+        return field_readings(field, centre, identity_coefficient, radius)[1]
+
+    low = reading * float(residual.norm()) / float(np.sqrt(4.0 - reading ** 2))
+    high = low
+    if loop(low) < reading:
+        for _ in range(60):
+            high *= 2.0
+            if loop(high) >= reading:
+                break
+        else:
+            raise ValueError(f"the null field's loop integral does not reach {reading}")
+        for _ in range(40):
+            mid = float(np.sqrt(low * high))
+            low, high = (mid, high) if loop(mid) < reading else (low, mid)
+    null = field_readings(linear_field(eps0, centre, symmetric + high * turning), centre,
+                          identity_coefficient, radius)
+    return {"positive": (*positive, 0.0), "null": (*null, high)}
+
+
 def gradient_field_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
                          timesteps: Sequence[int]) -> dict[str, Any]:
     """EMG-1's two per-t measurements on ``energy_view_study``'s draws (``samples`` ground-truth
     latents of the composition items of ``seed`` noised with noise of ``seed``; the joined
     text and ∅): ``residual_jacobian_asymmetry_by_t`` and ``loop_integral_relative_by_t``
-    (str(t) → median over samples × conditions), the per-sample values and the loop radii."""
+    (str(t) → median over samples × conditions), the per-sample values and the loop radii; and
+    its two controls at the same points (:func:`planted_fields`), read the same way
+    (``controls``: kind → the two by-t medians, the pooled residual asymmetry and the null's
+    k per t)."""
     items = energy_view_items(pipe.data, seed, pipe.config.items_per_pair)
     z0 = pipe.encode_motion(items.gt_features[:samples])
     condition = pipe.encode(list(items.multi_texts[:samples]))
     noise = torch.randn(z0.shape, generator=torch.Generator().manual_seed(seed))
-    asymmetry: dict[str, list[float]] = {}
-    circulation: dict[str, list[float]] = {}
+    names = ("residual_jacobian_asymmetry", "loop_integral_relative")
+    readings: dict[str, dict[str, dict[str, list[float]]]] = {
+        kind: {name: {} for name in names} for kind in ("experiment", *KINDS)}
+    scale: dict[str, list[float]] = {}
     radii: dict[str, float] = {}
     for t in timesteps:
         z_t = pipe.diffusion.q_sample(z0, torch.full((samples,), t, dtype=torch.long), noise)
         one_minus = float(1.0 - pipe.diffusion.alphas_cumprod[t])
-        radius = float(np.sqrt(one_minus))
+        radius, c = float(np.sqrt(one_minus)), 1.0 / np.sqrt(one_minus)
         key = str(t)
-        asymmetry[key], circulation[key], radii[key] = [], [], radius
+        radii[key], scale[key] = radius, []
+        for kind in readings.values():
+            for name in names:
+                kind[name][key] = []
         for cond in (condition, None):
             for b in range(samples):
                 eps = conditional_eps(pipe.denoiser, t, cond, b)
                 jac = flat_jacobian(eps, z_t[b:b + 1])
-                asymmetry[key].append(residual_asymmetry(jac, 1.0 / np.sqrt(one_minus)))
-                u, v = loop_plane(jac)
-                circulation[key].append(relative_circulation(eps, z_t[b:b + 1], u, v, radius))
-    return {"residual_jacobian_asymmetry_by_t": {k: float(np.median(v))
-                                                 for k, v in asymmetry.items()},
-            "loop_integral_relative_by_t": {k: float(np.median(v))
-                                            for k, v in circulation.items()},
-            "per_sample": {"residual_jacobian_asymmetry": asymmetry,
-                           "loop_integral_relative": circulation},
-            "loop_radius_by_t": radii}
+                measured = {"experiment": field_readings(eps, z_t[b:b + 1], c, radius, jac)}
+                planted = planted_fields(eps, z_t[b:b + 1], jac, c, radius)
+                measured.update({kind: planted[kind][:2] for kind in KINDS})
+                scale[key].append(planted["null"][2])
+                for kind, values in measured.items():
+                    for name, value in zip(names, values, strict=True):
+                        readings[kind][name][key].append(value)
+
+    def by_t(kind: str) -> dict[str, Any]:
+        return {f"{name}_by_t": {k: float(np.median(v)) for k, v in readings[kind][name].items()}
+                for name in names}
+
+    return {**by_t("experiment"), "per_sample": readings["experiment"],
+            "loop_radius_by_t": radii,
+            "controls": {kind: {**by_t(kind), "pooled_residual_asymmetry": float(np.median(
+                [v for values in readings[kind][names[0]].values() for v in values]))}
+                for kind in KINDS},
+            "null_scale_by_t": scale}
 
 
 _DIM = 6
@@ -1311,8 +1408,33 @@ def emg1_result(energy_view: Mapping[str, Any], field: Mapping[str, Any],
                                                         strict=True))
                                          for name, v in asym.items()}}
     return ClaimResult("EMG-1", measured, seeds=[seed], settings=rule_settings.emg1(settings),
-                       models=models, figures=figures,
-                       headline=headline, notes=notes, extra=extra)
+                       controls=gradient_field_controls(measured, field), models=models,
+                       figures=figures, headline=headline, notes=notes, extra=extra)
+
+
+def gradient_field_controls(measured: Mapping[str, Any], field: Mapping[str, Any]) -> Controls:
+    """EMG-1's controls as the rule reads them: the experiment's algebra (the sampler's and the
+    composition's identities hold for any field: the controls replace the field only) with
+    each control field's readings at the experiment's points (``field["controls"]``,
+    :func:`planted_fields`)."""
+    algebra = {name: measured[name] for name in ("langevin_step_max_abs_error",
+                                                 "sum_of_energies_max_abs_error")}
+    arms = {kind: {**algebra, "residual_jacobian_asymmetry_by_t":
+                   readings["residual_jacobian_asymmetry_by_t"],
+                   "loop_integral_relative_by_t": readings["loop_integral_relative_by_t"],
+                   "jacobian_relative_asymmetry": readings["pooled_residual_asymmetry"]}
+            for kind, readings in field["controls"].items()}
+    return Controls(null=arms["null"], positive=arms["positive"],
+                    planted={"null_reading": EMG1_NULL_READING,
+                             "null_scale_by_t": field["null_scale_by_t"]},
+                    null_text=(f"at every point of the experiment, the model's field with its "
+                               f"own antisymmetric part at the smallest size that brings both "
+                               f"readings to {EMG1_NULL_READING:g} (twice the tolerance): "
+                               f"ε₀ + (S + kK̂)"
+                               f"(z − z₀)"),
+                    positive_text=("at every point of the experiment, the model's field made a "
+                                   "gradient: ε₀ + S(z − z₀), S the symmetric part of its "
+                                   "Jacobian there"))
 
 
 def map_cases_markdown(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]]
