@@ -884,10 +884,7 @@ def gradient_field_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
         one_minus = float(1.0 - pipe.diffusion.alphas_cumprod[t])
         radius, c = float(np.sqrt(one_minus)), 1.0 / np.sqrt(one_minus)
         key = str(t)
-        radii[key], scale[key] = radius, []
-        for kind in readings.values():
-            for name in names:
-                kind[name][key] = []
+        radii[key] = radius
         for cond in (condition, None):
             for b in range(samples):
                 eps = conditional_eps(pipe.denoiser, t, cond, b)
@@ -895,10 +892,10 @@ def gradient_field_study(pipe: EnergyMoGenPipeline, seed: int, *, samples: int,
                 measured = {"experiment": field_readings(eps, z_t[b:b + 1], c, radius, jac)}
                 planted = planted_fields(eps, z_t[b:b + 1], jac, c, radius)
                 measured.update({kind: planted[kind][:2] for kind in KINDS})
-                scale[key].append(planted["null"][2])
+                scale.setdefault(key, []).append(planted["null"][2])
                 for kind, values in measured.items():
                     for name, value in zip(names, values, strict=True):
-                        readings[kind][name][key].append(value)
+                        readings[kind][name].setdefault(key, []).append(value)
 
     def by_t(kind: str) -> dict[str, Any]:
         return {f"{name}_by_t": {k: float(np.median(v)) for k, v in readings[kind][name].items()}

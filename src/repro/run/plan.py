@@ -17,14 +17,15 @@ __all__ = ["PAPER_CPU_HOURS", "PAPER_SHARED_CPU_HOURS", "STANDARD_PLAN_MINUTES",
 
 #: docs/COMPUTE.md §16a (the fourth standard design): the wall minutes per notebook of its
 #: cold standard run on the Intel with AMX, doubled — the plan is sized for the slowest CPU,
-#: the Intel without AMX, about twice as slow on these models (§0)
+#: the Intel without AMX, about twice as slow on these models (§0); 05 from §19a's run
+#: (EMG-4's Table 9 on 320 items, registry v7: 430 s)
 STANDARD_PLAN_MINUTES: dict[str, float] = {
     "00_stand_in_data": 0.5,
     "01_x0_vs_eps": 31.2,
     "02_root_representation": 6.9,
     "03_emphasis_projection": 6.8,
     "04_energy_contour_maps": 15.6,
-    "05_sef_ablation": 9.9,
+    "05_sef_ablation": 14.3,
     "06_guidance_schedule": 3.9,
     "07_latent_count": 13.4,
     "08_composed_augmentation": 6.5,
@@ -38,16 +39,17 @@ STANDARD_PLAN_MINUTES: dict[str, float] = {
 #: evaluator 0.01 + sampling 2.0; 02: trajectory 6.5 + motion 34.8 + sampling 1.9; 03: motion
 #: 125.3 + sampling 0.4; 06: motion 10.4 + sampling 3.5; EnergyMoGen: 04 the pipelines of
 #: train seeds 0–4 (3.7), 07 N ∈ {1, 3, 7} (6.6), 08 the fine-tunes (0.7), and the ≈ 1 CPU-h
-#: of 04–08's sampling split evenly. Notebook 00 is not in the census: it generates the same
-#: stand-in set as at the standard scale (``standin.figures.Settings``), so its standard
-#: minutes stand. Total ≈ 265 CPU-h, §2's fp32 figure.
+#: of 04–08's sampling split evenly, 05's grown as its standard time grew with EMG-4's
+#: 320-item Table 9 (270 → 430 s, §19a: 0.25 → 0.4) [e]. Notebook 00 is not in the census:
+#: it generates the same stand-in set as at the standard scale (``standin.figures.Settings``),
+#: so its standard minutes stand. Total ≈ 265 CPU-h, §2's fp32 figure.
 PAPER_CPU_HOURS: dict[str, float] = {
     "00_stand_in_data": STANDARD_PLAN_MINUTES["00_stand_in_data"] / 60.0,
     "01_x0_vs_eps": 41.8 + 26.0 + 0.01 + 2.0,
     "02_root_representation": 6.5 + 34.8 + 1.9,
     "03_emphasis_projection": 125.3 + 0.4,
     "04_energy_contour_maps": 3.7 + 0.25,
-    "05_sef_ablation": 0.25,
+    "05_sef_ablation": 0.4,
     "06_guidance_schedule": 10.4 + 3.5,
     "07_latent_count": 6.6 + 0.25,
     "08_composed_augmentation": 0.7 + 0.25,
