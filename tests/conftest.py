@@ -90,6 +90,23 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     the longest by far (every quick notebook, two kernels at a time), then starts at once and
     the unit tests fill the cores around it, instead of it running last with a core idle."""
     items.sort(key=lambda item: item.get_closest_marker("notebook") is None)
+    missing = _missing_seeds()
+    if missing:
+        skip = pytest.mark.skip(reason=missing)
+        for item in items:
+            if item.get_closest_marker("needs_seeds"):
+                item.add_marker(skip)
+
+
+def _missing_seeds() -> str:
+    """Why the tests that read the papers' text cannot run here ("" when they can): the text
+    is ``../shared/seeds/``, beside a developer's and CI's clone, never a user's."""
+    from repro.claims.printed import SEEDS
+    from repro.claims.seed_text import seeds_dir
+
+    absent = [name for name in SEEDS.values() if not (seeds_dir() / name).is_file()]
+    return (f"the papers' text ({', '.join(absent)}) not found in {seeds_dir()}: ../shared is "
+            "not beside this clone") if absent else ""
 
 
 @pytest.fixture(scope="module")

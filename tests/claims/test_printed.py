@@ -21,6 +21,7 @@ def _text(paper: str = EMG) -> str:
     return seed_text.seed_text(paper)
 
 
+@pytest.mark.needs_seeds
 def test_every_printed_row_and_quote_is_in_the_seed_verbatim_and_every_table_is_whole() -> None:
     assert seed_text.all_problems() == []
     names = {name for _, name in printed.TABLES}
@@ -28,6 +29,7 @@ def test_every_printed_row_and_quote_is_in_the_seed_verbatim_and_every_table_is_
                      "Table 7", "Table 8 reconstruction", "Table 8 generation", "Table 9"}
 
 
+@pytest.mark.needs_seeds
 def test_a_changed_number_interval_bold_row_or_quote_fails_the_seed_check() -> None:
     text = _text()
     table = get_table(EMG, "Table 6")
@@ -273,3 +275,13 @@ def test_the_audit_notes_on_layout_and_best_rows_hold() -> None:
     t2 = get_table(EMG, "Table 2")
     assert [r.label for r in t2.rows if "*" in r.label] == [
         "MLD^*[64]", "GUESS $*$ [13]", "MotionMamba $*$ [73]", "ENERGYMOGEN*"]
+
+
+def test_a_missing_seed_is_named(monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:
+    monkeypatch.setenv("REPRO_SHARED_DIR", str(tmp_path))
+    seed_text.seed_text.cache_clear()
+    try:
+        with pytest.raises(seed_text.SeedTextMissing, match="shared/seeds"):
+            seed_text.seed_text(EMG)
+    finally:
+        seed_text.seed_text.cache_clear()

@@ -15,12 +15,13 @@ from __future__ import annotations
 import re
 import unicodedata
 from functools import cache
+from pathlib import Path
 
 from repro.claims.printed import QUOTES, SEEDS, TABLES, Quote, Row, Table
 from repro.infra import paths
 
-__all__ = ["all_problems", "normalise", "quote_problems", "row_problems", "seed_text",
-           "table_block", "table_problems"]
+__all__ = ["SeedTextMissing", "all_problems", "normalise", "quote_problems", "row_problems",
+           "seed_text", "seeds_dir", "table_block", "table_problems"]
 
 _LINK = re.compile(r"\[((?:\\.|[^\]\\])*)\]\(#[^)]*\)")
 _INTERVAL = re.compile(r"\^\{\\pm\s*([^}]*)\}")
@@ -29,10 +30,26 @@ _NUMBER = re.compile(r"\d+(?:\.\d+)?")
 _HEADER_WORDS = ("Top-", "uparrow", "downarrow", "rightarrow")
 
 
+class SeedTextMissing(FileNotFoundError):
+    """The papers' text is not beside the clone: it lives in ``../shared/seeds/`` (or
+    ``$REPRO_SHARED_DIR/seeds``), which the package does not ship; the printed tables it
+    needs are its own (``claims.printed``)."""
+
+
+def seeds_dir() -> Path:
+    """Where the papers' text is read from."""
+    return paths.shared_dir() / "seeds"
+
+
 @cache
 def seed_text(paper: str) -> str:
     """The seed file of ``paper`` ("GMD" or "EnergyMoGen"), as stored."""
-    return (paths.shared_dir() / "seeds" / SEEDS[paper]).read_text(encoding="utf-8")
+    path = seeds_dir() / SEEDS[paper]
+    if not path.is_file():
+        raise SeedTextMissing(f"{paper}'s text not found at {path}: the papers' text is read "
+                              "from ../shared/seeds (or $REPRO_SHARED_DIR/seeds), which a "
+                              "clone does not carry")
+    return path.read_text(encoding="utf-8")
 
 
 def normalise(text: str) -> str:
