@@ -11,6 +11,8 @@ JOBS   ?= 2
 SEED   ?= 0
 SCALE  ?= standard
 ARGS   ?=
+# results/ holds a standard-scale run only: the other scales never refresh it.
+SNAPSHOT := $(if $(filter standard,$(SCALE)),--snapshot)
 # Bytecode is compiled once, on every core, for what can be imported: not the packages' own
 # test suites, nor transformers' other model families (MiniLM is a BERT). pip alone compiles
 # everything on one core (~40 s). This machine and CI set PYTHONDONTWRITEBYTECODE, so a module
@@ -61,7 +63,7 @@ test-workflow: $(FLOW)  ## a real local Snakemake run of two notebooks at the qu
 	$(PY) -m pytest -q -m workflow tests/workflow
 
 reproduce: $(STAMP)  ## every notebook at the standard scale (SCALE=paper: the papers' settings); build/report, results/
-	$(PY) -m repro reproduce --scale $(SCALE) --jobs $(JOBS) --seed $(SEED) --snapshot $(ARGS)
+	$(PY) -m repro reproduce --scale $(SCALE) --jobs $(JOBS) --seed $(SEED) $(SNAPSHOT) $(ARGS)
 
 bench: $(STAMP)  ## time budgets and training throughput; writes build/bench/bench.json (ARGS="--full", "--warm-cache DIR")
 	$(PY) -m repro bench $(ARGS)

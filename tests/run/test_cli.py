@@ -71,7 +71,21 @@ def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
     record_claim(make_context(tmp_path / "quick"), "GMD-A1",
                  {"max_abs_mu_difference": 0.0, "printed_c_max_relative_error": 0.5}, seeds=[0])
     assert main(["report", "--quick", "--snapshot"]) == 2  # a quick run is never a result
-    assert (tmp_path / "quick" / "report" / "REPORT.md").is_file()
+    assert not (tmp_path / "quick" / "report").exists()      # refused before any work
+
+
+@pytest.mark.parametrize("scale", ["quick", "paper"])
+def test_reproduce_snapshot_of_another_scale_is_refused_before_any_work(
+        scale: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from repro.run import runner
+
+    monkeypatch.setenv("REPRO_BUILD_ROOT", str(tmp_path))
+    monkeypatch.setattr(runner, "run_notebooks", lambda *a, **k: pytest.fail("work started"))
+    assert main(["reproduce", "--scale", scale, "--only", "00", "--snapshot"]) == 2
+    err = capsys.readouterr().err
+    assert "--snapshot refreshes results/" in err and f"the {scale} scale" in err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_reproduce_rejects_zero_threads(capsys: pytest.CaptureFixture[str]) -> None:

@@ -71,10 +71,11 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from repro.claims.report import write_report, write_snapshot
     from repro.infra import paths
     from repro.infra.storage import write_problem
-    from repro.run.runner import report_state
+    from repro.run.runner import refuse_snapshot, report_state
 
     try:
         scale = _scale(args)
+        refuse_snapshot(scale, args.snapshot)
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -87,10 +88,6 @@ def _cmd_report(args: argparse.Namespace) -> int:
         report = write_report(build, scale=scale, provenance=args.note or "",
                               allow_mixed=args.allow_mixed)
         print(f"report: {report}")
-        if args.snapshot and scale != "standard":
-            print(f"error: results/ holds the standard scale's run; this is the {scale} "
-                  "scale's: no snapshot", file=sys.stderr)
-            return 2
         if args.snapshot:
             print(f"results snapshot: {write_snapshot(build)}")
     except ReportError as error:

@@ -38,7 +38,8 @@ from repro.run.params import STANDARD_PARAMETERS, validate_parameters
 from repro.run.progress_view import ProgressView
 
 __all__ = ["STANDARD_PARAMETERS", "NotebookResult", "RunInterrupted", "available_notebooks",
-           "known_seconds", "longest_first", "preflight", "reproduce", "resolve_targets",
+           "known_seconds", "longest_first", "preflight", "refuse_snapshot", "reproduce",
+           "resolve_targets",
            "run_notebooks", "validate_parameters"]
 
 
@@ -426,6 +427,16 @@ def _cache_notices(results: Sequence[NotebookResult]) -> str:
     return f"Warnings of this run: {' | '.join(notices)}." if notices else ""
 
 
+def refuse_snapshot(scale: str, snapshot: bool) -> None:
+    """``--snapshot`` refreshes ``results/``, which holds a standard-scale run only: asked of
+    another scale it is refused (ValueError) before any work."""
+    if snapshot and scale != "standard":
+        raise ValueError(f"--snapshot refreshes results/, which holds the standard scale's run; "
+                         f"this is the {scale} scale"
+                         + (" (a test, never a result)" if scale == "quick" else "")
+                         + ": drop --snapshot")
+
+
 def reproduce(*, scale: str, only: Sequence[str] | None = None, jobs: int = 1, seed: int = 0,
               device: str = "cpu", snapshot: bool = False,
               extra_parameters: dict[str, Any] | None = None, threads: int | None = None,
@@ -439,6 +450,7 @@ def reproduce(*, scale: str, only: Sequence[str] | None = None, jobs: int = 1, s
     from repro.claims.report import write_report, write_snapshot
 
     targets = resolve_targets(only)
+    refuse_snapshot(scale, snapshot)
     build_dir = paths.run_build_dir(scale)
     try:
         results = run_notebooks(targets, scale=scale, seed=seed, device=device, jobs=jobs,
@@ -467,10 +479,7 @@ def reproduce(*, scale: str, only: Sequence[str] | None = None, jobs: int = 1, s
         report = write_report(build_dir, scale=scale, runs=results, allow_mixed=allow_mixed,
                               provenance=_cache_notices(results))
         print(f"report: {report}")
-        if snapshot and scale != "standard":
-            print(f"not refreshing results/: it holds the standard scale's run, this is a "
-                  f"{scale}-scale run" + (" (a test, not a result)" if scale == "quick" else ""))
-        elif snapshot and only:
+        if snapshot and only:
             print("not refreshing results/: only a subset of notebooks ran")
         elif snapshot:
             print(f"results snapshot: {write_snapshot(build_dir)}")
