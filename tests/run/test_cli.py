@@ -47,6 +47,24 @@ def test_validate_dataset_names_missing_parts(tmp_path: Path,
     assert "texts" in out and "Mean.npy" in out and "train.txt" in out
 
 
+def test_validate_dataset_says_notebook_by_notebook_whether_it_uses_the_stubs(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from repro.infra.paths import data_stubs_dir
+
+    stubs = str(data_stubs_dir())
+    assert main(["validate-dataset", stubs, "--scale", "quick"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "layout valid" in lines[0]
+    assert any(line.split() == ["uses", "it", "01_x0_vs_eps"] for line in lines)
+    assert any(line.split() == ["uses", "it", "00_stand_in_data"] for line in lines)
+    assert any(line.split() == ["cannot", "04_energy_contour_maps"] for line in lines)
+    assert main(["validate-dataset", stubs, "--scale", "quick", "--notebook", "01",
+                 "--notebook", "GMD-F1"]) == 0
+    assert main(["validate-dataset", stubs, "--scale", "quick", "--notebook", "04"]) == 1
+    assert "windows of 64 frames" in capsys.readouterr().out
+    assert main(["validate-dataset", stubs, "--notebook", "XYZ"]) == 2
+
+
 def test_report_from_sidecars_and_no_quick_snapshot(tmp_path: Path,
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     from conftest import make_context

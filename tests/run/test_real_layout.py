@@ -190,12 +190,19 @@ def test_validate_dataset_checks_the_windows_of_the_scale_it_is_given(
 
     assert main(["validate-dataset", str(emg_layout), "--scale", "quick"]) == 0
     capsys.readouterr()
-    assert main(["validate-dataset", str(real_layout)]) == 1   # standard, as reproduce
-    assert "this scale's notebooks need at least 64 (standard scale)" in capsys.readouterr().out
+    # standard, as reproduce: notebook 00 shows the clips whole, notebook 01 cuts windows
+    assert main(["validate-dataset", str(real_layout), "--notebook", "00"]) == 0
+    capsys.readouterr()
+    assert main(["validate-dataset", str(real_layout), "--notebook", "01"]) == 1
+    assert "this scale's notebooks need at least 64" in capsys.readouterr().out
     # the small folder serves the GMD notebooks at quick, not the EnergyMoGen ones
-    assert main(["validate-dataset", str(real_layout), "--scale", "quick"]) == 1
+    assert main(["validate-dataset", str(real_layout), "--scale", "quick",
+                 "--notebook", "01", "--notebook", "06"]) == 0
+    capsys.readouterr()
+    assert main(["validate-dataset", str(real_layout), "--scale", "quick",
+                 "--notebook", "04"]) == 1
     out = capsys.readouterr().out
-    assert "EnergyMoGen notebooks: gives" in out and "windows of 64 frames" in out
+    assert "cannot   04_energy_contour_maps" in out and "windows of 64 frames" in out
 
 
 @pytest.fixture(scope="module")

@@ -185,33 +185,36 @@ def _cmd_stability(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    """Exit 0 when the folder is valid and usable at ``--scale`` (the windows the scale's
-    notebooks cut, the GMD notebooks' and the EnergyMoGen notebooks', as ``reproduce`` checks),
-    1 with the problems, 2 when it cannot be read."""
-    from repro.motion.humanml3d import Problem, format_problems, validate_dataset
-    from repro.motion.usability import usability_problems
-    from repro.run.params import emg_window_needs, window_needs
+    """The folder's layout (``validate_dataset``), then, notebook by notebook, whether it can
+    use the folder at ``--scale`` (the windows it cuts, as ``reproduce`` checks before a kernel
+    starts). Exit 0 when the layout has no error and the notebooks asked for (``--notebook``;
+    by default: at least one) can use it, 1 otherwise, 2 when the folder cannot be read."""
+    from repro.motion.humanml3d import format_problems, validate_dataset
+    from repro.run.params import notebook_acceptance
+    from repro.run.runner import resolve_targets
 
     try:
+        asked = resolve_targets(args.notebook) if args.notebook else []
         problems = validate_dataset(args.directory)
-        if not [p for p in problems if p.severity == "error"]:
-            gmd = usability_problems(args.directory, window_needs(args.scale))
-            emg = [p for p in usability_problems(args.directory, emg_window_needs(args.scale))
-                   if p not in gmd]   # the EnergyMoGen notebooks' windows (04, 05, 07, 08)
-            problems += [Problem(path, "windows", f"{who}{message} ({args.scale} scale)")
-                         for who, found in (("", gmd), ("EnergyMoGen notebooks: ", emg))
-                         for path, message in found]
+        errors = [p for p in problems if getattr(p, "severity", "error") == "error"]
+        verdicts = {} if errors else notebook_acceptance(args.directory, args.scale,
+                                                         asked or resolve_targets(None))
     except (FileNotFoundError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     if problems:
         print(format_problems(problems))
-    errors = [p for p in problems if getattr(p, "severity", "error") == "error"]
     if errors:
+        print("the layout has errors: no notebook can use the folder")
         return 1
-    print(f"{args.directory}: no errors found"
-          + (f" ({len(problems)} warning(s))" if problems else ""))
-    return 0
+    print(f"{args.directory}: layout valid" + (f" ({len(problems)} warning(s))" if problems
+                                               else "")
+          + f"; the notebooks at the {args.scale} scale (-p data_dir={args.directory}):")
+    for name, why in verdicts.items():
+        print(f"  {'uses it' if not why else 'cannot':8s} {name}"
+              + "".join(f"\n             {line}" for line in why))
+    usable = [name for name, why in verdicts.items() if not why]
+    return 0 if (usable == list(verdicts) if asked else usable) else 1
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -301,6 +304,9 @@ def main(argv: list[str] | None = None) -> int:
     val.add_argument("--scale", choices=SCALES, default="standard",
                      help="also check the windows this scale's notebooks cut (default: "
                           "standard, as reproduce)")
+    val.add_argument("--notebook", action="append", metavar="NAME",
+                     help="require this notebook (a name, its number or a claim ID; "
+                          "repeatable) to use the folder; default: any notebook")
     val.set_defaults(func=_cmd_validate)
 
     bench = sub.add_parser("bench", help="measure the time budgets (writes build/bench)")

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import ast
 import functools
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -128,13 +129,33 @@ def emg_window_needs(scale: str) -> WindowNeeds:
     return folder_needs(scale)
 
 
-def needs_of(name: str | None, scale: str) -> WindowNeeds:
+#: The notebook that shows a folder's clips whole (statistics, skeletons, conformance): it
+#: cuts no windows, so a valid layout with usable splits is all it needs.
+WHOLE_CLIPS_NOTEBOOK = "00_stand_in_data"
+
+
+def needs_of(name: str | None, scale: str) -> WindowNeeds | None:
     """The windows notebook ``name`` cuts at ``scale``: :func:`emg_window_needs` for an
-    EnergyMoGen notebook, else (and without a name: a notebook run by hand, whose EnergyMoGen
-    settings check the rest themselves) :func:`window_needs`."""
+    EnergyMoGen notebook, None (no windows) for :data:`WHOLE_CLIPS_NOTEBOOK`, else (and
+    without a name: a notebook run by hand, whose EnergyMoGen settings check the rest
+    themselves) :func:`window_needs`."""
     from repro.energymogen.settings import NOTEBOOKS
 
+    if name == WHOLE_CLIPS_NOTEBOOK:
+        return None
     return emg_window_needs(scale) if name in NOTEBOOKS else window_needs(scale)
+
+
+def notebook_acceptance(folder: str | os.PathLike, scale: str,
+                        notebooks: Sequence[str]) -> dict[str, list[str]]:
+    """notebook → why it cannot use ``folder`` at ``scale`` ([] when it can): the checks
+    ``reproduce`` makes before a kernel starts (:func:`needs_of`), for a folder whose layout
+    ``motion.humanml3d.validate_dataset`` found valid."""
+    from repro.motion.usability import usability_problems
+
+    return {name: [f"{path}: {message}"
+                   for path, message in usability_problems(folder, needs_of(name, scale))]
+            for name in notebooks}
 
 
 @functools.lru_cache(maxsize=8)
@@ -159,7 +180,7 @@ def _scale_problems(parameters: dict[str, Any], name: str | None = None) -> list
     folder, scale = parameters.get("data_dir"), parameters.get("scale", "standard")
     if not isinstance(folder, str) or scale_problem(scale) is not None:
         return []
-    family = name if name in NOTEBOOKS else None
+    family = name if name in NOTEBOOKS or name == WHOLE_CLIPS_NOTEBOOK else None
     problem = _usability_problem(str(Path(folder).expanduser().resolve()), scale, family)
     return [] if problem is None else [f"data_dir {problem}"]
 
