@@ -375,3 +375,28 @@ def test_emphasis_figures() -> None:
                                                  1 / (260 + 3 * grid**2), spread, spread, spread)
     assert len(fig.axes) == 3
     plt.close("all")
+
+
+def test_coherence_figure_does_not_depend_on_timings() -> None:
+    import dataclasses
+    import io
+
+    import matplotlib.pyplot as plt
+
+    from repro.gmd.emphasis_projection import COHERENCE_PANELS, plot_coherence
+
+    base = _fake_results()
+    for arms in base.imputed.values():
+        for metric, _ in COHERENCE_PANELS:
+            arms.setdefault(metric, list(arms["foot_skating"]))
+
+    def png(seconds: float) -> bytes:
+        timed = dataclasses.replace(base, train_seconds={k: [seconds] * len(v) for k, v in
+                                                         base.train_seconds.items()})
+        fig = plot_coherence(timed, [2.0, 10.0], samples=4)
+        buffer = io.BytesIO()
+        fig.savefig(buffer, format="png", dpi=40)
+        plt.close(fig)
+        return buffer.getvalue()
+
+    assert png(1.0) == png(123.4)
