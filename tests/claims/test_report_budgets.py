@@ -1,4 +1,4 @@
-"""README's budgets block: #15's budgets against the snapshot's run, written from
+"""README's budgets block: the budgets against the snapshot's run, written from
 results/claims.json (and the ``make bench`` totals); until a v2+ full run exists it says so."""
 
 from __future__ import annotations
@@ -32,24 +32,44 @@ def _snapshot(version: int, **extra: object) -> dict:
 def test_a_version_1_snapshot_says_no_v2_run_exists() -> None:
     text = budgets_markdown(_snapshot(1))
     assert "**No full run under registry v2 or later exists yet**" in text
-    assert "cold standard `make reproduce` ≤ 60 min, warm standard `make reproduce` ≤ 4 min" in text
+    assert "cold standard `make reproduce` ≤ 75 min, warm standard `make reproduce` ≤ 4 min" in text
     assert "|" not in text  # no table of times that were not measured on such a run
     assert "No full run" in budgets_markdown({**_snapshot(3), "mode": "quick"})
 
 
 def test_a_v3_snapshot_shows_totals_against_budgets_and_per_notebook_times() -> None:
-    timings = {"reproduce_standard_cold": {"seconds": 4000.0, "commit": "abc1234"},
-               "reproduce_standard_warm": {"seconds": 200.0, "commit": "0ld0ld0"}}
+    cpu = "Intel Xeon, 2 cores, AMX-BF16"
+    timings = {"reproduce_standard_cold": {"seconds": 4600.0, "commit": "abc1234", "cpu": cpu},
+               "reproduce_standard_warm": {"seconds": 200.0, "commit": "0ld0ld0"},
+               "notebook_quick_cold:00_stand_in_data": {"seconds": 20.0, "commit": "0ld0ld0",
+                                                        "cpu": cpu},
+               "notebook_quick_cold:01_x0_vs_eps": {"seconds": 146.0, "commit": "0ld0ld0",
+                                                    "cpu": cpu}}
     text = budgets_markdown(_snapshot(3, timings=timings, run_span_seconds=3990.0))
-    assert "Time budgets (2 cores) against the run in `results/` (commit abc1234):" in text
-    assert ("| cold standard `make reproduce` (whole process) | 4000 s (66.7 min) | 3600 | "
-            "**over** |") in text
-    assert ("| warm standard `make reproduce` (whole process) (commit 0ld0ld0) | 200 s (3.3 min) | "
-            "240 | within |") in text
-    assert "| `make test`, cold cache | not measured | 300 | — |" in text
-    assert "| this run, from its start to its last recorded claim | 3990 s (66.5 min) |" in text
+    assert "`results/` is the run of commit abc1234" in text
+    assert (f"| cold standard `make reproduce` (the run) | 76.7 min | {cpu} | this run | "
+            "75.0 min | **over** |") in text
+    assert ("| warm standard `make reproduce` (the run) | 3.3 min | — | 0ld0ld0 | 4.0 min | "
+            "within |") in text
+    assert "| `make test`, cold cache | not measured | | | 5.0 min | — |" in text
+    assert (f"| one quick notebook, cold cache (2 notebooks) | 20 s (00_stand_in_data) to "
+            f"146 s (01_x0_vs_eps) | {cpu} | 0ld0ld0 | 45 s each | **1 over** |") in text
+    assert "| this run, from its start to its last recorded claim | 66.5 min |" in text
     assert "| 00_stand_in_data | 20 | 20 |\n| 01_x0_vs_eps | 176 | 1292 |" in text
-    assert "Sum of this run's notebook times: 196 s (3.3 min)" in text
+    assert "Sum of this run's notebook times: 3.3 min" in text
+
+
+def test_the_run_records_its_own_time_cold_or_warm(tmp_path: Path) -> None:
+    from repro.claims.budgets import record_timings, run_timing
+
+    (tmp_path / "claims.json").write_text(json.dumps({"scale": "standard"}), encoding="utf-8")
+    record_timings(tmp_path, run_timing(scale="standard", seconds=1466.04, cold=True,
+                                        commit="abc1234", cpu="X"))
+    record_timings(tmp_path, run_timing(scale="standard", seconds=90.0, cold=False,
+                                        commit="abc1234", cpu="X"))
+    timings = read_json(tmp_path / "claims.json")["timings"]
+    assert timings["reproduce_standard_cold"]["seconds"] == 1466.0
+    assert timings["reproduce_standard_warm"]["cpu"] == "X"
 
 
 def test_bench_rows_that_failed_or_are_not_budgeted_are_left_out(tmp_path: Path) -> None:
@@ -60,7 +80,7 @@ def test_bench_rows_that_failed_or_are_not_budgeted_are_left_out(tmp_path: Path)
         "reproduce_standard_warm": {"seconds": 100.0, "exit_code": 1, "commit": "c1"},
         "unit_tests": {"seconds": 50.0, "exit_code": 0}}}), encoding="utf-8")
     assert bench_timings(bench) == {"reproduce_standard_cold": {
-        "seconds": 3000.04, "commit": "c1", "measured": "2026-12-01 10:00 UTC"}}
+        "seconds": 3000.04, "commit": "c1", "measured": "2026-12-01 10:00 UTC", "cpu": None}}
     assert bench_timings(tmp_path / "missing.json") == {}
 
 

@@ -36,7 +36,7 @@ from repro.infra import paths, progress, storage
 
 __all__ = ["CHECKSUMS", "CorruptArtifactError", "artifact_lock", "cached_artifact_dir",
            "canonical_json", "check_entries", "clean_cache", "config_hash", "file_checksum",
-           "fingerprint", "load_or_train", "verify_checksum", "write_checksum"]
+           "fingerprint", "holds_models", "load_or_train", "verify_checksum", "write_checksum"]
 
 CHECKSUMS = "checksums.json"
 
@@ -285,6 +285,14 @@ def _entry_problems(directory: Path) -> list[tuple[Path, str]]:
         if problem:
             problems.append((path, problem))
     return problems
+
+
+def holds_models(root: Path | None = None) -> bool:
+    """Whether the cache holds a complete trained model (a ``model.pt`` with its
+    ``checksums.json``): a run that starts without one trains everything, cold."""
+    root = Path(root) if root is not None else paths.cache_dir()
+    return root.is_dir() and any((entry.parent / "model.pt").is_file()
+                                 for entry in root.glob(f"*/*/{CHECKSUMS}"))
 
 
 def check_entries(root: Path | None = None) -> list[str]:

@@ -29,9 +29,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from repro.claims.budgets import record_timings, run_timing
 from repro.claims.registry import CLAIMS
 from repro.claims.report import slowest_of, slowest_seconds
 from repro.infra import cache, lifetime, paths, progress
+from repro.infra.machine import cpu_label
 from repro.infra.storage import free_bytes, read_json, write_problem
 from repro.run import params, plan, transaction, worker
 from repro.run.params import STANDARD_PARAMETERS, validate_parameters
@@ -451,6 +453,7 @@ def reproduce(*, scale: str, only: Sequence[str] | None = None, jobs: int = 1, s
 
     targets = resolve_targets(only)
     refuse_snapshot(scale, snapshot)
+    started, cold = time.monotonic(), not cache.holds_models()
     build_dir = paths.run_build_dir(scale)
     try:
         results = run_notebooks(targets, scale=scale, seed=seed, device=device, jobs=jobs,
@@ -478,6 +481,10 @@ def reproduce(*, scale: str, only: Sequence[str] | None = None, jobs: int = 1, s
             return 0
         report = write_report(build_dir, scale=scale, runs=results, allow_mixed=allow_mixed,
                               provenance=_cache_notices(results))
+        if not only:
+            record_timings(report.parent, run_timing(
+                scale=scale, seconds=time.monotonic() - started, cold=cold,
+                commit=transaction.git_commit(), cpu=cpu_label()))
         print(f"report: {report}")
         if snapshot and only:
             print("not refreshing results/: only a subset of notebooks ran")
