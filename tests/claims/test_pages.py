@@ -38,9 +38,9 @@ def test_headings_carry_githubs_anchors_and_tables_render() -> None:
                          "[GMD-A3](#gmd-a3) |\n")
     assert '<h2 id="models">Models</h2>' in page and '<h2 id="models-1">Models</h2>' in page
     assert "<td>x | y</td>" in page and '<td><a href="#gmd-a3">GMD-A3</a></td>' in page
-    whole = report_page("# Report\n", "Report (standard scale)")
+    whole = report_page("# Report\n\nA part's $\\delta$.\n", "Report (standard scale)")
     assert whole.startswith("<!doctype html>") and "<title>Report (standard scale)</title>" in whole
-    assert "<script" not in whole
+    assert "<script" not in whole and whole.count("<math") == 1 and "$" not in whole
 
 
 def _notebook_formulas() -> list[str]:
