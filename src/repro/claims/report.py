@@ -47,7 +47,6 @@ from repro.claims.figures import (
     forest_plot,
 )
 from repro.claims.ledger import load_sidecars, part_outcomes
-from repro.claims.pages import report_page
 from repro.claims.power import MOST_SEEDS
 from repro.claims.provenance import (
     ReportError,
@@ -359,6 +358,8 @@ def write_report(build_dir: str | os.PathLike, *, scale: str,
     Raises :class:`ReportError` (writing nothing) when no claim is recorded, a sidecar is of
     another scale, or the claims come from several runs and ``allow_mixed`` is False.
     """
+    from repro.claims.pages import report_page  # nbconvert: imported when a report is written
+
     build_dir = Path(build_dir)
     sidecars = load_sidecars(build_dir / "claims")
     run_line = check_runs(sidecars, scale=scale, folder=build_dir / "claims",
@@ -437,6 +438,8 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     What it writes names no path of the machine that ran the run (``paths.portable``).
     ``slowest_seconds`` keeps the slowest wall time of each notebook over the snapshots
     (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's)."""
+    from repro.claims.pages import report_page
+
     report_dir = Path(build_dir) / "report"
     target = paths.results_dir()
     claims = read_json(report_dir / "claims.json")
