@@ -69,7 +69,7 @@ bench: $(STAMP)  ## time budgets and training throughput; writes build/bench/ben
 	$(PY) -m repro bench $(ARGS)
 	$(PY) -m repro bench --training
 
-check-rendered: $(STAMP)  ## open results/ and build/report in headless Chromium: figures load, links work
+check-rendered: $(STAMP)  ## open results/ and build/report in headless Chromium, offline: figures load, links work, equations typeset
 	$(PY) scripts/check_rendered.py $(ARGS)
 
 lint: $(STAMP)  ## ruff on the library, tests and notebooks

@@ -1,15 +1,20 @@
 #!/usr/bin/env python3
-"""Open the rendered results in a real headless browser and check what a reader would see.
+r"""Open the rendered results in a real headless browser and check what a reader would see.
 
     python scripts/check_rendered.py [FOLDER_OR_FILE ...]     (default: results/ and
                                                                build/report/)
 
 Every ``*.html`` page below the folders (the executed notebooks, the report's index.html) and
-every ``REPORT.md`` (shown through a minimal HTML page with its images and links) is loaded in
-headless Chromium, Debian's ``chromium`` package (``apt-get install chromium``). A page passes
+every ``REPORT.md`` (shown through a minimal HTML page with its images, links and anchors) is
+loaded in headless Chromium, Debian's ``chromium`` package (``apt-get install chromium``), with
+the network cut off (every host name resolves to nothing, every request goes to a closed local
+proxy, and DevTools emulates an offline browser): the results must read offline. A page passes
 when every image has loaded (``complete`` and a natural width above 0), every link to a file
-points at one that exists, and every in-page anchor (``#id``) names an element of the page;
-links to other sites are listed, not followed (no network is assumed).
+points at one that exists, every in-page anchor (``#id``) names an element of the page, it
+asked the network for nothing (a script, style sheet or image from another site), and its
+equations are typeset: no raw TeX left in its text outside code (``$…$`` as pandoc reads it,
+``$$``, ``\(…\)``, ``\[…\]``, ``\begin{…}``) and every MathML ``<math>`` element laid out
+as math with no TeX command left inside. Links to other sites are listed, not followed.
 
 Chromium is driven over the DevTools protocol on a pipe (``--remote-debugging-pipe``: JSON
 messages separated by NUL on file descriptors 3 and 4), so nothing beyond the standard library
@@ -35,7 +40,13 @@ from urllib.parse import unquote, urlparse
 
 REPO = Path(__file__).resolve().parents[1]
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
-PAGE_SCRIPT = """(() => {
+#: the cut-off network: no name resolves, and anything that still tries goes to a closed port
+OFFLINE_FLAGS = ("--host-resolver-rules=MAP * ~NOTFOUND", "--proxy-server=127.0.0.1:9",
+                 "--proxy-bypass-list=<-loopback>")
+#: elements whose text is code or typeset math, not prose
+NOT_PROSE = "code, pre, kbd, samp, script, style, textarea, math, .MathJax, mjx-container"
+PAGE_SCRIPT = """(async () => {
+  await document.fonts.ready;
   const images = Array.from(document.images).map(i => ({
       src: (i.getAttribute('src') || '').slice(0, 120),
       ok: i.complete && i.naturalWidth > 0}));
@@ -43,8 +54,25 @@ PAGE_SCRIPT = """(() => {
       href: a.getAttribute('href'), url: a.href}));
   const ids = Array.from(document.querySelectorAll('[id],[name]'))
       .map(e => e.id || e.getAttribute('name'));
-  return {images, links, ids, title: document.title};
-})()"""
+  const prose = document.body ? document.body.cloneNode(true) : null;
+  if (prose) prose.querySelectorAll('NOT_PROSE').forEach(e => e.remove());
+  const math = Array.from(document.querySelectorAll('math')).map(m => {
+      const box = m.getBoundingClientRect();
+      return {text: m.textContent.slice(0, 120), display: getComputedStyle(m).display,
+              width: box.width, height: box.height};});
+  const errors = Array.from(document.querySelectorAll('merror, .MathJax_Error, mjx-merror'))
+      .map(e => e.textContent.slice(0, 120));
+  return {images, links, ids, title: document.title, math, math_errors: errors,
+          text: prose ? prose.textContent : ''};
+})()""".replace("NOT_PROSE", NOT_PROSE)
+#: raw TeX in a page's prose: what a Markdown renderer with math would have typeset
+RAW_TEX = re.compile(
+    r"\$\$.+?\$\$"  # $$display$$
+    r"|(?<![$\\\w])\$(?=[^\s$])[^$]{1,400}?(?<![\s\\$])\$(?!\d)"  # $inline$, pandoc's rule
+    r"|\\\(.+?\\\)|\\\[.+?\\\]"  # \(inline\), \[display\]
+    r"|\\begin\{[a-z]+\*?\}", re.S)  # \begin{equation}
+#: a TeX command left inside a math element (a macro the converter did not know)
+TEX_COMMAND = re.compile(r"\\[A-Za-z]+")
 
 
 def find_browser() -> str | None:
@@ -69,7 +97,7 @@ class Browser:
             os.dup2(writes, 4)
 
         arguments = [executable, "--headless", "--remote-debugging-pipe", "--disable-gpu",
-                     "--no-first-run", "--allow-file-access-from-files",
+                     "--no-first-run", "--allow-file-access-from-files", *OFFLINE_FLAGS,
                      f"--user-data-dir={self._profile}", "about:blank"]
         if os.geteuid() == 0:
             arguments.insert(1, "--no-sandbox")  # Chromium refuses to sandbox as root
@@ -122,18 +150,31 @@ class Browser:
             self._events.append(self._receive(max(deadline - time.monotonic(), 0.1)))
 
     def inspect(self, url: str) -> dict:
-        """Load ``url`` in a new tab and return the page's images, links and ids."""
+        """Load ``url`` offline in a new tab and return the page's images, links, ids, math,
+        prose text and the URLs it asked the network for (``requests``)."""
         target = self.call("Target.createTarget", {"url": "about:blank"})["targetId"]
         session = self.call("Target.attachToTarget",
                             {"targetId": target, "flatten": True})["sessionId"]
         try:
             self.call("Page.enable", session=session)
+            self.call("Network.enable", session=session)
+            self.call("Network.emulateNetworkConditions",
+                      {"offline": True, "latency": 0, "downloadThroughput": -1,
+                       "uploadThroughput": -1}, session=session)
             self.call("Page.navigate", {"url": url}, session=session)
             self.wait_event("Page.loadEventFired", session)
             result = self.call("Runtime.evaluate", {"expression": PAGE_SCRIPT,
-                                                    "returnByValue": True}, session=session)
-            return result["result"]["value"]
+                                                    "returnByValue": True,
+                                                    "awaitPromise": True}, session=session)
+            found = result["result"]["value"]
+            found["requests"] = sorted({
+                event["params"]["request"]["url"] for event in self._events
+                if event.get("sessionId") == session
+                and event.get("method") == "Network.requestWillBeSent"
+                and urlparse(event["params"]["request"]["url"]).scheme in ("http", "https")})
+            return found
         finally:
+            self._events = [e for e in self._events if e.get("sessionId") != session]
             self.call("Target.closeTarget", {"targetId": target})
 
     def close(self) -> None:
@@ -144,11 +185,27 @@ class Browser:
         shutil.rmtree(self._profile, ignore_errors=True)
 
 
+def github_anchor(heading: str) -> str:
+    """The anchor GitHub gives a Markdown heading: lower case, punctuation dropped, spaces as
+    ``-``."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
 def markdown_page(markdown: Path) -> Path:
-    """A temporary HTML page showing ``markdown``'s images and links, relative to its folder."""
+    """A temporary HTML page showing ``markdown``'s images and links, relative to its folder,
+    and its anchors: each heading's as GitHub makes it, and ``<a id=…>`` written in it."""
     text = markdown.read_text(encoding="utf-8")
     parts = [f"<!doctype html><meta charset='utf-8'><base href='{markdown.parent.as_uri()}/'>"
              f"<title>{html.escape(markdown.name)}</title>"]
+    seen: dict[str, int] = {}
+    for heading in re.findall(r"^#{1,6} +(.+?) *#* *$", text, re.M):
+        anchor = github_anchor(heading)
+        count = seen.get(anchor, 0)
+        seen[anchor] = count + 1
+        parts.append(f"<span id='{html.escape(f'{anchor}-{count}' if count else anchor)}'>"
+                     "</span>")
+    for anchor in re.findall(r"<a (?:id|name)=[\"']([^\"']+)[\"']", text):
+        parts.append(f"<span id='{html.escape(anchor)}'></span>")
     for alt, target in re.findall(r"!\[([^\]]*)\]\(([^)\s]+)\)", text):
         parts.append(f"<img alt='{html.escape(alt)}' src='{html.escape(target)}'>")
     for label, target in re.findall(r"(?<!!)\[([^\]]+)\]\(([^)\s]+)\)", text):
@@ -159,10 +216,34 @@ def markdown_page(markdown: Path) -> Path:
     return Path(name)
 
 
+def math_problems(found: dict, shown_as: Path) -> list[str]:
+    """Raw TeX in the page's prose, math elements not laid out as math or holding a TeX
+    command, math errors."""
+    problems = []
+    for match in list(RAW_TEX.finditer(found.get("text", "")))[:3]:
+        problems.append(f"{shown_as}: raw TeX in the text, not typeset: "
+                        f"{' '.join(match.group(0).split())[:80]!r}")
+    for element in found.get("math", []):
+        if not element["display"].endswith("math") or not (element["width"] > 0
+                                                             and element["height"] > 0):
+            problems.append(f"{shown_as}: math element not laid out as math "
+                            f"(display {element['display']!r}): {element['text'][:60]!r}")
+        elif TEX_COMMAND.search(element["text"]):
+            problems.append(f"{shown_as}: math element still holds a TeX command: "
+                            f"{element['text'][:60]!r}")
+    problems += [f"{shown_as}: math error: {text[:60]!r}" for text in found.get("math_errors",
+                                                                               [])]
+    return problems
+
+
 def page_problems(page: Path, found: dict, shown_as: Path) -> tuple[list[str], list[str]]:
     """(problems, external links) of one inspected page."""
     problems = [f"{shown_as}: image {image['src']!r} did not load"
                 for image in found["images"] if not image["ok"]]
+    problems += [f"{shown_as}: asks the network for {url[:100]} (the page must read offline)"
+                 for url in found.get("requests", [])]
+    if page.suffix != ".md":   # a Markdown file's math is its viewer's to typeset
+        problems += math_problems(found, shown_as)
     external = []
     for link in found["links"]:
         href, url = link["href"], urlparse(link["url"])
@@ -223,7 +304,7 @@ def main(argv: list[str] | None = None) -> int:
             problems += page_issues
             external.update(links)
             print(f"{'ok  ' if not page_issues else 'FAIL'} {page}: {len(found['images'])} "
-                  f"image(s), {len(found['links'])} link(s)"
+                  f"image(s), {len(found['links'])} link(s), {len(found['math'])} formula(s)"
                   + ("  (warning: no figure on this page)" if not found["images"] else ""))
     finally:
         browser.close()

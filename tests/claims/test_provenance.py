@@ -95,6 +95,20 @@ def test_rendered_notebooks_name_no_path_of_the_machine_that_ran_them(
     assert str(staging) in (tmp_path / "executed" / "00_stand_in_data.ipynb").read_text()
 
 
+def test_rendered_notebooks_read_offline(tmp_path: Path) -> None:
+    """Equations are MathML in the page and no script comes from a CDN (no MathJax)."""
+    pytest.importorskip("nbconvert")
+    notebook = nbformat.v4.new_notebook(cells=[nbformat.v4.new_markdown_cell(
+        "The energy $E_\\theta(z_t, c)$, its gradient\n\n$$\\nabla E_t(z) = "
+        "\\epsilon_\\theta(z, t, c)/\\sqrt{1-\\bar\\alpha_t}$$")])
+    (tmp_path / "executed").mkdir()
+    nbformat.write(notebook, tmp_path / "executed" / "04_energy_contour_maps.ipynb")
+    [page] = render_notebooks(tmp_path / "executed", tmp_path / "snapshot")
+    text = page.read_text(encoding="utf-8")
+    assert text.count("<math") == 2 and "E_\\theta" not in text
+    assert not re.search(r"<script[^>]*\bsrc=", text) and "mathjax" not in text.lower()
+
+
 #: an absolute path of a machine: a folder under one of the usual roots
 MACHINE_PATH = re.compile(r"(?<![\w.:/-])/(?:tmp|work|home|root|Users|mnt|srv|scratch|var)/"
                           r"[\w.-]+")

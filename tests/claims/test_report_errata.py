@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from repro.claims import printed
-from repro.claims.errata import errata_html, errata_markdown, load_errata, parse_errata
+from repro.claims.errata import errata_markdown, load_errata, parse_errata
+from repro.claims.pages import markdown_html
 from repro.claims.registry import CLAIMS
 from repro.energymogen import sef_ablation
 from repro.infra import paths
@@ -81,8 +82,8 @@ def test_the_report_section_renders_each_entry(tmp_path) -> None:
     assert "*Open question:*" in text and "*Correction:*" in text
     assert text.count("*Claim impact:*") == len(entries)
     assert "*Inconsistency:*" in text and "table by table" in text
-    page = errata_html(entries)
-    assert page.count("<li>") == len(entries) and "<i>Claim impact:</i>" in page
+    page = markdown_html(text)   # REPORT.html renders the same Markdown
+    assert page.count("<li>") == len(entries) and "<em>Claim impact:</em>" in page
 
 
 _ENTRY = ("## Eq. 1\n- **Paper:** X\n- **Printed:** a\n- **Numbers:** 1.5\n"

@@ -4,6 +4,7 @@ snapshot with the changelog's reasons; REPORT.html has the same."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -41,12 +42,13 @@ def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> No
         "## Verdicts")
     assert trust_at < table_at < text.index("## Paper errata") < text.index("## Models")
     screen = text[trust_at:table_at]
-    a3 = next(line for line in screen.splitlines() if line.startswith("| GMD-A3 |"))
+    a3 = next(line for line in screen.splitlines() if line.startswith("| [GMD-A3](#gmd-a3) |"))
     # a model that fails its gate makes the verdict inconclusive, and the row says why
     assert "**inconclusive**" in a3 and "positive seen, null silent" in a3
-    assert "**1 of 1 fail** (see Models)" in a3
+    assert "**1 of 1 fail** (see [Models](#models))" in a3
     assert "quality gates" in a3 and "stand-in data, tiny models" in a3
-    assert ("| GMD-A1 | **discrepancy in the paper** | 2 supported | — (exact check) | "
+    assert ("| [GMD-A1](#gmd-a1) | **discrepancy in the paper** | 2 supported | "
+            "— (exact check) | "
             "— (no model) | none (an exact computation, no trained model) |") in screen
     assert "| GMD-A2 | **not yet tested** |" in screen
     assert ("21 claims: 1 inconclusive, 1 discrepancy in the paper, 19 not yet tested "
@@ -56,8 +58,10 @@ def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> No
     assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and figure.stat().st_size < 150_000
     page = (tmp_path / "report" / "index.html").read_text(encoding="utf-8")
     assert "How far each verdict can be trusted" in page and "Paper errata" in page
-    assert "<td>1 of 1 fail (see Models)</td>" in page
-    assert "src='figures/claims_by_outcome.png'" in page
+    assert ('<td><strong>1 of 1 fail</strong> (see <a href="#models">Models</a>)</td>'
+            in page and '<h2 id="models">Models</h2>' in page)
+    assert '<a href="#gmd-a3">GMD-A3</a>' in page and '<a id="gmd-a3"></a>' in page
+    assert 'src="figures/claims_by_outcome.png"' in page
 
 
 def test_passing_models_and_missing_controls_read_as_such(tmp_path: Path) -> None:
@@ -253,7 +257,13 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
     assert not (results / "old.png").exists()
     page = (results / "REPORT.html").read_text(encoding="utf-8")
     assert "How far each verdict can be trusted" in page
-    assert "<a href='notebooks/01_x0_vs_eps.html'>01_x0_vs_eps</a>" in page
+    # REPORT.html is the snapshot's REPORT.md rendered: the same sections, executed notebooks too
+    markdown = (results / "REPORT.md").read_text(encoding="utf-8")
+    assert [re.sub(r"<[^>]+>", "", h) for h in re.findall(r"<h2[^>]*>(.*?)</h2>", page)] == [
+        line[3:] for line in markdown.splitlines() if line.startswith("## ")]
+    assert "## Executed notebooks" in markdown
+    assert '<a href="notebooks/01_x0_vs_eps.html">01_x0_vs_eps</a>' in page
+    assert '<a href="../docs/ERRATA.md">docs/ERRATA.md</a>' in page
     assert (results / "figures" / "claims_by_outcome.png").is_file()
     readme = (repo / "README.md").read_text(encoding="utf-8")
     assert "| cold standard `make reproduce` (whole process) (commit c1) | 3000 s (50.0 min) |" \
@@ -266,7 +276,7 @@ def test_a_quick_run_shows_its_machinery_never_its_verdict(tmp_path: Path) -> No
                  settings=run_settings("GMD-A3", "quick"), seeds=[0], models=[FAILED_MODEL])
     row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
     assert row.verdict == "quick run (not a result)"
-    assert row.models == "**1 of 1 fail** (see Models)" and row.parts != "—"
+    assert row.models == f"**1 of 1 fail** {trust.SEE_MODELS}" and row.parts != "—"
 
 
 def test_a_sidecar_of_another_registry_version_says_so() -> None:

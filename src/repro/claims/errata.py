@@ -8,7 +8,6 @@ every claim and test an entry names exists.
 
 from __future__ import annotations
 
-import html
 import os
 import re
 from dataclasses import dataclass
@@ -138,22 +137,3 @@ def errata_markdown(entries: list[Erratum] | None, docs: str = "../docs") -> lis
                   f"{_sentence(e.resolution)} *Claim impact:* "
                   f"{_sentence(e.fields['Claim impact'])} *Shown by:* {e.fields['Shown by']}"]
     return lines + [""]
-
-
-def errata_html(entries: list[Erratum] | None) -> str:
-    """The same section for REPORT.html."""
-    esc = html.escape
-    if entries is None:
-        return f"<h2>Paper errata</h2><p>{esc(str(errata_path()))} is missing.</p>"
-    items = []
-    for e in entries:
-        head = "Open question" if e.is_open else "Correction"
-        inconsistency = (f"<i>Inconsistency:</i> {esc(_sentence(e.fields['Inconsistency']))} "
-                         if "Inconsistency" in e.fields else "")
-        items.append(f"<li><b>{esc(e.title)}</b> ({esc(e.fields['Paper'])}). Printed: "
-                     f"{esc(_sentence(e.fields['Printed']))} {inconsistency}<i>{head}:</i> "
-                     f"{esc(_sentence(e.resolution))} <i>Claim impact:</i> "
-                     f"{esc(_sentence(e.fields['Claim impact']))} "
-                     f"<i>Shown by:</i> {esc(e.fields['Shown by'])}</li>")
-    return ("<h2>Paper errata</h2><p>Source: docs/ERRATA.md, which also says, table by table, "
-            "what the audit read and found consistent.</p><ul>" + "".join(items) + "</ul>")

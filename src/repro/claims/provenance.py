@@ -5,8 +5,9 @@
   mode, or no sidecar at all are errors; ``allow_mixed`` lets several runs through and the
   provenance then names every run and its claims.
 - :func:`render_notebooks`: each executed notebook as a self-contained HTML page (nbconvert;
-  the figures are the notebook's PNG outputs, embedded) for the ``results/`` snapshot, its
-  text naming no path of the machine that ran it (:func:`portable_strings`).
+  the figures are the notebook's PNG outputs, embedded; the equations MathML, so the page
+  reads offline) for the ``results/`` snapshot, its text naming no path of the machine that
+  ran it (:func:`portable_strings`).
 """
 
 from __future__ import annotations
@@ -94,17 +95,18 @@ _STYLE_BLOCK = re.compile(r"<style[^>]*>(.*?)</style>", re.S)
 
 def render_notebooks(source: Path, target: Path) -> list[Path]:
     """Every ``source/*.ipynb`` as ``target/<name>.html`` (nbconvert's HTML exporter, lab
-    template, figures embedded as PNG data URIs); returns the pages written.
+    template, figures embedded as PNG data URIs, equations as MathML and no script from the
+    network: ``claims.pages.notebook_exporter``); returns the pages written.
 
     The template's style sheet (about 260 kB, the same for every page) is written once to
     ``target/notebook.css`` and linked, which keeps the snapshot small. Paths of this
     machine (the injected ``build_dir``, printed folders) are written relative to the clone
     or as their variable (:func:`portable_strings`)."""
     import nbformat
-    from nbconvert import HTMLExporter
 
-    exporter = HTMLExporter()
-    exporter.embed_images = True
+    from repro.claims.pages import notebook_exporter
+
+    exporter = notebook_exporter()
     pages = []
     target.mkdir(parents=True, exist_ok=True)
     style = ""

@@ -1,5 +1,5 @@
-"""The report: REPORT.md and an HTML page built from the claim sidecars, and the committed
-``results/`` snapshot.
+"""The report: REPORT.md built from the claim sidecars, the same rendered as an HTML page, and
+the committed ``results/`` snapshot.
 
 REPORT.md opens with one screen on trust (``claims.trust``): the forest plot of every part in
 units of its δ (``claims.figures.forest_plot``), per claim its verdict, parts, controls, gates
@@ -9,8 +9,13 @@ then the verdict table beside the previous snapshot's verdicts (the committed
 changelog's reasons (``claims.changelog``), the papers' errata (``docs/ERRATA.md`` via
 ``claims.errata``), the models, the run times and each claim in full, its rule as the run
 rendered it and its part rows (:func:`parts_rows`: effect and interval over δ, what the run
-could see over δ, and for an undecided part the seeds that would see δ). REPORT.html
-(``index.html``) has the same.
+could see over δ, and for an undecided part the seeds that would see δ). The verdict table's
+cells stay short (the parts' outcomes counted); each claim links to its section
+(``#gmd-a3``).
+
+REPORT.md is the one source: the HTML page (``index.html``; ``REPORT.html`` in ``results/``) is
+that Markdown rendered (``claims.pages``, its math typeset as MathML), so every section is in
+both.
 
 A quick run's verdicts are never presented as results: its table says "quick run" instead.
 Reports are written atomically; a failed run does not call this (the last good one stays).
@@ -19,7 +24,6 @@ Reports are written atomically; a failed run does not call this (the last good o
 from __future__ import annotations
 
 import datetime as _dt
-import html
 import os
 import shutil
 import tempfile
@@ -228,6 +232,32 @@ def models_markdown(models: list[dict[str, Any]]) -> list[str]:
     return lines + [""]
 
 
+def verdicts_markdown(rows: list[dict[str, str]],
+                      sidecars: dict[str, dict[str, Any]]) -> list[str]:
+    """The "Verdicts" table: per registry claim its statement, the paper's value, ours, the
+    verdict, its parts' outcomes counted and the previous snapshot's verdict, each claim with
+    a sidecar linked to its section (where its parts are, with their reasons and numbers)."""
+    lines = ["## Verdicts", "",
+             f"| claim | statement | paper | ours | verdict (registry v{REGISTRY_VERSION}) "
+             "| parts | previous snapshot | notebook |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        sidecar = sidecars.get(r["id"])
+        parts = (trust.claim_link(r["id"], sidecars,
+                                  trust.parts_text(trust.outcome_counts(sidecar)))
+                 if sidecar and sidecar.get("parts") else "—")
+        cells = [trust.claim_link(r["id"], sidecars), r["statement"], r["paper"], r["ours"],
+                 f"**{r['verdict']}**", parts, r.get("previous_verdict", ""),
+                 f"`{r['notebook']}`"]
+        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    return lines
+
+
+def report_title(scale: str) -> str:
+    """The report's title (its first heading and the page's title), naming the scale."""
+    return ("Reproduction report (QUICK run: not results)" if scale == "quick"
+            else f"Reproduction report ({scale} scale)")
+
+
 def docs_link(report_dir: Path) -> str:
     """The relative link from a report's folder to the repository's docs/."""
     return os.path.relpath(paths.REPO_ROOT / "docs", report_dir)
@@ -240,23 +270,15 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], s
     when = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
     source = ("a QUICK (test) run: no verdict here is a result." if scale == "quick"
               else f"a {scale}-scale run.")
-    lines = ["# Reproduction report", "",
+    lines = [f"# {report_title(scale)}", "",
              f"Generated {when} from {source}",
              "Stand-in data and tiny models: the direction and shape of each effect is tested, "
              "never the paper's absolute numbers.", ""]
     if provenance:
         lines += [f"**Provenance.** {provenance}", ""]
     lines += trust.trust_markdown(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}",
-                                  f"figures/{FOREST_NAME}")
-    lines += ["## Verdicts", "",
-              f"| claim | statement | paper | ours | verdict (registry v{REGISTRY_VERSION}) "
-              "| previous snapshot | notebook |", "|---|---|---|---|---|---|---|"]
-    for r in rows:
-        verdict = f"**{r['verdict']}**" + (f" — {r['parts_short']}" if r.get("parts_short")
-                                           else "")
-        cells = [r["id"], r["statement"], r["paper"], r["ours"], verdict,
-                 r.get("previous_verdict", ""), r["notebook"]]
-        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+                                  f"figures/{FOREST_NAME}", sections=sidecars)
+    lines += verdicts_markdown(rows, sidecars)
     changes_by_claim = changelog.claim_changes()
     lines += trust.changes_markdown(trust.verdict_changes(sidecars, previous, changes_by_claim),
                                     changes_by_claim, docs)
@@ -267,7 +289,8 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], s
         lines += [f"| {r.name} | {r.seconds:.1f} |" for r in runs]
     for claim_id, sidecar in sidecars.items():
         version = sidecar.get("registry_version", 1)
-        lines += ["", f"## {claim_id} — {sidecar['verdict']} ({scale_of(sidecar)} scale)", "",
+        lines += ["", f'<a id="{trust.claim_anchor(claim_id)}"></a>', "",
+                  f"## {claim_id} — {sidecar['verdict']} ({scale_of(sidecar)} scale)", "",
                   f"*{sidecar['statement']}* ({sidecar['paper']}, {sidecar['section']})", "",
                   f"- Rule (registry v{version}, fixed before the run): {sidecar['rule']}",
                   f"- Why: {sidecar['reason']}"]
@@ -284,52 +307,6 @@ def _markdown(rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], s
         for name in figure_names.get(claim_id, []):
             lines += ["", f"![{claim_id}](figures/{name})"]
     return "\n".join(lines) + "\n"
-
-
-def _html(markdown_rows: list[dict[str, str]], sidecars: dict[str, dict[str, Any]], scale: str,
-          figure_names: dict[str, list[str]], previous: dict[str, dict[str, Any]]) -> str:
-    esc = html.escape
-    head = ("<!doctype html><meta charset='utf-8'><title>repro report</title><style>"
-            "body{font-family:sans-serif;max-width:1200px;margin:auto}td,th{border:1px solid "
-            "#ccc;padding:4px;vertical-align:top}table{border-collapse:collapse}img{max-width:"
-            "100%}</style>")
-    title = " (QUICK run: not results)" if scale == "quick" else f" ({scale} scale)"
-    body = [f"<h1>Reproduction report{title}</h1>",
-            trust.trust_html(trust.trust_rows(sidecars), f"figures/{FIGURE_NAME}",
-                             f"figures/{FOREST_NAME}"),
-            "<h2>Verdicts</h2><table><tr><th>claim</th><th>statement</th><th>paper</th><th>ours</th>"
-            f"<th>verdict (registry v{REGISTRY_VERSION})</th><th>parts</th>"
-            "<th>previous snapshot</th><th>notebook</th>"
-            "</tr>"]
-    for r in markdown_rows:
-        body.append("<tr>" + "".join(f"<td>{esc(r.get(k, ''))}</td>" for k in
-                                     ("id", "statement", "paper", "ours", "verdict", "parts",
-                                      "previous_verdict", "notebook"))
-                    + "</tr>")
-    body.append("</table>")
-    body.append(trust.changes_html(trust.verdict_changes(sidecars, previous,
-                                                         changelog.claim_changes())))
-    body.append(errata.errata_html(errata.load_errata()))
-    for claim_id, s in sidecars.items():
-        body.append(f"<h2>{esc(claim_id)} — {esc(s['verdict'])} "
-                    f"({esc(str(scale_of(s)))} scale)</h2>"
-                    f"<p><i>{esc(s['statement'])}</i></p><p>Rule: {esc(s['rule'])}</p>"
-                    f"<p>Why: {esc(s['reason'])}</p>"
-                    + _parts_html(s)
-                    + (f"<p>Previous snapshot: {esc(_previous_text(previous[claim_id]))}</p>"
-                       if claim_id in previous else ""))
-        body += [f"<img src='figures/{esc(n)}'>" for n in figure_names.get(claim_id, [])]
-    return head + "\n".join(body)
-
-
-def _parts_html(sidecar: dict[str, Any]) -> str:
-    rows = parts_rows(sidecar)
-    if not rows:
-        return ""
-    esc = html.escape
-    return ("<table><tr>" + "".join(f"<th>{esc(h)}</th>" for h in PARTS_HEADER) + "</tr>"
-            + "".join("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>"
-                      for r in rows) + "</table>")
 
 
 @dataclass(frozen=True)
@@ -374,12 +351,15 @@ def write_report(build_dir: str | os.PathLike, *, scale: str,
                  runs: Sequence[Any] = (), provenance: str = "",
                  allow_mixed: bool = False) -> Path:
     """Write ``<build>/report/{REPORT.md, index.html, claims.json, figures/}``; returns the md.
+    ``index.html`` is REPORT.md rendered (:func:`claims.pages.report_page`).
 
     ``runs``: the notebooks just run (name, seconds); the run times of the report being
     replaced are kept for the notebooks not run again (``--only``, or ``report`` alone).
     Raises :class:`ReportError` (writing nothing) when no claim is recorded, a sidecar is of
     another scale, or the claims come from several runs and ``allow_mixed`` is False.
     """
+    from repro.claims.pages import report_page  # nbconvert: imported when a report is written
+
     build_dir = Path(build_dir)
     sidecars = load_sidecars(build_dir / "claims")
     run_line = check_runs(sidecars, scale=scale, folder=build_dir / "claims",
@@ -411,10 +391,10 @@ def write_report(build_dir: str | os.PathLike, *, scale: str,
                                                                                  sidecars)})
     write_json(report_dir / "models.json", {"scale": scale,
                                             "models": models_of(sidecars)})
-    write_text(report_dir / "index.html", _html(rows, sidecars, scale, figure_names, previous))
-    return write_text(report_dir / "REPORT.md", _markdown(rows, sidecars, scale, runs,
-                                                          figure_names, previous, provenance,
-                                                          docs_link(report_dir)))
+    markdown = _markdown(rows, sidecars, scale, runs, figure_names, previous, provenance,
+                         docs_link(report_dir))
+    write_text(report_dir / "index.html", report_page(markdown, report_title(scale)))
+    return write_text(report_dir / "REPORT.md", markdown)
 
 
 README_TABLE_START = "<!-- claims-table:start"
@@ -449,14 +429,17 @@ KEPT_FROM_PREVIOUS_SNAPSHOT = ("STABILITY.md",)
 
 
 def write_snapshot(build_dir: str | os.PathLike) -> Path:
-    """Replace ``results/`` with the full run's REPORT.md and REPORT.html, claims.json, PNG
-    figures and every executed notebook rendered to ``notebooks/<name>.html`` (linked from
-    both reports), and the README's verdict table with the same verdicts and its budgets
-    block with the run's times (``claims.budgets``; ``timings``: the ``make bench`` totals in
+    """Replace ``results/`` with the full run's REPORT.md (its "Executed notebooks" section
+    added) and REPORT.html (that Markdown rendered), claims.json, PNG figures and every
+    executed notebook rendered to ``notebooks/<name>.html`` (linked from both reports), and
+    the README's verdict table with the same verdicts and its budgets block with the run's
+    times (``claims.budgets``; ``timings``: the ``make bench`` totals in
     build/bench); ``results/STABILITY.md`` is kept (:data:`KEPT_FROM_PREVIOUS_SNAPSHOT`).
     What it writes names no path of the machine that ran the run (``paths.portable``).
     ``slowest_seconds`` keeps the slowest wall time of each notebook over the snapshots
     (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's)."""
+    from repro.claims.pages import report_page
+
     report_dir = Path(build_dir) / "report"
     target = paths.results_dir()
     claims = read_json(report_dir / "claims.json")
@@ -465,9 +448,8 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
                           "the standard scale's run only (python -m repro reproduce --scale "
                           "standard --snapshot)")
     staging = Path(tempfile.mkdtemp(prefix=".results.", dir=target.parent))
-    report_text = (report_dir / "REPORT.md").read_text(encoding="utf-8")
-    write_text(staging / "REPORT.md", portable(report_text.replace(
-        f"]({docs_link(report_dir)}/", f"]({docs_link(target)}/")))
+    report_text = portable((report_dir / "REPORT.md").read_text(encoding="utf-8").replace(
+        f"]({docs_link(report_dir)}/", f"]({docs_link(target)}/"))
     before = target / "claims.json"
     same_scale = before.is_file() and read_json(before).get("scale") == "standard"
     claims["slowest_seconds"] = slowest_of(slowest_seconds(before) if same_scale else {},
@@ -479,13 +461,9 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     for figure in (report_dir / "figures").glob("*.png"):
         shutil.copy2(figure, staging / "figures" / figure.name)
     pages = render_notebooks(Path(build_dir) / "notebooks", staging / "notebooks")
-    with open(staging / "REPORT.md", "a", encoding="utf-8") as report:
-        report.write(notebooks_section(pages, staging))
-    links = "".join(f"<li><a href='{html.escape(os.path.relpath(page, staging))}'>"
-                    f"{html.escape(page.stem)}</a></li>" for page in pages)
-    page_text = (report_dir / "index.html").read_text(encoding="utf-8")
-    write_text(staging / "REPORT.html", portable(page_text) + "\n<h2>Executed notebooks</h2>"
-               "<ul>" + links + "</ul>")
+    report_text += notebooks_section(pages, staging)
+    write_text(staging / "REPORT.md", report_text)
+    write_text(staging / "REPORT.html", report_page(report_text, report_title("standard")))
     for kept in KEPT_FROM_PREVIOUS_SNAPSHOT:  # written by other commands, not by this run
         if (target / kept).is_file():
             shutil.copy2(target / kept, staging / kept)

@@ -12,11 +12,10 @@ written), with the registry changelog's reasons for the versions in between.
 
 from __future__ import annotations
 
-import html
 import math
 import os
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -31,6 +30,8 @@ from repro.infra.storage import read_json
 
 NOT_TESTED = "not yet tested"
 QUICK = "quick run (not a result)"
+#: where a failed gate's numbers are: the report's "Models" section (GitHub's anchor of it)
+SEE_MODELS = "(see [Models](#models))"
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,8 @@ def outcome_counts(sidecar: Mapping[str, Any]) -> dict[str, int]:
     return {outcome: counts[outcome] for outcome in OUTCOMES if counts[outcome]}
 
 
-def _parts_text(counts: Mapping[str, int]) -> str:
+def parts_text(counts: Mapping[str, int]) -> str:
+    """"2 supported, 1 inconclusive": the counts of :func:`outcome_counts` in words."""
     return ", ".join(f"{n} {outcome}" for outcome, n in counts.items()) or "—"
 
 
@@ -93,10 +95,10 @@ def _runs_nothing(sidecar: Mapping[str, Any]) -> bool:
 
 
 def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
-    """"3/3 pass" or "**1 of 3 fail**" over the sidecar's quality gates (each model's
-    gate is one of them); "none recorded" when a measured claim has none; a claim none of
-    whose parts runs says so (its models, if any, are shown but decide nothing: their failures
-    are not in bold)."""
+    """"3/3 pass" or "**1 of 3 fail**" (linked to the report's Models section) over the
+    sidecar's quality gates (each model's gate is one of them); "none recorded" when a
+    measured claim has none; a claim none of whose parts runs says so (its models, if any, are
+    shown but decide nothing: their failures are not in bold)."""
     gates = dict(sidecar.get("quality_gates") or {})
     for model in sidecar.get("models", []):
         gates.setdefault(f"model {model['name']}", bool(model["passed"]))
@@ -107,9 +109,9 @@ def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
         return "— (no model)" if not claim.rests_on_effects else "none recorded"
     failed = [name for name, passed in gates.items() if not passed]
     if failed and idle:   # shown, deciding nothing: not in bold
-        return f"{len(failed)} of {len(gates)} fail (see Models), deciding nothing{idle}"
+        return f"{len(failed)} of {len(gates)} fail {SEE_MODELS}, deciding nothing{idle}"
     if failed:
-        return f"**{len(failed)} of {len(gates)} fail** (see Models)"
+        return f"**{len(failed)} of {len(gates)} fail** {SEE_MODELS}"
     return f"{len(gates)}/{len(gates)} pass{idle}"
 
 
@@ -229,7 +231,7 @@ def trust_rows(sidecars: Mapping[str, Mapping[str, Any]]) -> list[TrustRow]:
         counts = outcome_counts(sidecar)
         controls, gates = controls_text(claim, sidecar), gates_text(claim, sidecar)
         verdict = sidecar["verdict"] if is_result(sidecar) else QUICK
-        rows.append(TrustRow(claim.id, verdict, _parts_text(counts), controls, gates,
+        rows.append(TrustRow(claim.id, verdict, parts_text(counts), controls, gates,
                              limits_text(claim, sidecar), counts))
     return rows
 
@@ -239,10 +241,22 @@ def verdict_counts(rows: list[TrustRow]) -> dict[str, int]:
     return {v: counts[v] for v in (*VERDICTS, QUICK, NOT_TESTED) if counts[v]}
 
 
+def claim_anchor(claim_id: str) -> str:
+    """The anchor of a claim's section in the report (``GMD-A3`` → ``gmd-a3``)."""
+    return claim_id.lower()
+
+
+def claim_link(claim_id: str, sections: Collection[str], text: str | None = None) -> str:
+    """``[text](#gmd-a3)`` when the report has ``claim_id``'s section, else the text."""
+    text = text or claim_id
+    return f"[{text}](#{claim_anchor(claim_id)})" if claim_id in sections else text
+
+
 def trust_markdown(rows: list[TrustRow], figure: str | None = None,
-                   forest: str | None = None) -> list[str]:
+                   forest: str | None = None, sections: Collection[str] = ()) -> list[str]:
     """The report's opening screen: counts, the forest plot of every part (``forest``), the
-    per-claim trust table, the outcome figure's link."""
+    per-claim trust table (a claim in ``sections`` linked to its section), the outcome
+    figure's link."""
     counts = ", ".join(f"{n} {v}" for v, n in verdict_counts(rows).items())
     lines = ["## How far each verdict can be trusted", "",
              f"{len(rows)} claims: {counts} (registry v{REGISTRY_VERSION})."]
@@ -264,32 +278,12 @@ def trust_markdown(rows: list[TrustRow], figure: str | None = None,
               "| claim | verdict | parts | controls | gates | limited by |",
               "|---|---|---|---|---|---|"]
     for r in rows:
-        cells = [r.claim_id, f"**{r.verdict}**", r.parts, r.controls, r.models, r.limits]
+        cells = [claim_link(r.claim_id, sections), f"**{r.verdict}**", r.parts, r.controls,
+                 r.models, r.limits]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     if figure:
         lines += ["", f"![The {len(rows)} claims by outcome]({figure})"]
     return lines + [""]
-
-
-def trust_html(rows: list[TrustRow], figure: str | None = None,
-               forest: str | None = None) -> str:
-    esc = html.escape
-    counts = ", ".join(f"{n} {v}" for v, n in verdict_counts(rows).items())
-    body = [f"<h2>How far each verdict can be trusted</h2><p>{len(rows)} claims: "
-            f"{esc(counts)} (registry v{REGISTRY_VERSION}).</p>"]
-    if forest:
-        body.append(f"<p><img src='{esc(forest)}' alt='every part in units of its δ'></p>")
-    body += ["<table><tr><th>claim</th>"
-             "<th>verdict</th><th>parts</th><th>controls</th><th>gates</th><th>limited by</th>"
-             "</tr>"]
-    for r in rows:
-        cells = [r.claim_id, r.verdict, r.parts, r.controls, r.models, r.limits]
-        body.append("<tr>" + "".join(f"<td>{esc(c.replace('**', ''))}</td>" for c in cells)
-                    + "</tr>")
-    body.append("</table>")
-    if figure:
-        body.append(f"<p><img src='{esc(figure)}' alt='claims by outcome'></p>")
-    return "\n".join(body)
 
 
 def previous_snapshot(path: str | os.PathLike | None = None) -> dict[str, dict[str, Any]]:
@@ -363,12 +357,3 @@ def changes_markdown(changes: list[VerdictChange], changelog: Mapping[str, list[
         lines.append(f"- **{c.claim_id}**: v{c.previous_version} *{c.previous}* → "
                      f"v{REGISTRY_VERSION} *{c.current}*. {reasons}")
     return lines + [""]
-
-
-def changes_html(changes: list[VerdictChange]) -> str:
-    esc = html.escape
-    items = "".join(f"<li><b>{esc(c.claim_id)}</b>: v{c.previous_version} {esc(c.previous)} → "
-                    f"{esc(c.current)}. " + " ".join(esc(ch.text) for ch in c.changes)
-                    + "</li>" for c in changes)
-    return ("<h2>Verdict changes since the previous snapshot</h2>"
-            + (f"<ul>{items}</ul>" if changes else "<p>None.</p>"))
