@@ -72,6 +72,18 @@ def test_the_run_records_its_own_time_cold_or_warm(tmp_path: Path) -> None:
     assert timings["reproduce_standard_warm"]["cpu"] == "X"
 
 
+def test_a_rewritten_report_keeps_only_its_own_runs_timings(tmp_path: Path) -> None:
+    from repro.claims.budgets import kept_timings, record_timings, run_timing
+
+    sidecars = {"GMD-A1": {"run_id": "r1"}, "EMG-1": {"run_id": "r1"}}
+    (tmp_path / "claims.json").write_text(json.dumps({"sidecars": sidecars}), encoding="utf-8")
+    record_timings(tmp_path, run_timing(scale="standard", seconds=60.0, cold=True,
+                                        commit="c", cpu="X"))
+    assert set(kept_timings(tmp_path / "claims.json", sidecars)) == {"reproduce_standard_cold"}
+    assert kept_timings(tmp_path / "claims.json", {"GMD-A1": {"run_id": "r2"}}) == {}
+    assert kept_timings(tmp_path / "absent.json", sidecars) == {}
+
+
 def test_bench_rows_that_failed_or_are_not_budgeted_are_left_out(tmp_path: Path) -> None:
     bench = tmp_path / "bench.json"
     bench.write_text(json.dumps({"rows": {

@@ -266,7 +266,7 @@ def test_the_snapshot_holds_both_reports_the_figure_and_the_budgets(
     assert '<a href="../docs/ERRATA.md">docs/ERRATA.md</a>' in page
     assert (results / "figures" / "claims_by_outcome.png").is_file()
     readme = (repo / "README.md").read_text(encoding="utf-8")
-    assert "| cold standard `make reproduce` (whole process) (commit c1) | 3000 s (50.0 min) |" \
+    assert "| cold standard `make reproduce` (the run) | 50.0 min | — | c1 | 75.0 min | within |" \
         in readme
 
 

@@ -120,13 +120,32 @@ def _quick_notebooks_row(timings: Mapping[str, Any], commit: str | None) -> str:
             + ("within" if not over else f"**{over} over**") + " |")
 
 
+def _run_id(sidecars: Mapping[str, Mapping[str, Any]]) -> str | None:
+    ids = {s.get("run_id") for s in sidecars.values()}
+    return next(iter(ids)) if len(ids) == 1 else None
+
+
 def record_timings(report_dir: str | os.PathLike, timings: Mapping[str, Any]) -> None:
-    """Add ``timings`` rows to a report's ``claims.json`` (``timings``), which the snapshot
-    carries beside the bench's."""
+    """Add ``timings`` rows, marked with the run they timed, to a report's ``claims.json``
+    (``timings``), which the snapshot carries beside the bench's."""
     path = Path(report_dir) / "claims.json"
     claims = read_json(path)
-    claims["timings"] = {**claims.get("timings", {}), **timings}
+    run_id = _run_id(claims.get("sidecars", {}))
+    claims["timings"] = {**claims.get("timings", {}),
+                         **{name: {**row, "run_id": run_id} for name, row in timings.items()}}
     write_json(path, claims)
+
+
+def kept_timings(claims_json: str | os.PathLike,
+                 sidecars: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+    """The timings a rewritten report keeps: those of the run its sidecars come from."""
+    try:
+        timings = read_json(claims_json).get("timings", {})
+    except (OSError, ValueError):
+        return {}
+    run_id = _run_id(sidecars)
+    return {name: row for name, row in timings.items()
+            if run_id is not None and row.get("run_id") == run_id}
 
 
 def budgets_markdown(snapshot: Mapping[str, Any]) -> str:

@@ -126,8 +126,8 @@ def errata_markdown(entries: list[Erratum] | None, docs: str = "../docs") -> lis
     lines = ["", "## Paper errata", "",
              f"{len(entries)} discrepancies in the papers' printed text "
              f"({sum(e.is_open for e in entries)} of them open questions); the source is "
-             f"[docs/ERRATA.md]({docs}/ERRATA.md), which also says, table by table, what the "
-             "audit read and found consistent.", ""]
+             f"[docs/ERRATA.md]({docs}/ERRATA.md), which also says, table by table and "
+             "equation by equation, what the audit read and found consistent.", ""]
     for e in entries:
         head = "Open question" if e.is_open else "Correction"
         inconsistency = (f"*Inconsistency:* {_sentence(e.fields['Inconsistency'])} "

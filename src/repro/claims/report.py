@@ -36,6 +36,7 @@ from repro.claims import changelog, errata, trust
 from repro.claims.budgets import (
     README_BUDGETS_START,
     bench_timings,
+    kept_timings,
     run_span_seconds,
     update_readme_budgets,
 )
@@ -388,7 +389,9 @@ def write_report(build_dir: str | os.PathLike, *, scale: str,
                                                             for r in runs},
                                             "slowest_seconds": slowest,
                                             "run_span_seconds": run_span_seconds(build_dir,
-                                                                                 sidecars)})
+                                                                                 sidecars),
+                                            "timings": kept_timings(report_dir / "claims.json",
+                                                                    sidecars)})
     write_json(report_dir / "models.json", {"scale": scale,
                                             "models": models_of(sidecars)})
     markdown = _markdown(rows, sidecars, scale, runs, figure_names, previous, provenance,
@@ -454,7 +457,8 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     same_scale = before.is_file() and read_json(before).get("scale") == "standard"
     claims["slowest_seconds"] = slowest_of(slowest_seconds(before) if same_scale else {},
                                          slowest_seconds(report_dir / "claims.json"))
-    claims["timings"] = bench_timings(paths.build_root() / "bench" / "bench.json")
+    claims["timings"] = {**bench_timings(paths.build_root() / "bench" / "bench.json"),
+                         **claims.get("timings", {})}   # the run's own time over the bench's
     write_json(staging / "claims.json", portable_strings(claims))
     shutil.copy2(report_dir / "models.json", staging / "models.json")
     (staging / "figures").mkdir()
