@@ -99,3 +99,23 @@ def test_the_page_is_the_markdown_rendered_with_every_section(
     ids = set(re.findall(r'\bid="([^"]+)"', page))
     links = set(re.findall(r'href="#([^"]+)"', page))
     assert {"gmd-a3", "models"} <= links and links <= ids
+
+
+def test_models_json_places_the_skating_ratio_among_published_models_and_real_clips(
+        tmp_path, monkeypatch) -> None:
+    import numpy as np
+
+    from repro.claims import report
+
+    monkeypatch.setattr(report.paths, "humanml3d_sample_dir", lambda: tmp_path / "absent")
+    context = report.skating_ratio_context()
+    assert context["published"]["GMD"] == 0.111 and context["real_clips"] is None
+    (tmp_path / "new_joints").mkdir()
+    still = np.zeros((30, 22, 3))                  # feet on the floor, never moving
+    sliding = still.copy()
+    sliding[:, :, 0] = np.arange(30)[:, None] * 0.1   # 2 m/s along x, feet down
+    np.save(tmp_path / "new_joints" / "a.npy", still)
+    np.save(tmp_path / "new_joints" / "b.npy", sliding[:20])
+    monkeypatch.setattr(report.paths, "humanml3d_sample_dir", lambda: tmp_path)
+    real = report.skating_ratio_context()["real_clips"]
+    assert real["clips"] == 2 and real["value"] == pytest.approx(19 / (29 + 19))

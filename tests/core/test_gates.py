@@ -157,3 +157,15 @@ def test_a_gate_the_data_cannot_measure_does_not_apply_and_says_so() -> None:
                            values={**fit, "joint_speed": 0.5}, role="reference")
     assert not missing["passed"] and missing["gate"]["root_speed"]["reason"].startswith(
         "not measured")
+
+
+def test_a_record_reports_the_skating_ratio_beside_its_gates_and_gates_nothing_on_it() -> None:
+    from repro.core.gates import model_record
+
+    reference = {"joint_speed": 1.0, "root_speed": 1.0, "joint_jerk": 10.0,
+                 "foot_skating": 0.05, "foot_skating_ratio": 0.01, "concept_recall": 0.9}
+    values = {**reference, "foot_skating_ratio": 0.4}   # far off the data's, every gate met
+    record = model_record(name="m", family="gmd_motion", values=values, reference=reference,
+                          role="reference")
+    assert record["reported"] == {"foot_skating_ratio": {"value": 0.4, "data": 0.01}}
+    assert "foot_skating_ratio" not in record["gate"]

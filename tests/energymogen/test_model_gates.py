@@ -223,6 +223,6 @@ def test_denoiser_sample_values_measure_decoded_samples_for_the_test_captions(ti
     pipe, test = tiny
     values = mg.denoiser_sample_values(pipe, test, seed=0)
     assert set(values) == {"joint_speed", "root_speed", "joint_jerk", "foot_skating",
-                           "concept_recall"}
+                           "foot_skating_ratio", "concept_recall"}
     assert values == mg.denoiser_sample_values(pipe, test, seed=0)
     assert 0.0 <= values["concept_recall"] <= 1.0

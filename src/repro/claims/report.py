@@ -32,6 +32,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from repro.claims import changelog, errata, trust
 from repro.claims.budgets import (
     README_BUDGETS_START,
@@ -198,6 +200,36 @@ def models_of(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
     return [models[key] for key in sorted(models)]
 
 
+def skating_ratio_context() -> dict[str, Any]:
+    """What ``models.json`` places the models' skating ratios among: the published models'
+    (:data:`core.gates.PUBLISHED_SKATING_RATIO`) and the real HumanML3D clips beside the clone
+    (``../shared/humanml3d_sample/new_joints``, frames weighted alike; None without them)."""
+    from repro.core.gates import PUBLISHED_SKATING_RATIO, PUBLISHED_SKATING_RATIO_SOURCE
+    from repro.core.metrics import foot_skating_ratio
+
+    clips = sorted((paths.humanml3d_sample_dir() / "new_joints").glob("*.npy"))
+    real = None
+    if clips:
+        joints = [np.load(clip).astype(np.float64) for clip in clips]
+        lengths = [len(j) for j in joints]
+        padded = np.zeros((len(joints), max(lengths), *joints[0].shape[1:]))
+        for i, j in enumerate(joints):
+            padded[i, :len(j)] = j
+        real = {"clips": len(clips), "value": foot_skating_ratio(padded, lengths=lengths)}
+    return {"published": PUBLISHED_SKATING_RATIO, "source": PUBLISHED_SKATING_RATIO_SOURCE,
+            "real_clips": real}
+
+
+def _reported_text(reported: dict[str, Any]) -> str:
+    """``metric value (data's)`` for each measurement a model reports beside its gates."""
+    return "; ".join(f"{metric} {_number_or_dash(r['value'])} (data {_number_or_dash(r['data'])})"
+                     for metric, r in reported.items())
+
+
+def _number_or_dash(value: float | None) -> str:
+    return "—" if value is None else f"{value:.3g}"
+
+
 def _gate_text(gate: dict[str, Any]) -> str:
     """``metric value (wanted range; the data's value) ✓/✗`` for each gate of one model."""
     cells = []
@@ -223,13 +255,24 @@ def models_markdown(models: list[dict[str, Any]]) -> list[str]:
                         "verdict here is backed by a model known to work (gates: "
                         "`repro.core.gates`).", ""]
     lines += ["| model | family (role) | claims | steps | training s | gate (value, wanted "
-              "range; the data's value) | passed |", "|---|---|---|---|---|---|---|"]
+              "range; the data's value) | reported, not gated | passed |",
+              "|---|---|---|---|---|---|---|---|"]
     for m in models:
         seconds = "—" if m.get("train_seconds") is None else f"{m['train_seconds']:.0f}"
         family = f"{m['family']} ({m['role']})" if m.get("role") else m["family"]
         cells = [m["name"], family, ", ".join(m["claims"]), str(m.get("steps") or "—"),
-                 seconds, _gate_text(m["gate"]), "yes" if m["passed"] else "**no**"]
+                 seconds, _gate_text(m["gate"]), _reported_text(m.get("reported", {})) or "—",
+                 "yes" if m["passed"] else "**no**"]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    context = skating_ratio_context()
+    published = ", ".join(f"{name} {value:.3f}" for name, value in context["published"].items())
+    real = context["real_clips"]
+    lines += ["", f"foot_skating_ratio is GMD's skating ratio (the share of frame steps in which "
+              "a foot below 5 cm moves faster than 0.5 m/s, at that step and over 5): published "
+              f"on HumanML3D ({context['source']}): {published}; "
+              + ("the real clips beside the clone are not here." if real is None else
+                 f"the {real['clips']} real HumanML3D clip(s) beside the clone: "
+                 f"{real['value']:.3f}.")]
     return lines + [""]
 
 
@@ -393,7 +436,8 @@ def write_report(build_dir: str | os.PathLike, *, scale: str,
                                             "timings": kept_timings(report_dir / "claims.json",
                                                                     sidecars)})
     write_json(report_dir / "models.json", {"scale": scale,
-                                            "models": models_of(sidecars)})
+                                            "models": models_of(sidecars),
+                                            "foot_skating_ratio": skating_ratio_context()})
     markdown = _markdown(rows, sidecars, scale, runs, figure_names, previous, provenance,
                          docs_link(report_dir))
     write_text(report_dir / "index.html", report_page(markdown, report_title(scale)))

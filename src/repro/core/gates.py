@@ -36,8 +36,9 @@ from typing import Any
 
 from repro.core.tables import markdown_table
 
-__all__ = ["GATES", "GATES_VERSION", "Gate", "family_measures", "gate_results",
-           "gates_markdown", "model_record", "reading"]
+__all__ = ["GATES", "GATES_VERSION", "PUBLISHED_SKATING_RATIO", "PUBLISHED_SKATING_RATIO_SOURCE",
+           "REPORTED_METRICS", "Gate", "family_measures", "gate_results", "gates_markdown",
+           "model_record", "reading", "reported_values"]
 
 #: 4: sample gates on the reference arm (``Gate.role``; docs/REGISTRY_CHANGELOG.md "Gates
 #: version 4"). 3: fitness gates: held-out x̂0 error against the Gaussian denoiser for every
@@ -252,6 +253,30 @@ def gate_results(family: str, values: Mapping[str, float],
     return results
 
 
+#: measurements a model record reports beside its gates, with the data's, gating nothing:
+#: GMD's foot skating ratio (:func:`core.metrics.foot_skating_ratio`), which the field's
+#: tables print
+REPORTED_METRICS = ("foot_skating_ratio",)
+
+#: the skating ratio of real motion and published text-to-motion models on HumanML3D
+#: (InterControl, NeurIPS 2024, Table 1), for the report to place ours among
+PUBLISHED_SKATING_RATIO = {"real motion": 0.000, "MDM": 0.094, "PriorMDM": 0.092,
+                           "GMD": 0.111, "OmniControl": 0.055}
+PUBLISHED_SKATING_RATIO_SOURCE = "InterControl (NeurIPS 2024), Table 1, HumanML3D"
+
+
+def reported_values(values: Mapping[str, float],
+                    reference: Mapping[str, float] | None = None) -> dict[str, dict[str, Any]]:
+    """:data:`REPORTED_METRICS` of a model's ``values`` with the data's (``reference``)."""
+    reference = dict(reference or {})
+
+    def number(value: Any) -> float | None:
+        return None if value is None or math.isnan(float(value)) else float(value)
+
+    return {metric: {"value": number(values.get(metric)), "data": number(reference.get(metric))}
+            for metric in REPORTED_METRICS if metric in values}
+
+
 def model_record(*, name: str, family: str, values: Mapping[str, float],
                  reference: Mapping[str, float] | None = None, parameters: int | None = None,
                  steps: int | None = None, train_seconds: float | None = None,
@@ -270,7 +295,8 @@ def model_record(*, name: str, family: str, values: Mapping[str, float],
             "reads": None if reads is None else [str(part) for part in reads],
             "parameters": parameters, "steps": steps, "train_seconds": train_seconds,
             "converged": converged, "validation_curve": list(validation_curve or []),
-            "gate": gates, "passed": all(g["passed"] for g in gates.values())}
+            "gate": gates, "reported": reported_values(values, reference),
+            "passed": all(g["passed"] for g in gates.values())}
 
 
 def reading(records: Sequence[Mapping[str, Any]],

@@ -351,10 +351,13 @@ def mean_speeds(joints: np.ndarray, fps: float = 20.0) -> tuple[float, float]:
 def motion_statistics(joints: np.ndarray, fps: float = 20.0) -> dict[str, float]:
     """What the sample gates compare between samples and data (``core.gates``, version 4):
     ``joint_speed`` and ``root_speed`` (:func:`mean_speeds`), ``joint_jerk`` (:func:`jitter`)
-    and ``foot_skating`` (:func:`foot_skating`) of joints (B, T, 22, 3) in metres."""
+    and ``foot_skating`` (:func:`foot_skating`) of joints (B, T, 22, 3) in metres; and,
+    reported beside them, ``foot_skating_ratio`` (:func:`foot_skating_ratio`, the field's
+    number, comparable with published models')."""
     joint_speed, root_speed = mean_speeds(joints, fps)
     return {"joint_speed": joint_speed, "root_speed": root_speed,
-            "joint_jerk": jitter(joints, fps).jerk, "foot_skating": foot_skating(joints, fps)}
+            "joint_jerk": jitter(joints, fps).jerk, "foot_skating": foot_skating(joints, fps),
+            "foot_skating_ratio": foot_skating_ratio(joints, fps)}
 
 
 # --- replications ------------------------------------------------------------------------
