@@ -21,6 +21,14 @@ from repro.infra.storage import read_json, write_json
 A3_RUN = run_settings("GMD-A3")
 
 
+#: GMD-A3 measurements with the ε arm ahead on every seed
+A3_MEASURED = {"goal_error_x0": [0.5, 0.6, 0.55], "goal_error_eps": [0.1, 0.13, 0.11],
+               "best_gain_survival_eps": [0.9, 0.95, 0.92],
+               "guided_change_survival_eps": [0.9, 0.95, 0.92],
+               "best_gain_survival_x0": [0.95, 0.99, 0.97],
+               "guided_change_survival_x0": [0.95, 0.99, 0.97]}
+
+
 def test_report_shows_the_previous_snapshot_beside_and_parts_in_words(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     snapshot = tmp_path / "results" / "claims.json"
@@ -29,12 +37,7 @@ def test_report_shows_the_previous_snapshot_beside_and_parts_in_words(
         "GMD-A2": {"mode": "full", "verdict": "reproduced", "registry_version": 1}}})
     monkeypatch.setattr(trust.paths, "results_dir", lambda: snapshot.parent)
     ctx = make_context(tmp_path, scale="standard")
-    record_claim(ctx, "GMD-A3", {"goal_error_x0": [0.5, 0.6, 0.55],
-                                 "goal_error_eps": [0.1, 0.13, 0.11],
-                                 "best_gain_survival_eps": [0.9, 0.95, 0.92],
-                                 "guided_change_survival_eps": [0.9, 0.95, 0.92],
-                                 "best_gain_survival_x0": [0.95, 0.99, 0.97],
-                                 "guided_change_survival_x0": [0.95, 0.99, 0.97]},
+    record_claim(ctx, "GMD-A3", A3_MEASURED,
                  settings=A3_RUN, seeds=[0, 1, 2])
     record_claim(ctx, "GMD-A2", {"cosine_x0_share_argmax_fraction": 0.0,
                                  "cosine_eps_share_argmax_fraction": 1.0}, seeds=[0])
@@ -77,12 +80,7 @@ def test_the_page_is_the_markdown_rendered_with_every_section(
     provenance in both; every in-page link names an anchor of the page."""
     monkeypatch.setattr(trust.paths, "results_dir", lambda: tmp_path / "no-results")
     ctx = make_context(tmp_path, scale="standard", run_id="run-1")
-    record_claim(ctx, "GMD-A3", {"goal_error_x0": [0.5, 0.6, 0.55],
-                                 "goal_error_eps": [0.1, 0.13, 0.11],
-                                 "best_gain_survival_eps": [0.9, 0.95, 0.92],
-                                 "guided_change_survival_eps": [0.9, 0.95, 0.92],
-                                 "best_gain_survival_x0": [0.95, 0.99, 0.97],
-                                 "guided_change_survival_x0": [0.95, 0.99, 0.97]},
+    record_claim(ctx, "GMD-A3", A3_MEASURED,
                  settings=A3_RUN, seeds=[0, 1, 2],
                  models=[{"name": "m", "family": "gmd_motion", "gate": {}, "passed": False}])
     text = write_report(tmp_path, scale="standard", provenance="By hand.",
