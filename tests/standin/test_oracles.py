@@ -159,3 +159,15 @@ def test_segments_are_evaluated_on_their_frames() -> None:
 def test_bad_input_is_rejected(standing: np.ndarray, call, message) -> None:
     with pytest.raises(ValueError, match=message):
         call(standing)
+
+
+@pytest.mark.parametrize(("step", "concept"), [((0.0, 0.0, 0.02), "walk_forward"),
+                                               ((0.0, 0.0, -0.02), "walk_backward"),
+                                               ((0.0, 0.0, 0.125), "run")])
+def test_a_frozen_pose_gliding_counts_as_travelling_as_the_glide_note_says(
+        standing: np.ndarray, step: tuple[float, float, float], concept: str) -> None:
+    """The note EnergyMoGen's oracle-read parts carry (``GLIDE_NOTE``) holds while the travel
+    oracles read the root alone; an oracle that needs steps fails this, and the note goes."""
+    assert set(o.TRAVEL_CONCEPTS) <= set(o.CONCEPT_NAMES) and concept in o.TRAVEL_CONCEPTS
+    motion = _slide(standing[0], 41, np.array(step))
+    assert concept in o.detect_concepts(motion)

@@ -123,7 +123,7 @@ from repro.energymogen.settings import (
 from repro.infra.context import check_scale
 from repro.models.latent_denoiser import LatentDenoiser
 from repro.motion.plotting import filmstrip, save_figure
-from repro.standin.oracles import detect_concepts
+from repro.standin.oracles import GLIDE_NOTE, TRAVEL_CONCEPTS, detect_concepts
 
 __all__ = [
     "EnergyViewSettings",
@@ -1618,6 +1618,10 @@ def emg23_results(study: Mapping[str, Any] | NotMeasurable,
                    "noise. Stand-in captions are complete (a single-concept clip keeps its "
                    "other body parts idle), so the product of single-concept conditionals "
                    "behind Eq. 7 is narrow; the joined-text rate is in extra.")
+    read = {c for pair in HELD_OUT_PAIRS for c in pair} | {
+        c for pair, _ in NEGATION_CASES for c in pair}
+    if read & set(TRAVEL_CONCEPTS):
+        choice_note += " " + GLIDE_NOTE
     emg_extra = {"conjunction_concept_present": extra23["conjunction_concept_present"],
                  "unconditional_both_present": extra23["unconditional_both_present"],
                  "multi_text_both_present": extra23["multi_text_both_present"],

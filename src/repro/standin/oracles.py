@@ -77,6 +77,14 @@ CONCEPT_NAMES: tuple[str, ...] = (
     "wave_right", "wave_both", "raise_arms", "clap", "punch",
 )
 
+#: Concepts read from the root's travel alone: a figure that glides along a path without
+#: stepping scores as one that walks it.
+TRAVEL_CONCEPTS: tuple[str, ...] = ("walk_forward", "walk_backward", "walk_left", "walk_right",
+                                    "run", "walk_circle")
+GLIDE_NOTE = ("The travel oracles (walk_*, run, walk_circle) read the root's body-frame travel "
+              "alone: a figure that glides along the path without stepping counts as "
+              "travelling (see the models' foot skating).")
+
 _J = JOINT_INDEX
 _FEET = [_J["L_ankle"], _J["R_ankle"], _J["L_foot"], _J["R_foot"]]
 
