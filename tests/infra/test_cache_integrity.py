@@ -169,3 +169,30 @@ def test_damaged_entries_are_found_before_a_run_reads_them(cache_root: Path) -> 
     assert f"{busy / 'meta.json'} cannot be read" in later and cache.check_entries() == []
     model = cache.load_or_train("integrity", CONFIG, lambda: nn.Linear(3, 3), train)
     assert calls == [1, 1, 1] and float(model.weight[0, 0].detach()) == 3.0   # retrained
+
+
+def test_a_trained_model_is_returned_as_a_later_run_loads_it(tmp_path: Path) -> None:
+    """Training returns the saved weights in a fresh module, as a warm run loads them, so the
+    two compute alike to the last bit; state kept outside the weights does not come back."""
+    def train(module: nn.Module) -> nn.Module:
+        with torch.no_grad():
+            module.weight.add_(1.0)
+        module.scratch = "left by training"   # not in the state dict
+        return module
+
+    built: list[nn.Module] = []
+
+    def build() -> nn.Module:
+        built.append(nn.Linear(3, 2))
+        return built[-1]
+
+    config = {"kind": "toy"}
+    os.environ["REPRO_CACHE_DIR"] = str(tmp_path)
+    try:
+        cold = cache.load_or_train("toy", config, build, train)
+        warm = cache.load_or_train("toy", config, build, train)
+    finally:
+        del os.environ["REPRO_CACHE_DIR"]
+    assert cold is not built[0] and not hasattr(cold, "scratch")
+    assert all(torch.equal(a, b) for a, b in zip(cold.state_dict().values(),
+                                                  warm.state_dict().values(), strict=True))

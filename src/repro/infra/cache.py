@@ -390,4 +390,9 @@ def _load_or_train_locked(directory: Path, config: dict[str, Any],
     with storage.atomic_open(weights_file, "wb") as handle:
         torch.save({k: v.detach().cpu() for k, v in model.state_dict().items()}, handle)
     write_checksum(directory, weights_file.name)
-    return model.to(device).eval()
+    # What a later run loads: the saved weights in a fresh module, so that a run that trains
+    # and one that loads compute with the same tensors (their memory layout and autograd
+    # state included) and give the same numbers to the last bit.
+    fresh = build_model()
+    fresh.load_state_dict(torch.load(weights_file, map_location=device, weights_only=True))
+    return fresh.to(device).eval()
