@@ -484,7 +484,9 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     build/bench); ``results/STABILITY.md`` is kept (:data:`KEPT_FROM_PREVIOUS_SNAPSHOT`).
     What it writes names no path of the machine that ran the run (``paths.portable``).
     ``slowest_seconds`` keeps the slowest wall time of each notebook over the snapshots
-    (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's)."""
+    (``runner.longest_first`` orders by it, so a warm run's times do not hide a cold run's),
+    and ``timings`` each row's newest measurement over the snapshots (a warm run keeps the
+    last cold run's time beside its own)."""
     from repro.claims.pages import report_page
 
     report_dir = Path(build_dir) / "report"
@@ -501,8 +503,11 @@ def write_snapshot(build_dir: str | os.PathLike) -> Path:
     same_scale = before.is_file() and read_json(before).get("scale") == "standard"
     claims["slowest_seconds"] = slowest_of(slowest_seconds(before) if same_scale else {},
                                          slowest_seconds(report_dir / "claims.json"))
-    claims["timings"] = {**bench_timings(paths.build_root() / "bench" / "bench.json"),
-                         **claims.get("timings", {})}   # the run's own time over the bench's
+    # each row's newest measurement: the run's own time over this build's bench over the rows
+    # the previous snapshot carried (each row names its commit and CPU)
+    claims["timings"] = {**(read_json(before).get("timings", {}) if same_scale else {}),
+                         **bench_timings(paths.build_root() / "bench" / "bench.json"),
+                         **claims.get("timings", {})}
     write_json(staging / "claims.json", portable_strings(claims))
     shutil.copy2(report_dir / "models.json", staging / "models.json")
     (staging / "figures").mkdir()
