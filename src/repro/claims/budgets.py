@@ -92,12 +92,17 @@ def _minutes(seconds: float) -> str:
     return f"{seconds / 60:.1f} min" if seconds >= 120 else f"{seconds:.0f} s"
 
 
+def _where(row: Mapping[str, Any], commit: str | None) -> str:
+    """The commit a timing row measured, "this run" for the snapshot's own."""
+    return "this run" if row.get("commit") == commit else row.get("commit") or "—"
+
+
 def _timing_row(label: str, row: Mapping[str, Any] | None, budget: float,
                 commit: str | None) -> str:
     if row is None:
         return f"| {label} | not measured | | | {_minutes(budget)} | — |"
     status = "within" if row["seconds"] <= budget else "**over**"
-    where = "this run" if row.get("commit") == commit else row.get("commit") or "—"
+    where = _where(row, commit)
     return (f"| {label} | {_minutes(row['seconds'])} | {row.get('cpu') or '—'} | {where} | "
             f"{_minutes(budget)} | {status} |")
 
@@ -113,7 +118,7 @@ def _quick_notebooks_row(timings: Mapping[str, Any], commit: str | None) -> str:
     slowest = max(rows, key=lambda k: rows[k]["seconds"])
     over = sum(r["seconds"] > budget for r in rows.values())
     first = rows[slowest]
-    where = "this run" if first.get("commit") == commit else first.get("commit") or "—"
+    where = _where(first, commit)
     return (f"| {label} ({len(rows)} notebooks) | {rows[fastest]['seconds']:.0f} s "
             f"({fastest}) to {rows[slowest]['seconds']:.0f} s ({slowest}) | "
             f"{first.get('cpu') or '—'} | {where} | {budget:.0f} s each | "
@@ -163,7 +168,8 @@ def budgets_markdown(snapshot: Mapping[str, Any]) -> str:
     commit = _snapshot_commit(snapshot)
     timings = snapshot.get("timings", {})
     lines = [f"Measured on 2 cores against the budgets; `results/` is the run of commit "
-             f"{commit} (the times of other commits are the newest `make bench` measured):", "",
+             f"{commit}; a row of another commit is that row's newest measurement (a cold run, "
+             "`make bench`):", "",
              "| measurement | time | CPU | commit | budget | |", "|---|---|---|---|---|---|"]
     for name in ("reproduce_standard_cold", "reproduce_standard_warm", "make_test_cold_cache"):
         lines.append(_timing_row(TIMING_NAMES[name], timings.get(name), BUDGETS_SECONDS[name],
