@@ -282,17 +282,22 @@ def model_record(*, name: str, family: str, values: Mapping[str, float],
                  steps: int | None = None, train_seconds: float | None = None,
                  validation_curve: list[float] | None = None,
                  converged: bool | None = None,
-                 reads: Sequence[str] | None = None, role: str) -> dict[str, Any]:
+                 reads: Sequence[str] | None = None, role: str,
+                 arm: str | None = None) -> dict[str, Any]:
     """What the report's "Models" section and ``models.json`` show of one trained model.
 
     ``reads``: the names of the claim's parts that rest on this model (None: every part); a
     model that fails its gate makes only those inconclusive. ``role``: "reference" (every
     gate of the family) or "treatment" (its fitness gates only, :func:`gates_for`); each gate
-    keeps the model's value and, for a gate relative to the data, the data's."""
+    keeps the model's value and, for a gate relative to the data, the data's. ``arm``: the arm
+    of the parts it is read by that this model serves (e.g. "x0", "eps", "N=7"); None: a
+    component every arm of those parts shares (common-mode: reported beside the parts, never
+    gating them)."""
     check_role(role)
     gates = gate_results(family, values, reference, role=role)
     return {"name": name, "family": family, "gates_version": GATES_VERSION, "role": role,
             "reads": None if reads is None else [str(part) for part in reads],
+            "arm": None if arm is None else str(arm),
             "parameters": parameters, "steps": steps, "train_seconds": train_seconds,
             "converged": converged, "validation_curve": list(validation_curve or []),
             "gate": gates, "reported": reported_values(values, reference),
