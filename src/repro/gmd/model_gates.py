@@ -251,8 +251,9 @@ def denoising_gate_values(trained: TrainedGMD, held_out: MotionWindows, train: M
     """``x0_error_vs_gaussian`` (``core.fitness.x0_error_ratio``) of ``trained`` on at most
     ``limit`` of the ``held_out`` windows (drawn with ``seed``; noise drawn with ``seed``),
     against the Gaussian of ``train``'s frames, both in the model's space
-    (:func:`model_space_windows`); a text-conditioned model is given the windows' captions.
-    ``train`` must be the windows the model trained on (``trained.spec.data``)."""
+    (:func:`model_space_windows`); a text-conditioned model is given the windows' captions;
+    a model trained with per-feature loss weights (GMD-C4's loss scaling) is read in that
+    weighted objective. ``train`` must be the windows the model trained on (``trained.spec.data``)."""
     if train.config != trained.spec.data or held_out.config.representation != \
             trained.spec.data.representation:
         raise ValueError(f"the model trained on {trained.spec.data}; got training windows of "
@@ -272,7 +273,8 @@ def denoising_gate_values(trained: TrainedGMD, held_out: MotionWindows, train: M
 
     ratio = fitness.x0_error_ratio(predict_x0, trained.diffusion.alphas_cumprod, x0,
                                    lambda x: x.permute(0, 2, 1).reshape(-1, x.shape[1]),
-                                   mean, cov, seed=seed)
+                                   mean, cov, seed=seed,
+                                   weights=trained.spec.training.feature_weights)
     return {"x0_error_vs_gaussian": ratio}
 
 
