@@ -11,13 +11,16 @@ import pytest
 from repro.core.gates import (
     GATES,
     GATES_VERSION,
+    REREAD_DRAWS,
     TRAINING_GATES,
     Gate,
     family_measures,
     gate_results,
+    gates_markdown,
     model_record,
     plateau_improvement,
     reading,
+    straddling,
 )
 
 
@@ -188,3 +191,17 @@ def test_the_plateau_gate_reads_the_loss_of_the_last_tenth_of_training() -> None
                               reference={"concept_preservation": 1.0})
         assert record["gate"]["training_plateau"]["passed"] is ok
     assert "training_plateau" in TRAINING_GATES
+
+
+def test_a_gate_near_its_bound_carries_its_interval_and_asks_to_be_read_again() -> None:
+    fit = {"x0_error_vs_gaussian": 0.5, "training_plateau": 0.0}
+    near = {**SAMPLES, "joint_jerk": 118.0, "joint_jerk_interval": [110.0, 126.0],
+            "foot_skating_interval": [0.03, 0.05]}
+    assert straddling("gmd_motion", {**fit, **near}, SAMPLES, "reference") == ["joint_jerk"]
+    assert straddling("gmd_motion", {**fit, **near}, SAMPLES, "treatment") == []
+    record = model_record(name="m", family="gmd_motion", reference=SAMPLES, role="reference",
+                          values={**fit, **near, "gate_draws": REREAD_DRAWS})
+    jerk = record["gate"]["joint_jerk"]
+    assert jerk["passed"] and jerk["straddles"] and jerk["interval"] == [110.0, 126.0]
+    assert jerk["draws"] == REREAD_DRAWS and not record["gate"]["foot_skating"]["straddles"]
+    assert "[110, 126], 4 draws" in gates_markdown([record])

@@ -36,10 +36,11 @@ from typing import Any
 
 from repro.core.tables import markdown_table
 
-__all__ = ["GATES", "GATES_VERSION", "PLATEAU_LOG_IMPROVEMENT", "TRAINING_GATES",
-           "plateau_improvement", "PUBLISHED_SKATING_RATIO", "PUBLISHED_SKATING_RATIO_SOURCE",
-           "REPORTED_METRICS", "Gate", "family_measures", "gate_results", "gates_markdown",
-           "model_record", "reading", "reported_values"]
+__all__ = ["GATES", "GATES_VERSION", "PLATEAU_LOG_IMPROVEMENT", "PUBLISHED_SKATING_RATIO",
+           "PUBLISHED_SKATING_RATIO_SOURCE", "REPORTED_METRICS", "REREAD_DRAWS",
+           "REREAD_SEED_STRIDE", "TRAINING_GATES", "Gate", "family_measures",
+           "gate_results", "gates_markdown", "model_record", "plateau_improvement",
+           "reading", "reported_values", "straddling"]
 
 #: 5: a gate guards a reading (``claims.gating``): which failed gate holds back which part is
 #: the registry's, per part; every trained diffusion model and autoencoder reports whether its
@@ -294,7 +295,41 @@ def gate_results(family: str, values: Mapping[str, float],
             "data": data,
             "passed": value is not None and gate.passes(float(value), reference),
             "reason": gate.reason if value is not None else f"not measured — {gate.reason}"}
+        interval = values.get(f"{gate.metric}_interval")
+        if interval is not None:
+            results[gate.metric]["interval"] = [float(v) for v in interval]
+            results[gate.metric]["straddles"] = _straddles(interval, low, high)
+            results[gate.metric]["draws"] = int(values.get("gate_draws", 1))
     return results
+
+
+def _straddles(interval: Sequence[float], low: float | None, high: float | None) -> bool:
+    return any(bound is not None and interval[0] < bound < interval[1] for bound in (low, high))
+
+
+#: a sample gate whose interval straddles its bound is read again on this many draws of the
+#: same size, pooled (``straddling``), before it decides
+REREAD_DRAWS = 4
+#: the seed of a sample gate's k-th draw is the first's + k × this (draws far apart)
+REREAD_SEED_STRIDE = 100_003
+
+
+def straddling(family: str, values: Mapping[str, Any], reference: Mapping[str, float],
+               role: str) -> list[str]:
+    """The gates of ``family`` (for ``role``) whose sampling interval (``values``'
+    ``<metric>_interval``, :func:`core.metrics.motion_statistics_intervals`) straddles a
+    bound: the draw cannot tell pass from fail, so the caller reads them again on
+    :data:`REREAD_DRAWS` draws before the gate decides."""
+    out = []
+    for gate in gates_for(family, role):
+        interval = values.get(f"{gate.metric}_interval")
+        if interval is None or (gate.relative and gate.metric not in reference):
+            continue
+        if gate.relative and math.isnan(float(reference[gate.metric])):
+            continue
+        if _straddles(interval, *gate.bounds(reference)):
+            out.append(gate.metric)
+    return out
 
 
 #: measurements a model record reports beside its gates, with the data's, gating nothing:
@@ -375,6 +410,11 @@ def gates_markdown(records: list[dict[str, Any]] | tuple[dict[str, Any], ...]) -
                      _number(record["train_seconds"])]
                     if k == 0 else ["", "", "", "", ""])
             value = "not measured" if gate["value"] is None else _number(gate["value"])
+            if gate.get("interval") and gate["value"] is not None:   # its sampling interval
+                low, high = gate["interval"]
+                value += f" [{_number(low)}, {_number(high)}]"
+                if gate.get("draws", 1) > 1:
+                    value += f", {gate['draws']} draws"
             rows.append([*head, metric, value, _number(gate.get("data")),
                          f"[{_number(gate['at_least'])}, {_number(gate['at_most'])}]",
                          "pass" if gate["passed"] else "**fail**"])
