@@ -73,7 +73,8 @@ __all__ = ["C1_GRID", "C3_GRID", "C4_VALUES", "COHERENCE_PANELS", "DistanceInver
            "relative_importance_check", "relative_importance_of", "root_velocity_disagreement",
            "run_experiment", "sample_with_trajectory", "setup_summary",
            "simulated_relative_importance", "spectra", "table_b1_markdown", "text_metrics",
-           "to_normalised", "trajectory_error", "unit_variance_check", "window_evaluator"]
+           "to_normalised", "trajectory_error", "unit_variance_check", "variant_arm",
+           "window_evaluator"]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -742,10 +743,10 @@ class Settings(RunSettings):
     def for_scale(cls, scale: str, *, train_steps: int | None = None) -> Settings:
         """The settings of ``scale``; ``train_steps`` (None: the scale's) overrides the
         training steps of every model (outside the notebook's budget). The standard scale
-        (docs/COMPUTE.md §3d, §13) runs only v = 10 (k = 10 against Gaussian c = 10, GMD's
-        released c and Table B.1's Emphasis model) with one seed at T = 100 trained
-        ``STANDARD_C4_TRAIN_STEPS``, and GMD's float32 construction (no training); the v = 2
-        part, the orthogonal arm and Table B.1's plain row are the paper scale's."""
+        runs both matched values (k = 2 against Gaussian c = 2, k = 10 against c = 10, GMD's
+        released c and Table B.1's Emphasis model) on ``seeds_of("GMD-C4", "standard")`` seeds
+        at T = 100 trained ``STANDARD_C4_TRAIN_STEPS``, and GMD's float32 construction (no
+        training); the orthogonal arm and Table B.1's plain row are the paper scale's."""
         check_scale(scale)
         if scale == "quick":
             return cls(scale=scale, seeds=1, stand_in_clips=200, stride=8, diffusion_steps=20,
@@ -756,7 +757,7 @@ class Settings(RunSettings):
                        stride=24, diffusion_steps=STANDARD_DIFFUSION_STEPS,
                        train_steps=(STANDARD_C4_TRAIN_STEPS if train_steps is None
                                     else int(train_steps)),
-                       samples=64, evaluator_steps=500, values=(10,), orthogonal_arm=False,
+                       samples=64, evaluator_steps=500, orthogonal_arm=False,
                        table_b1_plain=False)
         return cls(scale=scale, seeds=seeds_of("GMD-C4", scale), stand_in_clips=2000,
                    stride=24, diffusion_steps=50,
@@ -1337,6 +1338,16 @@ def plot_training_losses(models: dict[str, TrainedGMD], *, window: int = 10) -> 
 
 # --- the fitness-gate records of GMD-C4's models -------------------------------------------------
 
+def variant_arm(variant: Variant) -> str:
+    """The arm of GMD-C4's parts a variant's models serve: "loss_scaling k=v" or "emphasis c=v"
+    (a sensitivity arm's matrix and precision appended, as its label has them)."""
+    symbol = "k" if variant.method == "loss_scaling" else "c"
+    arm = f"{variant.method} {symbol}={variant.value:g}"
+    if (variant.kind, variant.precision) != ("gaussian", "float64"):
+        arm += f" ({variant.kind}, {variant.precision})"
+    return arm
+
+
 def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
                            test: MotionWindows, device: str | torch.device = "cpu",
                            parts: Mapping[float, Sequence[str]] | None = None
@@ -1356,7 +1367,7 @@ def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
             reads = None if parts is None else list(parts.get(variant.value, ()))
             records.append(gmd_model_record(
                 trained, family="gmd_motion", label=variant.label, reads=reads,
-                role="treatment",
+                role="treatment", arm=variant_arm(variant),
                 values=denoising_gate_values(trained, test, train, seed=seed)))
     return records
 

@@ -918,7 +918,7 @@ def trajectory_records(trained: ScheduleModels, sweeps: Sweeps,
     sweep = sweeps.sweep
     return [model_gates.gmd_model_record(
         trained.models[s], family="gmd_trajectory", reference=reference, role="reference",
-        values={**model_gates.trajectory_gate_values(trained.models[s],
+        arm=None, values={**model_gates.trajectory_gate_values(trained.models[s],
                                                      sweep[s].samples[sweep[s].index(0)]),
                 **model_gates.denoising_gate_values(trained.models[s], test, train, seed=s)})
         for s in seeds]
@@ -934,7 +934,7 @@ def motion_records(trained: ScheduleModels, seeds: Sequence[int], *,
     samples = model_gates.sample_gate_data(test, seed=seed)
     return [model_gates.gmd_model_record(
         trained.motion_models[s], family="gmd_motion", reads=[WHOLE_BODY_PART],
-        role="reference", reference=samples.values,
+        role="reference", arm=None, reference=samples.values,
         values={**model_gates.denoising_gate_values(trained.motion_models[s], test, train,
                                                     seed=s),
                 **model_gates.motion_sample_values(trained.motion_models[s], samples, seed=s)})

@@ -1422,7 +1422,7 @@ def b2_model_records(trajectory_models: Mapping[str, Mapping[int, TrainedGMD]],
         for rep in REPRESENTATIONS}
     return [model_gates.gmd_model_record(
         trajectory_models[rep][s], family="gmd_trajectory", reference=reference[rep],
-        label=rep, role=REPRESENTATION_ROLES[rep],
+        label=rep, role=REPRESENTATION_ROLES[rep], arm=rep,
         values={**model_gates.trajectory_gate_values(
             trajectory_models[rep][s], runs[s][f"{short_label(rep)}_unguided"].samples),
             **model_gates.denoising_gate_values(trajectory_models[rep][s],
@@ -1528,7 +1528,7 @@ def b3_model_records(motion_models: Mapping[str, Mapping[int, TrainedGMD]], b3: 
 
     records = [model_gates.gmd_model_record(
         motion_models[rep][s], family="gmd_motion", label=rep, role=REPRESENTATION_ROLES[rep],
-        reference=samples.values, values=values(rep, s))
+        arm=rep, reference=samples.values, values=values(rep, s))
         for rep in REPRESENTATIONS for s in seeds]
     evaluation = b3.evaluation
     evaluator_record = model_gates.evaluator_model_record(

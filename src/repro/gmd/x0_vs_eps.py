@@ -1093,7 +1093,7 @@ def a3_model_records(study: A3Study, guided_models: dict[tuple[str, int], Traine
     reference = trajectory_reference(test)
     return [model_gates.gmd_model_record(
         guided_models[(p, s)], family="gmd_trajectory", reference=reference,
-        role=TRAJECTORY_ROLES[p],
+        role=TRAJECTORY_ROLES[p], arm=PREDICTIONS[p],
         values=trajectory_model_values(guided_models[(p, s)], study.runs[(p, s)].unguided,
                                        test, train, s))
         for p in PREDICTIONS for s in study.seeds]
@@ -1233,13 +1233,15 @@ def a4_model_records(models: Mapping[tuple[str, str, int], TrainedGMD],
     motion_records = {
         (p, s): model_gates.gmd_model_record(
             models[("motion", p, s)], family="gmd_motion", reads=A4_READS[("motion", p)],
-            role=MOTION_ROLES[p], reference=samples.values, values=motion_values(p, s))
+            role=MOTION_ROLES[p], arm=PREDICTIONS[p], reference=samples.values,
+            values=motion_values(p, s))
         for p in PREDICTIONS for s in seeds if ("motion", p, s) in models}
     reference = trajectory_reference(test)
     trajectory_records = {
         (p, s): model_gates.gmd_model_record(
             models[("trajectory", p, s)], family="gmd_trajectory",
             reads=A4_READS[("trajectory", p)], reference=reference, role=TRAJECTORY_ROLES[p],
+            arm=PREDICTIONS[p],
             values=trajectory_model_values(models[("trajectory", p, s)], sample(
                 models[("trajectory", p, s)], settings.goals, seed=s), test, train, s))
         for p in PREDICTIONS for s in seeds}
@@ -1251,7 +1253,7 @@ def a4_model_records(models: Mapping[tuple[str, str, int], TrainedGMD],
             samples=settings.generated, real_fid=evaluation.reference_fid))
     long_eps_records = {
         s: model_gates.gmd_model_record(
-            long_eps[s], family="gmd_motion", label="2× cap", role="treatment",
+            long_eps[s], family="gmd_motion", label="2× cap", role="treatment", arm="eps",
             values=model_gates.denoising_gate_values(long_eps[s], motion_test, motion_train,
                                                      seed=s))
         for s in long_eps}
@@ -1296,8 +1298,10 @@ def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], Trai
          if k in a4},
         seeds=seeds, settings=rule_settings.a4(settings), figures=list(figures),
         controls=controls, models=records.models, not_run=settings.a4_not_run,
-        headline=_a4_headline(a4, ratio, references, settings.scale),
-        notes=(f"Ours: motion {describe(models[('motion', 'x0', first)].spec)}; trajectories "
+        headline=_a4_headline(a4, ratio, references, settings.scale,
+                              width=models[("motion", "x0", first)].spec.base_channels),
+        notes=(_a4_width_note(models[("motion", "x0", first)].spec, settings.scale)
+               + f"Ours: motion {describe(models[('motion', 'x0', first)].spec)}; trajectories "
                f"{describe(models[('trajectory', 'x0', first)].spec)}; x0 and ε of a task "
                "share the architecture and the budget; EMA; "
                f"{settings.generated} unguided samples per model and seed (same "
@@ -1329,10 +1333,22 @@ def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], Trai
                "controls_planted": controls.planted if controls is not None else {}})
 
 
+def _a4_width_note(spec: GMDModelSpec, scale: str) -> str:
+    """Where GMD-A4's motion arms are compared: at the standard scale, at the standard design's
+    width (both arms the same UNet and steps), not GMD's widths (the paper scale's)."""
+    if scale != "standard":
+        return ""
+    return (f"The x0 and ε motion arms are compared at width {spec.base_channels} (the "
+            f"standard design: the same UNet, {spec.training.steps} steps, the same seeds and "
+            "windows for both arms); GMD's widths are the paper scale's. ")
+
+
 def _a4_headline(a4: Mapping[str, list[float]], ratio: Mapping[str, float],
-                 references: Mapping[str, float], scale: str) -> str:
-    """GMD-A4's key numbers: the ε/x0 ratios, or, where the scale trains no ε motion arm, the
-    x0 arm's samples against the data's."""
+                 references: Mapping[str, float], scale: str, *,
+                 width: int | None = None) -> str:
+    """GMD-A4's key numbers: the ε/x0 ratios (at the standard scale, at the motion arms'
+    ``width``), or, where a run has no ε motion arm, the x0 arm's samples against the
+    data's."""
     real_fid = references["motion_fid"]
     if "motion_jitter_eps" not in a4:
         return (f"ε motion arm not run at the {scale} scale; x0 motion samples: joint jerk "
@@ -1340,7 +1356,8 @@ def _a4_headline(a4: Mapping[str, list[float]], ratio: Mapping[str, float],
                 f"{references['motion_jitter']:.0f}), FID {np.mean(a4['motion_fid_x0']):.2f} "
                 f"(real {real_fid:.2f}); trajectory jerk ε/x0 = "
                 f"{ratio['trajectory_jitter']:.2f}")
-    return (f"motion jerk ε/x0 = {ratio['motion_jitter']:.2f}, FID ε "
+    at = f" at width {width}" if scale == "standard" and width is not None else ""
+    return (f"motion jerk ε/x0{at} = {ratio['motion_jitter']:.2f}, FID ε "
             f"{np.mean(a4['motion_fid_eps']):.2f} vs x0 {np.mean(a4['motion_fid_x0']):.2f} "
             f"(real {real_fid:.2f}); trajectory jerk ε/x0 = {ratio['trajectory_jitter']:.2f}")
 
