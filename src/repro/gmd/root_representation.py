@@ -108,8 +108,9 @@ from repro.motion.plotting import save_figure
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["B1Study", "B2_SLOTS", "B3Evaluation", "B3_DEGRADATION", "B3_PARTS", "ImputationRun",
-           "LINEARISATION_DELTAS", "LocationTask", "METHODS", "REAL_CLIP", "REGISTERED_METHODS",
+__all__ = ["B1Study", "B2_SLOTS", "B2_THRESHOLD", "B3Evaluation", "B3_DEGRADATION", "B3_PARTS",
+           "ImputationRun", "LINEARISATION_DELTAS", "LocationTask", "METHODS",
+           "QUICK_TRAJECTORY_DIFFUSION_STEPS", "REAL_CLIP", "REGISTERED_METHODS",
            "REPRESENTATION_ROLES", "ROOT_PARAMETERS", "RoundTrip", "SensitivityResult",
            "SensitivitySetup", "Settings", "abs_location_imputation", "b1_figures", "b1_reading",
            "b1_result", "b1_study", "b2_aa_readings", "b2_controls", "b2_model_records",
@@ -354,6 +355,11 @@ def linearisation_error(features: np.ndarray, frame: int, deltas: Sequence[float
 B3_PARTS = ("abs_lower_fid", "abs_diversity_closer_to_real", "abs_r_precision_not_worse")
 
 
+#: the quick scale's T of GMD-B2's trajectory models (notebook 01's quick guidance T): its stop
+#: step is t = 1, so rel imputation leaves a free step (a test of the code, never a result)
+QUICK_TRAJECTORY_DIFFUSION_STEPS = 50
+
+
 @dataclass(frozen=True)
 class Settings(RunSettings):
     """Every size and step count of notebook 02 at one scale, fixed before any verdict was seen.
@@ -413,10 +419,16 @@ class Settings(RunSettings):
 
     @property
     def trajectory_diffusion_steps(self) -> int:
-        """T of the B2 trajectory models: GMD's 1000 at the paper scale, ``diffusion_steps``
-        otherwise (standard 100, quick 20)."""
+        """T of the B2 trajectory models: GMD's 1000 at the paper scale, ``diffusion_steps`` at
+        the standard scale (100), and at the quick scale notebook 01's guidance T
+        (``QUICK_TRAJECTORY_DIFFUSION_STEPS``, 50): GMD's stop at 2 % of T is then t = 1, so a
+        free step follows imputation (at T = 20 the stop is t = 0, rel imputation sets the
+        targets exactly whatever the model, and the A/A null of the imputation part would have
+        no between-model spread)."""
         if self.scale == "paper":
             return GUIDANCE_DIFFUSION_STEPS
+        if self.scale == "quick":
+            return QUICK_TRAJECTORY_DIFFUSION_STEPS
         return self.diffusion_steps
 
     @property
@@ -1467,7 +1479,13 @@ def b2_aa_readings(runs: Mapping[int, Mapping[str, ImputationRun]],
     """GMD-B2's A/A runs (``controls.aa_readings``): the relative-root trajectory model (the
     reference arm) of seed s and its copy of the next seed, imputing and guiding toward seed
     s's targets from seed s's noise (per target and frame location errors); the own model's
-    runs are the experiment's. A one-seed run's extra pairing draws its task from ``test``."""
+    runs are the experiment's. A one-seed run's extra pairing draws its task from ``test``.
+
+    The imputation errors are read by a ratio part (log rel / abs, blind to a common scale)
+    and by a threshold part (0.1 m − abs): so both arms' imputation readings are scaled by one
+    factor that puts the own models' mean at the 10 cm threshold (:data:`B2_THRESHOLD`), and
+    the null sits at both parts' boundaries with the A/A's own spread (the positive's
+    e^{−2δ} on the abs arm then moves the threshold part by ≈ 2δ: 0.1 m × (1 − 0.81))."""
     reference = dict(trajectory_models["relative"])
 
     def reading(model_seed: int, pairing_seed: int) -> dict[str, np.ndarray]:
@@ -1480,7 +1498,19 @@ def b2_aa_readings(runs: Mapping[int, Mapping[str, ImputationRun]],
             stop_t=settings.guidance_stop_t, clip_x0=settings.x0_clamp,
             representations=("relative",)))
 
-    return aa_readings(reading, seeds)
+    found = aa_readings(reading, seeds)
+    own = [float(np.mean(found.own[s]["imputation_error"])) for s, _ in found.pairs]
+    scale = B2_THRESHOLD / float(np.mean(own)) if np.mean(own) > 0 else 1.0
+
+    def at_threshold(reading: Mapping[int, Any]) -> dict[int, Any]:
+        return {s: {**r, "imputation_error": np.asarray(r["imputation_error"]) * scale}
+                for s, r in reading.items()}
+
+    return AAReadings(found.pairs, at_threshold(found.own), at_threshold(found.copy))
+
+
+#: the registered threshold of GMD-B2's ``abs_imputation_below_10cm`` part (m)
+B2_THRESHOLD = 0.1
 
 
 def b2_result(runs: Mapping[int, Mapping[str, ImputationRun]],
