@@ -70,6 +70,8 @@ def _fires_ignoring_spread(claim_id: str, part: str, measured: dict[str, Any]) -
     found = next(p for p in get_claim(claim_id).parts if p.name == part)
     for comparison in found.compare(measured):
         differences = [d for d in comparison.differences if d is not None]
+        if not differences:   # undefined in every pairing (e.g. no guided gain)
+            continue
         mean = float(np.mean(differences))
         if abs(mean) <= EXACT_TIE * abs(comparison.smallest_effect):
             continue

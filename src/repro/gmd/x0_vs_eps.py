@@ -4,9 +4,11 @@
 - GMD-A3: under goal guidance, a guided and an unguided run from the same seed (same x_T, same
   per-step noise) give the goal error of the final sample and of x̂0 at every step, and the
   share of the best guided gain that is kept at the end (``best_gain_survival``, GMD-A3's
-  registered measurement); its controls run exact and planted models through the same code;
-- GMD-A4: the unguided sample quality (jitter, FID) of x0 and ε models, with controls on the
-  data themselves;
+  registered measurement); its controls are A/A runs (``controls.aa_controls``: the ε model
+  against an independently trained copy); the exact and planted models beside them check
+  the measurement code;
+- GMD-A4: the unguided sample quality (jitter, FID) of x0 and ε models, with A/A controls
+  (each task's reference arm against an independently trained copy);
 - the results: each ``a*_result`` takes what the notebook measured, runs the claim's controls
   and returns the :class:`~repro.claims.result.ClaimResult` its registered rule reads, with the
   fitness-gate records of the models behind it; the notebook's "Reading" paragraphs.
@@ -598,9 +600,11 @@ def sample_quality_lines(values: Mapping[str, list[float]], seeds: Sequence[int]
 
 
 # ------------------------------------------------------------------------------------------------
-# GMD-A3's controls (notebook 01), beside ``repro.gmd.controls``: exact models whose truth is
-# known, run through the experiment's own ``x0_vs_eps.goal_reaching_experiment`` (same T, stop
-# step, clamp, goals).
+# GMD-A3's exact checks of the measurement code (notebook 01 records the A/A controls,
+# :func:`a3_aa_readings`), beside ``repro.gmd.controls``: exact models whose truth is known, run
+# through the experiment's own ``x0_vs_eps.goal_reaching_experiment`` (same T, stop step,
+# clamp, goals). They cannot fire on between-model noise (there is none), so no claim is
+# decided on them.
 #
 # - **Null**: an exact x0/ε pair — one exact network (:class:`ExactGaussianDenoiser`) read as an
 #   x0 model and, through :class:`EpsilonOfX0`, as an ε model. With one seed both sample the
