@@ -110,8 +110,9 @@ def test_settings_trajectory_spec_is_the_guidance_experiments_model() -> None:
     assert full.sampling_parameters() == {"num_timesteps": 1000, "guidance_stop_t": 20,
                                           "x0_clamp": models.X0_CLAMP}
     quick = R.Settings.for_scale("quick")
-    assert quick.trajectory_spec("relative", 0).diffusion_steps == quick.diffusion_steps
-    assert quick.guidance_stop_t == default_stop_step(quick.diffusion_steps)
+    assert (quick.trajectory_spec("relative", 0).diffusion_steps
+            == quick.trajectory_diffusion_steps == R.QUICK_TRAJECTORY_DIFFUSION_STEPS)
+    assert quick.guidance_stop_t == default_stop_step(quick.trajectory_diffusion_steps) == 1
     motion = full.motion_spec("relative", 1)
     assert motion.text_conditioned and motion.prediction == "x0"
     assert motion.data.representation == "relative"
@@ -120,7 +121,7 @@ def test_settings_trajectory_spec_is_the_guidance_experiments_model() -> None:
 def test_quick_mode_stays_a_small_test_of_the_code() -> None:
     quick = R.Settings.for_scale("quick")
     assert quick.seeds == quick.motion_seeds == 1
-    assert quick.trajectory_diffusion_steps <= 20 and quick.diffusion_steps <= 20
+    assert quick.trajectory_diffusion_steps <= 50 and quick.diffusion_steps <= 20
     assert max(quick.trajectory_steps, quick.motion_steps, quick.evaluator_steps) <= 30
     assert quick.targets <= 8 and quick.evaluation_windows <= 96
 

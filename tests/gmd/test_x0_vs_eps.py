@@ -352,14 +352,17 @@ def test_the_a3_study_reads_each_seed_in_order() -> None:
     assert finite(study.stop_survival["x0"]) == [None, None]
 
 
-def test_the_standard_scale_trains_no_eps_motion_arm_and_says_so() -> None:
-    """A4's ε motion arm is a registered cut at standard (``settings.STANDARD_NOT_RUN``): the
-    notebook trains x0 alone there; quick (a test of the code) and paper train both."""
+def test_every_scale_trains_the_eps_motion_arm_with_the_x0_arms_spec() -> None:
+    """A4's ε motion arm is a treatment arm, never cut on its expected outcome: every scale
+    trains both motion arms, the ε arm at standard with exactly the x0 arm's spec and steps
+    (width 64, 4500 steps); the headline of a run without an ε arm still reads."""
     standard = x0_vs_eps.Settings.for_scale("standard")
-    assert standard.motion_predictions == ("x0",)
-    assert set(standard.a4_not_run) == set(x0_vs_eps.A4_PARTS)
+    data = standard.motion_data()
+    x0, eps = (standard.spec("motion", p, data, seed=1) for p in ("x0", "epsilon"))
+    assert eps == x0.replace(prediction="epsilon")
+    assert x0.base_channels == 64 and x0.training.steps == 4500
     assert set(x0_vs_eps.A4_PARTS) == {p.name for p in get_claim("GMD-A4").parts}
-    for scale in ("quick", "paper"):
+    for scale in ("quick", "standard", "paper"):
         settings = x0_vs_eps.Settings.for_scale(scale)
         assert settings.motion_predictions == ("x0", "epsilon") and settings.a4_not_run == {}
     x0_only = {"motion_jitter_x0": [80.0, 90.0], "motion_fid_x0": [1.5, 2.5],

@@ -19,17 +19,41 @@ seed is decided by its sign).
 
 Here: the seeds of control draws (:func:`control_seed`), the bisection that calibrates a
 planted size (:func:`calibrate_increasing`) and the exact plantings (:func:`scale_world`,
-:func:`jag`, :func:`offset_unread_features`, :func:`located`, :func:`planted_path`).
+:func:`jag`, :func:`offset_unread_features`, :func:`located`, :func:`planted_path`): exact
+checks of the measurement code, which the tests run.
+
+**The controls a model-based claim records are A/A runs** (:func:`aa_controls`). An exact
+model or the data as the "model" has no between-model noise: its null reads "every difference
+within ±0" and can never fire, while two trained models differ by their seeds alone. So the
+null of a model-based part is the experiment's *reference arm* against an independently
+trained copy of itself: the reference model of seed s in the reference slot, the reference
+model of the next seed (cyclic over the run's seeds, :func:`aa_pairs`: no extra training
+where a run has two seeds or more; with one, one more copy is trained, :func:`aa_seeds`) in
+the treatment slot, both measured on seed s's pairing (the same goals, targets, noise and
+items, exactly as the experiment pairs its arms). Where a rule compares an arm with a
+multiple of the other (f·a vs b) the copy's reading is placed at that threshold (× f). Its
+differences carry the real spread between trained models and are tested with the claim's own
+rule: the null passes when it comes out neither reproduced nor partially. The **positive**
+control is the same A/A with 2δ (twice the part's registered smallest effect) planted on the
+treatment slot's readings in the claim's predicted direction (× e^{±2δ} on a log-ratio part's
+readings, ± 2δ on a difference part's): it must be seen.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import copy
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 import torch
 from torch import Tensor
 
+from repro.claims.claim import Path, value
+from repro.claims.registry import get_claim
+from repro.claims.result import Controls
+from repro.gmd.models import TrainedGMD, load_or_train_gmd
 from repro.gmd.windows import FeatureSpace, MotionWindows
 from repro.motion.features import (
     FEATURE_BLOCKS,
@@ -37,9 +61,10 @@ from repro.motion.features import (
     relative_to_absolute_root,
 )
 
-__all__ = ["CONTROL_SEED_BASE", "TENTH_FACTOR", "calibrate_increasing", "control_seed",
-           "draw_indices", "jag", "located", "offset_unread_features", "planted_path",
-           "scale_world"]
+__all__ = ["AAReadings", "CONTROL_SEED_BASE", "Reading", "Slot", "TENTH_FACTOR", "aa_controls",
+           "aa_pairs", "aa_readings", "aa_seeds", "calibrate_increasing", "control_seed",
+           "draw_indices", "item_differences", "jag", "located", "offset_unread_features",
+           "planted_path", "reference_model", "scale_world"]
 
 #: control randomness lives far from the experiments' seeds (0, 1, 2, …)
 CONTROL_SEED_BASE = 1_000_000
@@ -176,3 +201,153 @@ def planted_path(space: FeatureSpace, x: Tensor, targets: np.ndarray, *, jerk_fa
         features = space.unnormalise(scaled).clone()
         features[..., [_ROOT_X, _ROOT_Z]] += shift[:, None, :].to(features.dtype)
     return space.normalise(features)
+
+
+
+# ------------------------------------------------------------------------------------------------
+# A/A controls: the reference arm against an independently trained copy of itself.
+# ------------------------------------------------------------------------------------------------
+
+#: one model's readings on one seed's pairing: name → per-item values (an array whose mean is
+#: the per-seed measurement) or one aggregate value (e.g. an FID); None: undefined this seed
+Reading = Mapping[str, "np.ndarray | float | None"]
+
+
+def aa_seeds(seeds: Sequence[int]) -> list[int]:
+    """The seeds an A/A control pairs over: the run's, or, for a run of one seed, that seed and
+    the next (one more copy of the reference model, trained for the control)."""
+    seeds = [int(s) for s in seeds]
+    if not seeds:
+        raise ValueError("an A/A control needs at least one seed")
+    return seeds if len(seeds) > 1 else [seeds[0], seeds[0] + 1]
+
+
+def aa_pairs(seeds: Sequence[int]) -> list[tuple[int, int]]:
+    """(pairing seed s, seed of the copy): the reference model of s against the reference model
+    of the next seed, cyclic over :func:`aa_seeds` — every model serves once in each slot."""
+    order = aa_seeds(seeds)
+    return [(s, order[(i + 1) % len(order)]) for i, s in enumerate(order)]
+
+
+@dataclass(frozen=True)
+class AAReadings:
+    """The A/A runs of one claim: per pairing seed s, the reference model of s (``own``) and its
+    copy (``copy``, the seed in ``pairs``) measured on s's pairing."""
+
+    pairs: list[tuple[int, int]]
+    own: dict[int, Reading]
+    copy: dict[int, Reading]
+
+
+def aa_readings(reading: Callable[[int, int], Reading], seeds: Sequence[int]) -> AAReadings:
+    """``reading(model seed, pairing seed)`` — the reference arm's readings of that seed's model
+    on that seed's pairing — for every pair of :func:`aa_pairs`."""
+    pairs = aa_pairs(seeds)
+    own = {s: dict(reading(s, s)) for s, _ in pairs}
+    other = {s: dict(reading(c, s)) for s, c in pairs}
+    return AAReadings(pairs, own, other)
+
+
+def _per_seed(item: np.ndarray | float | None) -> float | None:
+    if item is None:
+        return None
+    array = np.asarray(item, dtype=np.float64)
+    mean = float(array.mean())
+    return mean if np.isfinite(mean) else None
+
+
+def item_differences(readings: AAReadings, name: str) -> np.ndarray:
+    """The copy's per-item readings of ``name`` minus the own model's, pooled over the
+    pairings (items of a pairing are paired: the same goal, target or noise draw)."""
+    return np.concatenate([np.asarray(readings.copy[s][name], dtype=np.float64).ravel()
+                           - np.asarray(readings.own[s][name], dtype=np.float64).ravel()
+                           for s, _ in readings.pairs])
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One compared quantity of a claim's A/A control. The null fills the reference arm's
+    measurement ``reference`` with the own model's reading ``reading`` and the treatment arm's
+    ``treatment`` with the copy's, × ``factor`` (a rule comparing f·a with b places the copy at
+    that threshold; 1 for a plain comparison). The positive control plants 2δ of ``part``
+    (None: nothing planted on this slot) on the treatment slot: × e^{sign·2δ} (``scale`` "log",
+    a log-ratio part) or + sign·2δ ("difference"); ``sign`` +1 where the claim predicts the
+    treatment arm's reading larger, −1 smaller."""
+
+    treatment: Path
+    reference: Path
+    reading: str
+    factor: float = 1.0
+    part: str | None = None
+    sign: int = 1
+    scale: Literal["log", "difference"] = "log"
+
+
+def _put(measured: dict[str, Any], path: Path, values: list[float | None]) -> None:
+    if isinstance(path, str):
+        measured[path] = values
+        return
+    out = measured
+    for key in path[:-1]:
+        out = out.setdefault(key, {})
+    out[path[-1]] = values
+
+
+def _delta(claim_id: str, part_name: str, measured: Mapping[str, Any]) -> float:
+    part = next(p for p in get_claim(claim_id).parts if p.name == part_name)
+    return max(abs(c.smallest_effect) for c in part.compare(measured))
+
+
+def aa_controls(claim_id: str, readings: AAReadings, slots: Sequence[Slot], *,
+                reference_arm: str, extra: Mapping[str, Any] | None = None) -> Controls:
+    """The claim's A/A controls from ``readings`` (module docstring): the null (the reference
+    arm ``reference_arm``, in words, against its independently trained copy; ``extra``: the
+    measurements the rule reads that no slot fills, e.g. the values a claim runs) and the
+    positive (that null with 2δ planted per ``slots``). ``planted`` records the pairs, each
+    planted 2δ and the between-model spread of every reading."""
+    null: dict[str, Any] = copy.deepcopy(dict(extra or {}))
+    for slot in slots:
+        _put(null, slot.reference, [_per_seed(readings.own[s][slot.reading])
+                                    for s, _ in readings.pairs])
+        copied = [_per_seed(readings.copy[s][slot.reading]) for s, _ in readings.pairs]
+        _put(null, slot.treatment, [None if v is None else slot.factor * v for v in copied])
+    positive = copy.deepcopy(null)
+    planted: dict[str, float] = {}
+    for slot in slots:
+        if slot.part is None:
+            continue
+        delta = _delta(claim_id, slot.part, null)
+        planted[slot.part] = 2 * delta
+        values = value(positive, slot.treatment)
+        moved = [None if v is None else
+                 (v * float(np.exp(slot.sign * 2 * delta)) if slot.scale == "log"
+                  else v + slot.sign * 2 * delta) for v in values]
+        _put(positive, slot.treatment, moved)
+    spread = {}
+    for name in sorted({slot.reading for slot in slots}):
+        gaps = [(_per_seed(readings.copy[s][name]), _per_seed(readings.own[s][name]))
+                for s, _ in readings.pairs]
+        gaps_ok = [a - b for a, b in gaps if a is not None and b is not None]
+        spread[name] = float(np.std(gaps_ok, ddof=1)) if len(gaps_ok) > 1 else 0.0
+    pairs = ", ".join(f"{s}↔{c}" for s, c in readings.pairs)
+    return Controls(
+        null=null, positive=positive,
+        planted={"design": "A/A: the reference arm against an independently trained copy",
+                 "reference_arm": reference_arm, "pairs": [list(p) for p in readings.pairs],
+                 "planted_2delta": planted, "between_model_spread": spread},
+        null_text=(f"A/A: the {reference_arm} model of seed s against an independently "
+                   f"trained copy (the next seed's; pairs {pairs}), paired as the experiment "
+                   "(the same items and noise within a seed); no plant, the claim's own rule"),
+        positive_text=("the same A/A with twice each part's δ planted on the copy's readings "
+                       "in the claim's predicted direction ("
+                       + ", ".join(f"{k}: {v:.3g}" for k, v in planted.items()) + ")"))
+
+
+def reference_model(models: Mapping[int, TrainedGMD], seed: int) -> TrainedGMD:
+    """The reference arm's model of ``seed`` (keyed by seed): the run's own, or, for the copy
+    an A/A control of a one-seed run needs (:func:`aa_seeds`), the same spec trained with
+    ``seed`` (cached like every model)."""
+    if seed in models:
+        return models[seed]
+    first = next(iter(models.values()))
+    return load_or_train_gmd(first.spec.replace(seed=seed), device=first.device)

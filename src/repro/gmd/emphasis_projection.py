@@ -28,7 +28,15 @@ from repro.claims.result import ClaimResult, Controls
 from repro.core.stats import paired_difference, t_interval
 from repro.core.tables import interval_text, markdown_table, render
 from repro.gmd import settings as rule_settings
-from repro.gmd.controls import TENTH_FACTOR, control_seed, draw_indices, scale_world
+from repro.gmd.controls import (
+    TENTH_FACTOR,
+    Slot,
+    aa_controls,
+    aa_readings,
+    control_seed,
+    draw_indices,
+    scale_world,
+)
 from repro.gmd.figures import either
 from repro.gmd.guidance import default_stop_step, sample
 from repro.gmd.measurements import (
@@ -60,7 +68,8 @@ __all__ = ["C1_GRID", "C3_GRID", "C4_VALUES", "COHERENCE_PANELS", "DistanceInver
            "IMPUTED_FEATURES", "ImputedX0", "KappaReading", "METHODS", "PRECISIONS",
            "ProjectedFeatureSpace", "ProjectionSettings", "RelativeImportanceCheck", "Results",
            "SENSITIVITY_VALUES", "Settings", "Spectra", "TABLE_B1_VARIANTS", "Targets",
-           "UnitVarianceCheck", "Variant", "c1_result", "c2_result", "c3_result", "c4_controls",
+           "UnitVarianceCheck", "Variant", "c1_result", "c2_result", "c3_result", "c4_aa_controls",
+           "c4_controls", "c4_slots",
            "c4_result", "c_for_importance", "coherence", "condition_number",
            "distance_inverse_check", "distance_ratios", "draw_targets", "drowned_directions",
            "emphasis_study_records", "from_normalised", "gaussian_matrix", "jl_tail_bound",
@@ -73,7 +82,8 @@ __all__ = ["C1_GRID", "C3_GRID", "C4_VALUES", "COHERENCE_PANELS", "DistanceInver
            "relative_importance_check", "relative_importance_of", "root_velocity_disagreement",
            "run_experiment", "sample_with_trajectory", "setup_summary",
            "simulated_relative_importance", "spectra", "table_b1_markdown", "text_metrics",
-           "to_normalised", "trajectory_error", "unit_variance_check", "window_evaluator"]
+           "to_normalised", "trajectory_error", "unit_variance_check", "variant_arm",
+           "window_evaluator"]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -742,10 +752,10 @@ class Settings(RunSettings):
     def for_scale(cls, scale: str, *, train_steps: int | None = None) -> Settings:
         """The settings of ``scale``; ``train_steps`` (None: the scale's) overrides the
         training steps of every model (outside the notebook's budget). The standard scale
-        (docs/COMPUTE.md §3d, §13) runs only v = 10 (k = 10 against Gaussian c = 10, GMD's
-        released c and Table B.1's Emphasis model) with one seed at T = 100 trained
-        ``STANDARD_C4_TRAIN_STEPS``, and GMD's float32 construction (no training); the v = 2
-        part, the orthogonal arm and Table B.1's plain row are the paper scale's."""
+        runs both matched values (k = 2 against Gaussian c = 2, k = 10 against c = 10, GMD's
+        released c and Table B.1's Emphasis model) on ``seeds_of("GMD-C4", "standard")`` seeds
+        at T = 100 trained ``STANDARD_C4_TRAIN_STEPS``, and GMD's float32 construction (no
+        training); the orthogonal arm and Table B.1's plain row are the paper scale's."""
         check_scale(scale)
         if scale == "quick":
             return cls(scale=scale, seeds=1, stand_in_clips=200, stride=8, diffusion_steps=20,
@@ -756,7 +766,7 @@ class Settings(RunSettings):
                        stride=24, diffusion_steps=STANDARD_DIFFUSION_STEPS,
                        train_steps=(STANDARD_C4_TRAIN_STEPS if train_steps is None
                                     else int(train_steps)),
-                       samples=64, evaluator_steps=500, values=(10,), orthogonal_arm=False,
+                       samples=64, evaluator_steps=500, orthogonal_arm=False,
                        table_b1_plain=False)
         return cls(scale=scale, seeds=seeds_of("GMD-C4", scale), stand_in_clips=2000,
                    stride=24, diffusion_steps=50,
@@ -1337,6 +1347,16 @@ def plot_training_losses(models: dict[str, TrainedGMD], *, window: int = 10) -> 
 
 # --- the fitness-gate records of GMD-C4's models -------------------------------------------------
 
+def variant_arm(variant: Variant) -> str:
+    """The arm of GMD-C4's parts a variant's models serve: "loss_scaling k=v" or "emphasis c=v"
+    (a sensitivity arm's matrix and precision appended, as its label has them)."""
+    symbol = "k" if variant.method == "loss_scaling" else "c"
+    arm = f"{variant.method} {symbol}={variant.value:g}"
+    if (variant.kind, variant.precision) != ("gaussian", "float64"):
+        arm += f" ({variant.kind}, {variant.precision})"
+    return arm
+
+
 def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
                            test: MotionWindows, device: str | torch.device = "cpu",
                            parts: Mapping[float, Sequence[str]] | None = None
@@ -1356,7 +1376,7 @@ def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
             reads = None if parts is None else list(parts.get(variant.value, ()))
             records.append(gmd_model_record(
                 trained, family="gmd_motion", label=variant.label, reads=reads,
-                role="treatment",
+                role="treatment", arm=variant_arm(variant),
                 values=denoising_gate_values(trained, test, train, seed=seed)))
     return records
 
@@ -1745,6 +1765,46 @@ def c4_controls(test: MotionWindows, seeds: Sequence[int], values: Sequence[floa
                     positive_text=(f"the same paired windows; the loss-scaling arm's motion "
                                    f"stretched horizontally × {factor:.3g} (foot skating × "
                                    f"{factor:.3g}, exact)"))
+
+
+
+def c4_slots(values: Sequence[float]) -> list[Slot]:
+    """GMD-C4's A/A slots per matched value v: the Emphasis c = v (treatment) arm filled by the
+    loss-scaling k = v (reference: the baseline Emphasis is claimed to beat) copy's foot
+    skating; the positive lowers it by 2δ (the claim: Emphasis skates less)."""
+    return [Slot(("foot_skating_emphasis", f"{v:g}"), ("foot_skating_loss_scaling", f"{v:g}"),
+                 f"foot_skating_{v:g}", part=f"emphasis_less_foot_skating_at_{v:g}", sign=-1)
+            for v in values]
+
+
+def c4_aa_controls(results: Results, settings: Settings, base: GMDModelSpec,
+                   train: MotionWindows, test: MotionWindows, seeds: Sequence[int], *,
+                   device: str | torch.device = "cpu") -> Controls:
+    """GMD-C4's A/A controls (``controls.aa_controls``): at each matched value v the
+    loss-scaling k = v model of seed s against an independently trained copy (the next seed's;
+    for a one-seed run one more, trained here), both imputing seed s's targets from seed s's
+    noise (:func:`run_experiment`'s pairing); the own model's foot skating is the experiment's.
+    The positive plants 2δ on the copy's foot skating (lower: the claim's direction)."""
+    values = list(settings.values)
+    index = {s: k for k, s in enumerate(results.seeds)}
+
+    def reading(model_seed: int, pairing_seed: int) -> dict[str, float]:
+        out = {}
+        for v in values:
+            variant = Variant("loss_scaling", v)
+            if model_seed == pairing_seed and model_seed in index:
+                out[f"foot_skating_{v:g}"] = \
+                    results.imputed[variant.label]["foot_skating"][index[model_seed]]
+                continue
+            trained = load_or_train_variant(base, variant, train, model_seed, device=device)
+            targets = draw_targets(test, settings.samples, seed=pairing_seed)
+            measured, _ = measure_imputed(trained, targets, seed=pairing_seed)
+            out[f"foot_skating_{v:g}"] = measured["foot_skating"]
+        return out
+
+    return aa_controls("GMD-C4", aa_readings(reading, seeds), c4_slots(values),
+                       reference_arm="loss-scaling k = v",
+                       extra={"values": [int(v) for v in values]})
 
 
 

@@ -39,10 +39,14 @@ from repro.core.diffusion import Guidance, Imputation
 from repro.gmd import model_gates
 from repro.gmd import settings as rule_settings
 from repro.gmd.controls import (
+    Slot,
+    aa_controls,
+    aa_readings,
     calibrate_increasing,
     control_seed,
     draw_indices,
     planted_path,
+    reference_model,
     scale_world,
 )
 from repro.gmd.guidance import Clamp, goal_error, goal_reaching_loss, guidance_parameters, sample
@@ -76,14 +80,14 @@ if TYPE_CHECKING:
 
 __all__ = ["GMD_NUM_TIMESTEPS", "ObstacleArm", "ObstacleSet", "ObstacleStudy", "ROOT_CHANNELS",
            "ScheduleModels", "SecondStage", "Settings", "StopReading", "StrengthSweep", "Sweeps",
-           "WHOLE_BODY_MEASUREMENTS", "WHOLE_BODY_PART", "WholeBody", "f1_controls", "f1_result",
-           "goal_keypoint_imputation", "load_models", "model_stop_step", "motion_records",
-           "obstacle_cost", "obstacle_experiment", "obstacle_study", "obstacles_between",
-           "penetration_depth", "plot_example_paths", "plot_guidance_per_step", "plot_obstacles",
-           "plot_stop_sweep", "plot_strength_sweep", "plot_whole_body_stop",
-           "point_to_point_imputation", "run_sweeps", "second_stage", "shared_start_noise",
-           "strength_key", "sweep_strengths", "trajectory_imputation", "trajectory_records",
-           "weighted_guidance", "whole_body"]
+           "WHOLE_BODY_MEASUREMENTS", "WHOLE_BODY_PART", "WholeBody", "f1_aa_controls",
+           "f1_controls", "f1_result", "f1_slots", "goal_keypoint_imputation", "load_models",
+           "model_stop_step", "motion_records", "obstacle_cost", "obstacle_experiment",
+           "obstacle_study", "obstacles_between", "penetration_depth", "plot_example_paths",
+           "plot_guidance_per_step", "plot_obstacles", "plot_stop_sweep", "plot_strength_sweep",
+           "plot_whole_body_stop", "point_to_point_imputation", "run_sweeps", "second_stage",
+           "shared_start_noise", "strength_key", "sweep_strengths", "trajectory_imputation",
+           "trajectory_records", "weighted_guidance", "whole_body"]
 
 #: GMD's number of diffusion steps (Table D.1): its "t = 20" is a step of T = 1000.
 GMD_NUM_TIMESTEPS = GUIDANCE_DIFFUSION_STEPS
@@ -918,7 +922,7 @@ def trajectory_records(trained: ScheduleModels, sweeps: Sweeps,
     sweep = sweeps.sweep
     return [model_gates.gmd_model_record(
         trained.models[s], family="gmd_trajectory", reference=reference, role="reference",
-        values={**model_gates.trajectory_gate_values(trained.models[s],
+        arm=None, values={**model_gates.trajectory_gate_values(trained.models[s],
                                                      sweep[s].samples[sweep[s].index(0)]),
                 **model_gates.denoising_gate_values(trained.models[s], test, train, seed=s)})
         for s in seeds]
@@ -934,7 +938,7 @@ def motion_records(trained: ScheduleModels, seeds: Sequence[int], *,
     samples = model_gates.sample_gate_data(test, seed=seed)
     return [model_gates.gmd_model_record(
         trained.motion_models[s], family="gmd_motion", reads=[WHOLE_BODY_PART],
-        role="reference", reference=samples.values,
+        role="reference", arm=None, reference=samples.values,
         values={**model_gates.denoising_gate_values(trained.motion_models[s], test, train,
                                                     seed=s),
                 **model_gates.motion_sample_values(trained.motion_models[s], samples, seed=s)})
@@ -1221,6 +1225,55 @@ def obstacle_study(m: ScheduleModels, sweeps: Sweeps, settings: Settings) -> Obs
 
 
 # --- the claim ------------------------------------------------------------------------------
+
+def f1_slots(settings: Settings) -> list[Slot]:
+    """GMD-F1's A/A slots. Every arm samples one trajectory model, so the reference arm of a
+    part is its baseline condition: the unguided sample (parts 1–2: each rule strength's goal
+    error and root jerk filled by the copy's unguided ones at the rule's threshold, × 0.5 and
+    × 1.5) and stop 0 (part 4: the stop-20 goal error filled by the copy's stop-0 one × 1.2).
+    The positive lowers each treatment reading by 2δ (the claim: guidance halves the error
+    without the jitter growing by half; stopping at 20 keeps the goal)."""
+    slots = []
+    for v in settings.rule_strengths:
+        key = strength_key(v)
+        slots.append(Slot(("goal_error_by_strength", key), "goal_error_unguided",
+                          "goal_error_unguided", factor=0.5,
+                          part="s_100_200_halves_goal_error", sign=-1))
+        slots.append(Slot(("jitter_by_strength", key), "jitter_unguided", "jitter_unguided",
+                          factor=1.5, part="s_100_200_keeps_jitter", sign=-1))
+    slots.append(Slot("goal_error_stop_20", "goal_error_stop_0", "goal_error_stop_0",
+                      factor=1.2, part="stop_at_20_keeps_goal", sign=-1))
+    return slots
+
+
+def f1_aa_controls(m: ScheduleModels, sweeps: Sweeps, settings: Settings) -> Controls:
+    """GMD-F1's A/A controls (``controls.aa_controls``, :func:`f1_slots`): the trajectory model
+    of seed s against an independently trained copy (the next seed's; for a one-seed run one
+    more, trained here), both sampling seed s's goals with seed s's noise in the experiment's
+    sweeps (the strength sweep at GMD's stop for the unguided arm, the stop sweep's stop 0 at
+    GMD's s); the own model's readings are the experiment's. The whole-body part (the second
+    stage) has no A/A arms: its measurements are left out of the controls."""
+    gmd_s, stops = settings.gmd_strength, m.stops
+
+    def of(strength: StrengthSweep, stop: StrengthSweep) -> dict[str, Any]:
+        return {"goal_error_unguided": strength.goal_error[strength.index(0)].astype(float),
+                "jitter_unguided": strength.mean_jerk(0),
+                "goal_error_stop_0": stop.goal_error[stop.index(gmd_s)].astype(float)}
+
+    def reading(model_seed: int, pairing_seed: int) -> dict[str, Any]:
+        if model_seed == pairing_seed and model_seed in sweeps.sweep:
+            return of(sweeps.sweep[model_seed], sweeps.stop_sweep[(model_seed, 0)])
+        model = reference_model(m.models, model_seed)
+        targets = goal_targets(m.test, settings.goals, seed=pairing_seed,
+                               min_distance=settings.model.min_goal_distance)
+        return of(sweep_strengths(model, targets, list(settings.strengths), seed=pairing_seed,
+                                  stop=stops[settings.gmd_stop]),
+                  sweep_strengths(model, targets, list(settings.stop_sweep_strengths),
+                                  seed=pairing_seed, stop=stops[0]))
+
+    return aa_controls("GMD-F1", aa_readings(reading, sweeps.seeds), f1_slots(settings),
+                       reference_arm="trajectory (unguided / stop-0 arm)")
+
 
 def f1_result(m: ScheduleModels, sweeps: Sweeps, stop: StopReading, body: SecondStage | None,
               obstacles: ObstacleStudy, settings: Settings, *, controls: Controls,

@@ -350,7 +350,8 @@ def gmd_model_name(trained: TrainedGMD, label: str = "") -> str:
 
 def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, float],
                      role: str, reference: Mapping[str, float] | None = None,
-                     label: str = "", reads: Sequence[str] | None = None) -> dict[str, Any]:
+                     label: str = "", reads: Sequence[str] | None = None,
+                     arm: str | None = None) -> dict[str, Any]:
     """``core.gates.model_record`` of a tiny GMD model: parameters counted, steps and training
     seconds from the cache's metrics.json. A model trained to convergence (``GMDModelSpec.
     validate_every``) brings its record (``TrainResult.metrics()["convergence"]``): steps
@@ -359,7 +360,9 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
     curve and ``converged`` None (unknown). ``precision`` is "fp32" or the autocast dtype it
     was trained under (``GMDModelSpec.autocast``). ``reads``: the claim's parts that rest on
     the model (``core.gates.model_record``; None: every part); ``role``: "reference" (every
-    gate, the sample gates included) or "treatment" (the fitness gates)."""
+    gate, the sample gates included) or "treatment" (the fitness gates); ``arm``: the arm of
+    those parts the model serves (e.g. "x0", "eps"), None where every arm of them shares it
+    (``core.gates.model_record``)."""
     if family not in ("gmd_motion", "gmd_trajectory"):
         raise ValueError(f"a GMD model's family is gmd_motion or gmd_trajectory, not {family!r}")
     convergence = trained.metrics.get("convergence")
@@ -370,7 +373,7 @@ def gmd_model_record(trained: TrainedGMD, *, family: str, values: Mapping[str, f
                           reference=reference, parameters=parameter_count(trained),
                           steps=int(summary["steps_used"]),
                           train_seconds=trained.metrics.get("seconds"), validation_curve=curve,
-                          converged=summary["converged"], reads=reads, role=role)
+                          converged=summary["converged"], reads=reads, role=role, arm=arm)
     record["precision"] = trained.spec.training.autocast or "fp32"
     if convergence:
         record["convergence"] = {"step_cap": convergence["step_cap"],
@@ -421,11 +424,13 @@ def budget_markdown(arms: Mapping[str, Sequence[TrainedGMD]],
 
 
 def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float],
-                           reads: Sequence[str] | None = None) -> dict[str, Any]:
+                           reads: Sequence[str] | None = None,
+                           arm: str | None = None) -> dict[str, Any]:
     """``core.gates.model_record`` of the evaluator, named by a hash of its weights (so the
     one cached evaluator two notebooks share is one entry); steps from its config, its
     contrastive training loss as the curve; the cache does not keep its training time.
-    ``reads``: the claim's parts that rest on it (None: every part)."""
+    ``reads``: the claim's parts that rest on it (None: every part); ``arm``: None, the
+    evaluator every arm of those parts is measured with (common-mode), unless told."""
     weights = [t for _, t in sorted(evaluator.state_dict().items())]
     name = (f"evaluator dim {evaluator.config.dim} hidden {evaluator.config.hidden} "
             f"[{cache.fingerprint(*weights, digits=10)}]")
@@ -433,4 +438,4 @@ def evaluator_model_record(evaluator: Evaluator, *, values: Mapping[str, float],
                         parameters=sum(p.numel() for p in evaluator.parameters()),
                         steps=len(evaluator.losses) or evaluator.config.training.steps,
                         train_seconds=None, validation_curve=loss_curve(evaluator.losses),
-                        converged=None, reads=reads, role="reference")
+                        converged=None, reads=reads, role="reference", arm=arm)

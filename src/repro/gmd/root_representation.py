@@ -44,7 +44,17 @@ from repro.core.diffusion import Guidance, Imputation
 from repro.core.tables import interval_text, markdown_table, render
 from repro.gmd import measurements, model_gates
 from repro.gmd import settings as rule_settings
-from repro.gmd.controls import calibrate_increasing, control_seed, draw_indices, located
+from repro.gmd.controls import (
+    AAReadings,
+    Slot,
+    aa_controls,
+    aa_readings,
+    calibrate_increasing,
+    control_seed,
+    draw_indices,
+    located,
+    reference_model,
+)
 from repro.gmd.figures import count_below, either
 from repro.gmd.guidance import (
     GMD_CFG_SCALE,
@@ -98,16 +108,17 @@ from repro.motion.plotting import save_figure
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["B1Study", "B3Evaluation", "B3_DEGRADATION", "B3_PARTS", "ImputationRun",
-           "LINEARISATION_DELTAS", "LocationTask", "METHODS", "REAL_CLIP", "REGISTERED_METHODS",
+__all__ = ["B1Study", "B2_SLOTS", "B2_THRESHOLD", "B3Evaluation", "B3_DEGRADATION", "B3_PARTS",
+           "ImputationRun", "LINEARISATION_DELTAS", "LocationTask", "METHODS",
+           "QUICK_TRAJECTORY_DIFFUSION_STEPS", "REAL_CLIP", "REGISTERED_METHODS",
            "REPRESENTATION_ROLES", "ROOT_PARAMETERS", "RoundTrip", "SensitivityResult",
            "SensitivitySetup", "Settings", "abs_location_imputation", "b1_figures", "b1_reading",
-           "b1_result", "b1_study", "b2_controls", "b2_model_records", "b2_result", "b2_runs",
-           "b2_table_markdown", "b3_controls", "b3_evaluation", "b3_model_records",
-           "b3_not_run_markdown", "b3_not_run_result", "b3_result", "b3_rows", "facing_path_root",
-           "global_root_xz", "impute_locations", "linearisation_error", "load_clips",
-           "load_or_train_per_representation", "location_errors", "location_loss", "location_task",
-           "perturbation_displacement", "plot_imputation", "plot_method_errors",
+           "b1_result", "b1_study", "b2_aa_readings", "b2_controls", "b2_model_records",
+           "b2_result", "b2_runs", "b2_table_markdown", "b3_controls", "b3_evaluation",
+           "b3_model_records", "b3_not_run_markdown", "b3_not_run_result", "b3_result", "b3_rows",
+           "facing_path_root", "global_root_xz", "impute_locations", "linearisation_error",
+           "load_clips", "load_or_train_per_representation", "location_errors", "location_loss",
+           "location_task", "perturbation_displacement", "plot_imputation", "plot_method_errors",
            "plot_representations", "plot_sensitivity", "reading_b1", "reading_b2", "reading_b3",
            "real_clip_file", "registered_measurements", "rel_location_imputation", "root_jacobian",
            "round_trip", "round_trip_markdown", "sensitivity_study", "settings_markdown"]
@@ -344,6 +355,11 @@ def linearisation_error(features: np.ndarray, frame: int, deltas: Sequence[float
 B3_PARTS = ("abs_lower_fid", "abs_diversity_closer_to_real", "abs_r_precision_not_worse")
 
 
+#: the quick scale's T of GMD-B2's trajectory models (notebook 01's quick guidance T): its stop
+#: step is t = 1, so rel imputation leaves a free step (a test of the code, never a result)
+QUICK_TRAJECTORY_DIFFUSION_STEPS = 50
+
+
 @dataclass(frozen=True)
 class Settings(RunSettings):
     """Every size and step count of notebook 02 at one scale, fixed before any verdict was seen.
@@ -403,10 +419,16 @@ class Settings(RunSettings):
 
     @property
     def trajectory_diffusion_steps(self) -> int:
-        """T of the B2 trajectory models: GMD's 1000 at the paper scale, ``diffusion_steps``
-        otherwise (standard 100, quick 20)."""
+        """T of the B2 trajectory models: GMD's 1000 at the paper scale, ``diffusion_steps`` at
+        the standard scale (100), and at the quick scale notebook 01's guidance T
+        (``QUICK_TRAJECTORY_DIFFUSION_STEPS``, 50): GMD's stop at 2 % of T is then t = 1, so a
+        free step follows imputation (at T = 20 the stop is t = 0, rel imputation sets the
+        targets exactly whatever the model, and the A/A null of the imputation part would have
+        no between-model spread)."""
         if self.scale == "paper":
             return GUIDANCE_DIFFUSION_STEPS
+        if self.scale == "quick":
+            return QUICK_TRAJECTORY_DIFFUSION_STEPS
         return self.diffusion_steps
 
     @property
@@ -708,21 +730,27 @@ class ImputationRun:
                 "path_change_off_target": self.path_change_off_target}
 
 
-def impute_locations(models: dict[str, TrainedGMD], task: LocationTask, *, seed: int,
+def impute_locations(models: Mapping[str, TrainedGMD], task: LocationTask, *, seed: int,
                      stop_t: int, clip_x0: float | None,
-                     strength: float = GMD_GUIDANCE_STRENGTH) -> dict[str, ImputationRun]:
+                     strength: float = GMD_GUIDANCE_STRENGTH,
+                     representations: Sequence[str] = REPRESENTATIONS,
+                     ) -> dict[str, ImputationRun]:
     """Every method of :data:`METHODS` from the same seed (same x_T and per-step noise);
     imputation and guidance act while t ≥ ``stop_t`` (GMD: 20 of 1000), an ε model's x̂0 is
     clamped to ±``clip_x0`` (GMD: 6).
 
     ``models``: {"absolute": absolute-root trajectory model, "relative": relative-root one};
-    a method's name starts with the short label of its model's representation.
+    a method's name starts with the short label of its model's representation;
+    ``representations``: those whose methods run (both by default; an A/A control runs the
+    reference arm's alone).
     *_imputation: :func:`abs_location_imputation` / :func:`rel_location_imputation`;
     *_guidance: :func:`location_loss` with strength s (GMD: 100).
     """
     runs: dict[str, ImputationRun] = {}
     for rep, label, imputation in (("absolute", "abs", abs_location_imputation),
                                    ("relative", "rel", rel_location_imputation)):
+        if rep not in representations:
+            continue
         trained = models[rep]
         frames = trained.spec.data.frames
         hooks = {f"{label}_unguided": {},
@@ -1422,7 +1450,7 @@ def b2_model_records(trajectory_models: Mapping[str, Mapping[int, TrainedGMD]],
         for rep in REPRESENTATIONS}
     return [model_gates.gmd_model_record(
         trajectory_models[rep][s], family="gmd_trajectory", reference=reference[rep],
-        label=rep, role=REPRESENTATION_ROLES[rep],
+        label=rep, role=REPRESENTATION_ROLES[rep], arm=rep,
         values={**model_gates.trajectory_gate_values(
             trajectory_models[rep][s], runs[s][f"{short_label(rep)}_unguided"].samples),
             **model_gates.denoising_gate_values(trajectory_models[rep][s],
@@ -1431,19 +1459,78 @@ def b2_model_records(trajectory_models: Mapping[str, Mapping[int, TrainedGMD]],
         for rep in REPRESENTATIONS for s in seeds]
 
 
+#: GMD-B2's A/A slots: the abs (treatment) arms filled by the rel (reference) copy's errors;
+#: the threshold part (0.1 m − abs imputation error) reads the copy's imputation error
+B2_SLOTS = (Slot("abs_imputation_error", "rel_imputation_error", "imputation_error",
+                 part="abs_imputes_better", sign=-1),
+            Slot("abs_guidance_error", "rel_guidance_error", "guidance_error",
+                 part="abs_guides_better", sign=-1))
+
+
+def _b2_run_reading(runs: Mapping[str, ImputationRun]) -> dict[str, np.ndarray]:
+    return {"imputation_error": runs["rel_imputation"].location_error.astype(np.float64),
+            "guidance_error": runs["rel_guidance"].location_error.astype(np.float64)}
+
+
+def b2_aa_readings(runs: Mapping[int, Mapping[str, ImputationRun]],
+                   tasks: Mapping[int, LocationTask],
+                   trajectory_models: Mapping[str, Mapping[int, TrainedGMD]],
+                   test: MotionWindows, seeds: Sequence[int], settings: Settings) -> AAReadings:
+    """GMD-B2's A/A runs (``controls.aa_readings``): the relative-root trajectory model (the
+    reference arm) of seed s and its copy of the next seed, imputing and guiding toward seed
+    s's targets from seed s's noise (per target and frame location errors); the own model's
+    runs are the experiment's. A one-seed run's extra pairing draws its task from ``test``.
+
+    The imputation errors are read by a ratio part (log rel / abs, blind to a common scale)
+    and by a threshold part (0.1 m − abs): so both arms' imputation readings are scaled by one
+    factor that puts the own models' mean at the 10 cm threshold (:data:`B2_THRESHOLD`), and
+    the null sits at both parts' boundaries with the A/A's own spread (the positive's
+    e^{−2δ} on the abs arm then moves the threshold part by ≈ 2δ: 0.1 m × (1 − 0.81))."""
+    reference = dict(trajectory_models["relative"])
+
+    def reading(model_seed: int, pairing_seed: int) -> dict[str, np.ndarray]:
+        if model_seed == pairing_seed and model_seed in runs:
+            return _b2_run_reading(runs[model_seed])
+        task = (tasks[pairing_seed] if pairing_seed in tasks
+                else location_task(test, settings.targets, seed=pairing_seed))
+        return _b2_run_reading(impute_locations(
+            {"relative": reference_model(reference, model_seed)}, task, seed=pairing_seed,
+            stop_t=settings.guidance_stop_t, clip_x0=settings.x0_clamp,
+            representations=("relative",)))
+
+    found = aa_readings(reading, seeds)
+    own = [float(np.mean(found.own[s]["imputation_error"])) for s, _ in found.pairs]
+    scale = B2_THRESHOLD / float(np.mean(own)) if np.mean(own) > 0 else 1.0
+
+    def at_threshold(reading: Mapping[int, Any]) -> dict[int, Any]:
+        return {s: {**r, "imputation_error": np.asarray(r["imputation_error"]) * scale}
+                for s, r in reading.items()}
+
+    return AAReadings(found.pairs, at_threshold(found.own), at_threshold(found.copy))
+
+
+#: the registered threshold of GMD-B2's ``abs_imputation_below_10cm`` part (m)
+B2_THRESHOLD = 0.1
+
+
 def b2_result(runs: Mapping[int, Mapping[str, ImputationRun]],
               tasks: Mapping[int, LocationTask],
               trajectory_models: Mapping[str, Mapping[int, TrainedGMD]], test: MotionWindows,
               seeds: Sequence[int], settings: Settings, *, figures: Sequence[FigurePath],
               models: Sequence[Mapping[str, Any]]) -> ClaimResult:
     """GMD-B2: location error of imputation and of guidance in each representation, like for
-    like, with its controls (``controls.b2_controls`` on the absolute-root ``test`` windows:
-    constructed samples whose errors are known)."""
+    like, with its A/A controls (:func:`b2_aa_readings`: the relative-root model against an
+    independently trained copy toward the same targets; the positive with 2δ planted)."""
     sampling = settings.sampling_parameters()
     measured = registered_measurements(dict(runs))
     summary = {m: {s: runs[s][m].summary() for s in seeds} for m in METHODS}
     mean = {m: float(np.mean(measured[f"{m}_error"])) for m in REGISTERED_METHODS}
-    controls = b2_controls(test, tasks, seeds)
+    controls = aa_controls("GMD-B2", b2_aa_readings(runs, tasks, trajectory_models, test,
+                                                    seeds, settings),
+                           B2_SLOTS, reference_arm="relative-root trajectory")
+    for out in (controls.null, controls.positive):   # the rule's two further names
+        out["rel_location_error"] = out["rel_guidance_error"]
+        out["abs_location_error"] = out["abs_imputation_error"]
     first = seeds[0]
     return ClaimResult(
         "GMD-B2", measured, seeds=seeds, settings=rule_settings.b2(settings),
@@ -1528,7 +1615,7 @@ def b3_model_records(motion_models: Mapping[str, Mapping[int, TrainedGMD]], b3: 
 
     records = [model_gates.gmd_model_record(
         motion_models[rep][s], family="gmd_motion", label=rep, role=REPRESENTATION_ROLES[rep],
-        reference=samples.values, values=values(rep, s))
+        arm=rep, reference=samples.values, values=values(rep, s))
         for rep in REPRESENTATIONS for s in seeds]
     evaluation = b3.evaluation
     evaluator_record = model_gates.evaluator_model_record(

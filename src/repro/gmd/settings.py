@@ -42,10 +42,11 @@ __all__ = ["FULL_SEEDS", "QUICK_SEEDS", "RULE_SETTINGS", "STANDARD_C4_TRAIN_STEP
 # budget affords, and each part states from its own interval what it could have seen
 # (``claims.power.minimum_detectable_effect``). Notebook 01's A3 and A4 share one seed list
 # (the same trajectory models), as do F1's trajectory and motion models. The paper scale runs
-# ``FULL_SEEDS`` (the registered full settings), the standard scale 3 for every claim but GMD-C4
-# (docs/COMPUTE.md §3a item 5), quick runs one. GMD-C4 runs one seed at standard
-# (docs/COMPUTE.md §13): its arms pass their gate only from 1500 steps, its part needs ≈ 340× δ at
-# 3 seeds (no standard seed count decides it), so the budget buys one seed of models that pass.
+# ``FULL_SEEDS`` (the registered full settings), the standard scale 3 for every claim
+# (docs/COMPUTE.md §3a item 5), quick runs one. GMD-C4's standard run trains both matched values
+# (k = 2 and k = 10, each with its Emphasis arm) on 3 seeds at ``STANDARD_C4_TRAIN_STEPS`` (its
+# arms pass their gate from 1500 steps, docs/COMPUTE.md §13): 12 models, so its parts and its
+# A/A null control (seed s's reference arm against seed s + 1's) have a spread between models.
 # ------------------------------------------------------------------------------------------------
 
 #: the paper scale's seeds (today's registered full settings)
@@ -58,8 +59,8 @@ FULL_SEEDS: dict[str, int] = {
 }
 
 
-#: the standard scale's seeds: 3 for every GMD claim but GMD-C4 (one seed, 1500 steps)
-STANDARD_SEEDS: dict[str, int] = {**dict.fromkeys(FULL_SEEDS, 3), "GMD-C4": 1}
+#: the standard scale's seeds: 3 for every GMD claim (GMD-C4's arms at 1500 steps)
+STANDARD_SEEDS: dict[str, int] = dict.fromkeys(FULL_SEEDS, 3)
 
 
 QUICK_SEEDS = 1
@@ -88,19 +89,13 @@ STANDARD_C4_TRAIN_STEPS = 1500
 # What the standard scale does not run: arms cut to fit the 60-minute budget (docs/COMPUTE.md
 # §16), each a statement of what the scale cannot decide, fixed before the run that uses it.
 #
-# Only arms whose parts the standard design could not decide are cut: an arm that fails its
-# fitness gate by construction at the standard width (A4's ε motion model), and the models of
-# parts that read a measurement no standard design passes (B3's evaluator) or a model that
-# failed every sample gate (F1's second stage, the absolute-root motion model). The quick scale
-# runs them all (a test of the code); the paper scale decides them.
+# Only the models of parts that read a measurement no standard design passes (B3's evaluator)
+# or a model that failed every sample gate (F1's second stage, the absolute-root motion model)
+# are cut. A treatment arm is never cut on its expected outcome: GMD-A4's ε motion arm, which
+# the claim predicts learns worse, runs at standard with the x0 motion arm's spec and steps
+# (width 64, the standard design; GMD's widths are the paper scale's). The quick scale runs
+# every part (a test of the code); the paper scale decides the cut ones.
 # ------------------------------------------------------------------------------------------------
-
-_EPS_MOTION = (
-    "the ε motion arm is not trained: the standard motion UNet (64 channels, no full-rank "
-    "input path — one passes x_t's noise into the x0 arm's output, docs/COMPUTE.md §14) cannot "
-    "carry ε's 263 values per frame; trained once on this design its held-out x̂0 error was "
-    "7.7× the Gaussian denoiser's, a broken arm rather than a jagged one (COMPUTE.md §15a). "
-    "GMD's widths (the paper scale) decide it")
 
 _B3_EVALUATOR = (
     "no motion model is trained for it: every part reads the motion evaluator, and no "
@@ -116,8 +111,6 @@ _F1_SECOND_STAGE = (
 
 #: claim → part → why the standard scale does not run it
 STANDARD_NOT_RUN: dict[str, dict[str, str]] = {
-    "GMD-A4": dict.fromkeys(("eps_motion_more_jagged", "eps_motion_worse_fid",
-                             "choice_matters_less_for_trajectories"), _EPS_MOTION),
     "GMD-B3": dict.fromkeys(("abs_lower_fid", "abs_diversity_closer_to_real",
                              "abs_r_precision_not_worse"), _B3_EVALUATOR),
     "GMD-F1": {"stop_at_20_more_coherent": _F1_SECOND_STAGE},
@@ -167,6 +160,9 @@ def scale_note(scale: str) -> str:
             f"{STANDARD_C4_TRAIN_STEPS}); trajectory UNet "
             f"{_widths(STANDARD_TRAJECTORY_ARCHITECTURE)}, "
             f"{STANDARD_TRAJECTORY_TRAINING.step_cap} steps; seeds per claim: {seeds}. "
+            f"GMD-A4 compares its x0 and ε motion arms at width "
+            f"{STANDARD_MOTION_ARCHITECTURE.base_channels} (both the standard motion UNet and "
+            "steps). "
             f"Not run at this scale (each part says why): {cuts}. "
             "Where the text below names GMD's T = 1000, its widths or more "
             "seeds, those are the paper scale's; the values this run used are printed by its "

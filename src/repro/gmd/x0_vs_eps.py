@@ -4,9 +4,11 @@
 - GMD-A3: under goal guidance, a guided and an unguided run from the same seed (same x_T, same
   per-step noise) give the goal error of the final sample and of x̂0 at every step, and the
   share of the best guided gain that is kept at the end (``best_gain_survival``, GMD-A3's
-  registered measurement); its controls run exact and planted models through the same code;
-- GMD-A4: the unguided sample quality (jitter, FID) of x0 and ε models, with controls on the
-  data themselves;
+  registered measurement); its controls are A/A runs (``controls.aa_controls``: the ε model
+  against an independently trained copy); the exact and planted models beside them check
+  the measurement code;
+- GMD-A4: the unguided sample quality (jitter, FID) of x0 and ε models, with A/A controls
+  (each task's reference arm against an independently trained copy);
 - the results: each ``a*_result`` takes what the notebook measured, runs the claim's controls
   and returns the :class:`~repro.claims.result.ClaimResult` its registered rule reads, with the
   fitness-gate records of the models behind it; the notebook's "Reading" paragraphs.
@@ -33,11 +35,16 @@ from repro.core.tables import render
 from repro.gmd import model_gates
 from repro.gmd import settings as rule_settings
 from repro.gmd.controls import (
+    AAReadings,
+    Slot,
+    aa_controls,
+    aa_readings,
     calibrate_increasing,
     control_seed,
     draw_indices,
     jag,
     offset_unread_features,
+    reference_model,
 )
 from repro.gmd.figures import either
 from repro.gmd.guidance import (
@@ -78,18 +85,18 @@ from repro.infra.context import RunSettings, check_scale
 from repro.models.evaluator import Evaluator, EvaluatorConfig
 from repro.motion.features import FEATURE_BLOCKS
 
-__all__ = ["A3Study", "A4Records", "CLAMPS", "EpsilonOfX0", "ExactGaussianDenoiser",
-           "GoalReachingResult", "LateRevertingDenoiser", "PREDICTIONS",
+__all__ = ["A3Study", "A3_SLOTS", "A4Records", "A4_SLOTS", "CLAMPS", "EpsilonOfX0",
+           "ExactGaussianDenoiser", "GoalReachingResult", "LateRevertingDenoiser", "PREDICTIONS",
            "QUICK_GUIDANCE_DIFFUSION_STEPS", "SampleQuality", "Settings", "a1_result", "a2_result",
-           "a3_controls", "a3_model_records", "a3_result", "a3_study", "a4_budget_markdown",
-           "a4_controls", "a4_model_records", "a4_result", "best_gain_survival",
-           "c_identity_error", "clamp_sensitivity", "coefficient_shares", "exact_model",
-           "exact_pair", "finite", "goal_error_kept", "goal_reaching_experiment",
-           "goal_reaching_study", "guidance_trajectory_spec", "guided_change_survival",
-           "jagged_by", "late_reverting_model", "longer_eps_description", "longer_eps_models",
-           "parameter_counts", "peak_fraction", "posterior_mean_forms", "printed_c_relative_error",
-           "reading_a3", "reading_clamp", "sample_quality", "trajectory_model_values",
-           "trajectory_reference"]
+           "a3_aa_readings", "a3_controls", "a3_model_records", "a3_reading", "a3_result",
+           "a3_study", "a4_aa_readings", "a4_budget_markdown", "a4_controls", "a4_model_records",
+           "a4_reading", "a4_result", "best_gain_survival", "c_identity_error", "clamp_sensitivity",
+           "coefficient_shares", "exact_model", "exact_pair", "finite", "goal_error_kept",
+           "goal_reaching_experiment", "goal_reaching_study", "guidance_trajectory_spec",
+           "guided_change_survival", "jagged_by", "late_reverting_model", "longer_eps_description",
+           "longer_eps_models", "parameter_counts", "peak_fraction", "posterior_mean_forms",
+           "printed_c_relative_error", "reading_a3", "reading_clamp", "sample_quality",
+           "trajectory_model_values", "trajectory_reference"]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -593,9 +600,11 @@ def sample_quality_lines(values: Mapping[str, list[float]], seeds: Sequence[int]
 
 
 # ------------------------------------------------------------------------------------------------
-# GMD-A3's controls (notebook 01), beside ``repro.gmd.controls``: exact models whose truth is
-# known, run through the experiment's own ``x0_vs_eps.goal_reaching_experiment`` (same T, stop
-# step, clamp, goals).
+# GMD-A3's exact checks of the measurement code (notebook 01 records the A/A controls,
+# :func:`a3_aa_readings`), beside ``repro.gmd.controls``: exact models whose truth is known, run
+# through the experiment's own ``x0_vs_eps.goal_reaching_experiment`` (same T, stop step,
+# clamp, goals). They cannot fire on between-model noise (there is none), so no claim is
+# decided on them.
 #
 # - **Null**: an exact x0/ε pair — one exact network (:class:`ExactGaussianDenoiser`) read as an
 #   x0 model and, through :class:`EpsilonOfX0`, as an ε model. With one seed both sample the
@@ -1093,7 +1102,7 @@ def a3_model_records(study: A3Study, guided_models: dict[tuple[str, int], Traine
     reference = trajectory_reference(test)
     return [model_gates.gmd_model_record(
         guided_models[(p, s)], family="gmd_trajectory", reference=reference,
-        role=TRAJECTORY_ROLES[p],
+        role=TRAJECTORY_ROLES[p], arm=PREDICTIONS[p],
         values=trajectory_model_values(guided_models[(p, s)], study.runs[(p, s)].unguided,
                                        test, train, s))
         for p in PREDICTIONS for s in study.seeds]
@@ -1107,18 +1116,55 @@ def _a3_jitter(study: A3Study, guided_models: dict[tuple[str, int], TrainedGMD],
             for p in PREDICTIONS}
 
 
+def a3_reading(model: TrainedGMD, test: MotionWindows, settings: Settings,
+               pairing_seed: int) -> dict[str, Any]:
+    """One trajectory model's GMD-A3 readings on seed ``pairing_seed``'s pairing (its goals and
+    noise, as :func:`goal_reaching_study` draws them): the guided goal error per goal (m) and
+    the batch's best-gain survival (None where no guided gain)."""
+    targets = goal_targets(test, settings.goals, seed=pairing_seed,
+                           min_distance=settings.min_goal_distance)
+    return _a3_run_reading(goal_reaching_experiment(model, targets, seed=pairing_seed))
+
+
+def _a3_run_reading(run: GoalReachingResult) -> dict[str, Any]:
+    return {"goal_error": np.asarray(run.error_guided, dtype=np.float64),
+            "best_gain_survival": float(run.survival) if np.isfinite(run.survival) else None}
+
+
+#: GMD-A3's A/A slots: the x0 (treatment) arm's measurements filled by the ε (reference) copy
+A3_SLOTS = (Slot("goal_error_x0", "goal_error_eps", "goal_error",
+                 part="eps_reaches_goal_better", sign=1),
+            Slot("best_gain_survival_x0", "best_gain_survival_eps", "best_gain_survival",
+                 part="eps_keeps_more_of_best_gain", sign=-1, scale="difference"))
+
+
+def a3_aa_readings(study: A3Study, guided_models: Mapping[tuple[str, int], TrainedGMD],
+                   test: MotionWindows, settings: Settings) -> AAReadings:
+    """GMD-A3's A/A runs (``controls.aa_readings``): the ε trajectory model (the reference arm)
+    of seed s and its copy of the next seed toward seed s's goals with seed s's noise; the own
+    model's run is the study's where it has one."""
+    reference = {s: m for (p, s), m in guided_models.items() if p == "epsilon"}
+
+    def reading(model_seed: int, pairing_seed: int) -> dict[str, Any]:
+        if model_seed == pairing_seed and ("epsilon", model_seed) in study.runs:
+            return _a3_run_reading(study.runs[("epsilon", model_seed)])
+        return a3_reading(reference_model(reference, model_seed), test, settings, pairing_seed)
+
+    return aa_readings(reading, study.seeds)
+
+
 def a3_result(study: A3Study, guided_models: dict[tuple[str, int], TrainedGMD],
               test: MotionWindows, settings: Settings, *, figure: FigurePath,
               models: Sequence[Mapping[str, Any]]) -> ClaimResult:
     """GMD-A3: goal error and best-gain survival of the x0 and the ε trajectory model under
-    GMD's goal guidance, with its controls (``a3_controls``: an exact x0/ε pair,
-    and one whose x0 arm undoes half its guided change after the stop step)."""
+    GMD's goal guidance, with its A/A controls (:func:`a3_aa_readings`: the ε model against an
+    independently trained copy toward the same goals; the positive with 2δ planted)."""
     seeds, a3p = study.seeds, study.parameters
     goal_error, survival, stop_survival = study.goal_error, study.survival, study.stop_survival
     jitter = _a3_jitter(study, guided_models)
     started = time.perf_counter()
-    controls = a3_controls(guided_models, test, seeds, goals=settings.goals,
-                           min_distance=settings.min_goal_distance)
+    controls = aa_controls("GMD-A3", a3_aa_readings(study, guided_models, test, settings),
+                           A3_SLOTS, reference_arm="ε trajectory")
     control_seconds = time.perf_counter() - started
     spec = guided_models[("x0", seeds[0])].spec
     return ClaimResult(
@@ -1233,13 +1279,15 @@ def a4_model_records(models: Mapping[tuple[str, str, int], TrainedGMD],
     motion_records = {
         (p, s): model_gates.gmd_model_record(
             models[("motion", p, s)], family="gmd_motion", reads=A4_READS[("motion", p)],
-            role=MOTION_ROLES[p], reference=samples.values, values=motion_values(p, s))
+            role=MOTION_ROLES[p], arm=PREDICTIONS[p], reference=samples.values,
+            values=motion_values(p, s))
         for p in PREDICTIONS for s in seeds if ("motion", p, s) in models}
     reference = trajectory_reference(test)
     trajectory_records = {
         (p, s): model_gates.gmd_model_record(
             models[("trajectory", p, s)], family="gmd_trajectory",
             reads=A4_READS[("trajectory", p)], reference=reference, role=TRAJECTORY_ROLES[p],
+            arm=PREDICTIONS[p],
             values=trajectory_model_values(models[("trajectory", p, s)], sample(
                 models[("trajectory", p, s)], settings.goals, seed=s), test, train, s))
         for p in PREDICTIONS for s in seeds}
@@ -1251,7 +1299,7 @@ def a4_model_records(models: Mapping[tuple[str, str, int], TrainedGMD],
             samples=settings.generated, real_fid=evaluation.reference_fid))
     long_eps_records = {
         s: model_gates.gmd_model_record(
-            long_eps[s], family="gmd_motion", label="2× cap", role="treatment",
+            long_eps[s], family="gmd_motion", label="2× cap", role="treatment", arm="eps",
             values=model_gates.denoising_gate_values(long_eps[s], motion_test, motion_train,
                                                      seed=s))
         for s in long_eps}
@@ -1268,25 +1316,74 @@ def _longer_eps_extra(long_eps: Mapping[int, TrainedGMD], records: A4Records,
             "passed": [bool(records.long_eps[s]["passed"]) for s in long_eps]}
 
 
+#: GMD-A4's A/A slots: the ε (treatment) motion arm filled by the x0 (reference) motion copy,
+#: the x0 (treatment) trajectory arm by the ε (reference) trajectory copy; the third part's
+#: plant is the motion jitter's (its trajectory ratio stays the A/A's)
+A4_SLOTS = (Slot("motion_jitter_eps", "motion_jitter_x0", "motion_jitter",
+                 part="eps_motion_more_jagged", sign=1),
+            Slot("motion_fid_eps", "motion_fid_x0", "motion_fid",
+                 part="eps_motion_worse_fid", sign=1),
+            Slot("trajectory_jitter_x0", "trajectory_jitter_eps", "trajectory_jitter"))
+
+
+def a4_reading(motion: TrainedGMD, trajectory: TrainedGMD, pairing_seed: int, *, n: int,
+               evaluator: Evaluator, test_embeddings: np.ndarray) -> dict[str, float]:
+    """The reference arms' GMD-A4 readings of one seed's x0 motion and ε trajectory models on
+    seed ``pairing_seed``'s noise (:func:`sample_quality`'s draws): joint jerk and FID of
+    ``n`` unguided motion samples, root jerk of ``n`` trajectories."""
+    x = sample(motion, n, seed=pairing_seed)
+    trajectories = sample(trajectory, n, seed=pairing_seed)
+    return {"motion_jitter": float(jitter_of(motion, x).jerk),
+            "motion_fid": motion_fid(motion, x, evaluator, test_embeddings),
+            "trajectory_jitter": float(jitter_of(trajectory, trajectories).jerk)}
+
+
+def a4_aa_readings(quality: SampleQuality, models: Mapping[tuple[str, str, int], TrainedGMD],
+                   seeds: Sequence[int], *, n: int, evaluator: Evaluator,
+                   test_embeddings: np.ndarray) -> AAReadings:
+    """GMD-A4's A/A runs (``controls.aa_readings``): the reference arms — the x0 motion model
+    and the ε trajectory model — of seed s and their copies of the next seed, sampled from seed
+    s's noise; the own models' readings are the experiment's."""
+    motion = {s: m for (task, p, s), m in models.items() if (task, p) == ("motion", "x0")}
+    trajectory = {s: m for (task, p, s), m in models.items()
+                  if (task, p) == ("trajectory", "epsilon")}
+    index = {s: k for k, s in enumerate(seeds)}
+    values = quality.values
+
+    def reading(model_seed: int, pairing_seed: int) -> dict[str, float]:
+        if model_seed == pairing_seed and model_seed in index:
+            k = index[model_seed]
+            return {"motion_jitter": values["motion_jitter_x0"][k],
+                    "motion_fid": values["motion_fid_x0"][k],
+                    "trajectory_jitter": values["trajectory_jitter_eps"][k]}
+        return a4_reading(reference_model(motion, model_seed),
+                          reference_model(trajectory, model_seed), pairing_seed, n=n,
+                          evaluator=evaluator, test_embeddings=test_embeddings)
+
+    return aa_readings(reading, seeds)
+
+
 def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], TrainedGMD],
               long_eps: Mapping[int, TrainedGMD], records: A4Records, seeds: Sequence[int],
               settings: Settings, *, references: Mapping[str, float],
               evaluation: model_gates.MotionEvaluation, motion_train: MotionWindows,
               train: MotionWindows, figures: Sequence[FigurePath]) -> ClaimResult:
     """GMD-A4: joint jerk and FID of the x0 and the ε motion model's samples and root jerk of
-    the trajectory models' (appendix A.1), with its controls (``controls.a4_controls``:
-    training windows for both arms; the ε motion arm made jagged by δ). ``references``: the
+    the trajectory models' (appendix A.1), with its A/A controls (:func:`a4_aa_readings`: each
+    task's reference arm against an independently trained copy, the same noise; the positive
+    with 2δ planted on the motion arm). ``references``: the
     data's ``motion_jitter``, ``motion_fid`` (train vs test) and ``trajectory_jitter``."""
     a4 = quality.values
     ratio = {k: float(np.mean(a4[f"{k}_eps"]) / np.mean(a4[f"{k}_x0"]))
              for k in ("motion_jitter", "motion_fid", "trajectory_jitter", "motion_root_jitter")
              if f"{k}_eps" in a4}
-    # the controls plant on the ε motion arm: none where the scale runs no part of A4
+    # A/A controls on the reference arms: none where the scale runs no part of A4
     runs = set(A4_PARTS) - set(settings.a4_not_run)
-    controls = a4_controls(motion_train, seeds, n=settings.generated,
-                           evaluator=evaluation.evaluator,
-                           test_embeddings=evaluation.test_embeddings,
-                           trajectory_train=train) if runs else None
+    controls = aa_controls(
+        "GMD-A4", a4_aa_readings(quality, models, seeds, n=settings.generated,
+                                 evaluator=evaluation.evaluator,
+                                 test_embeddings=evaluation.test_embeddings),
+        A4_SLOTS, reference_arm="x0 motion and ε trajectory") if runs else None
     real_fid = references["motion_fid"]
     first = seeds[0]
     return ClaimResult(
@@ -1296,8 +1393,10 @@ def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], Trai
          if k in a4},
         seeds=seeds, settings=rule_settings.a4(settings), figures=list(figures),
         controls=controls, models=records.models, not_run=settings.a4_not_run,
-        headline=_a4_headline(a4, ratio, references, settings.scale),
-        notes=(f"Ours: motion {describe(models[('motion', 'x0', first)].spec)}; trajectories "
+        headline=_a4_headline(a4, ratio, references, settings.scale,
+                              width=models[("motion", "x0", first)].spec.base_channels),
+        notes=(_a4_width_note(models[("motion", "x0", first)].spec, settings.scale)
+               + f"Ours: motion {describe(models[('motion', 'x0', first)].spec)}; trajectories "
                f"{describe(models[('trajectory', 'x0', first)].spec)}; x0 and ε of a task "
                "share the architecture and the budget; EMA; "
                f"{settings.generated} unguided samples per model and seed (same "
@@ -1329,10 +1428,22 @@ def a4_result(quality: SampleQuality, models: Mapping[tuple[str, str, int], Trai
                "controls_planted": controls.planted if controls is not None else {}})
 
 
+def _a4_width_note(spec: GMDModelSpec, scale: str) -> str:
+    """Where GMD-A4's motion arms are compared: at the standard scale, at the standard design's
+    width (both arms the same UNet and steps), not GMD's widths (the paper scale's)."""
+    if scale != "standard":
+        return ""
+    return (f"The x0 and ε motion arms are compared at width {spec.base_channels} (the "
+            f"standard design: the same UNet, {spec.training.steps} steps, the same seeds and "
+            "windows for both arms); GMD's widths are the paper scale's. ")
+
+
 def _a4_headline(a4: Mapping[str, list[float]], ratio: Mapping[str, float],
-                 references: Mapping[str, float], scale: str) -> str:
-    """GMD-A4's key numbers: the ε/x0 ratios, or, where the scale trains no ε motion arm, the
-    x0 arm's samples against the data's."""
+                 references: Mapping[str, float], scale: str, *,
+                 width: int | None = None) -> str:
+    """GMD-A4's key numbers: the ε/x0 ratios (at the standard scale, at the motion arms'
+    ``width``), or, where a run has no ε motion arm, the x0 arm's samples against the
+    data's."""
     real_fid = references["motion_fid"]
     if "motion_jitter_eps" not in a4:
         return (f"ε motion arm not run at the {scale} scale; x0 motion samples: joint jerk "
@@ -1340,7 +1451,8 @@ def _a4_headline(a4: Mapping[str, list[float]], ratio: Mapping[str, float],
                 f"{references['motion_jitter']:.0f}), FID {np.mean(a4['motion_fid_x0']):.2f} "
                 f"(real {real_fid:.2f}); trajectory jerk ε/x0 = "
                 f"{ratio['trajectory_jitter']:.2f}")
-    return (f"motion jerk ε/x0 = {ratio['motion_jitter']:.2f}, FID ε "
+    at = f" at width {width}" if scale == "standard" and width is not None else ""
+    return (f"motion jerk ε/x0{at} = {ratio['motion_jitter']:.2f}, FID ε "
             f"{np.mean(a4['motion_fid_eps']):.2f} vs x0 {np.mean(a4['motion_fid_x0']):.2f} "
             f"(real {real_fid:.2f}); trajectory jerk ε/x0 = {ratio['trajectory_jitter']:.2f}")
 

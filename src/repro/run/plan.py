@@ -18,15 +18,23 @@ __all__ = ["PAPER_CPU_HOURS", "PAPER_SHARED_CPU_HOURS", "STANDARD_PLAN_MINUTES",
 #: docs/COMPUTE.md §16a (the fourth standard design): the wall minutes per notebook of its
 #: cold standard run on the Intel with AMX, doubled — the plan is sized for the slowest CPU,
 #: the Intel without AMX, about twice as slow on these models (§0); 05 from §19a's run
-#: (EMG-4's Table 9 on 320 items, registry v7: 430 s)
+#: (EMG-4's Table 9 on 320 items, registry v7: 430 s). Then the GMD arms and controls added
+#: since, counted from ``results/models.json``'s training seconds on the slow CPU under two
+#: notebooks at a time and the standard UNets' forward passes: 01 + 20.9 (GMD-A4's ε motion
+#: arm, 3 × 4500 steps ≈ 3 × 375 s, and its 3 × 128 samples ≈ 60 s; the A/A copies' sampling,
+#: A3 ≈ 26 s and A4 ≈ 87 s, less A4's former FID-calibrated controls ≈ 35 s); 02 + 1.0 (B2's
+#: A/A: rel imputation and guidance of 3 copies, ≈ 58 s); 03 + 23.7 (GMD-C4 at k = c ∈ {2, 10}
+#: on 3 seeds: 10 more models ≈ 10 × 125 s, 12 more imputed sample sets ≈ 85 s, their gates
+#: and Table B.1's Emphasis row ≈ 45 s, the A/A copies' 6 sample sets ≈ 43 s); 06 + 1.8 (F1's
+#: A/A: 12 of the 22 sweep groups per seed the experiment samples, ≈ 3 × 36 s)
 STANDARD_PLAN_MINUTES: dict[str, float] = {
     "00_stand_in_data": 0.5,
-    "01_x0_vs_eps": 31.2,
-    "02_root_representation": 6.9,
-    "03_emphasis_projection": 6.8,
+    "01_x0_vs_eps": 52.1,
+    "02_root_representation": 7.9,
+    "03_emphasis_projection": 30.5,
     "04_energy_contour_maps": 15.6,
     "05_sef_ablation": 14.3,
-    "06_guidance_schedule": 3.9,
+    "06_guidance_schedule": 5.7,
     "07_latent_count": 13.4,
     "08_composed_augmentation": 6.5,
 }
