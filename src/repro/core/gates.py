@@ -139,7 +139,7 @@ _X0_REASON = (
     "every held-out {unit} and three levels, no sampling draw. No claim compares x̂0 errors: "
     "{claims}")
 
-#: what the sample gates measure, and why each bound (gates version 4)
+#: what the sample gates measure, and why each bound (gates version 4, kept in version 5)
 JOINT_SPEED = "mean joint speed of samples"
 ROOT_SPEED = "mean root speed of samples"
 JOINT_JERK = "joint jerk of samples"

@@ -42,7 +42,12 @@ from repro.gmd.guidance import default_stop_step, sample
 from repro.gmd.measurements import (
     PAPER_TABLE_B1,
 )
-from repro.gmd.model_gates import denoising_gate_values, gmd_model_record
+from repro.gmd.model_gates import (
+    denoising_gate_values,
+    gmd_model_record,
+    motion_sample_values,
+    sample_gate_data,
+)
 from repro.gmd.models import (
     MOTION_TRAINING,
     STANDARD_DIFFUSION_STEPS,
@@ -1364,20 +1369,28 @@ def emphasis_study_records(results: Any, *, base: Any, train: MotionWindows,
     """``gmd_motion`` records of every GMD-C4 model (``run_experiment``'s
     ``results``: each variant × seed): :func:`denoising_gate_values` on the test windows
     against the training windows, in the variant's own space (an Emphasis model's projected
-    one), the seed's noise. ``parts``: matched value v → the claim parts that read the models
+    one), the seed's noise; an Emphasis model (the arm the claim predicts better, the
+    reference role) also its samples' gates (``motion_sample_values`` for the test windows'
+    captions). ``parts``: matched value v → the claim parts that read the models
     of v (their records' ``reads``; a value not in it: read by no part); None: every part.
     The models are the study's cached ones (``load_or_train_variant`` only loads)."""
 
 
     records = []
     for seed in results.seeds:
+        samples = sample_gate_data(test, seed=seed)
         for variant in results.variants:
             trained = load_or_train_variant(base, variant, train, seed, device=device)
             reads = None if parts is None else list(parts.get(variant.value, ()))
+            values = denoising_gate_values(trained, test, train, seed=seed)
+            # the Emphasis arm is the one the claim predicts better: gated on what the parts
+            # read of it (its samples move), the loss-scaling arm on its training alone
+            role = "reference" if variant.method == "emphasis" else "treatment"
+            if role == "reference":
+                values.update(motion_sample_values(trained, samples, seed=seed))
             records.append(gmd_model_record(
-                trained, family="gmd_motion", label=variant.label, reads=reads,
-                role="treatment", arm=variant_arm(variant),
-                values=denoising_gate_values(trained, test, train, seed=seed)))
+                trained, family="gmd_motion", label=variant.label, reads=reads, role=role,
+                arm=variant_arm(variant), reference=samples.values, values=values))
     return records
 
 
