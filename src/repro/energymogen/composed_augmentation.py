@@ -226,8 +226,8 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
     for i, seed in enumerate(seeds):
         pipe = pipeline_for(source, seed)
         vae, pretrained = pipeline_records(pipe, gate_test, role="reference")
-        out["vae"].append(vae)
-        out["pretrained"].append(pretrained)
+        out["vae"].append(vae)                       # every arm decodes with it: arm None
+        out["pretrained"].append({**pretrained, "arm": "pretrained"})
         if isinstance(results, NotMeasurable):
             continue
         for row in ("control", "augmented"):
@@ -235,7 +235,7 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
                 pipe, {"x0_error_vs_gaussian": results["fitness"][row][i]}, role="treatment",
                 name=f"EMG {row} denoiser (fine-tuned from train seed {pipe.train_seed}, "
                      f"seed {seed})",
-                denoiser=pipe.denoiser, training=results["training"][row][i]))
+                denoiser=pipe.denoiser, training=results["training"][row][i], arm=row))
     return out
 
 

@@ -87,6 +87,7 @@ from repro.energymogen.pipeline import (
 from repro.energymogen.settings import (
     LATENT_COUNTS,
     ONE_THREAD,
+    QUICK_LATENT_COUNTS,
     STANDARD_LATENT_COUNTS,
     NotebookSettings,
     PipelineConfig,
@@ -151,14 +152,15 @@ class LatentCountSettings(NotebookSettings):
 
     @classmethod
     def for_scale(cls, scale: str) -> LatentCountSettings:
-        """Quick and standard runs sweep N = 5 and 7 only, the two the rule names (one extra
-        VAE and denoiser per seed: every other N runs the same code); N = 1, 3 are the paper
-        scale's."""
+        """Standard and paper runs sweep the paper's N ∈ {1, 3, 5, 7}; quick runs N = 5 and 7
+        only, the two the rule names (one extra VAE and denoiser per seed: every other N runs
+        the same code)."""
         scale = check_scale(scale)
         return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-7", scale),
                    test_clips=64 if scale == "quick" else 256,
                    plan=TrainingPlan.for_scale(scale),
-                   counts=LATENT_COUNTS if scale == "paper" else STANDARD_LATENT_COUNTS)
+                   counts={"quick": QUICK_LATENT_COUNTS, "standard": STANDARD_LATENT_COUNTS,
+                           "paper": LATENT_COUNTS}[scale])
 
 
 #: Table 8 columns: (key, label).
@@ -370,9 +372,9 @@ def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
                 values.update(vae_sample_values(variant, test))
             records.append(vae_record(variant, values,
                                       {**reference, "concept_preservation": real_recall},
-                                      role=role, reads=reads))
+                                      role=role, reads=reads, arm=f"N={n}"))
             records.append(denoiser_record(variant, fit, reference=reference, role=role,
-                                           reads=reads))
+                                           reads=reads, arm=f"N={n}"))
     return records
 
 
@@ -462,8 +464,9 @@ def emg7_result(results: Mapping[str, Any], settings: LatentCountSettings,
         f"{config.vae_layers}+{config.vae_layers} layers, d={config.latent_dim}, "
         f"{plan.summary()}; denoiser width {config.denoiser_width}, {config.denoiser_layers} "
         f"layers; N swept {list(counts)}"
-        + (f" (N = {list(settings.counts_not_run)} not run at the {settings.scale} scale: paper "
-           "scale only; 'every other N' is the N swept)" if settings.counts_not_run else "")
+        + (f" (N = {list(settings.counts_not_run)} not run at the {settings.scale} scale: "
+           "standard and paper scales only; 'every other N' is the N swept)"
+           if settings.counts_not_run else "")
         + f"; guidance "
         f"{config.guidance_scale}, DDIM {config.ddim_steps}); the frozen text encoder shared by "
         "every N; training seeds vary VAE and denoiser, not the data. Reconstruction error = "
