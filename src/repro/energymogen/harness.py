@@ -55,11 +55,15 @@ come out inconclusive, and the claim with them.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from repro.claims.registry import get_claim
+from repro.claims.result import Controls
+from repro.claims.verdicts import Part
 from repro.core import metrics
 from repro.energymogen.data import (
     CompositionItems,
@@ -78,6 +82,8 @@ from repro.models.evaluator import evaluate_generated
 from repro.standin.oracles import detect_concepts
 
 __all__ = [
+    "AASlot",
+    "AA_PLANT",
     "BASE_AMPLITUDE",
     "CONTROL_STREAM",
     "FidCurve",
@@ -88,8 +94,12 @@ __all__ = [
     "build_shared_concept_test",
     "build_text_to_motion_test",
     "clip_count",
+    "aa_controls",
+    "aa_measured",
     "composition_metrics",
     "control_rng",
+    "copy_json",
+    "copy_seed",
     "feature_noise",
     "fid_curve",
     "first_reaching",
@@ -106,6 +116,7 @@ __all__ = [
     "per_frame_displacement_cm",
     "per_pair_mean",
     "permute_motions",
+    "plant_effect",
     "r_precision_top3",
     "reference_embeddings",
     "scale_movement",
@@ -614,3 +625,122 @@ def control_rng(seed: int, claim: int) -> np.random.Generator:
 
 #: our choice: the compared arms' base noise (× the data's per-feature std)
 BASE_AMPLITUDE = 0.5
+
+
+# --- A/A controls: the reference arm against an independently trained copy of itself ----------
+
+#: a measurement path: the measurement's name, then its keys down to a per-seed list
+Path = tuple[str, ...]
+#: the planted effect of an A/A positive control, in units of the part's registered δ
+AA_PLANT = 2.0
+
+
+def copy_seed(seeds: Sequence[int], seed: int) -> int:
+    """The training seed of the independently trained copy of ``seed``'s reference pipeline:
+    the run's next seed, cyclic over ``seeds`` (no extra training where a run trains several),
+    or ``seed + 1`` when the run has one seed."""
+    order = list(seeds)
+    if len(order) < 2:
+        return int(seed) + 1
+    return int(order[(order.index(seed) + 1) % len(order)])
+
+
+@dataclass(frozen=True)
+class AASlot:
+    """One compared arm of an A/A control: the per-seed readings at ``path`` replaced by the
+    copy's readings of the reference arm at ``source`` times ``factor`` (1: the arms are the
+    same experiment on two trainings; another factor puts the null exactly on a rule's
+    threshold, e.g. ½ for a rule that reads 2·treatment / reference)."""
+
+    path: Path
+    source: Path
+    factor: float = 1.0
+
+
+def _at(measured: Mapping[str, Any], path: Path) -> Any:
+    node: Any = measured
+    for key in path:
+        node = node[key]
+    return node
+
+
+def _set(measured: dict[str, Any], path: Path, values: list[float]) -> None:
+    node = measured
+    for key in path[:-1]:
+        node = node[key]
+    node[path[-1]] = values
+
+
+def aa_measured(reference: Mapping[str, Any], copy: Mapping[str, Any],
+                slots: Sequence[AASlot]) -> dict[str, Any]:
+    """An A/A null's measurements: the experiment's measurements of the reference pipelines
+    (``reference``: seed s's) with every slot's arm replaced by the copy's reference-arm
+    readings (``copy``: the same measurement, the same draws of seed s — captions, items,
+    noise — on the pipeline of :func:`copy_seed`). Nothing differs between the arms but the
+    training of the models, so any difference is the spread between trained models."""
+    out = copy_json(reference)
+    for slot in slots:
+        _set(out, slot.path, [slot.factor * float(v) for v in _at(copy, slot.source)])
+    return out
+
+
+def copy_json(measured: Mapping[str, Any]) -> dict[str, Any]:
+    """A deep copy of a measurement dict (nested dicts of per-seed lists)."""
+    return {key: copy_json(value) if isinstance(value, Mapping)
+            else list(value) if isinstance(value, (list, tuple)) else value
+            for key, value in measured.items()}
+
+
+def _mean_difference(part: Part, measured: Mapping[str, Any]) -> float:
+    return float(sum(np.mean(c.differences) for c in part.compare(measured)))
+
+
+def plant_effect(claim_id: str, measured: Mapping[str, Any], targets: Mapping[str, Path], *,
+                 times: float = AA_PLANT) -> tuple[dict[str, Any], dict[str, float]]:
+    """``measured`` with ``times`` × each part's registered δ planted on its target arm's
+    per-seed readings (``targets``: part → path), in the claim's predicted direction: added
+    for a part on a difference, a factor exp(±times·δ) for a part on a log ratio (so every
+    comparison the arm enters moves by times·δ). The direction is read off the part's own
+    comparison (which way a small change of the target moves its differences), δ is the
+    comparison's registered smallest effect at the unplanted readings. Returns (the planted
+    measurements, part → the δ planted)."""
+    out = copy_json(measured)
+    parts = {p.name: p for p in get_claim(claim_id).parts}
+    deltas: dict[str, float] = {}
+    for name, path in targets.items():
+        part = parts[name]
+        delta = abs(float(part.compare(out)[0].smallest_effect))
+        values = np.asarray(_at(out, path), dtype=np.float64)
+        log = part.scale == "log ratio"
+        probe = copy_json(out)
+        _set(probe, path, (values * 1.001 if log else values + 1e-3 * delta).tolist())
+        sign = 1.0 if _mean_difference(part, probe) > _mean_difference(part, out) else -1.0
+        planted = values * np.exp(sign * times * delta) if log else values + sign * times * delta
+        _set(out, path, planted.tolist())
+        deltas[name] = delta
+    return out, deltas
+
+
+def aa_controls(claim_id: str, reference: Mapping[str, Any], copy: Mapping[str, Any],
+                slots: Sequence[AASlot], targets: Mapping[str, Path], *,
+                copies: Mapping[int, int], what: str) -> Controls:
+    """A model-based claim's controls as A/A runs. Null: the experiment's reference arm against
+    an independently trained copy of itself (:func:`aa_measured`: seed s's reference pipeline
+    against that of :func:`copy_seed`, paired as the experiment pairs its arms); its
+    differences are the spread between trained models, decided by the claim's own rule (not
+    as exact: ``Controls.exact`` False), and it must come out neither supported nor
+    contradicted. Positive: the same A/A with :data:`AA_PLANT` × δ planted on each part's
+    target arm in the predicted direction (:func:`plant_effect`); it must be seen. ``copies``:
+    seed → the copy's training seed; ``what``: the reference arm in words."""
+    null = aa_measured(reference, copy, slots)
+    positive, deltas = plant_effect(claim_id, null, targets)
+    pairs = ", ".join(f"{s} vs {c}" for s, c in copies.items())
+    return Controls(
+        null=null, positive=positive, exact=False,
+        planted={"kind": "A/A", "copies": {str(s): c for s, c in copies.items()},
+                 "plant_times_delta": AA_PLANT, "delta": deltas},
+        null_text=(f"A/A: {what} of train seed s against an independently trained copy "
+                   f"(train seeds {pairs}), the same draws; decided by the claim's rule"),
+        positive_text=(f"the same A/A with {AA_PLANT:g} × δ planted on "
+                       + ", ".join(f"{part}'s {'/'.join(path)}" for part, path
+                                   in targets.items()) + " in the predicted direction"))

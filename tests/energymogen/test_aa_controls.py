@@ -1,0 +1,137 @@
+"""The A/A controls of the model-based EnergyMoGen claims (``harness.aa_controls``): the
+reference arm of train seed s against an independently trained copy of itself, paired as the
+experiment pairs its arms. The A/A holds real between-model differences (never zero spread),
+so a rule that ignored that spread — the exact sign rule of a paired-draw control — would
+fire on it; the claim's own rule decides it; the positive control is the same A/A with 2δ
+planted in the predicted direction."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from repro.claims.registry import get_claim
+from repro.claims.result import Controls
+from repro.claims.verdicts import CONTRADICTED, SUPPORTED
+from repro.energymogen import latent_count as lc
+from repro.energymogen.harness import (
+    AA_PLANT,
+    AASlot,
+    aa_measured,
+    build_text_to_motion_test,
+    copy_seed,
+    plant_effect,
+)
+from repro.energymogen.pipeline import EnergyMoGenPipeline
+
+THREE = [0, 1, 2]
+
+
+def test_the_copy_is_the_runs_next_seed_cyclic_or_the_next_training_seed() -> None:
+    assert [copy_seed(THREE, s) for s in THREE] == [1, 2, 0]
+    assert copy_seed([0], 0) == 1 and copy_seed([4], 4) == 5
+
+
+def test_an_aa_fills_every_compared_arm_with_the_copys_reference_reading() -> None:
+    reference = {"x": {"5": [1.0, 2.0], "7": [3.0, 4.0]}}
+    copy = {"x": {"5": [1.5, 2.5]}}
+    out = aa_measured(reference, copy, [AASlot(("x", "7"), ("x", "5"), factor=0.5)])
+    assert out == {"x": {"5": [1.0, 2.0], "7": [0.75, 1.25]}}
+    assert reference["x"]["7"] == [3.0, 4.0]                       # not modified
+
+
+def _emg7_aa(recon: list[float], recon_copy: list[float], fid: list[float],
+             fid_copy: list[float]) -> dict:
+    return {"reconstruction_error": {"5": recon_copy, "7": recon, "1": recon_copy},
+            "generation_fid": {"5": fid, "7": fid_copy, "1": fid_copy}}
+
+
+def test_the_positive_plants_twice_delta_in_the_predicted_direction() -> None:
+    null = _emg7_aa([0.10, 0.11, 0.12], [0.105, 0.1, 0.13], [0.5, 0.6, 0.55], [0.52, 0.58, 0.6])
+    positive, deltas = plant_effect("EMG-7", null, {
+        "n7_reconstructs_best": ("reconstruction_error", "7"),
+        "n5_generates_best": ("generation_fid", "5")})
+    for part in get_claim("EMG-7").parts:
+        for before, after in zip(part.compare(null), part.compare(positive), strict=True):
+            shift = np.subtract(after.differences, before.differences)
+            assert shift == pytest.approx([AA_PLANT * deltas[part.name]] * 3, rel=1e-9)
+            assert deltas[part.name] == pytest.approx(before.smallest_effect)
+
+
+def test_a_difference_part_is_planted_additively() -> None:
+    null = {"r_precision_top3_augmented": [0.5, 0.52, 0.49],
+            "r_precision_top3_baseline": [0.51, 0.5, 0.5],
+            "fid_augmented": [1.0, 1.1, 0.9], "fid_baseline": [1.05, 1.0, 0.95]}
+    positive, deltas = plant_effect("EMG-8", null, {
+        "r_precision_improves": ("r_precision_top3_augmented",),
+        "fid_improves": ("fid_augmented",)})
+    assert np.subtract(positive["r_precision_top3_augmented"],
+                       null["r_precision_top3_augmented"]) == pytest.approx([0.02] * 3)
+    assert np.divide(null["fid_augmented"], positive["fid_augmented"]) == pytest.approx(
+        [np.exp(2 * deltas["fid_improves"])] * 3)
+
+
+@pytest.fixture(scope="module")
+def emg7(tiny_pipeline: EnergyMoGenPipeline) -> dict[str, Controls]:
+    """EMG-7's A/A controls on the tiny pipeline: three seeds (each copy another run seed's
+    models) and one seed (its copy trained with seed 1, as a quick run)."""
+    test = build_text_to_motion_test(tiny_pipeline.config, 32)
+    out = {}
+    for name, seeds in (("three", THREE), ("one", [0])):
+        results = lc.latent_count_study(tiny_pipeline, test, (5, 7), seeds)
+        out[name] = lc.latent_count_controls(tiny_pipeline, test, results, (5, 7), seeds)
+    return out
+
+
+def test_emg7_aa_pairs_each_named_n_with_its_copy(emg7: dict[str, Controls]) -> None:
+    controls = emg7["three"]
+    null = controls.null
+    assert controls.exact is False and controls.planted["copies"] == {"0": 1, "1": 2, "2": 0}
+    recon = null["reconstruction_error"]
+    assert recon["5"] == [recon["7"][1], recon["7"][2], recon["7"][0]]  # MPJPE: deterministic
+
+
+def _aa_differences(controls: Controls, claim_id: str) -> dict[str, list[list[float]]]:
+    return {part.name: [c.differences for c in part.compare(controls.null)]
+            for part in get_claim(claim_id).parts}
+
+
+@pytest.mark.parametrize("run", ["three", "one"])
+def test_no_model_based_null_has_zero_spread(emg7: dict[str, Controls], run: str) -> None:
+    """Two trainings of the same arm differ: every A/A difference is non-zero (the nulls built
+    on one network in both arms read exactly zero)."""
+    for part, comparisons in _aa_differences(emg7[run], "EMG-7").items():
+        for differences in comparisons:
+            assert all(abs(d) > 1e-9 for d in differences), part
+
+
+def test_the_aa_null_would_fire_under_a_rule_that_ignores_the_spread_between_models(
+        emg7: dict[str, Controls]) -> None:
+    """Read as a paired-draw control (its between-model difference a fixed effect: each
+    seed's A/A difference of the one-seed run repeated, decided by the exact sign rule), the
+    A/A null comes out supported or contradicted in every part: only the claim's own rule,
+    which tests it against the spread between trained models, may leave it silent."""
+    claim = get_claim("EMG-7")
+    one = emg7["one"].null
+    repeated = {name: {n: [values[0]] * 3 for n, values in arms.items()}
+                for name, arms in one.items()}
+    decided = claim.decide(repeated, control=True)
+    assert all(p.outcome in (SUPPORTED, CONTRADICTED) for p in decided.parts), decided.parts
+
+
+def test_the_aa_positive_moves_every_comparison_by_twice_delta(emg7: dict[str, Controls]
+                                                               ) -> None:
+    controls = emg7["three"]
+    for part in get_claim("EMG-7").parts:
+        for null, planted in zip(part.compare(controls.null), part.compare(controls.positive),
+                                 strict=True):
+            assert np.subtract(planted.differences, null.differences) == pytest.approx(
+                [AA_PLANT * null.smallest_effect] * 3, rel=1e-6)
+
+
+def test_emg7_controls_are_recorded_as_aa(emg7: dict[str, Controls]) -> None:
+    planted = emg7["one"].planted
+    assert planted["kind"] == "A/A" and planted["copies"] == {"0": 1}
+    assert dataclasses.asdict(emg7["one"])["exact"] is False
