@@ -15,6 +15,7 @@ import pytest
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls
 from repro.claims.verdicts import CONTRADICTED, SUPPORTED
+from repro.energymogen import energy_contour_maps as ecm
 from repro.energymogen import latent_count as lc
 from repro.energymogen.harness import (
     AA_PLANT,
@@ -24,7 +25,7 @@ from repro.energymogen.harness import (
     copy_seed,
     plant_effect,
 )
-from repro.energymogen.pipeline import EnergyMoGenPipeline
+from repro.energymogen.pipeline import EnergyMoGenPipeline, SeedPipelines
 
 THREE = [0, 1, 2]
 
@@ -135,3 +136,24 @@ def test_emg7_controls_are_recorded_as_aa(emg7: dict[str, Controls]) -> None:
     planted = emg7["one"].planted
     assert planted["kind"] == "A/A" and planted["copies"] == {"0": 1}
     assert dataclasses.asdict(emg7["one"])["exact"] is False
+
+
+def test_emg23_aa_compares_each_baseline_with_its_copy(tiny_pipeline: EnergyMoGenPipeline
+                                                       ) -> None:
+    """The copy's baselines are sampled exactly as the study samples its own (on the study's
+    pipeline: the same rates), and fill the compared arms (the kept rate at the rule's
+    threshold, half the baseline's)."""
+    pipes = SeedPipelines(tiny_pipeline, log=None)
+    study = ecm.composition_study(pipes, [0], per_case=4)
+    own = ecm.composition_reference_rates(pipes(0), 0, 4)
+    for name, value in own.items():
+        assert study["latent"][name] == [value] == study["semantic"][name]
+    controls = ecm.composition_controls(pipes, study, [0], per_case=4)
+    copy = ecm.composition_reference_rates(pipes(1), 0, 4)
+    for claim_id in ("EMG-2", "EMG-3"):
+        null = controls[claim_id].null
+        assert controls[claim_id].exact is False
+        assert null["conjunction_both_present"] == [copy["best_single_concept_both_present"]]
+        assert null["negation_negated_present"] == [copy["baseline_negated_present"]]
+        assert null["negation_kept_present"] == [0.5 * copy["baseline_kept_present"]]
+        assert null["baseline_kept_present"] == [own["baseline_kept_present"]]

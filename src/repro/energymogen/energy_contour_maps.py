@@ -76,7 +76,6 @@ from torch import Tensor, nn
 from repro.claims.registry import get_claim
 from repro.claims.registry_energymogen import EMG1_LIMIT
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
-from repro.claims.verdicts import log_margin
 from repro.core import metrics
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.tables import interval_text, markdown_table, render
@@ -90,13 +89,14 @@ from repro.energymogen.data import (
     negation_items,
     not_measurable_reason,
     pair_caption,
-    stand_in_clips_of,
 )
 from repro.energymogen.figures import Figures
 from repro.energymogen.harness import (
     KINDS,
+    AASlot,
+    aa_controls,
     control_rng,
-    first_reaching,
+    copy_seed,
     oracle_presence,
     pair_index,
     per_pair_mean,
@@ -123,7 +123,7 @@ from repro.energymogen.settings import (
 from repro.infra.context import check_scale
 from repro.models.latent_denoiser import LatentDenoiser
 from repro.motion.plotting import filmstrip, save_figure
-from repro.standin.oracles import GLIDE_NOTE, TRAVEL_CONCEPTS, detect_concepts
+from repro.standin.oracles import GLIDE_NOTE, TRAVEL_CONCEPTS
 
 __all__ = [
     "EnergyViewSettings",
@@ -1078,210 +1078,60 @@ def composition_study(source: PipelineSource, seeds: Sequence[int], *, per_case:
             "examples": examples}
 
 
-#: our choice: the single-concept arm's both-present rate in the constructed sets (the
-#: registry example's level); the negation baseline keeps its negated concept in 90 %
-_BASE_BOTH = 0.3
-_BASE_NEGATED = 0.9
+def composition_reference_rates(pipe: EnergyMoGenPipeline, seed: int, per_case: int
+                                ) -> dict[str, float]:
+    """The reference arms of ``composition_study`` at ``seed`` sampled from ``pipe``: the best
+    single concept's both-present rate (per held-out pair the better of the two single-concept
+    generations, averaged over pairs) and the negation baseline's (c_i alone) negated- and
+    kept-concept rates — the same items, texts, noise and batches as the study's, so on the
+    study's own pipeline the same numbers, and on another training the A/A copy's."""
+    items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
+    c1, c2 = items.concept_texts
+    pairs = pair_index(items)
+
+    def presence(texts: Sequence[str], concepts: Sequence[Sequence[str]]) -> np.ndarray:
+        motion = pipe.decode(pipe.sample(Sampler("single"), [], texts, seed, batch=len(texts)))
+        return oracle_presence(pipe.joints(motion), concepts)
+
+    single1, single2 = presence(c1, items.concepts), presence(c2, items.concepts)
+    best = np.maximum(per_pair_mean(single1.all(1), pairs), per_pair_mean(single2.all(1), pairs))
+    neg = negation_items(seed, per_case)
+    base = presence(neg.pair_texts, list(zip(neg.kept, neg.negated, strict=True)))
+    return {"best_single_concept_both_present": float(best.mean()),
+            "baseline_negated_present": float(base[:, 1].mean()),
+            "baseline_kept_present": float(base[:, 0].mean())}
 
 
-_FALLBACK_CLIPS = 4
-
-
-class _TrainingClips:
-    """Training clips by their concepts (single concepts and trained pairs), drawn at random:
-    real stand-in motion whose concepts are known, without generating any (for a concept set
-    no training clip holds, as in a tiny test configuration, :data:`_FALLBACK_CLIPS` clips are
-    generated as the training clips were, ``data.stand_in_clip``, and drawn from)."""
-
-    def __init__(self, pipe: EnergyMoGenPipeline) -> None:
-        self.pipe = pipe
-        self.index: dict[frozenset[str], list[int]] = {}
-        self.generated: dict[frozenset[str], list[set[str]]] = {}
-        for i, names in enumerate(pipe.data.train_concepts):
-            self.index.setdefault(frozenset(names), []).append(i)
-
-    def found(self, concepts: Sequence[tuple[str, ...]], rng: np.random.Generator
-              ) -> list[set[str]]:
-        """The oracles' concepts of one random training clip of each concept set."""
-        out = []
-        for names in concepts:
-            options = self.index.get(frozenset(names))
-            if options:
-                pick = int(rng.choice(options))
-                joints = self.pipe.joints(self.pipe.data.train_features[pick:pick + 1])[0]
-                out.append(detect_concepts(joints))
-                continue
-            key = frozenset(names)
-            if key not in self.generated:
-                clips = stand_in_clips_of(tuple(names), self.pipe.data.frames, rng, _FALLBACK_CLIPS)
-                self.generated[key] = [detect_concepts(joints) for _, joints, _ in clips]
-            out.append(self.generated[key][int(rng.integers(_FALLBACK_CLIPS))])
-        return out
-
-
-def _neither(pair: tuple[str, ...]) -> str:
-    """A concept of neither of ``pair``: the first lower-body concept not in it."""
-    return next(c for c in LOWER_CONCEPTS if c not in pair)
-
-
-def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_case: int,
-                         scale: float = 1.0) -> dict[str, Controls] | None:
-    """EMG-2/3's controls: the six rates of ``composition_study`` measured by the same
-    oracles on constructed sets of real clips, per seed on that seed's items (the same
-    composition items and negation cases and counts), paired as the study pairs its arms.
-
-    The study measures every arm of a seed on the same items with the same model and starting
-    noise, so here every arm of a seed is built from one draw (:func:`control_rng`): per item
-    the clip that has the measured concept(s) (the item's ground-truth composed clip; for
-    negation a training clip of the pair) and the clips that lack them (a single-concept
-    training clip; the kept concept alone, the negated concept alone, a third concept), and
-    one random order of the items. An arm holds the measured concept on a prefix of that order,
-    so two arms differ on whole items, the same items. Conjunction: concept 1's arm holds both
-    concepts on the first 30 % of the items and concept 2's on none, so "best single" (per
-    pair the better of the two, as the study) is that rate; the conjunction arm holds them on
-    the same items and, in the positive control, on the fewest further items that put it δ =
-    0.1 above the best single concept (the null: the same items, the arms identical).
-    Negation: the baseline has the negated concept on the first 90 % of the items of a second
-    order and the kept concept on every item; the negation arm has the negated concept on the
-    same items less, in the positive control, the fewest whose removal brings
-    log(baseline / negation) to δ = −log 0.9 (the null: none removed), and the kept concept on
-    a prefix of a third order, exactly half the baseline's count in the null (the rule's
-    threshold, 2·kept = baseline; one item under it when that count is odd) and, in the
-    positive control, the fewest items more that bring log(2·kept / baseline) to δ = log 1.1.
-    Each comparison reads the rule's own offsets (half of one of its 96 negation items). The
-    oracles find every pool concept in these clips, so the planted counts are the measured
-    ones; ``planted`` records them per seed.
-
-    Returns ``{"EMG-2": controls, "EMG-3": controls}``: one draw per seed shared by both claims
-    and both controls (the study's baseline arms are the same for both forms). None on a data
-    folder: the arms are clips of the stand-in's concepts, and the claims they control are not
-    measurable there (``composition_study``).
-    """
-    if not pipeline_for(source, seeds[0]).data.labelled:
+def composition_controls(source: PipelineSource, study: Mapping[str, Any] | NotMeasurable,
+                         seeds: Sequence[int], *, per_case: int) -> dict[str, Controls] | None:
+    """EMG-2/3's controls as A/A runs (``harness.aa_controls``). The reference arms are the
+    study's baselines (the best single concept for conjunction, c_i alone for negation); the
+    null is seed s's baselines (the study's) against the same baselines sampled, with seed
+    s's items, texts and noise, from the pipeline of seed s' = ``copy_seed(seeds, s)`` (the
+    run's next seed, cyclic, already trained; one seed: s + 1) in the compared arms' places:
+    conjunction = the copy's best single concept, negation's negated rate = the copy's
+    baseline negated rate, its kept rate = half the copy's baseline kept rate (the rule reads
+    2·kept / baseline: the null sits on its threshold). Positive: the same A/A with twice each
+    part's δ planted on the compared arm in the paper's direction. One copy per seed serves
+    both claims (their baselines are the same samples). Returns ``{"EMG-2": controls,
+    "EMG-3": controls}``; None on a data folder (``composition_study`` not measurable)."""
+    if isinstance(study, NotMeasurable):
         return None
-    names = ("conjunction_both_present", "best_single_concept_both_present",
-             "negation_negated_present", "baseline_negated_present", "negation_kept_present",
-             "baseline_kept_present")
-    conjunction_delta = 0.1 * scale
-    removes = log_margin(0.1 * scale, of="numerator")
-    keeps = log_margin(0.1 * scale, of="denominator", factor=2.0)
-    half = _NEGATION_STEP / 2
-    out: dict[str, Any] = {kind: {n: [] for n in names} for kind in KINDS}
-    planted: list[dict[str, int]] = []
-    for seed in seeds:
-        pipe = pipeline_for(source, seed)
-        pool = _TrainingClips(pipe)
-        items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
-        pairs = pair_index(items)
-        neg = negation_items(seed, per_case)
-        rng = control_rng(seed, 23)   # the seed's one draw: every arm, both claims and kinds
-        has_both = np.array([bool(set(names_) <= detect_concepts(j))
-                             for names_, j in zip(items.concepts, items.gt_joints, strict=True)])
-        singles = pool.found([(c[0],) for c in items.concepts], rng)
-        alone = np.array([set(c) <= f for c, f in zip(items.concepts, singles, strict=True)])
-        found = _negation_sets(neg, pool, rng)
-        order, negated_order, kept_order = (rng.permutation(n) for n in (len(items), len(neg),
-                                                                         len(neg)))
-
-        def both(count: int, order: np.ndarray = order, has_both: np.ndarray = has_both,
-                 alone: np.ndarray = alone) -> np.ndarray:
-            return np.where(_prefix(order, count), has_both, alone)
-
-        n_single = round(_BASE_BOTH * len(items))
-        single1 = both(n_single)
-        best = float(np.maximum(per_pair_mean(single1, pairs),
-                                per_pair_mean(alone, pairs)).mean())
-        extra = first_reaching(range(len(items) - n_single + 1),
-                               lambda k, n=n_single, b=best: float(both(n + k).mean()) - b,
-                               conjunction_delta)
-        n_negated = round(_BASE_NEGATED * len(neg))
-        base = _negation_arm(found, _prefix(negated_order, n_negated), np.ones(len(neg), bool))
-        base_negated, base_kept = float(base[:, 1].mean()), float(base[:, 0].mean())
-        null_kept = int(base[:, 0].sum()) // 2
-
-        def treated(removed: int, kept: int, found: Mapping[str, np.ndarray] = found,
-                    negated_order: np.ndarray = negated_order, n: int = n_negated,
-                    kept_order: np.ndarray = kept_order) -> np.ndarray:
-            return _negation_arm(found, _prefix(negated_order, n - removed),
-                                 _prefix(kept_order, kept))
-
-        removed = first_reaching(
-            range(n_negated + 1),
-            lambda r, b=base_negated, k=null_kept: float(np.log((b + half) / (
-                treated(r, k)[:, 1].mean() + half))), removes)
-        kept = first_reaching(
-            range(null_kept, len(neg) + 1),
-            lambda k, r=removed, b=base_kept: float(np.log((2 * treated(r, k)[:, 0].mean()
-                                                             + half) / (b + half))), keeps)
-        planted.append({"items": len(items), "single_concept_items": n_single,
-                        "conjunction_extra_items": extra, "negation_items": len(neg),
-                        "baseline_negated_items": n_negated, "negated_removed_items": removed,
-                        "null_kept_items": null_kept, "positive_kept_items": kept})
-        for kind, (conj, negation) in (("positive", (both(n_single + extra),
-                                                     treated(removed, kept))),
-                                       ("null", (single1, treated(0, null_kept)))):
-            m = out[kind]
-            m["conjunction_both_present"].append(float(conj.mean()))
-            m["best_single_concept_both_present"].append(best)
-            m["negation_negated_present"].append(float(negation[:, 1].mean()))
-            m["baseline_negated_present"].append(base_negated)
-            m["negation_kept_present"].append(float(negation[:, 0].mean()))
-            m["baseline_kept_present"].append(base_kept)
-    positive_text = (f"per seed one draw of real clips and item orders shared by every arm: "
-                     f"the conjunction arm both concepts on the best single concept's "
-                     f"{_BASE_BOTH:g} of the items and the fewest further items that reach "
-                     f"+{conjunction_delta:g}; the negation arm without the negated concept on "
-                     f"the fewest of the baseline's {_BASE_NEGATED:g} that reach "
-                     f"log(without / with) ≥ {removes:.3g}, the kept concept on half the "
-                     f"baseline's items and the fewest more that reach log(2·kept / baseline) "
-                     f"≥ {keeps:.3g}")
-    null_text = (f"the same draw with nothing planted: the conjunction arm on the best single "
-                 f"concept's items ({_BASE_BOTH:g}), the negated concept on the baseline's "
-                 f"items ({_BASE_NEGATED:g}), the kept one on exactly half the baseline's "
-                 f"(the rule's threshold), {len(seeds)} seed(s)")
-    return {claim_id: Controls(null=out["null"], positive=out["positive"],
-                               planted={"per_seed": planted,
-                                        "single_concept_both_present": _BASE_BOTH,
-                                        "baseline_negated_present": _BASE_NEGATED},
-                               null_text=null_text, positive_text=positive_text)
-            for claim_id in ("EMG-2", "EMG-3")}
-
-
-#: one item of the registered negation rates (EMG-2/3's rule: of its 96 negation items); the
-#: rule offsets both rates of a log ratio by half of it
-_NEGATION_STEP = 1 / 96
-
-
-def _prefix(order: np.ndarray, count: int) -> np.ndarray:
-    """(len(order),) bool: the first ``count`` items of ``order``."""
-    out = np.zeros(len(order), dtype=bool)
-    out[order[:max(count, 0)]] = True
-    return out
-
-
-def _negation_sets(neg: Any, pool: _TrainingClips, rng: np.random.Generator
-                   ) -> dict[str, np.ndarray]:
-    """Per negation item, the oracle's (kept, negated) presence on four training clips: the
-    pair, the kept concept alone, the negated concept alone, a third concept."""
-    out: dict[str, np.ndarray] = {}
-    kinds = {"pair": lambda k, n: (k, n), "kept": lambda k, n: (k,),
-             "negated": lambda k, n: (n,), "neither": lambda k, n: (_neither((k, n)),)}
-    for key, concepts_of in kinds.items():
-        found = pool.found([concepts_of(k, n) for k, n in zip(neg.kept, neg.negated,
-                                                                strict=True)], rng)
-        out[key] = np.array([[k in f, n in f] for k, n, f in zip(neg.kept, neg.negated, found,
-                                                                strict=True)], dtype=bool)
-    return out
-
-
-def _negation_arm(found: Mapping[str, np.ndarray], negated: np.ndarray, kept: np.ndarray
-                  ) -> np.ndarray:
-    """(B, 2) presence of (kept, negated) of an arm whose item b is the clip holding the
-    concepts ``kept[b]`` and ``negated[b]`` say (both: the pair clip; one: that concept
-    alone; none: a third concept), as the oracles measure it."""
-    choice = np.where(kept & negated, 0, np.where(kept, 1, np.where(negated, 2, 3)))
-    stacked = np.stack([found["pair"], found["kept"], found["negated"], found["neither"]])
-    return stacked[choice, np.arange(len(choice))]
+    copies = {int(s): copy_seed(seeds, s) for s in seeds}
+    copy: dict[str, list[float]] = {}
+    for seed, other in copies.items():
+        rates = composition_reference_rates(pipeline_for(source, other), seed, per_case)
+        for name, value in rates.items():
+            copy.setdefault(name, []).append(value)
+    slots = [AASlot(("conjunction_both_present",), ("best_single_concept_both_present",)),
+             AASlot(("negation_negated_present",), ("baseline_negated_present",)),
+             AASlot(("negation_kept_present",), ("baseline_kept_present",), factor=0.5)]
+    targets = {"conjunction_carries_both": ("conjunction_both_present",),
+               "negation_removes_concept": ("negation_negated_present",),
+               "negation_keeps_other": ("negation_kept_present",)}
+    return {claim_id: aa_controls(claim_id, study[mode], copy, slots, targets, copies=copies,
+                                  what="the baselines (best single concept, c_i alone)")
+            for claim_id, mode in (("EMG-2", "latent"), ("EMG-3", "semantic"))}
 
 
 def _standardised(values: np.ndarray) -> np.ndarray:

@@ -60,6 +60,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy import optimize
 
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls
@@ -691,32 +692,59 @@ def copy_json(measured: Mapping[str, Any]) -> dict[str, Any]:
             for key, value in measured.items()}
 
 
-def _mean_difference(part: Part, measured: Mapping[str, Any]) -> float:
-    return float(sum(np.mean(c.differences) for c in part.compare(measured)))
+def _planted_value(part: Part, measured: dict[str, Any], path: Path, seed: int,
+                   shift: float) -> float:
+    """The value of the target arm's reading at ``seed`` that moves the part's (first)
+    comparison at that seed by exactly ``shift``: a root of the comparison, bracketed from
+    the reading outwards (every registered comparison is monotone in one arm's reading), in
+    ratio steps for a log ratio (a positive reading stays positive), else in additive ones."""
+    values = list(_at(measured, path))
+    origin = float(values[seed])
+    before = float(part.compare(measured)[0].differences[seed])
+    ratio = part.scale == "log ratio" and origin > 0
+    scale = max(abs(origin), 1e-6)
+
+    def at(u: float) -> float:
+        return origin * float(np.exp(u)) if ratio else origin + u * scale
+
+    def moved(u: float) -> float:
+        values[seed] = at(u)
+        _set(measured, path, list(values))
+        try:
+            return float(part.compare(measured)[0].differences[seed]) - before - shift
+        finally:
+            values[seed] = origin
+            _set(measured, path, list(values))
+
+    direction = 1.0 if moved(1e-3) > moved(0.0) else -1.0
+    low, high = 0.0, direction * 1e-3
+    while moved(high) < 0:
+        low, high = high, 2.0 * high
+        if abs(high) > (50.0 if ratio else 1e6):
+            raise ValueError(f"{part.name}: no reading moves the comparison by {shift:g}")
+    return at(float(optimize.brentq(moved, min(low, high), max(low, high), xtol=1e-14,
+                                    rtol=1e-12)))
 
 
 def plant_effect(claim_id: str, measured: Mapping[str, Any], targets: Mapping[str, Path], *,
                  times: float = AA_PLANT) -> tuple[dict[str, Any], dict[str, float]]:
     """``measured`` with ``times`` × each part's registered δ planted on its target arm's
-    per-seed readings (``targets``: part → path), in the claim's predicted direction: added
-    for a part on a difference, a factor exp(±times·δ) for a part on a log ratio (so every
-    comparison the arm enters moves by times·δ). The direction is read off the part's own
-    comparison (which way a small change of the target moves its differences), δ is the
-    comparison's registered smallest effect at the unplanted readings. Returns (the planted
-    measurements, part → the δ planted)."""
+    per-seed readings (``targets``: part → path) in the claim's predicted direction: each
+    seed's reading set to the value that moves the part's comparison (oriented so that the
+    paper's side is positive) by exactly times·δ — added for a part on a difference, a factor
+    for a part on a log ratio (a counted reading's half-item offset included), so every
+    comparison the arm enters in the same way moves by times·δ. δ is the comparison's
+    registered smallest effect at the unplanted readings. Returns (the planted measurements,
+    part → the δ planted)."""
     out = copy_json(measured)
     parts = {p.name: p for p in get_claim(claim_id).parts}
     deltas: dict[str, float] = {}
     for name, path in targets.items():
         part = parts[name]
         delta = abs(float(part.compare(out)[0].smallest_effect))
-        values = np.asarray(_at(out, path), dtype=np.float64)
-        log = part.scale == "log ratio"
-        probe = copy_json(out)
-        _set(probe, path, (values * 1.001 if log else values + 1e-3 * delta).tolist())
-        sign = 1.0 if _mean_difference(part, probe) > _mean_difference(part, out) else -1.0
-        planted = values * np.exp(sign * times * delta) if log else values + sign * times * delta
-        _set(out, path, planted.tolist())
+        planted = [_planted_value(part, out, path, i, times * delta)
+                   for i in range(len(_at(out, path)))]
+        _set(out, path, planted)
         deltas[name] = delta
     return out, deltas
 
