@@ -17,15 +17,17 @@ from repro.claims.result import Controls
 from repro.claims.verdicts import CONTRADICTED, SUPPORTED
 from repro.energymogen import energy_contour_maps as ecm
 from repro.energymogen import latent_count as lc
+from repro.energymogen import sef_ablation as sef
 from repro.energymogen.harness import (
     AA_PLANT,
     AASlot,
     aa_measured,
     build_text_to_motion_test,
     copy_seed,
+    copy_source,
     plant_effect,
 )
-from repro.energymogen.pipeline import EnergyMoGenPipeline, SeedPipelines
+from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, SeedPipelines
 
 THREE = [0, 1, 2]
 
@@ -52,8 +54,8 @@ def _emg7_aa(recon: list[float], recon_copy: list[float], fid: list[float],
 def test_the_positive_plants_twice_delta_in_the_predicted_direction() -> None:
     null = _emg7_aa([0.10, 0.11, 0.12], [0.105, 0.1, 0.13], [0.5, 0.6, 0.55], [0.52, 0.58, 0.6])
     positive, deltas = plant_effect("EMG-7", null, {
-        "n7_reconstructs_best": ("reconstruction_error", "7"),
-        "n5_generates_best": ("generation_fid", "5")})
+        "n7_reconstructs_best": [("reconstruction_error", "7")],
+        "n5_generates_best": [("generation_fid", "5")]})
     for part in get_claim("EMG-7").parts:
         for before, after in zip(part.compare(null), part.compare(positive), strict=True):
             shift = np.subtract(after.differences, before.differences)
@@ -66,8 +68,8 @@ def test_a_difference_part_is_planted_additively() -> None:
             "r_precision_top3_baseline": [0.51, 0.5, 0.5],
             "fid_augmented": [1.0, 1.1, 0.9], "fid_baseline": [1.05, 1.0, 0.95]}
     positive, deltas = plant_effect("EMG-8", null, {
-        "r_precision_improves": ("r_precision_top3_augmented",),
-        "fid_improves": ("fid_augmented",)})
+        "r_precision_improves": [("r_precision_top3_augmented",)],
+        "fid_improves": [("fid_augmented",)]})
     assert np.subtract(positive["r_precision_top3_augmented"],
                        null["r_precision_top3_augmented"]) == pytest.approx([0.02] * 3)
     assert np.divide(null["fid_augmented"], positive["fid_augmented"]) == pytest.approx(
@@ -157,3 +159,57 @@ def test_emg23_aa_compares_each_baseline_with_its_copy(tiny_pipeline: EnergyMoGe
         assert null["negation_negated_present"] == [copy["baseline_negated_present"]]
         assert null["negation_kept_present"] == [0.5 * copy["baseline_kept_present"]]
         assert null["baseline_kept_present"] == [own["baseline_kept_present"]]
+
+
+@pytest.fixture(scope="module")
+def sef_study(tiny_pipeline: EnergyMoGenPipeline) -> dict:
+    """Notebook 05's rows on the tiny pipeline's seed pipelines, two seeds."""
+    pipes = SeedPipelines(tiny_pipeline, log=None)
+    rows = {sef.lambda_key(lam): Sampler("sef", lambdas=lam) for lam in sef.TABLE7_LAMBDAS}
+    results = sef.run_rows(pipes, rows, [0, 1])
+    timelines = sef.timeline_rows(pipes, rows, [0, 1], items_per_seed=2)
+    table9 = sef.run_rows(pipes, sef.transferred_rows(1.0), [0, 1], items_per_pair=4)
+    return {"pipes": pipes, "results": results, "timelines": timelines, "table9": table9}
+
+
+def test_emg5_aa_puts_a_copys_latent_row_in_the_compared_rows(sef_study: dict) -> None:
+    controls = sef.sef_controls(sef_study["pipes"], sef_study["results"],
+                                sef_study["timelines"], [0, 1], timeline_items_per_seed=2)
+    lat, sem, sef_row = "1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"
+    null = controls.null
+    assert controls.exact is False and controls.planted["copies"] == {"0": 1, "1": 0}
+    for name in ("r_precision_top3", "transition_distance_at_transitions"):
+        assert null[name][sem] == null[name][sef_row] != null[name][lat]
+    own = sef_study["results"][lat]["r_precision_top3"]
+    copy = sef.run_rows(copy_source(sef_study["pipes"], {0: 1, 1: 0}),
+                        {lat: Sampler("sef", lambdas=(1.0, 0.0, 0.0))}, [0, 1])
+    assert null["r_precision_top3"][lat] == own      # each seed's draws, the copy's training
+    assert null["r_precision_top3"][sem] == copy[lat]["r_precision_top3"]
+    _moves_by_twice_delta("EMG-5", controls)
+
+
+def test_emg4_aa_sets_two_copies_of_gamma_zero_against_the_seeds_own(sef_study: dict
+                                                                      ) -> None:
+    keys = [sef.gamma_key(g) for g in sef.TABLE9_GAMMAS]
+    controls = sef.step_size_controls(sef_study["pipes"], sef_study["table9"], [0, 1], keys,
+                                      items_per_pair=4)
+    r3, own = controls.null["r_precision_top3"], sef_study["table9"]["0.0,0.0"]
+    # two run seeds: the first copy the other seed, the second one trained with s + 2
+    assert controls.planted["copies"] == {"0": (1, 2), "1": (0, 3)}
+    assert r3["0.0,0.0"] == r3["0.01,0.02"] == own["r_precision_top3"]
+    zero = {"0.0,0.0": sef.transferred_rows(1.0)["0.0,0.0"]}
+    for row, copies in (("0.001,0.002", {0: 1, 1: 0}), ("0.1,0.2", {0: 2, 1: 3})):
+        copy = sef.run_rows(copy_source(sef_study["pipes"], copies), zero, [0, 1],
+                            items_per_pair=4)
+        assert r3[row] == copy["0.0,0.0"]["r_precision_top3"]
+    _moves_by_twice_delta("EMG-4", controls)
+
+
+def _moves_by_twice_delta(claim_id: str, controls: Controls) -> None:
+    """Every comparison of a part planted on its own arm moves by 2δ (a part whose arm an
+    earlier part planted may move by more: the plants add up in the paper's direction)."""
+    for part in get_claim(claim_id).parts:
+        for null, planted in zip(part.compare(controls.null), part.compare(controls.positive),
+                                 strict=True):
+            assert np.all(np.subtract(planted.differences, null.differences)
+                          >= AA_PLANT * null.smallest_effect * (1 - 1e-6))

@@ -13,12 +13,10 @@ import numpy as np
 import pytest
 from conftest import TINY_PIPELINE
 
-from repro.claims.ledger import decide_claim
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls
 from repro.energymogen import energy_contour_maps as ecm
 from repro.energymogen import harness as em_harness
-from repro.energymogen import sef_ablation as sef
 from repro.energymogen.data import composition_items, stand_in_clip
 from repro.energymogen.energy_contour_maps import smooth_energy_map
 from repro.energymogen.harness import (
@@ -27,16 +25,8 @@ from repro.energymogen.harness import (
     grouped_r_precision,
     load_or_build_shared_concept_test,
     transition_distance_cm,
-    transition_distances_at_cm,
 )
 from repro.energymogen.pipeline import EnergyMoGenPipeline
-from repro.energymogen.sef_ablation import (
-    TABLE9_GAMMAS,
-    gamma_key,
-    real_then_clips,
-    timeline_items,
-    timeline_measurements,
-)
 
 
 def _clip(seed: int = 0) -> np.ndarray:
@@ -180,103 +170,6 @@ def t2m(tiny_pipeline: EnergyMoGenPipeline) -> tuple[EnergyMoGenPipeline, TextTo
 
 
 THREE = [0, 1, 2]
-
-
-@pytest.fixture(scope="module")
-def step_size_controls(composition_pipe: EnergyMoGenPipeline) -> Controls:
-    return sef.step_size_controls(composition_pipe, THREE, [gamma_key(g) for g in TABLE9_GAMMAS],
-                                  items_per_pair=composition_pipe.config.items_per_pair)
-
-
-def test_step_size_controls_pair_their_rows(step_size_controls: Controls) -> None:
-    null, positive = (step_size_controls.null["r_precision_top3"],
-                      step_size_controls.positive["r_precision_top3"])
-    assert null.keys() == positive.keys()
-    rows = list(null.values())
-    assert all(row == rows[0] for row in rows)                     # the null's rows identical
-    assert positive["0.001,0.002"] == rows[0]                     # the best row unswapped
-    half = 100 / 320 / 2                                           # EMG-4's item (v7)
-    others = [key for key in positive if key not in ("0.001,0.002", "0.1,0.2")]
-    assert all(positive[key] == positive["0.0,0.0"] for key in others)
-    small = np.log((np.asarray(positive["0.001,0.002"]) + half)
-                   / (np.asarray(positive["0.0,0.0"]) + half))
-    large = np.log((np.asarray(positive["0.0,0.0"]) + half)
-                   / (np.asarray(positive["0.1,0.2"]) + half))
-    assert np.all(small >= np.log(1.035)) and np.all(large >= -np.log(1 - 0.417))
-
-
-def test_step_size_controls_at_delta_are_decided_by_the_rule_at_three_seeds(
-        step_size_controls: Controls) -> None:
-    positive, null = _decided("EMG-4", step_size_controls)
-    assert positive == "reproduced"
-    assert _not_fired(null)
-
-
-def test_amplified_steps_scale_the_distance_at_the_transitions_only() -> None:
-    items = timeline_items(seed=0, count=2)
-    clips = real_then_clips(items, seed=0)
-    clip, points = clips.features[0], clips.transitions[0]
-    amplified = sef.amplify_transition_steps(clip, points, 1.5)
-    at = transition_distances_at_cm([clip], [points])
-    assert transition_distances_at_cm([amplified], [points]) == pytest.approx(1.5 * at)
-    other = [p + 3 for p in points]
-    assert transition_distances_at_cm([amplified], [other]) == pytest.approx(
-        transition_distances_at_cm([clip], [other]))
-    planted, factor = sef.plant_transitions(clips, 1.1875)
-    assert factor > 1.0
-    clean = timeline_measurements(list(clips.features), clips.transitions)
-    moved = timeline_measurements(planted, clips.transitions)
-    for name in ("transition_distance_at_transitions", "transition_speed_ratio"):
-        assert moved[name] == pytest.approx(1.1875 * clean[name], rel=1e-6)
-
-
-@pytest.fixture(scope="module")
-def sef_controls(composition_pipe: EnergyMoGenPipeline) -> Controls:
-    return sef.sef_controls(composition_pipe, THREE, timeline_items_per_seed=4)
-
-
-def test_sef_controls_plant_the_registered_ratios_on_paired_rows(sef_controls: Controls
-                                                                 ) -> None:
-    lat, sem, sef_row = "1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"
-    for name in ("transition_distance_at_transitions", "transition_speed_ratio",
-                 "r_precision_top3"):
-        null = sef_controls.null[name]
-        assert set(null) == {lat, sem, sef_row}
-        assert null[lat] == null[sem] == null[sef_row]             # the null's rows identical
-        assert all(len(v) == 3 for v in sef_controls.positive[name].values())
-    for name in ("transition_distance_at_transitions", "transition_speed_ratio"):
-        planted, null = sef_controls.positive[name], sef_controls.null[name]
-        assert planted[lat] == null[lat]                          # the same clips, unplanted
-        assert np.divide(planted[sem], planted[lat]) == pytest.approx([1.1875] * 3, rel=1e-5)
-        assert np.divide(planted[sef_row], planted[sem]) == pytest.approx([1 - 0.1364] * 3,
-                                                                        rel=1e-5)
-    r3, half = sef_controls.positive["r_precision_top3"], 100 / 64 / 2
-    assert r3[sef_row] == sef_controls.null["r_precision_top3"][sef_row]
-
-    def log_ratio(a: str, b: str) -> np.ndarray:
-        return np.log((np.asarray(r3[a]) + half) / (np.asarray(r3[b]) + half))
-
-    assert np.all(log_ratio(sef_row, lat) >= np.log(1.2143))
-    assert np.all(log_ratio(sem, lat) >= np.log(1.2015))
-
-
-def test_sef_controls_at_delta_are_decided_by_the_rule_at_three_seeds(sef_controls: Controls
-                                                                      ) -> None:
-    positive, null = _decided("EMG-5", sef_controls)
-    assert positive == "reproduced"
-    assert _not_fired(null)
-
-
-def test_controls_feed_the_ledger(composition_pipe: EnergyMoGenPipeline) -> None:
-    emg5 = sef.sef_controls(composition_pipe, [0, 1], timeline_items_per_seed=4)
-    claim = get_claim("EMG-5")
-    measured = {name: emg5.null[name] for name in [*claim.measurements,
-                                                       *claim.new_measurements]}
-    decision, stored = decide_claim("EMG-5", measured,
-                                       controls=emg5.as_controls())
-    assert stored["positive"]["status"] in ("passed", "failed")
-    assert stored["null"]["status"] in ("passed", "failed")
-    assert "controls" not in stored["positive"]["measured"]
 
 
 def test_t2m_measurements_rank_within_a_grouped_tests_own_batches(

@@ -577,8 +577,8 @@ def augmentation_controls(source: PipelineSource, test: TextToMotionTest | NotMe
     slots = [AASlot(("r_precision_top3_augmented",), ("r_precision_top3_baseline",)),
              AASlot(("fid_augmented",), ("fid_baseline",))]
     return aa_controls("EMG-8", reference, copy, slots,
-                       {"r_precision_improves": ("r_precision_top3_augmented",),
-                        "fid_improves": ("fid_augmented",)},
+                       {"r_precision_improves": [("r_precision_top3_augmented",)],
+                        "fid_improves": [("fid_augmented",)]},
                        copies=copies, what="the control (baseline) denoiser")
 
 

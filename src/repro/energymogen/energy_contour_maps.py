@@ -1126,9 +1126,9 @@ def composition_controls(source: PipelineSource, study: Mapping[str, Any] | NotM
     slots = [AASlot(("conjunction_both_present",), ("best_single_concept_both_present",)),
              AASlot(("negation_negated_present",), ("baseline_negated_present",)),
              AASlot(("negation_kept_present",), ("baseline_kept_present",), factor=0.5)]
-    targets = {"conjunction_carries_both": ("conjunction_both_present",),
-               "negation_removes_concept": ("negation_negated_present",),
-               "negation_keeps_other": ("negation_kept_present",)}
+    targets = {"conjunction_carries_both": [("conjunction_both_present",)],
+               "negation_removes_concept": [("negation_negated_present",)],
+               "negation_keeps_other": [("negation_kept_present",)]}
     return {claim_id: aa_controls(claim_id, study[mode], copy, slots, targets, copies=copies,
                                   what="the baselines (best single concept, c_i alone)")
             for claim_id, mode in (("EMG-2", "latent"), ("EMG-3", "semantic"))}

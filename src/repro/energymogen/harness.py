@@ -76,7 +76,7 @@ from repro.energymogen.data import (
     stand_in_clips,
     trained_pairs,
 )
-from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler
+from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
 from repro.energymogen.settings import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPTS, PipelineConfig
 from repro.infra import cache, storage
 from repro.models.evaluator import evaluate_generated
@@ -101,6 +101,7 @@ __all__ = [
     "control_rng",
     "copy_json",
     "copy_seed",
+    "copy_source",
     "feature_noise",
     "fid_curve",
     "first_reaching",
@@ -636,14 +637,21 @@ Path = tuple[str, ...]
 AA_PLANT = 2.0
 
 
-def copy_seed(seeds: Sequence[int], seed: int) -> int:
-    """The training seed of the independently trained copy of ``seed``'s reference pipeline:
-    the run's next seed, cyclic over ``seeds`` (no extra training where a run trains several),
-    or ``seed + 1`` when the run has one seed."""
+def copy_seed(seeds: Sequence[int], seed: int, step: int = 1) -> int:
+    """The training seed of an independently trained copy of ``seed``'s reference pipeline:
+    the run's ``step``-th next seed, cyclic over ``seeds`` (no extra training where a run
+    trains more seeds than ``step``), else ``seed + step``."""
     order = list(seeds)
-    if len(order) < 2:
-        return int(seed) + 1
-    return int(order[(order.index(seed) + 1) % len(order)])
+    if len(order) <= step:
+        return int(seed) + step
+    return int(order[(order.index(seed) + step) % len(order)])
+
+
+def copy_source(source: PipelineSource, copies: Mapping[int, int]
+                ) -> Callable[[int], EnergyMoGenPipeline]:
+    """A pipeline source whose seed s is the pipeline of train seed ``copies[s]`` of
+    ``source``: an experiment run with it measures the copies with each seed's own draws."""
+    return lambda seed: pipeline_for(source, copies[int(seed)])
 
 
 @dataclass(frozen=True)
@@ -693,14 +701,14 @@ def copy_json(measured: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _planted_value(part: Part, measured: dict[str, Any], path: Path, seed: int,
-                   shift: float) -> float:
-    """The value of the target arm's reading at ``seed`` that moves the part's (first)
-    comparison at that seed by exactly ``shift``: a root of the comparison, bracketed from
+                   shift: float, comparison: int = 0) -> float:
+    """The value of the target arm's reading at ``seed`` that moves the part's
+    ``comparison`` at that seed by exactly ``shift``: a root of the comparison, bracketed from
     the reading outwards (every registered comparison is monotone in one arm's reading), in
     ratio steps for a log ratio (a positive reading stays positive), else in additive ones."""
     values = list(_at(measured, path))
     origin = float(values[seed])
-    before = float(part.compare(measured)[0].differences[seed])
+    before = float(part.compare(measured)[comparison].differences[seed])
     ratio = part.scale == "log ratio" and origin > 0
     scale = max(abs(origin), 1e-6)
 
@@ -711,7 +719,8 @@ def _planted_value(part: Part, measured: dict[str, Any], path: Path, seed: int,
         values[seed] = at(u)
         _set(measured, path, list(values))
         try:
-            return float(part.compare(measured)[0].differences[seed]) - before - shift
+            return (float(part.compare(measured)[comparison].differences[seed]) - before
+                    - shift)
         finally:
             values[seed] = origin
             _set(measured, path, list(values))
@@ -726,32 +735,36 @@ def _planted_value(part: Part, measured: dict[str, Any], path: Path, seed: int,
                                     rtol=1e-12)))
 
 
-def plant_effect(claim_id: str, measured: Mapping[str, Any], targets: Mapping[str, Path], *,
-                 times: float = AA_PLANT) -> tuple[dict[str, Any], dict[str, float]]:
-    """``measured`` with ``times`` × each part's registered δ planted on its target arm's
-    per-seed readings (``targets``: part → path) in the claim's predicted direction: each
-    seed's reading set to the value that moves the part's comparison (oriented so that the
-    paper's side is positive) by exactly times·δ — added for a part on a difference, a factor
-    for a part on a log ratio (a counted reading's half-item offset included), so every
-    comparison the arm enters in the same way moves by times·δ. δ is the comparison's
-    registered smallest effect at the unplanted readings. Returns (the planted measurements,
-    part → the δ planted)."""
+def plant_effect(claim_id: str, measured: Mapping[str, Any],
+                 targets: Mapping[str, Sequence[Path]], *, times: float = AA_PLANT
+                 ) -> tuple[dict[str, Any], dict[str, float]]:
+    """``measured`` with ``times`` × each part's registered δ planted in the claim's predicted
+    direction (``targets``: part → the arm paths to plant on: one path for every comparison
+    of the part, or one per comparison in the part's order), parts in order: each seed's
+    reading set to the value that moves its comparison (oriented so that the paper's side is
+    positive) by exactly times·δ — added for a part on a difference, a factor for a part on a
+    log ratio (a counted reading's half-item offset included). With one path, every
+    comparison the arm enters in the same way (a claimed best option against each other)
+    moves by times·δ. δ is the comparison's registered smallest effect at the readings
+    before it is planted. Returns (the planted measurements, part → the δ planted, the
+    largest where its comparisons differ)."""
     out = copy_json(measured)
     parts = {p.name: p for p in get_claim(claim_id).parts}
     deltas: dict[str, float] = {}
-    for name, path in targets.items():
+    for name, paths in targets.items():
         part = parts[name]
-        delta = abs(float(part.compare(out)[0].smallest_effect))
-        planted = [_planted_value(part, out, path, i, times * delta)
-                   for i in range(len(_at(out, path)))]
-        _set(out, path, planted)
-        deltas[name] = delta
+        for index, path in enumerate(paths):
+            delta = abs(float(part.compare(out)[index].smallest_effect))
+            planted = [_planted_value(part, out, path, i, times * delta, index)
+                       for i in range(len(_at(out, path)))]
+            _set(out, path, planted)
+            deltas[name] = max(deltas.get(name, 0.0), delta)
     return out, deltas
 
 
 def aa_controls(claim_id: str, reference: Mapping[str, Any], copy: Mapping[str, Any],
-                slots: Sequence[AASlot], targets: Mapping[str, Path], *,
-                copies: Mapping[int, int], what: str) -> Controls:
+                slots: Sequence[AASlot], targets: Mapping[str, Sequence[Path]], *,
+                copies: Mapping[int, int | tuple[int, ...]], what: str) -> Controls:
     """A model-based claim's controls as A/A runs. Null: the experiment's reference arm against
     an independently trained copy of itself (:func:`aa_measured`: seed s's reference pipeline
     against that of :func:`copy_seed`, paired as the experiment pairs its arms); its
@@ -770,5 +783,6 @@ def aa_controls(claim_id: str, reference: Mapping[str, Any], copy: Mapping[str, 
         null_text=(f"A/A: {what} of train seed s against an independently trained copy "
                    f"(train seeds {pairs}), the same draws; decided by the claim's rule"),
         positive_text=(f"the same A/A with {AA_PLANT:g} × δ planted on "
-                       + ", ".join(f"{part}'s {'/'.join(path)}" for part, path
-                                   in targets.items()) + " in the predicted direction"))
+                       + ", ".join(f"{part}'s " + " and ".join("/".join(p) for p in paths)
+                                   for part, paths in targets.items())
+                       + " in the predicted direction"))

@@ -407,8 +407,8 @@ def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
              + [AASlot(("generation_fid", str(n)), ("generation_fid", "5"))
                 for n in counts if n != REFERENCE_LATENT_COUNT])
     return aa_controls("EMG-7", reference, copy, slots,
-                       {"n7_reconstructs_best": ("reconstruction_error", "7"),
-                        "n5_generates_best": ("generation_fid", "5")},
+                       {"n7_reconstructs_best": [("reconstruction_error", "7")],
+                        "n5_generates_best": [("generation_fid", "5")]},
                        copies=copies, what="N = 7's reconstruction / N = 5's generation")
 
 
