@@ -213,3 +213,22 @@ def _moves_by_twice_delta(claim_id: str, controls: Controls) -> None:
                                  strict=True):
             assert np.all(np.subtract(planted.differences, null.differences)
                           >= AA_PLANT * null.smallest_effect * (1 - 1e-6))
+
+
+def test_emg6_aa_reads_the_copys_floor_in_the_composed_arms_place(
+        tiny_pipeline: EnergyMoGenPipeline) -> None:
+    """EMG-6 compares readings, never maps (two trainings' latent planes differ): the copy's
+    floor, read on seed s's cases and noise draws, stands in the composed arm."""
+    pipes = SeedPipelines(tiny_pipeline, log=None)
+    kwargs = {"grid": 4, "n_noise": 1, "timesteps": (100,), "samples": 4, "upsample": 2,
+              "sigma": 1.0}
+    measured = ecm.map_similarities(ecm.energy_map_study(pipes, [0], count=1, **kwargs))
+    controls = ecm.energy_map_controls(pipes, measured, [0], count=1, **kwargs)
+    copy = ecm.map_similarities(ecm.energy_map_study(copy_source(pipes, {0: 1}), [0], count=1,
+                                                     **kwargs))
+    for kind in ("conjunction", "negation"):
+        assert controls.null[f"{kind}_similarity_floor"] == measured[f"{kind}_similarity_floor"]
+        assert controls.null[f"{kind}_similarity_to_multi"] == copy[f"{kind}_similarity_floor"]
+        assert controls.null[f"{kind}_similarity_to_multi"] != measured[f"{kind}_similarity_floor"]
+        assert np.subtract(controls.positive[f"{kind}_similarity_to_multi"],
+                           controls.null[f"{kind}_similarity_to_multi"]) == pytest.approx([0.2])

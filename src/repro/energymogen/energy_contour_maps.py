@@ -95,8 +95,8 @@ from repro.energymogen.harness import (
     KINDS,
     AASlot,
     aa_controls,
-    control_rng,
     copy_seed,
+    copy_source,
     oracle_presence,
     pair_index,
     per_pair_mean,
@@ -1134,72 +1134,31 @@ def composition_controls(source: PipelineSource, study: Mapping[str, Any] | NotM
             for claim_id, mode in (("EMG-2", "latent"), ("EMG-3", "semantic"))}
 
 
-def _standardised(values: np.ndarray) -> np.ndarray:
-    flat = np.asarray(values, dtype=np.float64)
-    return (flat - flat.mean()) / flat.std()
-
-
-def _turned(floor_map: np.ndarray, multi: np.ndarray, target: float) -> np.ndarray:
-    """``floor_map`` turned towards ``multi`` within the plane they span so that its Pearson
-    r with ``multi`` is exactly ``target``: target·m̂ + √(1 − target²)·û, m̂ the standardised
-    ``multi`` and û the standardised part of the floor's map orthogonal to it."""
-    m, f = _standardised(multi).ravel(), _standardised(floor_map).ravel()
-    if not -1.0 <= target <= 1.0:
-        raise ValueError(f"a correlation of {target:.3g} is not one")
-    orthogonal = _standardised(f - np.mean(f * m) * m)
-    return (target * m + np.sqrt(1.0 - target ** 2) * orthogonal).reshape(np.shape(floor_map))
-
-
-def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]]
-                        | NotMeasurable, smooth: Callable[[np.ndarray], np.ndarray], grid: int,
-                        *, scale: float = 1.0) -> Controls | None:
-    """EMG-6's controls on the experiment's own composed maps (``case["smooth"]["composed"]``;
-    ``cases``: kind → one list of cases per seed, as ``map_similarities`` reads), paired as
-    the experiment pairs its arms: in a case, the composed map and the floor's are each
-    correlated with the same multi-concept map (one latent slice, one set of noise draws).
-
-    Per seed and case, one draw (:func:`control_rng`): the multi-concept map is ``smooth``
-    (the experiment's interpolation and smoothing) of white noise on the ``grid``² grid, and
-    the floor's map is the experiment's composed map of that case. The composed arm's map is
-    the floor's map itself in the null (the arms identical: to-multi − floor is exactly 0),
-    and in the positive control that map turned towards the multi map so that its r with it is
-    exactly the floor's r + δ (δ = 0.1 in r; :func:`_turned`, exact up to rounding); as in
-    the experiment, a seed's value is the mean over its cases. Different seeds and cases get
-    different multi maps. None for a ``NotMeasurable`` (a data folder: no maps, no claim to
-    control).
-    """
-    if isinstance(cases, NotMeasurable):
+def energy_map_controls(source: PipelineSource,
+                        measured: Mapping[str, Sequence[float]] | NotMeasurable,
+                        seeds: Sequence[int], *, count: int | None = None, **kwargs: Any
+                        ) -> Controls | None:
+    """EMG-6's controls as A/A runs (``harness.aa_controls``). The reference arm is the floor,
+    r(one concept alone's map, the multi-concept map), a reading that lives in one pipeline's
+    latent plane (maps of two trainings are on different latent coordinates, so a reading is
+    compared, never a map). The null: seed s's floor against the floor read the same way
+    (:func:`energy_map_study` with ``count`` and ``kwargs``: seed s's cases, noise draws and
+    grid) on the pipeline of seed s' = ``copy_seed(seeds, s)`` (the run's next seed, cyclic;
+    one seed: s + 1), in the composed arm's place, per case kind. Positive: the same A/A with
+    twice δ (0.2 in r) added to the composed arm. None for a ``NotMeasurable`` (a data
+    folder: no maps, no claim to control)."""
+    if isinstance(measured, NotMeasurable):
         return None
-    delta = 0.1 * scale
-    out: dict[str, Any] = {kind: {} for kind in KINDS}
-    for index_kind, (case_kind, per_seed) in enumerate(cases.items()):
-        arms: dict[str, list[list[float]]] = {"positive": [], "null": [], "floor": []}
-        for index, found in enumerate(per_seed):
-            rng = control_rng(index, 6 + 10 * index_kind)
-            seed_arms: dict[str, list[float]] = {key: [] for key in arms}
-            for case in found:
-                floor_map = np.asarray(case["smooth"]["composed"])
-                multi = _standardised(smooth(rng.standard_normal((grid, grid))))
-                floor = map_similarity(floor_map, multi)
-                seed_arms["floor"].append(floor)
-                seed_arms["null"].append(floor)   # the composed arm is the floor's map
-                seed_arms["positive"].append(
-                    map_similarity(_turned(floor_map, multi, floor + delta), multi))
-            for key, values in seed_arms.items():
-                arms[key].append(values)
-        for kind in KINDS:
-            out[kind][f"{case_kind}_similarity_to_multi"] = [float(np.mean(v))
-                                                             for v in arms[kind]]
-            out[kind][f"{case_kind}_similarity_floor"] = [float(np.mean(v))
-                                                          for v in arms["floor"]]
-    return Controls(null=out["null"], positive=out["positive"],
-                    planted={"planted_correlation": delta, "grid": grid,
-                             "reason": "δ = 0.1 in Pearson r (registry v3)"},
-                    null_text=("per seed and case one random smooth field as the multi-concept "
-                               "map, the experiment's composed map as both the floor's and the "
-                               "composed arm's map (identical arms)"),
-                    positive_text=(f"the same draws; the composed arm's map the floor's turned "
-                                   f"towards the multi-concept field by exactly r + {delta:g}"))
+    copies = {int(s): copy_seed(seeds, s) for s in seeds}
+    copy = map_similarities(energy_map_study(copy_source(source, copies), seeds, count=count,
+                                             **kwargs))
+    if isinstance(copy, NotMeasurable):
+        return None
+    slots = [AASlot((f"{kind}_similarity_to_multi",), (f"{kind}_similarity_floor",))
+             for kind in MAP_KINDS]
+    return aa_controls("EMG-6", measured, copy, slots,
+                       {kind: [(f"{kind}_similarity_to_multi",)] for kind in MAP_KINDS},
+                       copies=copies, what="the floor (one concept alone's map ~ multi)")
 
 
 #: the per-case values EMG-6 keeps beside its per-seed measurements
