@@ -53,7 +53,7 @@ def _emg7_aa(recon: list[float], recon_copy: list[float], fid: list[float],
 
 def test_the_positive_plants_twice_delta_in_the_predicted_direction() -> None:
     null = _emg7_aa([0.10, 0.11, 0.12], [0.105, 0.1, 0.13], [0.5, 0.6, 0.55], [0.52, 0.58, 0.6])
-    positive, deltas = plant_effect("EMG-7", null, {
+    positive, deltas, _ = plant_effect("EMG-7", null, {
         "n7_reconstructs_best": [("reconstruction_error", "7")],
         "n5_generates_best": [("generation_fid", "5")]})
     for part in get_claim("EMG-7").parts:
@@ -67,7 +67,7 @@ def test_a_difference_part_is_planted_additively() -> None:
     null = {"r_precision_top3_augmented": [0.5, 0.52, 0.49],
             "r_precision_top3_baseline": [0.51, 0.5, 0.5],
             "fid_augmented": [1.0, 1.1, 0.9], "fid_baseline": [1.05, 1.0, 0.95]}
-    positive, deltas = plant_effect("EMG-8", null, {
+    positive, deltas, _ = plant_effect("EMG-8", null, {
         "r_precision_improves": [("r_precision_top3_augmented",)],
         "fid_improves": [("fid_augmented",)]})
     assert np.subtract(positive["r_precision_top3_augmented"],
@@ -232,3 +232,16 @@ def test_emg6_aa_reads_the_copys_floor_in_the_composed_arms_place(
         assert controls.null[f"{kind}_similarity_to_multi"] != measured[f"{kind}_similarity_floor"]
         assert np.subtract(controls.positive[f"{kind}_similarity_to_multi"],
                            controls.null[f"{kind}_similarity_to_multi"]) == pytest.approx([0.2])
+
+
+def test_a_rate_at_zero_that_would_have_to_fall_is_planted_to_its_edge() -> None:
+    """A negated concept absent in the A/A's compared arm (rate 0) cannot fall further: the
+    plant stops there and is recorded as short, never a negative rate."""
+    null = {"conjunction_both_present": [0.2, 0.3], "best_single_concept_both_present": [0.2, 0.3],
+            "negation_negated_present": [0.0, 0.5], "baseline_negated_present": [0.0, 0.5],
+            "negation_kept_present": [0.4, 0.4], "baseline_kept_present": [0.8, 0.8]}
+    positive, _, short = plant_effect("EMG-2", null, {
+        "negation_removes_concept": [("negation_negated_present",)]})
+    assert positive["negation_negated_present"][0] == 0.0 and short == {
+        "negation_removes_concept": [0]}
+    assert 0 < positive["negation_negated_present"][1] < 0.5

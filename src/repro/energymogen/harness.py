@@ -700,12 +700,18 @@ def copy_json(measured: Mapping[str, Any]) -> dict[str, Any]:
             for key, value in measured.items()}
 
 
+class _OutOfDomain(Exception):
+    """A reading the part's comparison cannot take (a log ratio of a negative amount)."""
+
+
 def _planted_value(part: Part, measured: dict[str, Any], path: Path, seed: int,
-                   shift: float, comparison: int = 0) -> float:
+                   shift: float, comparison: int = 0) -> tuple[float, bool]:
     """The value of the target arm's reading at ``seed`` that moves the part's
     ``comparison`` at that seed by exactly ``shift``: a root of the comparison, bracketed from
     the reading outwards (every registered comparison is monotone in one arm's reading), in
-    ratio steps for a log ratio (a positive reading stays positive), else in additive ones."""
+    ratio steps for a log ratio (a positive reading stays positive), else in additive ones.
+    Returns (the value, whether it reaches ``shift``): a reading at the edge of what the
+    comparison can take (a rate of 0 that would have to fall) moves only to that edge."""
     values = list(_at(measured, path))
     origin = float(values[seed])
     before = float(part.compare(measured)[comparison].differences[seed])
@@ -721,23 +727,38 @@ def _planted_value(part: Part, measured: dict[str, Any], path: Path, seed: int,
         try:
             return (float(part.compare(measured)[comparison].differences[seed]) - before
                     - shift)
+        except ValueError as error:
+            raise _OutOfDomain(str(error)) from error
         finally:
             values[seed] = origin
             _set(measured, path, list(values))
 
-    direction = 1.0 if moved(1e-3) > moved(0.0) else -1.0
+    try:
+        direction = 1.0 if moved(1e-3) > moved(0.0) else -1.0
+    except _OutOfDomain:    # the reading sits at the edge: only the other way is possible
+        direction = -1.0 if moved(-1e-3) > moved(0.0) else 1.0
     low, high = 0.0, direction * 1e-3
-    while moved(high) < 0:
+    while True:
+        try:
+            if moved(high) >= 0:
+                break
+        except _OutOfDomain:
+            edge = (0.0 - origin) / scale if not ratio else low   # a rate down to 0
+            try:
+                moved(edge)
+            except _OutOfDomain:
+                edge = low
+            return at(edge), False
         low, high = high, 2.0 * high
         if abs(high) > (50.0 if ratio else 1e6):
             raise ValueError(f"{part.name}: no reading moves the comparison by {shift:g}")
     return at(float(optimize.brentq(moved, min(low, high), max(low, high), xtol=1e-14,
-                                    rtol=1e-12)))
+                                    rtol=1e-12))), True
 
 
 def plant_effect(claim_id: str, measured: Mapping[str, Any],
                  targets: Mapping[str, Sequence[Path]], *, times: float = AA_PLANT
-                 ) -> tuple[dict[str, Any], dict[str, float]]:
+                 ) -> tuple[dict[str, Any], dict[str, float], dict[str, list[int]]]:
     """``measured`` with ``times`` × each part's registered δ planted in the claim's predicted
     direction (``targets``: part → the arm paths to plant on: one path for every comparison
     of the part, or one per comparison in the part's order), parts in order: each seed's
@@ -746,20 +767,26 @@ def plant_effect(claim_id: str, measured: Mapping[str, Any],
     log ratio (a counted reading's half-item offset included). With one path, every
     comparison the arm enters in the same way (a claimed best option against each other)
     moves by times·δ. δ is the comparison's registered smallest effect at the readings
-    before it is planted. Returns (the planted measurements, part → the δ planted, the
-    largest where its comparisons differ)."""
+    before it is planted. A reading at the edge of what its comparison can take (a rate of 0
+    that would have to fall) moves only to that edge, and the plant falls short there.
+    Returns (the planted measurements, part → the δ planted, the largest where its
+    comparisons differ, part → the seed indices where the plant fell short)."""
     out = copy_json(measured)
     parts = {p.name: p for p in get_claim(claim_id).parts}
     deltas: dict[str, float] = {}
+    short: dict[str, list[int]] = {}
     for name, paths in targets.items():
         part = parts[name]
         for index, path in enumerate(paths):
             delta = abs(float(part.compare(out)[index].smallest_effect))
             planted = [_planted_value(part, out, path, i, times * delta, index)
                        for i in range(len(_at(out, path)))]
-            _set(out, path, planted)
+            _set(out, path, [value for value, _ in planted])
             deltas[name] = max(deltas.get(name, 0.0), delta)
-    return out, deltas
+            missed = [i for i, (_, reached) in enumerate(planted) if not reached]
+            if missed:
+                short.setdefault(name, []).extend(missed)
+    return out, deltas, short
 
 
 def aa_controls(claim_id: str, reference: Mapping[str, Any], copy: Mapping[str, Any],
@@ -774,12 +801,12 @@ def aa_controls(claim_id: str, reference: Mapping[str, Any], copy: Mapping[str, 
     target arm in the predicted direction (:func:`plant_effect`); it must be seen. ``copies``:
     seed → the copy's training seed; ``what``: the reference arm in words."""
     null = aa_measured(reference, copy, slots)
-    positive, deltas = plant_effect(claim_id, null, targets)
+    positive, deltas, short = plant_effect(claim_id, null, targets)
     pairs = ", ".join(f"{s} vs {c}" for s, c in copies.items())
     return Controls(
         null=null, positive=positive, exact=False,
         planted={"kind": "A/A", "copies": {str(s): c for s, c in copies.items()},
-                 "plant_times_delta": AA_PLANT, "delta": deltas},
+                 "plant_times_delta": AA_PLANT, "delta": deltas, "plant_short": short},
         null_text=(f"A/A: {what} of train seed s against an independently trained copy "
                    f"(train seeds {pairs}), the same draws; decided by the claim's rule"),
         positive_text=(f"the same A/A with {AA_PLANT:g} × δ planted on "
