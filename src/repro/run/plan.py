@@ -18,17 +18,25 @@ __all__ = ["PAPER_CPU_HOURS", "PAPER_SHARED_CPU_HOURS", "STANDARD_PLAN_MINUTES",
 #: docs/COMPUTE.md §16a (the fourth standard design): the wall minutes per notebook of its
 #: cold standard run on the Intel with AMX, doubled — the plan is sized for the slowest CPU,
 #: the Intel without AMX, about twice as slow on these models (§0); 05 from §19a's run
-#: (EMG-4's Table 9 on 320 items, registry v7: 430 s)
+#: (EMG-4's Table 9 on 320 items, registry v7: 430 s). EnergyMoGen's A/A controls and
+#: EMG-7's N ∈ {1, 3, 5, 7} added, counted from the standard run's stage times on the slow
+#: CPU (results/): 04 + 150 s (EMG-2/3's three baseline samplers of 9 on a copy, 14 s of
+#: 41 s; EMG-6's maps again on a copy, 139 s); 05 + 110 s (EMG-4's γ = 0 on two copies,
+#: 2 × 3 × 15 s on 320 items; EMG-5's latent row and timeline on a copy, 3 × (3 + 3) s);
+#: 07 + 940 s (N = 1 and 3 × 3 seeds: VAE ≈ 55 and 67 s, denoiser ≈ 74 and 86 s, linear in
+#: N from N = 5, 7's 79/91 s and 98/110 s, 846 s; their measurements and gates, 6 × 14 s;
+#: the A/A's three N = 5 generations on a copy, 12 s); 08 + 10 s (the copy's control
+#: generations, 3 × 3 s); the planted controls they replace are not subtracted
 STANDARD_PLAN_MINUTES: dict[str, float] = {
     "00_stand_in_data": 0.5,
     "01_x0_vs_eps": 31.2,
     "02_root_representation": 6.9,
     "03_emphasis_projection": 6.8,
-    "04_energy_contour_maps": 15.6,
-    "05_sef_ablation": 14.3,
+    "04_energy_contour_maps": 18.1,
+    "05_sef_ablation": 16.1,
     "06_guidance_schedule": 3.9,
-    "07_latent_count": 13.4,
-    "08_composed_augmentation": 6.5,
+    "07_latent_count": 29.1,
+    "08_composed_augmentation": 6.7,
 }
 
 
