@@ -27,13 +27,15 @@ licenses, checked on the pipeline — the settings are ``EnergyViewSettings``.
   negation), oracle-measured (:func:`composition_study`) and recorded by
   :func:`emg23_results`; the guidance-scale check beside them (paper scale only, not
   recorded): :func:`guidance_scale_check`; their controls: :func:`composition_controls`
-  (training and ground-truth clips whose concepts the oracles detect).
+  (A/A runs: the baselines sampled from an independently trained copy,
+  :func:`composition_reference_rates`).
 - **EMG-6** (Sec. 5.5 Q3, Fig. 5–6: composed and multi-concept maps "demonstrate consistent
   high- and low-energy regions") — denoising-loss energy maps on a 2-D slice of latent space
   (:func:`latent_plane`, :func:`energy_landscape`, :func:`smooth_energy_map`,
   :func:`map_similarity`; one conjunction or negation case: :func:`energy_map_case`, every
   case of a seed: :func:`energy_map_cases`, the per-seed numbers between floor and ceiling:
-  :func:`map_similarities`); controls: :func:`energy_map_controls`; the claim:
+  :func:`map_similarities`); controls: :func:`energy_map_controls` (A/A runs: the floor read on
+  an independently trained copy); the claim:
   :func:`emg6_result`.
 - **EMG-9** (app. G.2, Eq. 12: the FID formula as printed) — FID against the Gaussian closed
   form on random commuting Gaussians (:func:`fid_formula_errors`) and on fixed cases whose
@@ -135,6 +137,7 @@ __all__ = [
     "by_pair_markdown",
     "case_similarities",
     "composition_controls",
+    "composition_reference_rates",
     "composition_examples_figure",
     "composition_oracle_figure",
     "composition_study",

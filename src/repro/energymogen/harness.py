@@ -1,5 +1,5 @@
 """The measurement harness of the EnergyMoGen experiments: the held-out test sets, the
-measurements several claims share, and the planted sample sets of their controls.
+measurements several claims share, and the A/A controls of the model-based claims.
 
 - :class:`TextToMotionTest` — the stand-in for the HumanML3D test set: held-out clips drawn
   exactly as the pipeline's training clips (single concepts and the trained pairs, same
@@ -25,32 +25,21 @@ measurements several claims share, and the planted sample sets of their controls
 - **transitions where they happen** (EMG-5): :func:`transition_distances_at_cm` (TEACH/STMC's
   distance at a timeline's boundary frames) and :func:`transition_speed_ratio` (the same over
   the clip's own mean speed, which standing still does not win);
-- **the controls' sample sets** — ground-truth motions with a known change planted: items
-  swapped to another item's motion one after another in a drawn order (:func:`swap_draw`,
-  :func:`swap_motions`: R-precision falls item by item), motions passed round within a chosen
-  subset (:func:`permute_motions`: FID exactly unchanged), the body's movement scaled about its
-  temporal mean (:func:`scale_movement`: every consecutive-frame displacement scales); and the
-  feature-noised test clips that EMG-7's and EMG-8's controls read their planted noise
-  amplitudes off: the test clips plus one draw of Gaussian feature noise times an amplitude ×
-  the data's per-feature std (:func:`feature_noise`, :func:`with_feature_noise`), measured as
-  :func:`generation_metrics` measures FID and R@3 (:func:`t2m_measurements`,
-  :func:`r_precision_top3`), and a power law FID ≈ c·aᵏ fitted on calibration draws of its
-  own (:class:`FidCurve`, :func:`fid_curve`).
-
-Each claim's positive and null controls (in its notebook's module) run the experiment's own
-measurement code on these sets, paired as the experiment pairs its arms: within a seed every
-arm is built from one draw (:func:`control_rng`: the same items, texts, clips and random
-noise) wherever the experiment's arms share their starting noise, items or test set, and
-different seeds get different draws. *Positive* plants every part's registered effect δ as a
-deterministic change to one arm of that draw — exact where an exact transformation exists, and
-in whole items for a counted measurement (the fewest items whose move reaches δ by the rule's
-own comparison, :func:`first_reaching`) — *null* plants none (the arms identical, or exactly
-at a rule's threshold). Where no exact transformation exists (FID) the size is read off a
-scale factor measured on calibration draws disjoint from the control's (never by trying
-until a control passes); ``planted`` records those numbers (the sidecar's
-``control_calibration``). ``scale`` multiplies every planted effect: 1 (the registered δ) in
-the notebooks. A control with one seed cannot decide a direction: in quick runs both controls
-come out inconclusive, and the claim with them.
+- **the controls as A/A runs** (:func:`aa_controls`) — the model-based claims' controls
+  (EMG-2 … EMG-8). The null is an A/A run: the experiment's reference arm of train seed s
+  against an independently trained copy of itself (the pipeline of :func:`copy_seed`: the
+  run's next seed, cyclic, which the standard scale trains anyway; with one seed, s + 1),
+  measured by the experiment's own code with seed s's draws (the same items, captions and
+  noise: :func:`copy_source` runs a study on the copies), its readings in the compared arms'
+  places (:class:`AASlot`, :func:`aa_measured`). Its differences are the spread between
+  trained models: decided by the claim's own rule (``Controls.exact`` False, never the sign
+  rule of a paired-draw control), it must come out neither supported nor contradicted. The
+  positive control is the same A/A with :data:`AA_PLANT` × each part's registered δ planted
+  on its compared arm in the paper's direction (:func:`plant_effect`: each seed's reading set
+  so that its comparison moves by exactly that much; a reading at the edge of its range is
+  planted to the edge and recorded as short); it must be seen. A control with one seed
+  cannot decide a direction: in quick runs both controls come out inconclusive, and the
+  claim with them.
 """
 
 from __future__ import annotations
@@ -85,9 +74,6 @@ from repro.standin.oracles import detect_concepts
 __all__ = [
     "AASlot",
     "AA_PLANT",
-    "BASE_AMPLITUDE",
-    "CONTROL_STREAM",
-    "FidCurve",
     "KINDS",
     "R_PRECISION_BATCH",
     "SPEED_FLOOR_CM",
@@ -98,13 +84,9 @@ __all__ = [
     "aa_controls",
     "aa_measured",
     "composition_metrics",
-    "control_rng",
     "copy_json",
     "copy_seed",
     "copy_source",
-    "feature_noise",
-    "fid_curve",
-    "first_reaching",
     "folder_test",
     "generation_metrics",
     "ground_truth_r_precision",
@@ -117,20 +99,12 @@ __all__ = [
     "pair_index",
     "per_frame_displacement_cm",
     "per_pair_mean",
-    "permute_motions",
     "plant_effect",
-    "r_precision_top3",
-    "reference_embeddings",
-    "scale_movement",
     "shared_concept_anchors",
-    "swap_draw",
-    "swap_motions",
-    "t2m_measurements",
     "transition_distance_at_transitions_cm",
     "transition_distance_cm",
     "transition_distances_at_cm",
     "transition_speed_ratio",
-    "with_feature_noise",
 ]
 
 #: random keys of the test clips start here (training clips use keys 0..n_train−1, the
@@ -481,152 +455,8 @@ def per_pair_mean(values: np.ndarray, pairs: np.ndarray) -> np.ndarray:
     return np.array([values[pairs == p].mean() for p in np.unique(pairs)])
 
 
-#: rng stream of every control (disjoint from the experiments' streams)
-CONTROL_STREAM = 13013
-
-
-def swap_draw(rng: np.random.Generator, groups: np.ndarray) -> list[tuple[int, int]]:
-    """A control's swaps: every item once, in a random order, each with a donor drawn from
-    another group (another held-out pair): (item, donor) pairs for :func:`swap_motions`."""
-    out = []
-    for i in rng.permutation(len(groups)):
-        others = np.flatnonzero(groups != groups[i])
-        out.append((int(i), int(rng.choice(others))))
-    return out
-
-
-def swap_motions(features: np.ndarray, swaps: Sequence[tuple[int, int]]) -> np.ndarray:
-    """``features`` with the motion of each ``(item, donor)`` of ``swaps`` replaced by the
-    donor's original motion (:func:`swap_draw`: another group's): a text–motion mismatch per
-    swapped item; the first k swaps of one draw are the arm with k items swapped."""
-    out = np.array(features, copy=True)
-    for item, donor in swaps:
-        out[item] = features[donor]
-    return out
-
-
-def permute_motions(features: np.ndarray, chosen: Sequence[int]) -> np.ndarray:
-    """``features`` with the motions of ``chosen`` passed round among themselves in that
-    order (item chosen[k] gets chosen[k − 1]'s motion): every chosen item gets another's
-    motion, and the set of motions is unchanged, so FID (a function of that set) is exactly
-    unchanged while R-precision falls."""
-    out = np.array(features, copy=True)
-    index = np.asarray(chosen, dtype=int)
-    if len(index) > 1:
-        out[index] = features[np.roll(index, 1)]
-    return out
-
-
-def first_reaching(candidates: Sequence[int], effect: Callable[[int], float], delta: float
-                   ) -> int:
-    """The first of ``candidates`` (plants in whole items, in the order they grow) whose
-    ``effect``, the rule's own comparison of the planted arm, reaches ``delta``; the last
-    candidate (the largest plant there is) when none does."""
-    for candidate in candidates:
-        if effect(candidate) >= delta:
-            return int(candidate)
-    return int(candidates[-1])
-
-
-def scale_movement(features: np.ndarray, factor: float) -> np.ndarray:
-    """``features`` whose root height and root-relative joints (features 3:67) move ``factor``
-    times as far about their temporal mean: every consecutive-frame displacement of
-    ``metrics.ric_joints`` scales by ``factor``, so the transition distance does exactly."""
-    out = np.array(features, dtype=np.float64, copy=True)
-    block = out[..., 3:67]
-    mean = block.mean(axis=-2, keepdims=True)
-    out[..., 3:67] = mean + factor * (block - mean)
-    return out.astype(np.asarray(features).dtype)
-
-
-def feature_noise(features: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """One draw z ~ N(0, 1) of the features' shape and dtype (float32: half the time), to be
-    scaled by :func:`with_feature_noise`; a control's arms share it."""
-    return rng.standard_normal(features.shape, dtype=features.dtype)
-
-
-def with_feature_noise(features: np.ndarray, std: np.ndarray, amplitude: float,
-                       noise: np.random.Generator | np.ndarray) -> np.ndarray:
-    """features + amplitude·std·z; ``noise``: z itself (:func:`feature_noise`) or a generator
-    to draw it from."""
-    z = feature_noise(features, noise) if isinstance(noise, np.random.Generator) else noise
-    return features + (amplitude * np.asarray(std)).astype(features.dtype) * z
-
-
-def r_precision_top3(test: TextToMotionTest, text: np.ndarray, motion: np.ndarray,
-                     seed: int) -> float:
-    """R@3 (fraction) of text against motion embeddings, one per test clip, as
-    ``generation_metrics`` ranks them: random batches drawn with ``seed``, or the test's own
-    batches when it is grouped (``grouped_r_precision``)."""
-    r = (grouped_r_precision(text, motion) if test.grouped
-         else metrics.r_precision(text, motion, 32, 3, seed))
-    return float(r[2])
-
-
-def t2m_measurements(pipe: EnergyMoGenPipeline, test: TextToMotionTest, features: np.ndarray,
-                     seed: int, reference: np.ndarray) -> dict[str, float]:
-    """FID against the test clips (``reference``: their evaluator embeddings) and R@3
-    (fraction) of the test captions drawn with ``seed``, computed exactly as
-    ``generation_metrics`` computes those two (the same calls: :func:`r_precision_top3`)."""
-    gen = pipe.evaluator.embed_motions(features, test.lengths)
-    text = pipe.evaluator.embed_texts(test.texts(seed))
-    return {"fid": metrics.fid(gen, reference),
-            "r_precision_top3": r_precision_top3(test, text, gen, seed)}
-
-
-def reference_embeddings(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> np.ndarray:
-    """The evaluator embeddings of the test clips themselves (FID's reference)."""
-    return pipe.evaluator.embed_motions(test.features, test.lengths)
-
-
-#: the calibration grid around the base amplitude (the planted arms only lower FID from it)
-_AMPLITUDES = np.geomspace(0.2, 0.7, 6)
-_CALIBRATION_DRAWS = 4
-
-
-@dataclass(frozen=True)
-class FidCurve:
-    """FID of noised test clips against the clean ones as a power law of the noise amplitude,
-    FID ≈ c·aᵏ, fitted (least squares in log–log) to the mean FID over calibration draws of
-    its own on a grid around the base amplitude: the measured scale factor from which each
-    arm's amplitude is read (a fit, so one noisy calibration draw does not set it)."""
-
-    amplitudes: tuple[float, ...]
-    fids: tuple[float, ...]
-    log_c: float
-    k: float
-
-    def fid(self, amplitude: float) -> float:
-        return float(np.exp(self.log_c + self.k * np.log(amplitude)))
-
-    def amplitude(self, fid: float) -> float:
-        return float(np.exp((np.log(fid) - self.log_c) / self.k))
-
-
-def fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest, reference: np.ndarray
-              ) -> FidCurve:
-    """:class:`FidCurve` of the pipeline's evaluator on ``test`` (feature noise: amplitude ×
-    the data's per-feature std, :func:`with_feature_noise`)."""
-    rng = np.random.default_rng([CONTROL_STREAM, 77])
-    std = pipe.data.std
-    fids = np.mean([[t2m_measurements(pipe, test, with_feature_noise(test.features, std, a, rng),
-                                      0, reference)["fid"] for a in _AMPLITUDES]
-                    for _ in range(_CALIBRATION_DRAWS)], axis=0)
-    k, log_c = np.polyfit(np.log(_AMPLITUDES), np.log(fids), 1)
-    return FidCurve(tuple(_AMPLITUDES.tolist()), tuple(fids.tolist()), float(log_c), float(k))
-
-
+#: the two controls of a claim
 KINDS = ("positive", "null")
-
-
-def control_rng(seed: int, claim: int) -> np.random.Generator:
-    """The one draw of a claim's controls at ``seed``, shared by every arm of both its
-    controls (the arms are paired as the experiment's are); different per claim and seed."""
-    return np.random.default_rng([CONTROL_STREAM, claim, seed])
-
-
-#: our choice: the compared arms' base noise (× the data's per-feature std)
-BASE_AMPLITUDE = 0.5
 
 
 # --- A/A controls: the reference arm against an independently trained copy of itself ----------
