@@ -185,6 +185,10 @@ def test_emg5_aa_puts_a_copys_latent_row_in_the_compared_rows(sef_study: dict) -
                         {lat: Sampler("sef", lambdas=(1.0, 0.0, 0.0))}, [0, 1])
     assert null["r_precision_top3"][lat] == own      # each seed's draws, the copy's training
     assert null["r_precision_top3"][sem] == copy[lat]["r_precision_top3"]
+    for name in ("transition_distance_at_transitions", "transition_speed_ratio"):
+        assert all(abs(a - b) > 1e-9 for a, b in zip(null[name][sem], null[name][lat],
+                                                      strict=True))   # no zero spread
+    _fires_as_exact("EMG-5", null, ("latent_smoother_than_semantic",))
     _moves_by_twice_delta("EMG-5", controls)
 
 
@@ -203,6 +207,21 @@ def test_emg4_aa_sets_two_copies_of_gamma_zero_against_the_seeds_own(sef_study: 
                             items_per_pair=4)
         assert r3[row] == copy["0.0,0.0"]["r_precision_top3"]
     _moves_by_twice_delta("EMG-4", controls)
+
+
+def _repeated(measured: dict) -> dict:
+    """Each measurement's first seed repeated over three seeds: the A/A's between-model
+    difference read as a fixed effect, as a paired-draw control's difference is."""
+    return {key: _repeated(value) if isinstance(value, dict) else [value[0]] * 3
+            for key, value in measured.items()}
+
+
+def _fires_as_exact(claim_id: str, null: dict, parts: tuple[str, ...]) -> None:
+    """The A/A null's ``parts`` come out supported or contradicted under the exact sign rule
+    (``control=True``) once the spread between trained models is ignored."""
+    decided = get_claim(claim_id).decide(_repeated(null), control=True)
+    outcomes = {p.name: p.outcome for p in decided.parts}
+    assert all(outcomes[name] in (SUPPORTED, CONTRADICTED) for name in parts), outcomes
 
 
 def _moves_by_twice_delta(claim_id: str, controls: Controls) -> None:
@@ -232,6 +251,7 @@ def test_emg6_aa_reads_the_copys_floor_in_the_composed_arms_place(
         assert controls.null[f"{kind}_similarity_to_multi"] != measured[f"{kind}_similarity_floor"]
         assert np.subtract(controls.positive[f"{kind}_similarity_to_multi"],
                            controls.null[f"{kind}_similarity_to_multi"]) == pytest.approx([0.2])
+    _fires_as_exact("EMG-6", controls.null, ("conjunction", "negation"))
 
 
 def test_a_rate_at_zero_that_would_have_to_fall_is_planted_to_its_edge() -> None:
