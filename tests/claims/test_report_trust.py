@@ -22,8 +22,9 @@ from repro.infra.storage import write_json
 A3_RUN = run_settings("GMD-A3")
 
 A3 = CLAIMS["GMD-A3"]
+#: the reference (ε) arm of GMD-A3, its gates unmeasured: it holds back what the parts read
 FAILED_MODEL = {"name": "trajectory-eps", "family": "gmd_trajectory", "gate": {},
-                "passed": False}
+                "passed": False, "arm": "eps"}
 
 
 def _record_a3_with_controls(build: Path, *, models: list[dict]) -> None:
@@ -67,7 +68,8 @@ def test_report_opens_with_the_trust_screen_then_the_table(tmp_path: Path) -> No
 def test_passing_models_and_missing_controls_read_as_such(tmp_path: Path) -> None:
     rng = np.random.default_rng(1)
     record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", A3.planted_example(rng),
-                 settings=A3_RUN, seeds=list(range(5)), models=[{**FAILED_MODEL, "passed": True}])
+                 settings=A3_RUN, seeds=list(range(5)),
+                 models=[{**FAILED_MODEL, "passed": True, "arm": None}])
     row = next(r for r in trust_rows(load_sidecars(tmp_path / "claims")) if r.claim_id == "GMD-A3")
     assert row.verdict != "quick run (not a result)"
     assert row.controls == "no positive control, no null control"

@@ -141,4 +141,4 @@ def test_a_part_not_run_stays_not_run_when_a_model_it_would_read_fails(tmp_path:
                                        quality_gates={"evaluator": False}, not_run=cut))
     reasons = {p.name: p.reason for p in recorded.decision.parts}
     assert reasons["eps_keeps_more_of_best_gain"] == "not run at the standard scale: cut"
-    assert "failed its fitness gate" in reasons["eps_reaches_goal_better"]
+    assert "failed a gate this part reads" in reasons["eps_reaches_goal_better"]

@@ -67,6 +67,26 @@ def test_a_model_that_learned_the_clusters_passes_the_gate() -> None:
         "x0_error_vs_gaussian"]["passed"]
 
 
+def test_the_error_is_read_in_the_objective_the_model_was_trained_on() -> None:
+    """Weights all one are the unweighted error; a model exact on the feature its loss
+    weights 100-fold and no better than the mean elsewhere scores far better weighted."""
+    train, held = _clusters(seed=0), _clusters(seed=1)
+    mean, cov = fitness.gaussian_fit(train)
+    width = held.shape[1]
+
+    def first_exact(x_t, t):
+        out = torch.zeros_like(x_t)
+        out[:, 0] = held[:, 0]
+        return out
+
+    ones = fitness.x0_error_ratio(first_exact, ALPHAS, held, _rows, mean, cov, seed=0,
+                                  weights=[1.0] * width)
+    assert ones == fitness.x0_error_ratio(first_exact, ALPHAS, held, _rows, mean, cov, seed=0)
+    weighted = fitness.x0_error_ratio(first_exact, ALPHAS, held, _rows, mean, cov, seed=0,
+                                      weights=[100.0] + [1.0] * (width - 1))
+    assert weighted < ones
+
+
 def test_gaussian_windows_have_the_data_moments_and_shuffling_keeps_the_frames() -> None:
     rng = np.random.default_rng(0)
     mean, cov = np.array([1.0, -2.0]), np.array([[1.0, 0.5], [0.5, 2.0]])

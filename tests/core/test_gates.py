@@ -11,11 +11,16 @@ import pytest
 from repro.core.gates import (
     GATES,
     GATES_VERSION,
+    REREAD_DRAWS,
+    TRAINING_GATES,
     Gate,
     family_measures,
     gate_results,
+    gates_markdown,
     model_record,
+    plateau_improvement,
     reading,
+    straddling,
 )
 
 
@@ -29,7 +34,7 @@ def test_relative_gate_bounds_scale_with_the_data() -> None:
 
 def test_a_two_sided_gate_refuses_both_a_model_that_stands_still_and_one_that_drifts() -> None:
     reference = {"path_length": 4.0}
-    fit = {"x0_error_vs_gaussian": 0.5}
+    fit = {"x0_error_vs_gaussian": 0.5, "training_plateau": 0.0}
     still = gate_results("gmd_trajectory", {**fit, "path_length": 0.1}, reference,
                          role="treatment")
     drifts = gate_results("gmd_trajectory", {**fit, "path_length": 9.0}, reference,
@@ -69,11 +74,12 @@ def test_evaluator_gates_are_absolute_and_anchored_to_chance_and_trivial_fakes()
 
 
 def test_a_record_keeps_the_parts_that_read_it() -> None:
-    record = model_record(name="vae", family="vae", values={"concept_preservation": 0.95},
+    record = model_record(name="vae", family="vae",
+                          values={"concept_preservation": 0.95, "training_plateau": 0.0},
                           reference={"concept_preservation": 1.0}, reads=("a", "b"),
                           role="treatment")
     assert record["passed"] and record["reads"] == ["a", "b"]
-    assert record["gates_version"] == GATES_VERSION == 4
+    assert record["gates_version"] == GATES_VERSION == 5
     assert model_record(name="e", family="evaluator", values={},
                         role="treatment")["reads"] is None
     (again,) = reading([record], ["c"])
@@ -99,7 +105,7 @@ SAMPLES = {"joint_speed": 0.5, "root_speed": 0.4, "joint_jerk": 60.0, "foot_skat
 
 
 def test_sample_gates_judge_the_reference_arm_against_the_data_and_skip_a_treatment() -> None:
-    fit = {"x0_error_vs_gaussian": 0.5}
+    fit = {"x0_error_vs_gaussian": 0.5, "training_plateau": 0.0}
     moving = {"joint_speed": 0.6, "root_speed": 0.3, "joint_jerk": 90.0,
               "foot_skating": 0.1, "concept_recall": 0.7}
     ok = model_record(name="x0", family="gmd_motion", values={**fit, **moving},
@@ -120,7 +126,7 @@ def test_the_mean_motion_and_white_noise_fail_the_sample_gates() -> None:
     """An untrained x0 model returns the data's mean motion: it moves at about half the data's
     speed with no jerk, but its feet slide where the body walks and it shows no concept; a
     model whose samples are noise is jagged. Neither passes."""
-    fit = {"x0_error_vs_gaussian": 0.5}
+    fit = {"x0_error_vs_gaussian": 0.5, "training_plateau": 0.0}
     mean_motion = {"joint_speed": 0.3, "root_speed": 0.3, "joint_jerk": 0.0,
                    "foot_skating": 0.3, "concept_recall": 0.05}
     noise = {"joint_speed": 1.0, "root_speed": 0.8, "joint_jerk": 600.0,
@@ -133,7 +139,7 @@ def test_the_mean_motion_and_white_noise_fail_the_sample_gates() -> None:
 def test_one_model_in_two_roles_is_judged_by_each() -> None:
     """The absolute-root motion model is GMD-B3's treatment arm and GMD-F1's reference: the
     same values pass in the one role and fail the sample gates in the other."""
-    fit = {"x0_error_vs_gaussian": 0.5}
+    fit = {"x0_error_vs_gaussian": 0.5, "training_plateau": 0.0}
     slides = {**SAMPLES, "foot_skating": 1.0}
     kwargs = {"name": "abs", "family": "gmd_motion", "values": {**fit, **slides},
               "reference": SAMPLES}
@@ -145,7 +151,7 @@ def test_one_model_in_two_roles_is_judged_by_each() -> None:
 
 
 def test_a_gate_the_data_cannot_measure_does_not_apply_and_says_so() -> None:
-    fit = {"x0_error_vs_gaussian": 0.5}
+    fit = {"x0_error_vs_gaussian": 0.5, "training_plateau": 0.0}
     unlabelled = {**SAMPLES, "concept_recall": math.nan}
     record = model_record(name="m", family="gmd_motion", reference=unlabelled,
                           values={**fit, **SAMPLES, "concept_recall": math.nan},
@@ -169,3 +175,33 @@ def test_a_record_reports_the_skating_ratio_beside_its_gates_and_gates_nothing_o
                           role="reference")
     assert record["reported"] == {"foot_skating_ratio": {"value": 0.4, "data": 0.01}}
     assert "foot_skating_ratio" not in record["gate"]
+
+
+def test_the_plateau_gate_reads_the_loss_of_the_last_tenth_of_training() -> None:
+    """A loss that still falls 10 % per tenth of training is no plateau; a flat one is; a
+    curve of four points (a quarter of training apart) is scaled to a tenth."""
+    falling = [0.9 ** (k / 5) for k in range(50)]        # −2 % per point, 10 % per tenth
+    assert plateau_improvement(falling) == pytest.approx(-math.log(0.9), rel=1e-9)
+    assert plateau_improvement([1.0] * 20) == 0.0
+    assert plateau_improvement([2.0, 1.5, 1.2, 1.0]) == pytest.approx(math.log(1.2) * 0.4)
+    assert math.isnan(plateau_improvement([1.0]))
+    for curve, ok in ((falling, False), ([1.0] * 20, True)):
+        record = model_record(name="m", family="vae", role="treatment", validation_curve=curve,
+                              values={"concept_preservation": 1.0},
+                              reference={"concept_preservation": 1.0})
+        assert record["gate"]["training_plateau"]["passed"] is ok
+    assert "training_plateau" in TRAINING_GATES
+
+
+def test_a_gate_near_its_bound_carries_its_interval_and_asks_to_be_read_again() -> None:
+    fit = {"x0_error_vs_gaussian": 0.5, "training_plateau": 0.0}
+    near = {**SAMPLES, "joint_jerk": 118.0, "joint_jerk_interval": [110.0, 126.0],
+            "foot_skating_interval": [0.03, 0.05]}
+    assert straddling("gmd_motion", {**fit, **near}, SAMPLES, "reference") == ["joint_jerk"]
+    assert straddling("gmd_motion", {**fit, **near}, SAMPLES, "treatment") == []
+    record = model_record(name="m", family="gmd_motion", reference=SAMPLES, role="reference",
+                          values={**fit, **near, "gate_draws": REREAD_DRAWS})
+    jerk = record["gate"]["joint_jerk"]
+    assert jerk["passed"] and jerk["straddles"] and jerk["interval"] == [110.0, 126.0]
+    assert jerk["draws"] == REREAD_DRAWS and not record["gate"]["foot_skating"]["straddles"]
+    assert "[110, 126], 4 draws" in gates_markdown([record])

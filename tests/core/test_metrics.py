@@ -266,3 +266,16 @@ def test_mean_speeds_of_a_body_walking_at_a_known_speed():
     assert still["joint_speed"] == 0.0 and still["joint_jerk"] == 0.0
     sliding = metrics.motion_statistics(joints, fps)
     assert sliding["foot_skating"] == pytest.approx(speed)   # the feet slide with the body
+
+
+def test_a_sample_statistic_carries_its_bootstrap_interval() -> None:
+    rng = np.random.default_rng(0)
+    joints = rng.normal(size=(64, 24, 22, 3)).cumsum(axis=1) * 0.01
+    point = metrics.motion_statistics(joints)
+    wide = metrics.motion_statistics_intervals(joints[:8], resamples=50)
+    narrow = metrics.motion_statistics_intervals(joints, resamples=50)
+    for metric, value in point.items():
+        low, high = narrow[f"{metric}_interval"]
+        assert low <= value <= high, metric
+        if metric != "foot_skating_ratio":
+            assert np.diff(wide[f"{metric}_interval"]) > np.diff(narrow[f"{metric}_interval"])

@@ -40,7 +40,8 @@ def test_the_data_passes_its_own_vae_gate_and_a_constant_fails(tiny) -> None:
     assert set(identity) == {"concept_preservation"}
     assert identity["concept_preservation"] == pytest.approx(real)
     reference = {"concept_preservation": real}
-    assert all(g["passed"] for g in gate_results("vae", identity, reference,
+    trained = {**identity, "training_plateau": 0.0}
+    assert all(g["passed"] for g in gate_results("vae", trained, reference,
                                                 role="treatment").values())
 
     mean = test.features.mean(axis=0, keepdims=True)
@@ -219,7 +220,8 @@ def test_sample_gates_pass_the_data_and_fail_a_jittering_decoder(tiny) -> None:
     pipe, test = tiny
     reference = mg.data_sample_values(pipe, test)
     identity = _autoencoder(pipe, lambda z: z)
-    values = {**mg.vae_gate_values(identity, test), **mg.vae_sample_values(identity, test)}
+    values = {**mg.vae_gate_values(identity, test), **mg.vae_sample_values(identity, test),
+              "training_plateau": 0.0}
     assert all(g["passed"] for g in gate_results("vae", values, reference,
                                                  role="reference").values())
     rng = np.random.default_rng(0)
@@ -233,7 +235,10 @@ def test_sample_gates_pass_the_data_and_fail_a_jittering_decoder(tiny) -> None:
 def test_denoiser_sample_values_measure_decoded_samples_for_the_test_captions(tiny) -> None:
     pipe, test = tiny
     values = mg.denoiser_sample_values(pipe, test, seed=0)
-    assert set(values) == {"joint_speed", "root_speed", "joint_jerk", "foot_skating",
-                           "foot_skating_ratio", "concept_recall"}
+    statistics = {"joint_speed", "root_speed", "joint_jerk", "foot_skating",
+                  "foot_skating_ratio"}
+    assert set(values) == {*statistics, *(f"{m}_interval" for m in statistics),
+                           "concept_recall", "gate_draws"}
+    assert values["gate_draws"] == 1
     assert values == mg.denoiser_sample_values(pipe, test, seed=0)
     assert 0.0 <= values["concept_recall"] <= 1.0

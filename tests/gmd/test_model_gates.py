@@ -102,7 +102,7 @@ def test_the_path_length_gate_passes_the_data_and_fails_a_model_that_stands_stil
     trajectory = test.space("trajectory")
     data_path = mg.trajectory_gate_values(trajectory, test.trajectory())
     assert data_path["path_length"] > 0
-    fit = {"x0_error_vs_gaussian": 0.5}
+    fit = {"x0_error_vs_gaussian": 0.5, "training_plateau": 0.0}
     assert all(g["passed"] for g in gate_results("gmd_trajectory", {**fit, **data_path},
                                                  data_path, role="reference").values())
     # a model that always returns the mean window stands still: no path
@@ -221,7 +221,7 @@ def test_emphasis_study_records_measure_each_variant_in_its_own_space(
     assert all(r["reads"] == ["emphasis_less_foot_skating_at_1"] for r in records)
     assert study.emphasis_study_records(results, base=base, train=train, test=test,
                                         parts={2: ["x"]})[0]["reads"] == []
-    assert set(records[0]["gate"]) == {"x0_error_vs_gaussian"}
+    assert set(records[0]["gate"]) == {"x0_error_vs_gaussian", "training_plateau"}
     # the Emphasis model is measured in its projected space: the same as by hand
     trained = study.load_or_train_variant(base, study.Variant("emphasis", 1), train, 0)
     assert not torch.allclose(mg.model_space_windows(trained, test), test.channels("motion"))

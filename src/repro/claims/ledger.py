@@ -2,15 +2,16 @@
 
 ``record_claim`` checks that every measurement the rules need is there, applies the
 registry's rule, decides the notebook's controls with the same rule, makes inconclusive the
-parts that read a model that failed its fitness gate, and writes ``build/claims/<ID>.json``
-atomically. The sidecar carries ``registry_version``, the rule rendered from the settings
-the run used (``Claim.render_rule``: the registered template with the run's T, stop step,
-strength, seeds, items, ...; ``settings`` beside it), the verdict with its per-part outcomes
-(each with its interval, the effect the run could have seen and the seeds that would see δ),
-each control's outcome (or "missing") and the models; it names the run's scale (``quick``: a
-test of the code, never a result; ``standard`` or ``paper``), as does every model record in
-it. The previous snapshot's verdict is the report's business (``claims.trust``), read from
-the committed ``results/claims.json``.
+parts held back by a model that failed a gate they read (gates version 5, ``claims.gating``),
+and writes ``build/claims/<ID>.json`` atomically. The sidecar carries ``registry_version``,
+the rule rendered from the settings the run used (``Claim.render_rule``: the registered
+template with the run's T, stop step, strength, seeds, items, ...; ``settings`` beside
+it), the verdict with its per-part outcomes (each with its interval, the effect the run
+could have seen and the seeds that would see δ), each control's outcome (or "missing") and
+the models; it names the run's scale (``quick``: a test of the code, never a result;
+``standard`` or ``paper``), as does every model record in it. The previous snapshot's
+verdict is the report's business (``claims.trust``), read from the committed
+``results/claims.json``.
 """
 
 from __future__ import annotations
@@ -22,8 +23,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from repro.claims.gating import held_back
 from repro.claims.provenance import ReportError
-from repro.claims.registry import REGISTRY_VERSION, get_claim, interval_summary
+from repro.claims.registry import READINGS, REGISTRY_VERSION, get_claim, interval_summary
 from repro.claims.verdicts import (
     INCONCLUSIVE,
     PARTIAL,
@@ -88,6 +90,38 @@ def _checked_model(claim_id: str, record: Mapping[str, Any]) -> dict[str, Any]:
         raise ValueError(f"{claim_id}: model {record['name']!r} reads parts {unknown}; the "
                          f"claim's parts are {parts}")
     return dict(record)
+
+
+def _gated_models(claim_id: str, models: Sequence[Mapping[str, Any]]
+                  ) -> tuple[list[dict[str, Any]], dict[str, list[str]]]:
+    """The model records with what each holds back under gates version 5 (``holds_back``:
+    part → the failed gates that part reads of it; ``common``: part → the failed gates of a
+    component every arm of that part shares, reported beside it), and gate name → the parts
+    it holds back (``claims.gating.held_back`` over the registry's readings)."""
+    readings = READINGS.get(claim_id, {})
+    # an exact rule (EMG-1) names its parts as it decides: the registry's readings name them
+    parts = [p.name for p in get_claim(claim_id).parts] or list(readings)
+    gating = held_back(readings, models, parts)
+    out = [{**m, **gating[m["name"]]} for m in models]
+    return out, {f"model {m['name']}": sorted(m["holds_back"]) for m in out}
+
+
+def _gating_notes(decision: Decision, models: Sequence[Mapping[str, Any]]) -> Decision:
+    """Each part's reason with the gates behind it: the failed gates it reads of a model that
+    holds it back, and those of the components its arms share (reported, never gating)."""
+    notes: dict[str, list[str]] = {}
+    for model in models:
+        for part, failed in (model.get("holds_back") or {}).items():
+            notes.setdefault(part, []).append(f"held back by {model['name']} "
+                                              f"({', '.join(failed)})")
+        for part, failed in (model.get("common") or {}).items():
+            notes.setdefault(part, []).append(f"shared by every arm, reported, not gating: "
+                                              f"{model['name']} fails {', '.join(failed)}")
+    if not notes:
+        return decision
+    parts = [PartResult(p.name, p.outcome, f"{p.reason}; {'; '.join(notes[p.name])}", p.numbers)
+             if p.name in notes else p for p in decision.parts]
+    return Decision(decision.verdict, decision.reason, dict(decision.checks), parts)
 
 
 def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
@@ -204,13 +238,15 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
     claim = get_claim(claim_id)
     rule = rendered_rule(claim_id, seeds, settings)
     models = [{**_checked_model(claim_id, m), "scale": ctx.scale} for m in models]
-    gates = {**(quality_gates or {}), **{f"model {m['name']}": bool(m["passed"]) for m in models}}
-    reads = {f"model {m['name']}": m.get("reads") for m in models}
+    models, reads = _gated_models(claim_id, models)
+    gates = {**(quality_gates or {}), **{f"model {m['name']}": not m["holds_back"]
+                                         for m in models}}
     cut = {part: f"not run at the {ctx.scale} scale: {why}"
            for part, why in (not_run or {}).items()}
     decision, stored_controls = decide_claim(claim_id, measured, controls=controls,
                                              quality_gates=gates or None, gate_reads=reads,
                                              not_measurable=not_measurable, not_run=cut)
+    decision = _gating_notes(decision, models)
     sidecar = {
         "id": claim.id,
         "registry_version": REGISTRY_VERSION,

@@ -14,14 +14,20 @@ from __future__ import annotations
 from typing import Any
 
 from repro.claims.claim import REGISTRY_VERSION, Claim
+from repro.claims.gating import Reading
 from repro.claims.registry_energymogen import CLAIMS as _ENERGYMOGEN
+from repro.claims.registry_energymogen import READINGS as _ENERGYMOGEN_READINGS
 from repro.claims.registry_gmd import CLAIMS as _GMD
+from repro.claims.registry_gmd import READINGS as _GMD_READINGS
 from repro.core.stats import t_interval
 
-__all__ = ["CLAIMS", "REGISTRY_VERSION", "Claim", "claims_for_notebook", "get_claim",
-           "interval_summary"]
+__all__ = ["CLAIMS", "READINGS", "REGISTRY_VERSION", "Claim", "claims_for_notebook",
+           "get_claim", "interval_summary"]
 
 CLAIMS: dict[str, Claim] = {c.id: c for c in [*_GMD, *_ENERGYMOGEN]}
+
+#: claim → part → what the part reads of its models (gates version 5, ``claims.gating``)
+READINGS: dict[str, dict[str, Reading]] = {**_GMD_READINGS, **_ENERGYMOGEN_READINGS}
 
 
 def get_claim(claim_id: str) -> Claim:

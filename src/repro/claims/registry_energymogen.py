@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from repro.claims.claim import SEEDS, Claim, Measured, arm, difference_part, quantise, ratio_part
+from repro.claims.gating import Reading
 from repro.claims.verdicts import (
     INCONCLUSIVE,
     NOT_REPRODUCED,
@@ -518,3 +519,52 @@ CLAIMS: list[Claim] = [
                                                                  "(context)"},
           new_measurements=_EMG9_NEW, exact_rule=_emg_9),
 ]
+
+
+# ------------------------------------------------------------------------------------------------
+# What each EnergyMoGen part reads of its models (gates version 5, ``claims.gating``), stated
+# from the code before any outcome. EMG-1 and EMG-6 read the latent denoiser in latent space
+# alone (ε_θ's Jacobian, energies on a latent slice): no decoded-motion property. EMG-2 … 6
+# compare ways of sampling one VAE and one denoiser per seed, so both are common-mode there
+# (reported beside the parts, never gating). EMG-7 compares pipelines of different N, EMG-8
+# fine-tuned denoisers behind one shared decoder.
+# ------------------------------------------------------------------------------------------------
+
+_LATENT = ("x0_error_vs_gaussian",)
+#: a comparison of what differently trained models learned needs each at its loss's plateau
+_LEARNED = ("training_plateau", "x0_error_vs_gaussian")
+_SAMPLED = (*_LEARNED, "joint_speed", "root_speed", "concept_recall", "concept_preservation")
+_SAMPLING_ARMS = ("composed", "single text")
+_N_ARMS = ("N=1", "N=3", "N=5", "N=7")
+#: FID of decoded samples reads everything the decoder and the denoiser make
+_DECODED = (*_SAMPLED, "joint_jerk", "foot_skating")
+#: EMG-8's arms share one decoder: its sliding and jitter are common-mode, not read
+_FINE_TUNED = ("training_plateau", "x0_error_vs_gaussian", "joint_speed", "root_speed",
+               "concept_recall")
+
+READINGS: dict[str, dict[str, Reading]] = {
+    "EMG-1": dict.fromkeys(("residual_jacobian_asymmetry_by_t", "loop_integral_relative_by_t"),
+                           Reading(arms=("model",), properties=_LATENT)),
+    **{claim: dict.fromkeys(("conjunction_carries_both", "negation_removes_concept",
+                             "negation_keeps_other"),
+                            Reading(arms=_SAMPLING_ARMS, properties=_SAMPLED))
+       for claim in ("EMG-2", "EMG-3")},
+    "EMG-4": dict.fromkeys(("large_step_degrades", "small_step_best"),
+                           Reading(arms=("large step", "small step"), properties=_SAMPLED)),
+    "EMG-5": dict.fromkeys(("semantic_aligns_better_than_latent", "latent_smoother_than_semantic",
+                            "sef_balances_both"),
+                           Reading(arms=("semantic", "latent", "SEF"), properties=_SAMPLED)),
+    "EMG-6": dict.fromkeys(("conjunction", "negation"),
+                           Reading(arms=_SAMPLING_ARMS, properties=_LATENT)),
+    "EMG-7": {
+        # reconstruction error is compared; the autoencoders must have finished learning
+        "n7_reconstructs_best": Reading(arms=_N_ARMS, worse=("N=1", "N=3", "N=5"),
+                                        properties=("training_plateau",)),
+        "n5_generates_best": Reading(arms=_N_ARMS, worse=("N=1", "N=3", "N=7"),
+                                     properties=_DECODED),
+    },
+    "EMG-8": {"r_precision_improves": Reading(arms=("augmented", "control"), worse=("control",),
+                                              properties=_FINE_TUNED),
+              "fid_improves": Reading(arms=("augmented", "control"), worse=("control",),
+                                      properties=_FINE_TUNED)},
+}

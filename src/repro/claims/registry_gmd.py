@@ -27,6 +27,7 @@ from repro.claims.claim import (
     ratio_part,
     value,
 )
+from repro.claims.gating import Reading
 from repro.claims.verdicts import (
     NOT_REPRODUCED,
     PAPER_DISCREPANCY,
@@ -613,3 +614,67 @@ CLAIMS: list[Claim] = [
                                                    "motions", "foot_skating_stop_20": SEEDS},
           example=_example_f1),
 ]
+
+
+# ------------------------------------------------------------------------------------------------
+# What each model-based GMD part reads of its models (gates version 5, ``claims.gating``),
+# stated from the code before any outcome: the arms it compares, the arm the claim predicts
+# worse (gated on its training alone), and the gate metrics its reading depends on — never
+# the quantity it compares. A model every arm shares (the evaluator of A4's FID, F1's one
+# trajectory model) is common-mode there: reported, never gating.
+# ------------------------------------------------------------------------------------------------
+
+#: a model that stands still has no goal to miss, no jerk and no skating: every comparison of
+#: motion readings needs the arms to move like the data
+_MOVES = ("joint_speed", "root_speed")
+#: a comparison of what differently trained models learned needs each at its loss's plateau
+_LEARNED = ("training_plateau", "x0_error_vs_gaussian")
+#: goal and location errors read the trajectory model's learnt speed (path length)
+_GOALS = Reading(arms=("eps", "x0"), worse=("x0",), properties=(*_LEARNED, "path_length"))
+_ABS_REL = Reading(arms=("absolute", "relative"), worse=("relative",),
+                   properties=(*_LEARNED, "path_length"))
+#: FID, diversity and R@3 read the whole sampled motion and the concepts it shows
+_WHOLE_MOTION = (*_LEARNED, *_MOVES, "joint_jerk", "foot_skating", "concept_recall")
+_F1_MODEL = ("x0_error_vs_gaussian", "path_length")
+
+READINGS: dict[str, dict[str, Reading]] = {
+    "GMD-A3": {"eps_reaches_goal_better": _GOALS, "eps_keeps_more_of_best_gain": _GOALS},
+    "GMD-A4": {
+        # jerk is the compared quantity; it needs the x0 arm to move as the data do
+        "eps_motion_more_jagged": Reading(arms=("x0", "eps"), worse=("eps",),
+                                          properties=(*_LEARNED, *_MOVES)),
+        "eps_motion_worse_fid": Reading(arms=("x0", "eps"), worse=("eps",),
+                                        properties=_WHOLE_MOTION),
+        # root and joint jerk are compared; the path and the body must move
+        "choice_matters_less_for_trajectories": Reading(
+            arms=("x0", "eps"), worse=("eps",), properties=(*_LEARNED, *_MOVES, "path_length")),
+    },
+    "GMD-B2": {"abs_imputes_better": _ABS_REL, "abs_guides_better": _ABS_REL,
+               "abs_imputation_below_10cm": Reading(arms=("absolute",),
+                                                    properties=(*_LEARNED, "path_length"))},
+    "GMD-B3": {
+        "abs_lower_fid": Reading(arms=("absolute", "relative"), worse=("relative",),
+                                 properties=_WHOLE_MOTION),
+        "abs_diversity_closer_to_real": Reading(arms=("absolute", "relative"),
+                                                worse=("relative",), properties=_WHOLE_MOTION),
+        # "not worse": neither arm is predicted worse, both are gated on what R@3 reads
+        "abs_r_precision_not_worse": Reading(arms=("absolute", "relative"),
+                                             properties=_WHOLE_MOTION),
+    },
+    # foot skating is compared; it needs both arms' bodies to move (a still foot never slides)
+    "GMD-C4": dict.fromkeys(
+        ("emphasis_less_foot_skating_at_2", "emphasis_less_foot_skating_at_10"),
+        Reading(arms=("emphasis", "loss_scaling"), worse=("loss_scaling",),
+                properties=(*_LEARNED, *_MOVES))),
+    # one trajectory model (and one motion model) sampled in every arm: common-mode
+    "GMD-F1": {
+        "s_100_200_halves_goal_error": Reading(arms=("s = 100, 200", "s = 0"),
+                                               properties=_F1_MODEL),
+        "s_100_200_keeps_jitter": Reading(arms=("s = 100, 200", "s = 0"),
+                                          properties=_F1_MODEL),
+        "stop_at_20_more_coherent": Reading(arms=("stop at 20", "stop at 0"),
+                                            properties=(*_F1_MODEL, *_MOVES)),
+        "stop_at_20_keeps_goal": Reading(arms=("stop at 20", "stop at 0"),
+                                         properties=_F1_MODEL),
+    },
+}

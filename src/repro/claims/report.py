@@ -195,8 +195,10 @@ def models_of(sidecars: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
     for claim_id, sidecar in sidecars.items():
         for record in sidecar.get("models", []):
             key = (record["name"], str(record.get("role", "")))
-            entry = models.setdefault(key, {**record, "claims": []})
+            entry = models.setdefault(key, {**record, "claims": [], "holds_back": []})
             entry["claims"].append(claim_id)
+            entry["holds_back"] += [f"{claim_id} {part} ({', '.join(gates)})" for part, gates
+                                    in (record.get("holds_back") or {}).items()]
     return [models[key] for key in sorted(models)]
 
 
@@ -241,6 +243,9 @@ def _gate_text(gate: dict[str, Any]) -> str:
         wanted = (f"{low:.3g}–{high:.3g}" if low is not None and high is not None
                   else f"≤ {high:.3g}" if high is not None else f"≥ {low:.3g}")
         value = "not measured" if result["value"] is None else f"{result['value']:.3g}"
+        if result.get("interval") and result["value"] is not None:
+            value += f" [{result['interval'][0]:.3g}, {result['interval'][1]:.3g}]"
+            value += f", {result['draws']} draws" if result.get("draws", 1) > 1 else ""
         data = "" if result.get("data") is None else f"; data {result['data']:.3g}"
         cells.append(f"{metric} {value} (want {wanted}{data}) "
                      f"{'✓' if result['passed'] else '✗'}")
@@ -254,15 +259,21 @@ def models_markdown(models: list[dict[str, Any]]) -> list[str]:
         return lines + ["No notebook of this run recorded its models' quality gates yet, so no "
                         "verdict here is backed by a model known to work (gates: "
                         "`repro.core.gates`).", ""]
-    lines += ["| model | family (role) | claims | steps | training s | gate (value, wanted "
-              "range; the data's value) | reported, not gated | passed |",
-              "|---|---|---|---|---|---|---|---|"]
+    lines += ["A failed gate holds back only the parts that read that property of the model "
+              "and whose arms differ in it (gates version 5, `repro.claims.gating`): a "
+              "component every arm shares is reported beside the part, an arm the claim "
+              "predicts worse is gated on its training alone. Each sample gate's value carries "
+              "its bootstrap interval.", "",
+              "| model | family (role) | claims | steps | training s | gate (value [interval], "
+              "wanted range; the data's value) | reported, not gated | passed | holds back |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for m in models:
         seconds = "—" if m.get("train_seconds") is None else f"{m['train_seconds']:.0f}"
         family = f"{m['family']} ({m['role']})" if m.get("role") else m["family"]
         cells = [m["name"], family, ", ".join(m["claims"]), str(m.get("steps") or "—"),
                  seconds, _gate_text(m["gate"]), _reported_text(m.get("reported", {})) or "—",
-                 "yes" if m["passed"] else "**no**"]
+                 "yes" if m["passed"] else "**no**",
+                 "; ".join(m.get("holds_back") or []) or "—"]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     context = skating_ratio_context()
     published = ", ".join(f"{name} {value:.3f}" for name, value in context["published"].items())

@@ -101,7 +101,7 @@ def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
     shown but decide nothing: their failures are not in bold)."""
     gates = dict(sidecar.get("quality_gates") or {})
     for model in sidecar.get("models", []):
-        gates.setdefault(f"model {model['name']}", bool(model["passed"]))
+        gates.setdefault(f"model {model['name']}", _model_ok(model))
     idle = "; no part runs" if _runs_nothing(sidecar) else ""
     if not gates:
         if idle:
@@ -112,6 +112,10 @@ def gates_text(claim: Claim, sidecar: Mapping[str, Any]) -> str:
         return f"{len(failed)} of {len(gates)} fail {SEE_MODELS}, deciding nothing{idle}"
     if failed:
         return f"**{len(failed)} of {len(gates)} fail** {SEE_MODELS}"
+    unread = sum(not m["passed"] for m in sidecar.get("models", []))
+    if unread:   # gates version 5: failures no part reads of that model, reported
+        return (f"{len(gates)}/{len(gates)} hold back no part; {unread} fail a gate no part "
+                f"reads of them {SEE_MODELS}{idle}")
     return f"{len(gates)}/{len(gates)} pass{idle}"
 
 
@@ -161,9 +165,14 @@ def _controls_short(claim: Claim, sidecar: Mapping[str, Any]) -> bool:
         for kind in ("positive", "null"))
 
 
+def _model_ok(model: Mapping[str, Any]) -> bool:
+    """A model holds back none of the claim's parts (gates version 5; before it: passed)."""
+    return not model["holds_back"] if "holds_back" in model else bool(model["passed"])
+
+
 def _gates(sidecar: Mapping[str, Any]) -> dict[str, bool]:
     gates = dict(sidecar.get("quality_gates") or {})
-    gates.update({m["name"]: bool(m["passed"]) for m in sidecar.get("models", [])})
+    gates.update({m["name"]: _model_ok(m) for m in sidecar.get("models", [])})
     return gates
 
 
@@ -177,7 +186,7 @@ def _deciding_gates(sidecar: Mapping[str, Any]) -> dict[str, bool]:
         return {}
     gates = {k: v for k, v in (sidecar.get("quality_gates") or {}).items()
              if not k.startswith("model ")}
-    gates.update({m["name"]: bool(m["passed"]) for m in sidecar.get("models", [])
+    gates.update({m["name"]: _model_ok(m) for m in sidecar.get("models", [])
                   if m.get("reads") is None or set(m["reads"]) & running})
     return gates
 

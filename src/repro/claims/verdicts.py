@@ -589,11 +589,12 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
             if name not in kept:
                 resting.setdefault(name, []).append(gate)
     results = [PartResult(p.name, INCONCLUSIVE, f"rests on {', '.join(resting[p.name])}, which "
-                          f"failed its fitness gate (without it: {p.outcome})", p.numbers)
+                          f"failed a gate this part reads of it (without it: {p.outcome})",
+                          p.numbers)
                if p.name in resting else p for p in decision.parts]
     verdict = (INCONCLUSIVE if not names or decision.verdict == PAPER_DISCREPANCY
                else combine(results, parts))
     gated = Decision(verdict, "", {r.name: r.outcome for r in results}, results)
-    gated.reason = (f"{missed}failed fitness gate: {', '.join(failed)}; "
+    gated.reason = (f"{missed}failed gate: {', '.join(failed)}; "
                     + (gated.parts_in_words() or f"without it: {decision.verdict}"))
     return gated

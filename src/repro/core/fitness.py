@@ -63,13 +63,18 @@ def level_timesteps(alphas_cumprod: np.ndarray,
 def x0_error_ratio(predict_x0: Callable[[Tensor, Tensor], Tensor], alphas_cumprod: np.ndarray,
                    x0: Tensor, rows: Callable[[Tensor], Tensor], mean: np.ndarray,
                    cov: np.ndarray, *, seed: int,
-                   levels: Sequence[float] = NOISE_LEVELS) -> float:
+                   levels: Sequence[float] = NOISE_LEVELS,
+                   weights: Sequence[float] | None = None) -> float:
     """Σ over ``levels`` of the model's mean squared x̂0 error on held-out ``x0``, over the
     same sum for :func:`gaussian_x0` with the training data's ``mean`` and ``cov``, both from
     the same x_t (noise drawn with ``seed``). ``predict_x0(x_t, t)`` returns the model's x̂0
     shaped like x0; ``rows`` turns a tensor shaped like x0 into the (M, D) rows the Gaussian
-    describes (frames for a motion window, the flattened latent for a latent model)."""
+    describes (frames for a motion window, the flattened latent for a latent model).
+    ``weights`` (D,): the per-feature weights of the model's training loss, Σ_d w_d (x̂0_d −
+    x0_d)², so the error is read in the objective the model was trained on (unweighted: all
+    ones)."""
     generator = torch.Generator().manual_seed(int(seed))
+    w = None if weights is None else np.asarray(weights, dtype=np.float64)
     model_error = gaussian_error = 0.0
     for t in level_timesteps(alphas_cumprod, levels):
         a = float(alphas_cumprod[t])
@@ -79,10 +84,12 @@ def x0_error_ratio(predict_x0: Callable[[Tensor, Tensor], Tensor], alphas_cumpro
         with torch.no_grad():
             predicted = predict_x0(x_t, steps)
         truth = rows(x0).detach().cpu().double().numpy()
-        model_error += float(((rows(predicted).detach().cpu().double().numpy() - truth) ** 2)
-                             .sum(axis=1).mean())
-        baseline = gaussian_x0(rows(x_t).detach().cpu().numpy(), a, mean, cov)
-        gaussian_error += float(((baseline - truth) ** 2).sum(axis=1).mean())
+        squared = (rows(predicted).detach().cpu().double().numpy() - truth) ** 2
+        baseline = (gaussian_x0(rows(x_t).detach().cpu().numpy(), a, mean, cov) - truth) ** 2
+        if w is not None:
+            squared, baseline = squared * w, baseline * w
+        model_error += float(squared.sum(axis=1).mean())
+        gaussian_error += float(baseline.sum(axis=1).mean())
     return model_error / gaussian_error
 
 

@@ -36,17 +36,23 @@ from typing import Any
 
 from repro.core.tables import markdown_table
 
-__all__ = ["GATES", "GATES_VERSION", "PUBLISHED_SKATING_RATIO", "PUBLISHED_SKATING_RATIO_SOURCE",
-           "REPORTED_METRICS", "Gate", "family_measures", "gate_results", "gates_markdown",
-           "model_record", "reading", "reported_values"]
+__all__ = ["GATES", "GATES_VERSION", "PLATEAU_LOG_IMPROVEMENT", "PUBLISHED_SKATING_RATIO",
+           "PUBLISHED_SKATING_RATIO_SOURCE", "REPORTED_METRICS", "REREAD_DRAWS",
+           "REREAD_SEED_STRIDE", "TRAINING_GATES", "Gate", "family_measures",
+           "gate_results", "gates_markdown", "model_record", "plateau_improvement",
+           "reading", "reported_values", "straddling"]
 
+#: 5: a gate guards a reading (``claims.gating``): which failed gate holds back which part is
+#: the registry's, per part; every trained diffusion model and autoencoder reports whether its
+#: loss reached a plateau (:data:`TRAINING_GATES`), the gate of an arm its claim predicts
+#: worse. docs/REGISTRY_CHANGELOG.md "Gates version 5".
 #: 4: sample gates on the reference arm (``Gate.role``; docs/REGISTRY_CHANGELOG.md "Gates
 #: version 4"). 3: fitness gates: held-out x̂0 error against the Gaussian denoiser for every
 #: diffusion model, the evaluator's R@3 of real data and its FID of trivial fakes; no gate on
 #: a compared quantity (foot skating, jerk, FID of samples, reconstruction MPJPE, oracle
 #: accuracy of samples). 2: the ``gmd_motion`` FID gate's reference was the training windows'
 #: mean FID over 64 draws. docs/REGISTRY_CHANGELOG.md "Gates version 2" and "Gates version 3".
-GATES_VERSION = 4
+GATES_VERSION = 5
 #: the roles of a model in a claim (``model_record(role=...)``): "reference" passes every gate
 #: of its family, "treatment" only the gates whose ``role`` is "any" (the fitness gates)
 ROLES = ("reference", "treatment")
@@ -85,6 +91,41 @@ class Gate:
         low, high = self.bounds(reference)
         return (math.isfinite(value) and (low is None or value >= low)
                 and (high is None or value <= high))
+
+
+#: a tenth of training that lowers the loss by more than this (log scale: 5 %) is not a plateau
+PLATEAU_LOG_IMPROVEMENT = 0.05
+
+
+def plateau_improvement(curve: Sequence[float]) -> float:
+    """The loss's improvement over the last tenth of training, on the log scale: the mean of
+    the curve's last tenth of points against the tenth before, ln(before / last), scaled to a
+    tenth of training when the curve has fewer than ten points (its last two points then lie
+    1/n of training apart: × n/10). The curve's points are means of equal spans of steps
+    (the training loss, or the held-out loss at equal intervals). NaN with fewer than two
+    points or a non-positive loss."""
+    values = [float(v) for v in curve]
+    n = len(values)
+    if n < 2 or min(values) <= 0.0:
+        return math.nan
+    k = max(1, n // 10)
+    last = sum(values[-k:]) / k
+    before = sum(values[-2 * k:-k]) / k
+    return math.log(before / last) * (0.1 / (k / n))
+
+
+_PLATEAU = Gate(
+    "training_plateau", "improvement of the training objective's loss in the last tenth of "
+    "training", "the model's own training loss (its objective: ε or x0 MSE, weighted as it "
+    "was trained) fell by at most 5 % (log scale) over the last tenth of its steps "
+    "(``plateau_improvement``): more training of the same model would not change what it "
+    "learned by much. The gate of an arm its claim predicts to learn worse "
+    "(``claims.gating``): it is judged on its training, never on its samples, which carry "
+    "the effect", at_most=PLATEAU_LOG_IMPROVEMENT, relative=False)
+
+#: the gates an arm its claim predicts worse is held to (``claims.gating``), with the same
+#: steps as the reference arm
+TRAINING_GATES = ("training_plateau",)
 
 
 #: what the x̂0-error gates measure (``core.fitness.x0_error_ratio``)
@@ -145,6 +186,7 @@ GATES: dict[str, tuple[Gate, ...]] = {
                    "gates on foot skating, jerk and FID sat on their outcomes"),
              at_most=0.9, relative=False),
         *_sample_gates(recall=True),
+        _PLATEAU,
     ),
     "gmd_trajectory": (
         Gate("x0_error_vs_gaussian", X0_ERROR, _X0_REASON.format(
@@ -160,6 +202,7 @@ GATES: dict[str, tuple[Gate, ...]] = {
         Gate("root_jerk", "root jerk of unguided samples", "mean root jerk (m/s³) of unguided "
              "samples ≤ 2× the test windows': a path that wobbles frame to frame is not the "
              "data's locomotion, whatever its length", at_most=2.0, role="reference"),
+        _PLATEAU,
     ),
     "vae": (
         Gate("concept_preservation", "oracle concept recall of reconstructions", "oracle "
@@ -177,6 +220,7 @@ GATES: dict[str, tuple[Gate, ...]] = {
              "contact (m/s) of reconstructions of held-out clips ≤ 3× the clips' own: a "
              "decoder whose feet slide makes every decoded sample slide", at_most=3.0,
              role="reference"),
+        _PLATEAU,
     ),
     "latent_denoiser": (
         Gate("x0_error_vs_gaussian", X0_ERROR, _X0_REASON.format(
@@ -187,6 +231,7 @@ GATES: dict[str, tuple[Gate, ...]] = {
                    "samples"),
              at_most=0.9, relative=False),
         *_sample_gates(recall=True),
+        _PLATEAU,
     ),
     "evaluator": (
         Gate("r_precision_top3", "R-precision of held-out real data", "R@3 of held-out real "
@@ -250,7 +295,41 @@ def gate_results(family: str, values: Mapping[str, float],
             "data": data,
             "passed": value is not None and gate.passes(float(value), reference),
             "reason": gate.reason if value is not None else f"not measured — {gate.reason}"}
+        interval = values.get(f"{gate.metric}_interval")
+        if interval is not None:
+            results[gate.metric]["interval"] = [float(v) for v in interval]
+            results[gate.metric]["straddles"] = _straddles(interval, low, high)
+            results[gate.metric]["draws"] = int(values.get("gate_draws", 1))
     return results
+
+
+def _straddles(interval: Sequence[float], low: float | None, high: float | None) -> bool:
+    return any(bound is not None and interval[0] < bound < interval[1] for bound in (low, high))
+
+
+#: a sample gate whose interval straddles its bound is read again on this many draws of the
+#: same size, pooled (``straddling``), before it decides
+REREAD_DRAWS = 4
+#: the seed of a sample gate's k-th draw is the first's + k × this (draws far apart)
+REREAD_SEED_STRIDE = 100_003
+
+
+def straddling(family: str, values: Mapping[str, Any], reference: Mapping[str, float],
+               role: str) -> list[str]:
+    """The gates of ``family`` (for ``role``) whose sampling interval (``values``'
+    ``<metric>_interval``, :func:`core.metrics.motion_statistics_intervals`) straddles a
+    bound: the draw cannot tell pass from fail, so the caller reads them again on
+    :data:`REREAD_DRAWS` draws before the gate decides."""
+    out = []
+    for gate in gates_for(family, role):
+        interval = values.get(f"{gate.metric}_interval")
+        if interval is None or (gate.relative and gate.metric not in reference):
+            continue
+        if gate.relative and math.isnan(float(reference[gate.metric])):
+            continue
+        if _straddles(interval, *gate.bounds(reference)):
+            out.append(gate.metric)
+    return out
 
 
 #: measurements a model record reports beside its gates, with the data's, gating nothing:
@@ -294,6 +373,9 @@ def model_record(*, name: str, family: str, values: Mapping[str, float],
     component every arm of those parts shares (common-mode: reported beside the parts, never
     gating them)."""
     check_role(role)
+    values = dict(values)
+    if any(g.metric == "training_plateau" for g in GATES.get(family, ())):
+        values.setdefault("training_plateau", plateau_improvement(validation_curve or []))
     gates = gate_results(family, values, reference, role=role)
     return {"name": name, "family": family, "gates_version": GATES_VERSION, "role": role,
             "reads": None if reads is None else [str(part) for part in reads],
@@ -328,6 +410,11 @@ def gates_markdown(records: list[dict[str, Any]] | tuple[dict[str, Any], ...]) -
                      _number(record["train_seconds"])]
                     if k == 0 else ["", "", "", "", ""])
             value = "not measured" if gate["value"] is None else _number(gate["value"])
+            if gate.get("interval") and gate["value"] is not None:   # its sampling interval
+                low, high = gate["interval"]
+                value += f" [{_number(low)}, {_number(high)}]"
+                if gate.get("draws", 1) > 1:
+                    value += f", {gate['draws']} draws"
             rows.append([*head, metric, value, _number(gate.get("data")),
                          f"[{_number(gate['at_least'])}, {_number(gate['at_most'])}]",
                          "pass" if gate["passed"] else "**fail**"])

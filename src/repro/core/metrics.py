@@ -360,6 +360,29 @@ def motion_statistics(joints: np.ndarray, fps: float = 20.0) -> dict[str, float]
             "foot_skating_ratio": foot_skating_ratio(joints, fps)}
 
 
+#: bootstrap resamples of the samples behind a sample gate's interval (``core.gates``)
+GATE_RESAMPLES = 100
+
+
+def motion_statistics_intervals(joints: np.ndarray, fps: float = 20.0, *,
+                                resamples: int = GATE_RESAMPLES, seed: int = 0,
+                                ) -> dict[str, list[float]]:
+    """The sampling interval of each :func:`motion_statistics` value of joints (B, T, 22, 3):
+    the statistic ± 1.96 × its bootstrap standard error over ``resamples`` resamples of the B
+    clips with replacement (drawn with ``seed``): how far another draw of as many samples from
+    the same model could put it. Keys ``<metric>_interval`` → [low, high]."""
+    joints = _joints(joints, min_frames=4)
+    point = motion_statistics(joints, fps)
+    rng = np.random.default_rng(seed)
+    draws = [motion_statistics(joints[rng.integers(0, len(joints), len(joints))], fps)
+             for _ in range(int(resamples))]
+    out = {}
+    for metric, value in point.items():
+        spread = 1.96 * float(np.std([d[metric] for d in draws], ddof=1))
+        out[f"{metric}_interval"] = [float(value) - spread, float(value) + spread]
+    return out
+
+
 # --- replications ------------------------------------------------------------------------
 
 

@@ -44,7 +44,7 @@ import torch
 from torch import Tensor, nn
 
 from repro.core import fitness, metrics
-from repro.core.gates import model_record
+from repro.core.gates import REREAD_DRAWS, REREAD_SEED_STRIDE, model_record, straddling
 from repro.energymogen.harness import TextToMotionTest, oracle_accuracy
 from repro.energymogen.pipeline import (
     EnergyMoGenPipeline,
@@ -171,22 +171,42 @@ def data_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dic
 def vae_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dict[str, float]:
     """The ``vae`` sample gates' values: joint jerk and foot skating of decode(μ(x)) of the test
     clips (every decoded sample passes through this decoder)."""
-    stats = metrics.motion_statistics(pipe.joints(pipe.decode(pipe.encode_motion(
-        test.features))))
-    return {"joint_jerk": stats["joint_jerk"], "foot_skating": stats["foot_skating"]}
+    joints = pipe.joints(pipe.decode(pipe.encode_motion(test.features)))
+    stats = metrics.motion_statistics(joints)
+    intervals = metrics.motion_statistics_intervals(joints)
+    return {metric: stats[metric] for metric in ("joint_jerk", "foot_skating")} | {
+        f"{metric}_interval": intervals[f"{metric}_interval"]
+        for metric in ("joint_jerk", "foot_skating")}
 
 
 def denoiser_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
-                           seed: int) -> dict[str, float]:
+                           seed: int, reference: Mapping[str, float] | None = None,
+                           ) -> dict[str, Any]:
     """The ``latent_denoiser`` sample gates' values: one sample per test clip for its caption
     drawn with ``seed`` (single-text classifier-free guidance at the pipeline's scale, DDIM
-    from ``pipe.noise(seed)``, decoded): ``metrics.motion_statistics`` of their joints and
-    the oracles' recall of each clip's concepts (``harness.oracle_accuracy``)."""
-    texts = test.texts(seed)
-    features = pipe.decode(pipe.sample(Sampler("single"), [], texts, seed, batch=len(texts)))
-    joints = pipe.joints(features)
-    return {**metrics.motion_statistics(joints),
-            "concept_recall": oracle_accuracy(joints, test.concepts)}
+    from ``pipe.noise(seed)``, decoded): ``metrics.motion_statistics`` of their joints, each
+    with its sampling interval (``metrics.motion_statistics_intervals``), and the oracles'
+    recall of each clip's concepts (``harness.oracle_accuracy``). With the data's
+    ``reference`` values, a gate whose interval straddles its bound (``core.gates.
+    straddling``) is read again on ``core.gates.REREAD_DRAWS`` draws, pooled."""
+
+    def draw(k: int) -> np.ndarray:
+        seed_k = seed + REREAD_SEED_STRIDE * k
+        texts = test.texts(seed_k)
+        return pipe.joints(pipe.decode(pipe.sample(Sampler("single"), [], texts, seed_k,
+                                                   batch=len(texts))))
+
+    def read(joints: np.ndarray, draws: int) -> dict[str, Any]:
+        return {**metrics.motion_statistics(joints),
+                **metrics.motion_statistics_intervals(joints, seed=seed), "gate_draws": draws,
+                "concept_recall": oracle_accuracy(joints, list(test.concepts) * draws)}
+
+    joints = [draw(0)]
+    values = read(joints[0], 1)
+    if reference is not None and straddling("latent_denoiser", values, reference, "reference"):
+        joints += [draw(k) for k in range(1, REREAD_DRAWS)]
+        values = read(np.concatenate(joints), REREAD_DRAWS)
+    return values
 
 
 def evaluator_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
@@ -286,7 +306,7 @@ def pipeline_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
     denoiser_values = denoiser_gate_values(pipe, test, seed)
     if role == "reference":
         vae_values.update(vae_sample_values(pipe, test))
-        denoiser_values.update(denoiser_sample_values(pipe, test, seed))
+        denoiser_values.update(denoiser_sample_values(pipe, test, seed, reference))
     return [vae_record(pipe, vae_values, reference, role=role, reads=reads, arm=arm),
             denoiser_record(pipe, denoiser_values, reference=reference, role=role,
                             reads=reads, arm=arm)]

@@ -34,7 +34,7 @@ import torch
 from torch import Tensor
 
 from repro.core import fitness, metrics
-from repro.core.gates import model_record
+from repro.core.gates import REREAD_DRAWS, REREAD_SEED_STRIDE, model_record, straddling
 from repro.core.tables import markdown_table
 from repro.gmd import measurements
 from repro.gmd.guidance import sample
@@ -219,20 +219,38 @@ def motion_sample_values(trained: TrainedGMD, data: SampleGateData, *,
     """The sample gates' values of a motion model: one sample per caption of ``data``'s
     windows (classifier-free guidance at GMD's scale for a text-conditioned model, as Table
     B.1 generates; unconditional samples otherwise), their ``metrics.motion_statistics`` and,
-    for a text-conditioned model, the oracles' recall of each window's concepts."""
+    for a text-conditioned model, the oracles' recall of each window's concepts; each with its
+    sampling interval (``metrics.motion_statistics_intervals``). Where an interval straddles
+    its gate's bound (``core.gates.straddling``) the gate is read again on
+    ``core.gates.REREAD_DRAWS`` draws of the same captions, pooled (``gate_draws``)."""
     if trained.spec.task != "motion":
         raise ValueError(f"need a motion model, got a {trained.spec.task} model")
     captions = data.evaluation.captions
-    if trained.vocabulary is not None:
-        features = measurements.generate_for_captions(trained, captions, seed=seed)
-    else:
+
+    def draw(k: int) -> np.ndarray:
+        seed_k = seed + REREAD_SEED_STRIDE * k
+        if trained.vocabulary is not None:
+            return measurements.generate_for_captions(trained, captions, seed=seed_k)
         with torch.no_grad():
-            x = sample(trained, len(captions), seed=seed)
-            features = trained.space.relative_features(x).cpu().numpy().astype(np.float32)
-    values = metrics.motion_statistics(features_to_joints(features.astype(np.float64)),
-                                       fps=FPS)
-    if trained.vocabulary is not None:
-        values["concept_recall"] = measurements.concept_recall(features, data.evaluation.truth)
+            x = sample(trained, len(captions), seed=seed_k)
+            return trained.space.relative_features(x).cpu().numpy().astype(np.float32)
+
+    def read(features: np.ndarray, draws: int) -> dict[str, Any]:
+        joints = features_to_joints(features.astype(np.float64))
+        values: dict[str, Any] = {**metrics.motion_statistics(joints, fps=FPS),
+                                  **metrics.motion_statistics_intervals(joints, fps=FPS,
+                                                                        seed=seed),
+                                  "gate_draws": draws}
+        if trained.vocabulary is not None:
+            values["concept_recall"] = measurements.concept_recall(
+                features, list(data.evaluation.truth) * draws)
+        return values
+
+    features = [draw(0)]
+    values = read(features[0], 1)
+    if straddling("gmd_motion", values, data.values, "reference"):
+        features += [draw(k) for k in range(1, REREAD_DRAWS)]
+        values = read(np.concatenate(features), REREAD_DRAWS)
     return values
 
 
@@ -251,8 +269,10 @@ def denoising_gate_values(trained: TrainedGMD, held_out: MotionWindows, train: M
     """``x0_error_vs_gaussian`` (``core.fitness.x0_error_ratio``) of ``trained`` on at most
     ``limit`` of the ``held_out`` windows (drawn with ``seed``; noise drawn with ``seed``),
     against the Gaussian of ``train``'s frames, both in the model's space
-    (:func:`model_space_windows`); a text-conditioned model is given the windows' captions.
-    ``train`` must be the windows the model trained on (``trained.spec.data``)."""
+    (:func:`model_space_windows`); a text-conditioned model is given the windows' captions;
+    a model trained with per-feature loss weights (GMD-C4's loss scaling) is read in that
+    weighted objective. ``train`` must be the windows the model trained on
+    (``trained.spec.data``)."""
     if train.config != trained.spec.data or held_out.config.representation != \
             trained.spec.data.representation:
         raise ValueError(f"the model trained on {trained.spec.data}; got training windows of "
@@ -272,7 +292,8 @@ def denoising_gate_values(trained: TrainedGMD, held_out: MotionWindows, train: M
 
     ratio = fitness.x0_error_ratio(predict_x0, trained.diffusion.alphas_cumprod, x0,
                                    lambda x: x.permute(0, 2, 1).reshape(-1, x.shape[1]),
-                                   mean, cov, seed=seed)
+                                   mean, cov, seed=seed,
+                                   weights=trained.spec.training.feature_weights)
     return {"x0_error_vs_gaussian": ratio}
 
 
