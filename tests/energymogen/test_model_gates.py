@@ -197,8 +197,8 @@ def test_augmentation_records_take_the_study_values_of_the_fine_tuned_denoisers(
     names = [r["name"] for part in records.values() for r in part]
     assert len(set(names)) == len(names) == 4
     assert {row: [r["arm"] for r in part] for row, part in records.items()} == {
-        "vae": [None], "pretrained": ["pretrained"], "control": ["control"],
-        "augmented": ["augmented"]}     # the VAE every arm decodes with: common-mode
+        "vae": [None], "pretrained": [None], "control": ["control"],
+        "augmented": ["augmented"]}     # the VAE and the start of both fine-tunes: common-mode
 
 
 def test_fine_tuned_denoisers_carry_their_own_training(emg_cache: object) -> None:

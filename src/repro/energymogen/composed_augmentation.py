@@ -209,7 +209,10 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
     """EMG-8: per seed s, the records of the pretrained pipeline of s (``pipeline_for``: its
     VAE and denoiser measured here on ``gate_test``, the denoiser with :func:`gate_seed`) and
     of the control and augmented denoisers fine-tuned from it (the x̂0 error
-    ``augmentation_study`` measured on its own test at s, its training records).
+    ``augmentation_study`` measured on its own test at s, its training records). The
+    control and augmented denoisers serve their arms (``arm`` "control", "augmented"); the
+    VAE every arm decodes with and the pretrained denoiser both arms are fine-tuned from are
+    common-mode (``arm`` None).
     Returns ``{"vae": [...], "pretrained": [...], "control": [...], "augmented": [...]}``; for
     a ``NotMeasurable`` study (a data folder: nothing fine-tuned) the pretrained models'
     records only (``control`` and ``augmented`` empty)."""
@@ -218,8 +221,8 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
     for i, seed in enumerate(seeds):
         pipe = pipeline_for(source, seed)
         vae, pretrained = pipeline_records(pipe, gate_test, role="reference")
-        out["vae"].append(vae)                       # every arm decodes with it: arm None
-        out["pretrained"].append({**pretrained, "arm": "pretrained"})
+        out["vae"].append(vae)          # every arm decodes with it: common-mode (arm None)
+        out["pretrained"].append(pretrained)   # both arms are fine-tuned from it: None
         if isinstance(results, NotMeasurable):
             continue
         for row in ("control", "augmented"):
