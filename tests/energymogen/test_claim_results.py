@@ -40,16 +40,16 @@ def _latent_count_results(counts: tuple[int, ...]) -> dict:
 
 
 def test_emg7_names_the_counts_a_scale_does_not_run_and_keeps_the_calibration() -> None:
-    settings = LatentCountSettings.for_scale("standard")
+    settings = LatentCountSettings.for_scale("quick")
     controls = Controls(null={}, positive={}, planted={"offset_mean_m": 0.05})
     results = _latent_count_results(settings.counts)
     result = emg7_result(results, settings, [0, 1], test_clips=256, threads=1, controls=controls,
                          models=[], figures=[])
     assert result.measured["reconstruction_error"]["7"] is results["reconstruction"]["7"]["mpjpe"]
     assert result.headline == "MPJPE N=5/7: 0.060/0.084 m; generation FID: 0.600/0.840"
-    assert "(N = [1, 3] not run at the standard scale: paper scale only;" in result.notes
+    assert "(N = [1, 3] not run at the quick scale: standard and paper scales only;" in result.notes
     assert result.extra["control_calibration"] is controls.planted
-    assert result.extra["counts_not_run"] == [1, 3] and result.extra["scale"] == "standard"
+    assert result.extra["counts_not_run"] == [1, 3] and result.extra["scale"] == "quick"
 
 
 def test_the_sets_of_three_summary_line_gives_each_rows_rate() -> None:

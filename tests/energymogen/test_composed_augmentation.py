@@ -3,6 +3,7 @@ from the pretrained denoiser without touching it, and a tiny end-to-end study.""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import torch
 from conftest import TINY_AUGMENTATION_PIPELINE as TINY
@@ -82,6 +83,28 @@ def test_every_seed_fine_tunes_its_own_pretrained_model(tiny) -> None:
     assert results["pretrained_train_seeds"] == [TINY.data_seed, TINY.data_seed + 1]
     assert [r.steps for r in results["training"]["control"]] == [
         ag.pipeline_finetune_config(seeds(s), s).steps for s in (0, 1)]
+    _check_aa_controls(seeds, test, results)
+
+
+def _check_aa_controls(seeds: SeedPipelines, test: TextToMotionTest, results: dict) -> None:
+    """EMG-8's A/A: seed s's control denoiser against the other seed's (the study's own,
+    measured with seed s's draws); the two trainings differ (no zero spread), and read as
+    exact paired draws (each seed's difference repeated) the null would fire."""
+    controls = ag.augmentation_controls(seeds, test, results, [0, 1])
+    assert controls is not None and controls.exact is False
+    null, base = controls.null, results["t2m"]["control"]
+    assert null["r_precision_top3_baseline"] == base["r_precision_top3"]
+    assert null["fid_baseline"] == base["fid"]
+    claim = get_claim("EMG-8")
+    fid = claim.parts[1].compare(null)[0].differences
+    assert all(abs(d) > 1e-9 for d in fid)                      # two trainings differ
+    repeated = {name: [values[0]] * 3 for name, values in null.items()}
+    assert claim.parts[1].name == "fid_improves"
+    outcome = {p.name: p.outcome for p in claim.decide(repeated, control=True).parts}
+    assert outcome["fid_improves"] in ("supported", "contradicted")
+    planted = np.subtract(controls.positive["r_precision_top3_augmented"],
+                          null["r_precision_top3_augmented"])
+    assert planted == pytest.approx([0.02, 0.02])
 
 
 def test_study_feeds_the_rule(tiny) -> None:

@@ -70,6 +70,9 @@ def test_study_feeds_the_rule(tiny) -> None:
         (p.name, False) for p in get_claim("EMG-7").parts]
     table = lc.table8_markdown(results, counts=(1, 5, 7))
     assert "[0.188]" in table and "real motion" in table and table.count("\n") == 8
+    records = lc.latent_count_records(pipe, results, (1, 5, 7), [0], test)
+    assert [r["arm"] for r in records] == ["N=1", "N=1", "N=5", "N=5", "N=7", "N=7"]
+    assert [r["role"] for r in records[2:4]] == ["reference", "reference"]
 
 
 def test_example_reconstructions_take_each_variant(tiny) -> None:

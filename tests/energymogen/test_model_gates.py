@@ -141,6 +141,7 @@ def test_records_come_from_the_pipeline(tiny) -> None:
             mg.data_sample_values(pipe, test)[metric])
     assert set(denoiser["gate"]) >= {"joint_speed", "root_speed", "concept_recall"}
     assert vae["reads"] == denoiser["reads"] == ["n5_generates_best"]
+    assert vae["arm"] is None and denoiser["arm"] is None    # one pipeline every arm samples
     assert vae["family"] == "vae" and denoiser["family"] == "latent_denoiser"
     assert vae["steps"] == TINY_PIPELINE.vae_training.steps == pipe.training["vae"].steps
     assert denoiser["steps"] == TINY_PIPELINE.denoiser_training.steps
@@ -172,6 +173,13 @@ def test_the_gate_record_is_the_pipelines_training_record(tiny) -> None:
     assert record["validation_curve"] == [2.0, 1.0] and record["training"]["step_cap"] == 9
     denoiser = mg.denoiser_record(other, {"x0_error_vs_gaussian": 0.5}, role="treatment")
     assert denoiser["steps"] == 7 and denoiser["training"]["stop_reason"] == "plateau"
+    for arm in (None, "N=7"):       # the arm a record serves is passed through
+        assert mg.vae_record(other, values, {"concept_preservation": 1.0}, role="treatment",
+                             arm=arm)["arm"] == arm
+        assert mg.denoiser_record(other, {"x0_error_vs_gaussian": 0.5}, role="treatment",
+                                  arm=arm)["arm"] == arm
+        assert mg.pipeline_records(other, test, role="treatment", arm=arm)[1]["arm"] == arm
+    assert mg.evaluator_record(pipe, test)["arm"] is None
 
 
 def test_augmentation_records_take_the_study_values_of_the_fine_tuned_denoisers(tiny) -> None:
@@ -188,6 +196,9 @@ def test_augmentation_records_take_the_study_values_of_the_fine_tuned_denoisers(
         pipe, test, mg.gate_seed(pipe))["x0_error_vs_gaussian"]
     names = [r["name"] for part in records.values() for r in part]
     assert len(set(names)) == len(names) == 4
+    assert {row: [r["arm"] for r in part] for row, part in records.items()} == {
+        "vae": [None], "pretrained": [None], "control": ["control"],
+        "augmented": ["augmented"]}     # the VAE and the start of both fine-tunes: common-mode
 
 
 def test_fine_tuned_denoisers_carry_their_own_training(emg_cache: object) -> None:

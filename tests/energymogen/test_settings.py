@@ -139,7 +139,8 @@ def test_standard_scale_is_the_compute_plan() -> None:
     assert (view.seeds, view.map_noise_draws, view.map_grid, view.map_samples) == (3, 2, 16, 16)
     assert not view.scale_check and view.map_cases is None
     count = LatentCountSettings.for_scale("standard")
-    assert count.counts == (5, 7) and count.counts_not_run == (1, 3)
+    assert count.counts == LATENT_COUNTS == (1, 3, 5, 7) and count.counts_not_run == ()
+    assert LatentCountSettings.for_scale("quick").counts_not_run == (1, 3)
     assert count.test_clips == 256
     augmentation = AugmentationSettings.for_scale("standard")
     assert (augmentation.test_clips, augmentation.gate_test_clips) == (384, 256)

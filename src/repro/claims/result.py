@@ -45,6 +45,10 @@ class Controls:
     planted: dict[str, Any] = field(default_factory=dict)
     null_text: str = ""
     positive_text: str = ""
+    #: True: arms built on the same draws with δ planted exactly (decided by sign where every
+    #: seed gives the same difference, ``verdicts.exact_differences``); False: an A/A control
+    #: of independently trained models, whose differences are decided by the claim's own rule
+    exact: bool = True
 
     def as_controls(self) -> dict[str, dict[str, Any]]:
         """The ``controls=`` argument of ``record_claim``."""

@@ -7,8 +7,8 @@ Modules, each importing only those above it in this list (and lower layers):
 claim's rule quotes of them) · ``data`` (stand-in data, composition and negation test items)
 · ``text_stage`` (the frozen text encoder, the stand-in for CLIP) · ``pipeline`` (the trained
 pipeline, its stages, sampling and each model's training record) · ``harness`` (the
-text-to-motion test sets, the measurements the experiments share, the planted sample sets
-and noise calibration of the controls) · ``model_gates`` (the gates of the VAE, latent
+text-to-motion test sets, the measurements the experiments share, the A/A controls of the
+model-based claims) · ``model_gates`` (the gates of the VAE, latent
 denoiser and evaluator) · ``figures`` (the figures, training tables and validation curves the
 notebooks share) · ``energy_contour_maps`` (notebook 04: EMG-1, 2, 3, 6, 9) ·
 ``sef_ablation`` (notebook 05: EMG-4, 5, Tables 7 and 9, the MTT-style timelines, the sets of

@@ -38,9 +38,9 @@ random-batch test).
 
 Beside the study (:func:`augmentation_study`): the gate records of the pretrained and
 fine-tuned denoisers (:func:`augmentation_records`), their training rows
-(:func:`augmentation_training`), the controls (:func:`augmentation_controls`: both arms the
-test clips with one draw of feature noise per seed, the augmented arm's amplitude read off
-``harness.fid_curve``, and motions passed round along one order of the clips), the claim
+(:func:`augmentation_training`), the controls (:func:`augmentation_controls`: A/A runs, the baseline
+(control) denoiser of seed s against that of another seed, with and without twice each part's
+δ planted on the augmented arm), the claim
 (:func:`emg8_result`) and the figures.
 
 On a data folder (real data, no concept labels) the study is a ``data.NotMeasurable``: the
@@ -80,22 +80,14 @@ from repro.energymogen.data import (
 )
 from repro.energymogen.figures import Record
 from repro.energymogen.harness import (
-    BASE_AMPLITUDE,
-    KINDS,
+    AASlot,
     TextToMotionTest,
+    aa_controls,
     composition_metrics,
-    control_rng,
-    feature_noise,
-    fid_curve,
-    first_reaching,
+    copy_seed,
     generation_metrics,
     ground_truth_r_precision,
     oracle_presence,
-    permute_motions,
-    r_precision_top3,
-    reference_embeddings,
-    t2m_measurements,
-    with_feature_noise,
 )
 from repro.energymogen.model_gates import denoiser_gate_values, denoiser_record, pipeline_records
 from repro.energymogen.pipeline import (
@@ -217,7 +209,10 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
     """EMG-8: per seed s, the records of the pretrained pipeline of s (``pipeline_for``: its
     VAE and denoiser measured here on ``gate_test``, the denoiser with :func:`gate_seed`) and
     of the control and augmented denoisers fine-tuned from it (the x̂0 error
-    ``augmentation_study`` measured on its own test at s, its training records).
+    ``augmentation_study`` measured on its own test at s, its training records). The
+    control and augmented denoisers serve their arms (``arm`` "control", "augmented"); the
+    VAE every arm decodes with and the pretrained denoiser both arms are fine-tuned from are
+    common-mode (``arm`` None).
     Returns ``{"vae": [...], "pretrained": [...], "control": [...], "augmented": [...]}``; for
     a ``NotMeasurable`` study (a data folder: nothing fine-tuned) the pretrained models'
     records only (``control`` and ``augmented`` empty)."""
@@ -226,8 +221,8 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
     for i, seed in enumerate(seeds):
         pipe = pipeline_for(source, seed)
         vae, pretrained = pipeline_records(pipe, gate_test, role="reference")
-        out["vae"].append(vae)
-        out["pretrained"].append(pretrained)
+        out["vae"].append(vae)          # every arm decodes with it: common-mode (arm None)
+        out["pretrained"].append(pretrained)   # both arms are fine-tuned from it: None
         if isinstance(results, NotMeasurable):
             continue
         for row in ("control", "augmented"):
@@ -235,7 +230,7 @@ def augmentation_records(source: PipelineSource, gate_test: TextToMotionTest,
                 pipe, {"x0_error_vs_gaussian": results["fitness"][row][i]}, role="treatment",
                 name=f"EMG {row} denoiser (fine-tuned from train seed {pipe.train_seed}, "
                      f"seed {seed})",
-                denoiser=pipe.denoiser, training=results["training"][row][i]))
+                denoiser=pipe.denoiser, training=results["training"][row][i], arm=row))
     return out
 
 
@@ -553,83 +548,41 @@ def seconds_text(results: Study) -> str:
     return str({k: np.round(v, 1).tolist() for k, v in results["seconds"].items()})
 
 
-#: our choice: the fraction of the baseline arm's motions passed round in EMG-8's controls
-#: (R@3 off its ceiling, so the augmented arm has room to rise)
-_BASE_PERMUTED = 0.5
-
-
-def augmentation_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest | NotMeasurable,
-                          seeds: Sequence[int], *, scale: float = 1.0) -> Controls | None:
-    """EMG-8's controls: "generations" of the baseline and the augmented model are the test
-    clips with feature noise and some of their motions passed round among themselves
-    (``harness.permute_motions``: R@3 falls, FID does not move), measured as
-    ``evaluate_generated`` measures (R@3 over the test's batches, FID against it). The study
-    measures both models of a seed on the same test set with the same texts and starting
-    noise, so both arms here are the same draw of the seed (``harness.control_rng``): the
-    same noise z (``harness.feature_noise``) and one random order of the clips, an arm
-    passing round the motions of a prefix of that order; different seeds draw anew.
-
-    Baseline: noise 0.5 × std and the first half of the order passed round (our choices: R@3
-    and FID off their floors). Positive: the augmented arm's noise on the same z at the
-    amplitude the FID curve gives 0.9 × the baseline's FID (δ: 10 % of it; FID has no exact
-    transformation, so the size is calibrated on draws of the curve's own,
-    :class:`FidCurve`), and its R@3 planted in whole clips on the same order: the most of the
-    order passed round (the fewest clips restored) that keeps it at least δ = 0.01 above the
-    baseline's R@3 (read off the evaluator's embeddings, each motion embedded on its own, and
-    the arm then measured). Null: the augmented arm the baseline's (identical arms). None for
-    a ``NotMeasurable`` test (a data folder: no shared-concept test, EMG-8 not
-    measurable)."""
-    if isinstance(test, NotMeasurable):
+def augmentation_controls(source: PipelineSource, test: TextToMotionTest | NotMeasurable,
+                          results: Mapping[str, Any] | NotMeasurable, seeds: Sequence[int], *,
+                          threads: int | None = 1) -> Controls | None:
+    """EMG-8's controls as A/A runs (``harness.aa_controls``). The reference arm is the
+    registered baseline, the control denoiser (fine-tuned on the training rows alone); the
+    null is seed s's control against the control of seed s' = ``copy_seed(seeds, s)`` (the
+    run's next seed, cyclic, whose pretrained pipeline and fine-tuning the study already ran;
+    with one seed s + 1, pretrained and fine-tuned here as the study would), the copy in the
+    augmented arm's place, measured as the study measures (``harness.generation_metrics`` on
+    the shared-concept test with seed s's captions and noise). Positive: the same A/A with
+    twice each part's δ planted on the augmented arm (R@3 + 0.02; FID × exp(−2δ)). None for
+    a ``NotMeasurable`` study (a data folder: EMG-8 not measurable)."""
+    if isinstance(test, NotMeasurable) or isinstance(results, NotMeasurable):
         return None
-    reference = reference_embeddings(pipe, test)
-    curve = fid_curve(pipe, test, reference)
-    base_fid = curve.fid(BASE_AMPLITUDE)
-    aug_amplitude = curve.amplitude((1 - 0.1 * scale) * base_fid)
-    delta = 0.01 * scale
-    base_permuted = round(_BASE_PERMUTED * len(test))
-    out: dict[str, Any] = {kind: {} for kind in KINDS}
-    permuted_counts = []
-    for seed in seeds:
-        rng = control_rng(seed, 8)
-        noise = feature_noise(test.features, rng)
-        order = rng.permutation(len(test))
-        noised = {a: with_feature_noise(test.features, pipe.data.std, a, noise)
-                  for a in (BASE_AMPLITUDE, aug_amplitude)}
-        baseline = t2m_measurements(pipe, test, permute_motions(
-            noised[BASE_AMPLITUDE], order[:base_permuted]), seed, reference)
-        text = pipe.evaluator.embed_texts(test.texts(seed))
-        motion = pipe.evaluator.embed_motions(noised[aug_amplitude], test.lengths)
-
-        def gain(count: int, text: np.ndarray = text, motion: np.ndarray = motion,
-                 order: np.ndarray = order, seed: int = seed,
-                 base: float = baseline["r_precision_top3"]) -> float:
-            return r_precision_top3(test, text, permute_motions(motion, order[:count]),
-                                    seed) - base
-
-        permuted = first_reaching(range(len(test), -1, -1), gain, delta)
-        permuted_counts.append(permuted)
-        augmented = t2m_measurements(pipe, test, permute_motions(noised[aug_amplitude],
-                                                                 order[:permuted]),
-                                     seed, reference)
-        for kind, arms in (("positive", {"augmented": augmented, "baseline": baseline}),
-                           ("null", {"augmented": baseline, "baseline": baseline})):
-            for arm, values in arms.items():
-                out[kind].setdefault(f"r_precision_top3_{arm}", []).append(
-                    values["r_precision_top3"])
-                out[kind].setdefault(f"fid_{arm}", []).append(values["fid"])
-    return Controls(null=out["null"], positive=out["positive"],
-                    planted={"base_amplitude": BASE_AMPLITUDE, "base_permuted": base_permuted,
-                             "augmented_amplitude": aug_amplitude,
-                             "augmented_permuted": permuted_counts,
-                             "baseline_fid_expected": base_fid,
-                             "fid_curve": dataclasses.asdict(curve)},
-                    null_text=(f"one draw per seed: the baseline's arm (noise {BASE_AMPLITUDE:g} "
-                               f"× std, {base_permuted} of {len(test)} motions passed round) "
-                               f"as both arms (identical), {len(seeds)} seed(s)"),
-                    positive_text=(f"the same draws; the augmented arm at {aug_amplitude:.3g} × "
-                                   f"std on the same noise (FID × {1 - 0.1 * scale:g} by the "
-                                   f"FID curve), the fewest clips of the baseline's passed-round "
-                                   f"ones restored for R@3 + {delta:g}"))
+    copies = {int(s): copy_seed(seeds, s) for s in seeds}
+    copy: dict[str, list[float]] = {"r_precision_top3_baseline": [], "fid_baseline": []}
+    with torch_threads(threads):
+        for seed, other in copies.items():
+            pipe = pipeline_for(source, other)
+            rows = caption_rows(pipe, pipe.data.train_features, pipe.data.train_captions)
+            denoiser, _ = load_or_finetune(pipe, rows,
+                                           pipeline_finetune_config(pipe, other, threads))
+            values = generation_metrics(replace(pipe, denoiser=denoiser), test, seed)
+            copy["r_precision_top3_baseline"].append(float(values["r_precision_top3"]))
+            copy["fid_baseline"].append(float(values["fid"]))
+    t2m = results["t2m"]
+    reference = {"r_precision_top3_augmented": t2m["augmented"]["r_precision_top3"],
+                 "r_precision_top3_baseline": t2m["control"]["r_precision_top3"],
+                 "fid_augmented": t2m["augmented"]["fid"], "fid_baseline": t2m["control"]["fid"]}
+    slots = [AASlot(("r_precision_top3_augmented",), ("r_precision_top3_baseline",)),
+             AASlot(("fid_augmented",), ("fid_baseline",))]
+    return aa_controls("EMG-8", reference, copy, slots,
+                       {"r_precision_improves": [("r_precision_top3_augmented",)],
+                        "fid_improves": [("fid_augmented",)]},
+                       copies=copies, what="the control (baseline) denoiser")
 
 
 def emg8_result(results: Mapping[str, Any] | NotMeasurable, settings: AugmentationSettings,

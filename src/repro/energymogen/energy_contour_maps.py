@@ -27,13 +27,15 @@ licenses, checked on the pipeline — the settings are ``EnergyViewSettings``.
   negation), oracle-measured (:func:`composition_study`) and recorded by
   :func:`emg23_results`; the guidance-scale check beside them (paper scale only, not
   recorded): :func:`guidance_scale_check`; their controls: :func:`composition_controls`
-  (training and ground-truth clips whose concepts the oracles detect).
+  (A/A runs: the baselines sampled from an independently trained copy,
+  :func:`composition_reference_rates`).
 - **EMG-6** (Sec. 5.5 Q3, Fig. 5–6: composed and multi-concept maps "demonstrate consistent
   high- and low-energy regions") — denoising-loss energy maps on a 2-D slice of latent space
   (:func:`latent_plane`, :func:`energy_landscape`, :func:`smooth_energy_map`,
   :func:`map_similarity`; one conjunction or negation case: :func:`energy_map_case`, every
   case of a seed: :func:`energy_map_cases`, the per-seed numbers between floor and ceiling:
-  :func:`map_similarities`); controls: :func:`energy_map_controls`; the claim:
+  :func:`map_similarities`); controls: :func:`energy_map_controls` (A/A runs: the floor read on
+  an independently trained copy); the claim:
   :func:`emg6_result`.
 - **EMG-9** (app. G.2, Eq. 12: the FID formula as printed) — FID against the Gaussian closed
   form on random commuting Gaussians (:func:`fid_formula_errors`) and on fixed cases whose
@@ -76,7 +78,6 @@ from torch import Tensor, nn
 from repro.claims.registry import get_claim
 from repro.claims.registry_energymogen import EMG1_LIMIT
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
-from repro.claims.verdicts import log_margin
 from repro.core import metrics
 from repro.core.diffusion import GaussianDiffusion
 from repro.core.tables import interval_text, markdown_table, render
@@ -90,13 +91,14 @@ from repro.energymogen.data import (
     negation_items,
     not_measurable_reason,
     pair_caption,
-    stand_in_clips_of,
 )
 from repro.energymogen.figures import Figures
 from repro.energymogen.harness import (
     KINDS,
-    control_rng,
-    first_reaching,
+    AASlot,
+    aa_controls,
+    copy_seed,
+    copy_source,
     oracle_presence,
     pair_index,
     per_pair_mean,
@@ -123,7 +125,7 @@ from repro.energymogen.settings import (
 from repro.infra.context import check_scale
 from repro.models.latent_denoiser import LatentDenoiser
 from repro.motion.plotting import filmstrip, save_figure
-from repro.standin.oracles import GLIDE_NOTE, TRAVEL_CONCEPTS, detect_concepts
+from repro.standin.oracles import GLIDE_NOTE, TRAVEL_CONCEPTS
 
 __all__ = [
     "EnergyViewSettings",
@@ -135,6 +137,7 @@ __all__ = [
     "by_pair_markdown",
     "case_similarities",
     "composition_controls",
+    "composition_reference_rates",
     "composition_examples_figure",
     "composition_oracle_figure",
     "composition_study",
@@ -1078,278 +1081,87 @@ def composition_study(source: PipelineSource, seeds: Sequence[int], *, per_case:
             "examples": examples}
 
 
-#: our choice: the single-concept arm's both-present rate in the constructed sets (the
-#: registry example's level); the negation baseline keeps its negated concept in 90 %
-_BASE_BOTH = 0.3
-_BASE_NEGATED = 0.9
+def composition_reference_rates(pipe: EnergyMoGenPipeline, seed: int, per_case: int
+                                ) -> dict[str, float]:
+    """The reference arms of ``composition_study`` at ``seed`` sampled from ``pipe``: the best
+    single concept's both-present rate (per held-out pair the better of the two single-concept
+    generations, averaged over pairs) and the negation baseline's (c_i alone) negated- and
+    kept-concept rates — the same items, texts, noise and batches as the study's, so on the
+    study's own pipeline the same numbers, and on another training the A/A copy's."""
+    items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
+    c1, c2 = items.concept_texts
+    pairs = pair_index(items)
+
+    def presence(texts: Sequence[str], concepts: Sequence[Sequence[str]]) -> np.ndarray:
+        motion = pipe.decode(pipe.sample(Sampler("single"), [], texts, seed, batch=len(texts)))
+        return oracle_presence(pipe.joints(motion), concepts)
+
+    single1, single2 = presence(c1, items.concepts), presence(c2, items.concepts)
+    best = np.maximum(per_pair_mean(single1.all(1), pairs), per_pair_mean(single2.all(1), pairs))
+    neg = negation_items(seed, per_case)
+    base = presence(neg.pair_texts, list(zip(neg.kept, neg.negated, strict=True)))
+    return {"best_single_concept_both_present": float(best.mean()),
+            "baseline_negated_present": float(base[:, 1].mean()),
+            "baseline_kept_present": float(base[:, 0].mean())}
 
 
-_FALLBACK_CLIPS = 4
-
-
-class _TrainingClips:
-    """Training clips by their concepts (single concepts and trained pairs), drawn at random:
-    real stand-in motion whose concepts are known, without generating any (for a concept set
-    no training clip holds, as in a tiny test configuration, :data:`_FALLBACK_CLIPS` clips are
-    generated as the training clips were, ``data.stand_in_clip``, and drawn from)."""
-
-    def __init__(self, pipe: EnergyMoGenPipeline) -> None:
-        self.pipe = pipe
-        self.index: dict[frozenset[str], list[int]] = {}
-        self.generated: dict[frozenset[str], list[set[str]]] = {}
-        for i, names in enumerate(pipe.data.train_concepts):
-            self.index.setdefault(frozenset(names), []).append(i)
-
-    def found(self, concepts: Sequence[tuple[str, ...]], rng: np.random.Generator
-              ) -> list[set[str]]:
-        """The oracles' concepts of one random training clip of each concept set."""
-        out = []
-        for names in concepts:
-            options = self.index.get(frozenset(names))
-            if options:
-                pick = int(rng.choice(options))
-                joints = self.pipe.joints(self.pipe.data.train_features[pick:pick + 1])[0]
-                out.append(detect_concepts(joints))
-                continue
-            key = frozenset(names)
-            if key not in self.generated:
-                clips = stand_in_clips_of(tuple(names), self.pipe.data.frames, rng, _FALLBACK_CLIPS)
-                self.generated[key] = [detect_concepts(joints) for _, joints, _ in clips]
-            out.append(self.generated[key][int(rng.integers(_FALLBACK_CLIPS))])
-        return out
-
-
-def _neither(pair: tuple[str, ...]) -> str:
-    """A concept of neither of ``pair``: the first lower-body concept not in it."""
-    return next(c for c in LOWER_CONCEPTS if c not in pair)
-
-
-def composition_controls(source: PipelineSource, seeds: Sequence[int], *, per_case: int,
-                         scale: float = 1.0) -> dict[str, Controls] | None:
-    """EMG-2/3's controls: the six rates of ``composition_study`` measured by the same
-    oracles on constructed sets of real clips, per seed on that seed's items (the same
-    composition items and negation cases and counts), paired as the study pairs its arms.
-
-    The study measures every arm of a seed on the same items with the same model and starting
-    noise, so here every arm of a seed is built from one draw (:func:`control_rng`): per item
-    the clip that has the measured concept(s) (the item's ground-truth composed clip; for
-    negation a training clip of the pair) and the clips that lack them (a single-concept
-    training clip; the kept concept alone, the negated concept alone, a third concept), and
-    one random order of the items. An arm holds the measured concept on a prefix of that order,
-    so two arms differ on whole items, the same items. Conjunction: concept 1's arm holds both
-    concepts on the first 30 % of the items and concept 2's on none, so "best single" (per
-    pair the better of the two, as the study) is that rate; the conjunction arm holds them on
-    the same items and, in the positive control, on the fewest further items that put it δ =
-    0.1 above the best single concept (the null: the same items, the arms identical).
-    Negation: the baseline has the negated concept on the first 90 % of the items of a second
-    order and the kept concept on every item; the negation arm has the negated concept on the
-    same items less, in the positive control, the fewest whose removal brings
-    log(baseline / negation) to δ = −log 0.9 (the null: none removed), and the kept concept on
-    a prefix of a third order, exactly half the baseline's count in the null (the rule's
-    threshold, 2·kept = baseline; one item under it when that count is odd) and, in the
-    positive control, the fewest items more that bring log(2·kept / baseline) to δ = log 1.1.
-    Each comparison reads the rule's own offsets (half of one of its 96 negation items). The
-    oracles find every pool concept in these clips, so the planted counts are the measured
-    ones; ``planted`` records them per seed.
-
-    Returns ``{"EMG-2": controls, "EMG-3": controls}``: one draw per seed shared by both claims
-    and both controls (the study's baseline arms are the same for both forms). None on a data
-    folder: the arms are clips of the stand-in's concepts, and the claims they control are not
-    measurable there (``composition_study``).
-    """
-    if not pipeline_for(source, seeds[0]).data.labelled:
+def composition_controls(source: PipelineSource, study: Mapping[str, Any] | NotMeasurable,
+                         seeds: Sequence[int], *, per_case: int) -> dict[str, Controls] | None:
+    """EMG-2/3's controls as A/A runs (``harness.aa_controls``). The reference arms are the
+    study's baselines (the best single concept for conjunction, c_i alone for negation); the
+    null is seed s's baselines (the study's) against the same baselines sampled, with seed
+    s's items, texts and noise, from the pipeline of seed s' = ``copy_seed(seeds, s)`` (the
+    run's next seed, cyclic, already trained; one seed: s + 1) in the compared arms' places:
+    conjunction = the copy's best single concept, negation's negated rate = the copy's
+    baseline negated rate, its kept rate = half the copy's baseline kept rate (the rule reads
+    2·kept / baseline: the null sits on its threshold). Positive: the same A/A with twice each
+    part's δ planted on the compared arm in the paper's direction. One copy per seed serves
+    both claims (their baselines are the same samples). Returns ``{"EMG-2": controls,
+    "EMG-3": controls}``; None on a data folder (``composition_study`` not measurable)."""
+    if isinstance(study, NotMeasurable):
         return None
-    names = ("conjunction_both_present", "best_single_concept_both_present",
-             "negation_negated_present", "baseline_negated_present", "negation_kept_present",
-             "baseline_kept_present")
-    conjunction_delta = 0.1 * scale
-    removes = log_margin(0.1 * scale, of="numerator")
-    keeps = log_margin(0.1 * scale, of="denominator", factor=2.0)
-    half = _NEGATION_STEP / 2
-    out: dict[str, Any] = {kind: {n: [] for n in names} for kind in KINDS}
-    planted: list[dict[str, int]] = []
-    for seed in seeds:
-        pipe = pipeline_for(source, seed)
-        pool = _TrainingClips(pipe)
-        items = composition_items(pipe.data, seed, pipe.config.items_per_pair)
-        pairs = pair_index(items)
-        neg = negation_items(seed, per_case)
-        rng = control_rng(seed, 23)   # the seed's one draw: every arm, both claims and kinds
-        has_both = np.array([bool(set(names_) <= detect_concepts(j))
-                             for names_, j in zip(items.concepts, items.gt_joints, strict=True)])
-        singles = pool.found([(c[0],) for c in items.concepts], rng)
-        alone = np.array([set(c) <= f for c, f in zip(items.concepts, singles, strict=True)])
-        found = _negation_sets(neg, pool, rng)
-        order, negated_order, kept_order = (rng.permutation(n) for n in (len(items), len(neg),
-                                                                         len(neg)))
-
-        def both(count: int, order: np.ndarray = order, has_both: np.ndarray = has_both,
-                 alone: np.ndarray = alone) -> np.ndarray:
-            return np.where(_prefix(order, count), has_both, alone)
-
-        n_single = round(_BASE_BOTH * len(items))
-        single1 = both(n_single)
-        best = float(np.maximum(per_pair_mean(single1, pairs),
-                                per_pair_mean(alone, pairs)).mean())
-        extra = first_reaching(range(len(items) - n_single + 1),
-                               lambda k, n=n_single, b=best: float(both(n + k).mean()) - b,
-                               conjunction_delta)
-        n_negated = round(_BASE_NEGATED * len(neg))
-        base = _negation_arm(found, _prefix(negated_order, n_negated), np.ones(len(neg), bool))
-        base_negated, base_kept = float(base[:, 1].mean()), float(base[:, 0].mean())
-        null_kept = int(base[:, 0].sum()) // 2
-
-        def treated(removed: int, kept: int, found: Mapping[str, np.ndarray] = found,
-                    negated_order: np.ndarray = negated_order, n: int = n_negated,
-                    kept_order: np.ndarray = kept_order) -> np.ndarray:
-            return _negation_arm(found, _prefix(negated_order, n - removed),
-                                 _prefix(kept_order, kept))
-
-        removed = first_reaching(
-            range(n_negated + 1),
-            lambda r, b=base_negated, k=null_kept: float(np.log((b + half) / (
-                treated(r, k)[:, 1].mean() + half))), removes)
-        kept = first_reaching(
-            range(null_kept, len(neg) + 1),
-            lambda k, r=removed, b=base_kept: float(np.log((2 * treated(r, k)[:, 0].mean()
-                                                             + half) / (b + half))), keeps)
-        planted.append({"items": len(items), "single_concept_items": n_single,
-                        "conjunction_extra_items": extra, "negation_items": len(neg),
-                        "baseline_negated_items": n_negated, "negated_removed_items": removed,
-                        "null_kept_items": null_kept, "positive_kept_items": kept})
-        for kind, (conj, negation) in (("positive", (both(n_single + extra),
-                                                     treated(removed, kept))),
-                                       ("null", (single1, treated(0, null_kept)))):
-            m = out[kind]
-            m["conjunction_both_present"].append(float(conj.mean()))
-            m["best_single_concept_both_present"].append(best)
-            m["negation_negated_present"].append(float(negation[:, 1].mean()))
-            m["baseline_negated_present"].append(base_negated)
-            m["negation_kept_present"].append(float(negation[:, 0].mean()))
-            m["baseline_kept_present"].append(base_kept)
-    positive_text = (f"per seed one draw of real clips and item orders shared by every arm: "
-                     f"the conjunction arm both concepts on the best single concept's "
-                     f"{_BASE_BOTH:g} of the items and the fewest further items that reach "
-                     f"+{conjunction_delta:g}; the negation arm without the negated concept on "
-                     f"the fewest of the baseline's {_BASE_NEGATED:g} that reach "
-                     f"log(without / with) ≥ {removes:.3g}, the kept concept on half the "
-                     f"baseline's items and the fewest more that reach log(2·kept / baseline) "
-                     f"≥ {keeps:.3g}")
-    null_text = (f"the same draw with nothing planted: the conjunction arm on the best single "
-                 f"concept's items ({_BASE_BOTH:g}), the negated concept on the baseline's "
-                 f"items ({_BASE_NEGATED:g}), the kept one on exactly half the baseline's "
-                 f"(the rule's threshold), {len(seeds)} seed(s)")
-    return {claim_id: Controls(null=out["null"], positive=out["positive"],
-                               planted={"per_seed": planted,
-                                        "single_concept_both_present": _BASE_BOTH,
-                                        "baseline_negated_present": _BASE_NEGATED},
-                               null_text=null_text, positive_text=positive_text)
-            for claim_id in ("EMG-2", "EMG-3")}
+    copies = {int(s): copy_seed(seeds, s) for s in seeds}
+    copy: dict[str, list[float]] = {}
+    for seed, other in copies.items():
+        rates = composition_reference_rates(pipeline_for(source, other), seed, per_case)
+        for name, value in rates.items():
+            copy.setdefault(name, []).append(value)
+    slots = [AASlot(("conjunction_both_present",), ("best_single_concept_both_present",)),
+             AASlot(("negation_negated_present",), ("baseline_negated_present",)),
+             AASlot(("negation_kept_present",), ("baseline_kept_present",), factor=0.5)]
+    targets = {"conjunction_carries_both": [("conjunction_both_present",)],
+               "negation_removes_concept": [("negation_negated_present",)],
+               "negation_keeps_other": [("negation_kept_present",)]}
+    return {claim_id: aa_controls(claim_id, study[mode], copy, slots, targets, copies=copies,
+                                  what="the baselines (best single concept, c_i alone)")
+            for claim_id, mode in (("EMG-2", "latent"), ("EMG-3", "semantic"))}
 
 
-#: one item of the registered negation rates (EMG-2/3's rule: of its 96 negation items); the
-#: rule offsets both rates of a log ratio by half of it
-_NEGATION_STEP = 1 / 96
-
-
-def _prefix(order: np.ndarray, count: int) -> np.ndarray:
-    """(len(order),) bool: the first ``count`` items of ``order``."""
-    out = np.zeros(len(order), dtype=bool)
-    out[order[:max(count, 0)]] = True
-    return out
-
-
-def _negation_sets(neg: Any, pool: _TrainingClips, rng: np.random.Generator
-                   ) -> dict[str, np.ndarray]:
-    """Per negation item, the oracle's (kept, negated) presence on four training clips: the
-    pair, the kept concept alone, the negated concept alone, a third concept."""
-    out: dict[str, np.ndarray] = {}
-    kinds = {"pair": lambda k, n: (k, n), "kept": lambda k, n: (k,),
-             "negated": lambda k, n: (n,), "neither": lambda k, n: (_neither((k, n)),)}
-    for key, concepts_of in kinds.items():
-        found = pool.found([concepts_of(k, n) for k, n in zip(neg.kept, neg.negated,
-                                                                strict=True)], rng)
-        out[key] = np.array([[k in f, n in f] for k, n, f in zip(neg.kept, neg.negated, found,
-                                                                strict=True)], dtype=bool)
-    return out
-
-
-def _negation_arm(found: Mapping[str, np.ndarray], negated: np.ndarray, kept: np.ndarray
-                  ) -> np.ndarray:
-    """(B, 2) presence of (kept, negated) of an arm whose item b is the clip holding the
-    concepts ``kept[b]`` and ``negated[b]`` say (both: the pair clip; one: that concept
-    alone; none: a third concept), as the oracles measure it."""
-    choice = np.where(kept & negated, 0, np.where(kept, 1, np.where(negated, 2, 3)))
-    stacked = np.stack([found["pair"], found["kept"], found["negated"], found["neither"]])
-    return stacked[choice, np.arange(len(choice))]
-
-
-def _standardised(values: np.ndarray) -> np.ndarray:
-    flat = np.asarray(values, dtype=np.float64)
-    return (flat - flat.mean()) / flat.std()
-
-
-def _turned(floor_map: np.ndarray, multi: np.ndarray, target: float) -> np.ndarray:
-    """``floor_map`` turned towards ``multi`` within the plane they span so that its Pearson
-    r with ``multi`` is exactly ``target``: target·m̂ + √(1 − target²)·û, m̂ the standardised
-    ``multi`` and û the standardised part of the floor's map orthogonal to it."""
-    m, f = _standardised(multi).ravel(), _standardised(floor_map).ravel()
-    if not -1.0 <= target <= 1.0:
-        raise ValueError(f"a correlation of {target:.3g} is not one")
-    orthogonal = _standardised(f - np.mean(f * m) * m)
-    return (target * m + np.sqrt(1.0 - target ** 2) * orthogonal).reshape(np.shape(floor_map))
-
-
-def energy_map_controls(cases: Mapping[str, Sequence[Sequence[Mapping[str, Any]]]]
-                        | NotMeasurable, smooth: Callable[[np.ndarray], np.ndarray], grid: int,
-                        *, scale: float = 1.0) -> Controls | None:
-    """EMG-6's controls on the experiment's own composed maps (``case["smooth"]["composed"]``;
-    ``cases``: kind → one list of cases per seed, as ``map_similarities`` reads), paired as
-    the experiment pairs its arms: in a case, the composed map and the floor's are each
-    correlated with the same multi-concept map (one latent slice, one set of noise draws).
-
-    Per seed and case, one draw (:func:`control_rng`): the multi-concept map is ``smooth``
-    (the experiment's interpolation and smoothing) of white noise on the ``grid``² grid, and
-    the floor's map is the experiment's composed map of that case. The composed arm's map is
-    the floor's map itself in the null (the arms identical: to-multi − floor is exactly 0),
-    and in the positive control that map turned towards the multi map so that its r with it is
-    exactly the floor's r + δ (δ = 0.1 in r; :func:`_turned`, exact up to rounding); as in
-    the experiment, a seed's value is the mean over its cases. Different seeds and cases get
-    different multi maps. None for a ``NotMeasurable`` (a data folder: no maps, no claim to
-    control).
-    """
-    if isinstance(cases, NotMeasurable):
+def energy_map_controls(source: PipelineSource,
+                        measured: Mapping[str, Sequence[float]] | NotMeasurable,
+                        seeds: Sequence[int], *, count: int | None = None, **kwargs: Any
+                        ) -> Controls | None:
+    """EMG-6's controls as A/A runs (``harness.aa_controls``). The reference arm is the floor,
+    r(one concept alone's map, the multi-concept map), a reading that lives in one pipeline's
+    latent plane (maps of two trainings are on different latent coordinates, so a reading is
+    compared, never a map). The null: seed s's floor against the floor read the same way
+    (:func:`energy_map_study` with ``count`` and ``kwargs``: seed s's cases, noise draws and
+    grid) on the pipeline of seed s' = ``copy_seed(seeds, s)`` (the run's next seed, cyclic;
+    one seed: s + 1), in the composed arm's place, per case kind. Positive: the same A/A with
+    twice δ (0.2 in r) added to the composed arm. None for a ``NotMeasurable`` (a data
+    folder: no maps, no claim to control)."""
+    if isinstance(measured, NotMeasurable):
         return None
-    delta = 0.1 * scale
-    out: dict[str, Any] = {kind: {} for kind in KINDS}
-    for index_kind, (case_kind, per_seed) in enumerate(cases.items()):
-        arms: dict[str, list[list[float]]] = {"positive": [], "null": [], "floor": []}
-        for index, found in enumerate(per_seed):
-            rng = control_rng(index, 6 + 10 * index_kind)
-            seed_arms: dict[str, list[float]] = {key: [] for key in arms}
-            for case in found:
-                floor_map = np.asarray(case["smooth"]["composed"])
-                multi = _standardised(smooth(rng.standard_normal((grid, grid))))
-                floor = map_similarity(floor_map, multi)
-                seed_arms["floor"].append(floor)
-                seed_arms["null"].append(floor)   # the composed arm is the floor's map
-                seed_arms["positive"].append(
-                    map_similarity(_turned(floor_map, multi, floor + delta), multi))
-            for key, values in seed_arms.items():
-                arms[key].append(values)
-        for kind in KINDS:
-            out[kind][f"{case_kind}_similarity_to_multi"] = [float(np.mean(v))
-                                                             for v in arms[kind]]
-            out[kind][f"{case_kind}_similarity_floor"] = [float(np.mean(v))
-                                                          for v in arms["floor"]]
-    return Controls(null=out["null"], positive=out["positive"],
-                    planted={"planted_correlation": delta, "grid": grid,
-                             "reason": "δ = 0.1 in Pearson r (registry v3)"},
-                    null_text=("per seed and case one random smooth field as the multi-concept "
-                               "map, the experiment's composed map as both the floor's and the "
-                               "composed arm's map (identical arms)"),
-                    positive_text=(f"the same draws; the composed arm's map the floor's turned "
-                                   f"towards the multi-concept field by exactly r + {delta:g}"))
+    copies = {int(s): copy_seed(seeds, s) for s in seeds}
+    copy = map_similarities(energy_map_study(copy_source(source, copies), seeds, count=count,
+                                             **kwargs))
+    if isinstance(copy, NotMeasurable):
+        return None
+    slots = [AASlot((f"{kind}_similarity_to_multi",), (f"{kind}_similarity_floor",))
+             for kind in MAP_KINDS]
+    return aa_controls("EMG-6", measured, copy, slots,
+                       {kind: [(f"{kind}_similarity_to_multi",)] for kind in MAP_KINDS},
+                       copies=copies, what="the floor (one concept alone's map ~ multi)")
 
 
 #: the per-case values EMG-6 keeps beside its per-seed measurements

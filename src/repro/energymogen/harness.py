@@ -1,5 +1,5 @@
 """The measurement harness of the EnergyMoGen experiments: the held-out test sets, the
-measurements several claims share, and the planted sample sets of their controls.
+measurements several claims share, and the A/A controls of the model-based claims.
 
 - :class:`TextToMotionTest` — the stand-in for the HumanML3D test set: held-out clips drawn
   exactly as the pipeline's training clips (single concepts and the trained pairs, same
@@ -25,41 +25,35 @@ measurements several claims share, and the planted sample sets of their controls
 - **transitions where they happen** (EMG-5): :func:`transition_distances_at_cm` (TEACH/STMC's
   distance at a timeline's boundary frames) and :func:`transition_speed_ratio` (the same over
   the clip's own mean speed, which standing still does not win);
-- **the controls' sample sets** — ground-truth motions with a known change planted: items
-  swapped to another item's motion one after another in a drawn order (:func:`swap_draw`,
-  :func:`swap_motions`: R-precision falls item by item), motions passed round within a chosen
-  subset (:func:`permute_motions`: FID exactly unchanged), the body's movement scaled about its
-  temporal mean (:func:`scale_movement`: every consecutive-frame displacement scales); and the
-  feature-noised test clips that EMG-7's and EMG-8's controls read their planted noise
-  amplitudes off: the test clips plus one draw of Gaussian feature noise times an amplitude ×
-  the data's per-feature std (:func:`feature_noise`, :func:`with_feature_noise`), measured as
-  :func:`generation_metrics` measures FID and R@3 (:func:`t2m_measurements`,
-  :func:`r_precision_top3`), and a power law FID ≈ c·aᵏ fitted on calibration draws of its
-  own (:class:`FidCurve`, :func:`fid_curve`).
-
-Each claim's positive and null controls (in its notebook's module) run the experiment's own
-measurement code on these sets, paired as the experiment pairs its arms: within a seed every
-arm is built from one draw (:func:`control_rng`: the same items, texts, clips and random
-noise) wherever the experiment's arms share their starting noise, items or test set, and
-different seeds get different draws. *Positive* plants every part's registered effect δ as a
-deterministic change to one arm of that draw — exact where an exact transformation exists, and
-in whole items for a counted measurement (the fewest items whose move reaches δ by the rule's
-own comparison, :func:`first_reaching`) — *null* plants none (the arms identical, or exactly
-at a rule's threshold). Where no exact transformation exists (FID) the size is read off a
-scale factor measured on calibration draws disjoint from the control's (never by trying
-until a control passes); ``planted`` records those numbers (the sidecar's
-``control_calibration``). ``scale`` multiplies every planted effect: 1 (the registered δ) in
-the notebooks. A control with one seed cannot decide a direction: in quick runs both controls
-come out inconclusive, and the claim with them.
+- **the controls as A/A runs** (:func:`aa_controls`) — the model-based claims' controls
+  (EMG-2 … EMG-8). The null is an A/A run: the experiment's reference arm of train seed s
+  against an independently trained copy of itself (the pipeline of :func:`copy_seed`: the
+  run's next seed, cyclic, which the standard scale trains anyway; with one seed, s + 1),
+  measured by the experiment's own code with seed s's draws (the same items, captions and
+  noise: :func:`copy_source` runs a study on the copies), its readings in the compared arms'
+  places (:class:`AASlot`, :func:`aa_measured`). Its differences are the spread between
+  trained models: decided by the claim's own rule (``Controls.exact`` False, never the sign
+  rule of a paired-draw control), it must come out neither supported nor contradicted. The
+  positive control is the same A/A with :data:`AA_PLANT` × each part's registered δ planted
+  on its compared arm in the paper's direction (:func:`plant_effect`: each seed's reading set
+  so that its comparison moves by exactly that much; a reading at the edge of its range is
+  planted to the edge and recorded as short); it must be seen. A control with one seed
+  cannot decide a direction: in quick runs both controls come out inconclusive, and the
+  claim with them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from scipy import optimize
 
+from repro.claims.registry import get_claim
+from repro.claims.result import Controls
+from repro.claims.verdicts import Part
 from repro.core import metrics
 from repro.energymogen.data import (
     CompositionItems,
@@ -71,16 +65,15 @@ from repro.energymogen.data import (
     stand_in_clips,
     trained_pairs,
 )
-from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler
+from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
 from repro.energymogen.settings import ARM_CONCEPTS, HELD_OUT_PAIRS, LOWER_CONCEPTS, PipelineConfig
 from repro.infra import cache, storage
 from repro.models.evaluator import evaluate_generated
 from repro.standin.oracles import detect_concepts
 
 __all__ = [
-    "BASE_AMPLITUDE",
-    "CONTROL_STREAM",
-    "FidCurve",
+    "AASlot",
+    "AA_PLANT",
     "KINDS",
     "R_PRECISION_BATCH",
     "SPEED_FLOOR_CM",
@@ -88,11 +81,12 @@ __all__ = [
     "build_shared_concept_test",
     "build_text_to_motion_test",
     "clip_count",
+    "aa_controls",
+    "aa_measured",
     "composition_metrics",
-    "control_rng",
-    "feature_noise",
-    "fid_curve",
-    "first_reaching",
+    "copy_json",
+    "copy_seed",
+    "copy_source",
     "folder_test",
     "generation_metrics",
     "ground_truth_r_precision",
@@ -105,19 +99,12 @@ __all__ = [
     "pair_index",
     "per_frame_displacement_cm",
     "per_pair_mean",
-    "permute_motions",
-    "r_precision_top3",
-    "reference_embeddings",
-    "scale_movement",
+    "plant_effect",
     "shared_concept_anchors",
-    "swap_draw",
-    "swap_motions",
-    "t2m_measurements",
     "transition_distance_at_transitions_cm",
     "transition_distance_cm",
     "transition_distances_at_cm",
     "transition_speed_ratio",
-    "with_feature_noise",
 ]
 
 #: random keys of the test clips start here (training clips use keys 0..n_train−1, the
@@ -468,149 +455,191 @@ def per_pair_mean(values: np.ndarray, pairs: np.ndarray) -> np.ndarray:
     return np.array([values[pairs == p].mean() for p in np.unique(pairs)])
 
 
-#: rng stream of every control (disjoint from the experiments' streams)
-CONTROL_STREAM = 13013
-
-
-def swap_draw(rng: np.random.Generator, groups: np.ndarray) -> list[tuple[int, int]]:
-    """A control's swaps: every item once, in a random order, each with a donor drawn from
-    another group (another held-out pair): (item, donor) pairs for :func:`swap_motions`."""
-    out = []
-    for i in rng.permutation(len(groups)):
-        others = np.flatnonzero(groups != groups[i])
-        out.append((int(i), int(rng.choice(others))))
-    return out
-
-
-def swap_motions(features: np.ndarray, swaps: Sequence[tuple[int, int]]) -> np.ndarray:
-    """``features`` with the motion of each ``(item, donor)`` of ``swaps`` replaced by the
-    donor's original motion (:func:`swap_draw`: another group's): a text–motion mismatch per
-    swapped item; the first k swaps of one draw are the arm with k items swapped."""
-    out = np.array(features, copy=True)
-    for item, donor in swaps:
-        out[item] = features[donor]
-    return out
-
-
-def permute_motions(features: np.ndarray, chosen: Sequence[int]) -> np.ndarray:
-    """``features`` with the motions of ``chosen`` passed round among themselves in that
-    order (item chosen[k] gets chosen[k − 1]'s motion): every chosen item gets another's
-    motion, and the set of motions is unchanged, so FID (a function of that set) is exactly
-    unchanged while R-precision falls."""
-    out = np.array(features, copy=True)
-    index = np.asarray(chosen, dtype=int)
-    if len(index) > 1:
-        out[index] = features[np.roll(index, 1)]
-    return out
-
-
-def first_reaching(candidates: Sequence[int], effect: Callable[[int], float], delta: float
-                   ) -> int:
-    """The first of ``candidates`` (plants in whole items, in the order they grow) whose
-    ``effect``, the rule's own comparison of the planted arm, reaches ``delta``; the last
-    candidate (the largest plant there is) when none does."""
-    for candidate in candidates:
-        if effect(candidate) >= delta:
-            return int(candidate)
-    return int(candidates[-1])
-
-
-def scale_movement(features: np.ndarray, factor: float) -> np.ndarray:
-    """``features`` whose root height and root-relative joints (features 3:67) move ``factor``
-    times as far about their temporal mean: every consecutive-frame displacement of
-    ``metrics.ric_joints`` scales by ``factor``, so the transition distance does exactly."""
-    out = np.array(features, dtype=np.float64, copy=True)
-    block = out[..., 3:67]
-    mean = block.mean(axis=-2, keepdims=True)
-    out[..., 3:67] = mean + factor * (block - mean)
-    return out.astype(np.asarray(features).dtype)
-
-
-def feature_noise(features: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """One draw z ~ N(0, 1) of the features' shape and dtype (float32: half the time), to be
-    scaled by :func:`with_feature_noise`; a control's arms share it."""
-    return rng.standard_normal(features.shape, dtype=features.dtype)
-
-
-def with_feature_noise(features: np.ndarray, std: np.ndarray, amplitude: float,
-                       noise: np.random.Generator | np.ndarray) -> np.ndarray:
-    """features + amplitude·std·z; ``noise``: z itself (:func:`feature_noise`) or a generator
-    to draw it from."""
-    z = feature_noise(features, noise) if isinstance(noise, np.random.Generator) else noise
-    return features + (amplitude * np.asarray(std)).astype(features.dtype) * z
-
-
-def r_precision_top3(test: TextToMotionTest, text: np.ndarray, motion: np.ndarray,
-                     seed: int) -> float:
-    """R@3 (fraction) of text against motion embeddings, one per test clip, as
-    ``generation_metrics`` ranks them: random batches drawn with ``seed``, or the test's own
-    batches when it is grouped (``grouped_r_precision``)."""
-    r = (grouped_r_precision(text, motion) if test.grouped
-         else metrics.r_precision(text, motion, 32, 3, seed))
-    return float(r[2])
-
-
-def t2m_measurements(pipe: EnergyMoGenPipeline, test: TextToMotionTest, features: np.ndarray,
-                     seed: int, reference: np.ndarray) -> dict[str, float]:
-    """FID against the test clips (``reference``: their evaluator embeddings) and R@3
-    (fraction) of the test captions drawn with ``seed``, computed exactly as
-    ``generation_metrics`` computes those two (the same calls: :func:`r_precision_top3`)."""
-    gen = pipe.evaluator.embed_motions(features, test.lengths)
-    text = pipe.evaluator.embed_texts(test.texts(seed))
-    return {"fid": metrics.fid(gen, reference),
-            "r_precision_top3": r_precision_top3(test, text, gen, seed)}
-
-
-def reference_embeddings(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> np.ndarray:
-    """The evaluator embeddings of the test clips themselves (FID's reference)."""
-    return pipe.evaluator.embed_motions(test.features, test.lengths)
-
-
-#: the calibration grid around the base amplitude (the planted arms only lower FID from it)
-_AMPLITUDES = np.geomspace(0.2, 0.7, 6)
-_CALIBRATION_DRAWS = 4
-
-
-@dataclass(frozen=True)
-class FidCurve:
-    """FID of noised test clips against the clean ones as a power law of the noise amplitude,
-    FID ≈ c·aᵏ, fitted (least squares in log–log) to the mean FID over calibration draws of
-    its own on a grid around the base amplitude: the measured scale factor from which each
-    arm's amplitude is read (a fit, so one noisy calibration draw does not set it)."""
-
-    amplitudes: tuple[float, ...]
-    fids: tuple[float, ...]
-    log_c: float
-    k: float
-
-    def fid(self, amplitude: float) -> float:
-        return float(np.exp(self.log_c + self.k * np.log(amplitude)))
-
-    def amplitude(self, fid: float) -> float:
-        return float(np.exp((np.log(fid) - self.log_c) / self.k))
-
-
-def fid_curve(pipe: EnergyMoGenPipeline, test: TextToMotionTest, reference: np.ndarray
-              ) -> FidCurve:
-    """:class:`FidCurve` of the pipeline's evaluator on ``test`` (feature noise: amplitude ×
-    the data's per-feature std, :func:`with_feature_noise`)."""
-    rng = np.random.default_rng([CONTROL_STREAM, 77])
-    std = pipe.data.std
-    fids = np.mean([[t2m_measurements(pipe, test, with_feature_noise(test.features, std, a, rng),
-                                      0, reference)["fid"] for a in _AMPLITUDES]
-                    for _ in range(_CALIBRATION_DRAWS)], axis=0)
-    k, log_c = np.polyfit(np.log(_AMPLITUDES), np.log(fids), 1)
-    return FidCurve(tuple(_AMPLITUDES.tolist()), tuple(fids.tolist()), float(log_c), float(k))
-
-
+#: the two controls of a claim
 KINDS = ("positive", "null")
 
 
-def control_rng(seed: int, claim: int) -> np.random.Generator:
-    """The one draw of a claim's controls at ``seed``, shared by every arm of both its
-    controls (the arms are paired as the experiment's are); different per claim and seed."""
-    return np.random.default_rng([CONTROL_STREAM, claim, seed])
+# --- A/A controls: the reference arm against an independently trained copy of itself ----------
+
+#: a measurement path: the measurement's name, then its keys down to a per-seed list
+Path = tuple[str, ...]
+#: the planted effect of an A/A positive control, in units of the part's registered δ
+AA_PLANT = 2.0
 
 
-#: our choice: the compared arms' base noise (× the data's per-feature std)
-BASE_AMPLITUDE = 0.5
+def copy_seed(seeds: Sequence[int], seed: int, step: int = 1) -> int:
+    """The training seed of an independently trained copy of ``seed``'s reference pipeline:
+    the run's ``step``-th next seed, cyclic over ``seeds`` (no extra training where a run
+    trains more seeds than ``step``), else ``seed + step``."""
+    order = list(seeds)
+    if len(order) <= step:
+        return int(seed) + step
+    return int(order[(order.index(seed) + step) % len(order)])
+
+
+def copy_source(source: PipelineSource, copies: Mapping[int, int]
+                ) -> Callable[[int], EnergyMoGenPipeline]:
+    """A pipeline source whose seed s is the pipeline of train seed ``copies[s]`` of
+    ``source``: an experiment run with it measures the copies with each seed's own draws."""
+    return lambda seed: pipeline_for(source, copies[int(seed)])
+
+
+@dataclass(frozen=True)
+class AASlot:
+    """One compared arm of an A/A control: the per-seed readings at ``path`` replaced by the
+    copy's readings of the reference arm at ``source`` times ``factor`` (1: the arms are the
+    same experiment on two trainings; another factor puts the null exactly on a rule's
+    threshold, e.g. ½ for a rule that reads 2·treatment / reference)."""
+
+    path: Path
+    source: Path
+    factor: float = 1.0
+
+
+def _at(measured: Mapping[str, Any], path: Path) -> Any:
+    node: Any = measured
+    for key in path:
+        node = node[key]
+    return node
+
+
+def _set(measured: dict[str, Any], path: Path, values: list[float]) -> None:
+    node = measured
+    for key in path[:-1]:
+        node = node[key]
+    node[path[-1]] = values
+
+
+def aa_measured(reference: Mapping[str, Any], copy: Mapping[str, Any],
+                slots: Sequence[AASlot]) -> dict[str, Any]:
+    """An A/A null's measurements: the experiment's measurements of the reference pipelines
+    (``reference``: seed s's) with every slot's arm replaced by the copy's reference-arm
+    readings (``copy``: the same measurement, the same draws of seed s — captions, items,
+    noise — on the pipeline of :func:`copy_seed`). Nothing differs between the arms but the
+    training of the models, so any difference is the spread between trained models."""
+    out = copy_json(reference)
+    for slot in slots:
+        _set(out, slot.path, [slot.factor * float(v) for v in _at(copy, slot.source)])
+    return out
+
+
+def copy_json(measured: Mapping[str, Any]) -> dict[str, Any]:
+    """A deep copy of a measurement dict (nested dicts of per-seed lists)."""
+    return {key: copy_json(value) if isinstance(value, Mapping)
+            else list(value) if isinstance(value, (list, tuple)) else value
+            for key, value in measured.items()}
+
+
+class _OutOfDomain(Exception):
+    """A reading the part's comparison cannot take (a log ratio of a negative amount)."""
+
+
+def _planted_value(part: Part, measured: dict[str, Any], path: Path, seed: int,
+                   shift: float, comparison: int = 0) -> tuple[float, bool]:
+    """The value of the target arm's reading at ``seed`` that moves the part's
+    ``comparison`` at that seed by exactly ``shift``: a root of the comparison, bracketed from
+    the reading outwards (every registered comparison is monotone in one arm's reading), in
+    ratio steps for a log ratio (a positive reading stays positive), else in additive ones.
+    Returns (the value, whether it reaches ``shift``): a reading at the edge of what the
+    comparison can take (a rate of 0 that would have to fall) moves only to that edge."""
+    values = list(_at(measured, path))
+    origin = float(values[seed])
+    before = float(part.compare(measured)[comparison].differences[seed])
+    ratio = part.scale == "log ratio" and origin > 0
+    scale = max(abs(origin), 1e-6)
+
+    def at(u: float) -> float:
+        return origin * float(np.exp(u)) if ratio else origin + u * scale
+
+    def moved(u: float) -> float:
+        values[seed] = at(u)
+        _set(measured, path, list(values))
+        try:
+            return (float(part.compare(measured)[comparison].differences[seed]) - before
+                    - shift)
+        except ValueError as error:
+            raise _OutOfDomain(str(error)) from error
+        finally:
+            values[seed] = origin
+            _set(measured, path, list(values))
+
+    try:
+        direction = 1.0 if moved(1e-3) > moved(0.0) else -1.0
+    except _OutOfDomain:    # the reading sits at the edge: only the other way is possible
+        direction = -1.0 if moved(-1e-3) > moved(0.0) else 1.0
+    low, high = 0.0, direction * 1e-3
+    while True:
+        try:
+            if moved(high) >= 0:
+                break
+        except _OutOfDomain:
+            edge = (0.0 - origin) / scale if not ratio else low   # a rate down to 0
+            try:
+                moved(edge)
+            except _OutOfDomain:
+                edge = low
+            return at(edge), False
+        low, high = high, 2.0 * high
+        if abs(high) > (50.0 if ratio else 1e6):
+            raise ValueError(f"{part.name}: no reading moves the comparison by {shift:g}")
+    return at(float(optimize.brentq(moved, min(low, high), max(low, high), xtol=1e-14,
+                                    rtol=1e-12))), True
+
+
+def plant_effect(claim_id: str, measured: Mapping[str, Any],
+                 targets: Mapping[str, Sequence[Path]], *, times: float = AA_PLANT
+                 ) -> tuple[dict[str, Any], dict[str, float], dict[str, list[int]]]:
+    """``measured`` with ``times`` × each part's registered δ planted in the claim's predicted
+    direction (``targets``: part → the arm paths to plant on: one path for every comparison
+    of the part, or one per comparison in the part's order), parts in order: each seed's
+    reading set to the value that moves its comparison (oriented so that the paper's side is
+    positive) by exactly times·δ — added for a part on a difference, a factor for a part on a
+    log ratio (a counted reading's half-item offset included). With one path, every
+    comparison the arm enters in the same way (a claimed best option against each other)
+    moves by times·δ. δ is the comparison's registered smallest effect at the readings
+    before it is planted. A reading at the edge of what its comparison can take (a rate of 0
+    that would have to fall) moves only to that edge, and the plant falls short there.
+    Returns (the planted measurements, part → the δ planted, the largest where its
+    comparisons differ, part → the seed indices where the plant fell short)."""
+    out = copy_json(measured)
+    parts = {p.name: p for p in get_claim(claim_id).parts}
+    deltas: dict[str, float] = {}
+    short: dict[str, list[int]] = {}
+    for name, paths in targets.items():
+        part = parts[name]
+        for index, path in enumerate(paths):
+            delta = abs(float(part.compare(out)[index].smallest_effect))
+            planted = [_planted_value(part, out, path, i, times * delta, index)
+                       for i in range(len(_at(out, path)))]
+            _set(out, path, [value for value, _ in planted])
+            deltas[name] = max(deltas.get(name, 0.0), delta)
+            missed = [i for i, (_, reached) in enumerate(planted) if not reached]
+            if missed:
+                short.setdefault(name, []).extend(missed)
+    return out, deltas, short
+
+
+def aa_controls(claim_id: str, reference: Mapping[str, Any], copy: Mapping[str, Any],
+                slots: Sequence[AASlot], targets: Mapping[str, Sequence[Path]], *,
+                copies: Mapping[int, int | tuple[int, ...]], what: str) -> Controls:
+    """A model-based claim's controls as A/A runs. Null: the experiment's reference arm against
+    an independently trained copy of itself (:func:`aa_measured`: seed s's reference pipeline
+    against that of :func:`copy_seed`, paired as the experiment pairs its arms); its
+    differences are the spread between trained models, decided by the claim's own rule (not
+    as exact: ``Controls.exact`` False), and it must come out neither supported nor
+    contradicted. Positive: the same A/A with :data:`AA_PLANT` × δ planted on each part's
+    target arm in the predicted direction (:func:`plant_effect`); it must be seen. ``copies``:
+    seed → the copy's training seed; ``what``: the reference arm in words."""
+    null = aa_measured(reference, copy, slots)
+    positive, deltas, short = plant_effect(claim_id, null, targets)
+    pairs = ", ".join(f"{s} vs {c}" for s, c in copies.items())
+    return Controls(
+        null=null, positive=positive, exact=False,
+        planted={"kind": "A/A", "copies": {str(s): c for s, c in copies.items()},
+                 "plant_times_delta": AA_PLANT, "delta": deltas, "plant_short": short},
+        null_text=(f"A/A: {what} of train seed s against an independently trained copy "
+                   f"(train seeds {pairs}), the same draws; decided by the claim's rule"),
+        positive_text=(f"the same A/A with {AA_PLANT:g} × δ planted on "
+                       + ", ".join(f"{part}'s " + " and ".join("/".join(p) for p in paths)
+                                   for part, paths in targets.items())
+                       + " in the predicted direction"))

@@ -31,9 +31,8 @@ disjoint from the training ones (:func:`latent_count_study`).
 
 Beside the study: the gate records of every N's models (:func:`latent_count_records`), their
 training rows (:func:`latent_count_training`), the controls (:func:`latent_count_controls`:
-test clips with their root height offset, so the MPJPE is exactly the offset, and with
-Gaussian feature noise whose FID is read off ``harness.fid_curve``; one draw per seed shared
-by every N), the claim
+A/A runs, each part's named N against an independently trained copy of itself, with and
+without twice the part's δ planted), the claim
 (:func:`emg7_result`) and the figures. Our choices are in the docstrings ("our choice").
 """
 
@@ -58,17 +57,12 @@ from repro.core.training import torch_threads
 from repro.energymogen import settings as rule_settings
 from repro.energymogen.figures import Record
 from repro.energymogen.harness import (
-    BASE_AMPLITUDE,
-    KINDS,
+    AASlot,
     TextToMotionTest,
-    control_rng,
-    feature_noise,
-    fid_curve,
+    aa_controls,
+    copy_seed,
     generation_metrics,
     oracle_accuracy,
-    reference_embeddings,
-    t2m_measurements,
-    with_feature_noise,
 )
 from repro.energymogen.model_gates import (
     REFERENCE_LATENT_COUNT,
@@ -87,6 +81,7 @@ from repro.energymogen.pipeline import (
 from repro.energymogen.settings import (
     LATENT_COUNTS,
     ONE_THREAD,
+    QUICK_LATENT_COUNTS,
     STANDARD_LATENT_COUNTS,
     NotebookSettings,
     PipelineConfig,
@@ -151,14 +146,15 @@ class LatentCountSettings(NotebookSettings):
 
     @classmethod
     def for_scale(cls, scale: str) -> LatentCountSettings:
-        """Quick and standard runs sweep N = 5 and 7 only, the two the rule names (one extra
-        VAE and denoiser per seed: every other N runs the same code); N = 1, 3 are the paper
-        scale's."""
+        """Standard and paper runs sweep the paper's N ∈ {1, 3, 5, 7}; quick runs N = 5 and 7
+        only, the two the rule names (one extra VAE and denoiser per seed: every other N runs
+        the same code)."""
         scale = check_scale(scale)
         return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-7", scale),
                    test_clips=64 if scale == "quick" else 256,
                    plan=TrainingPlan.for_scale(scale),
-                   counts=LATENT_COUNTS if scale == "paper" else STANDARD_LATENT_COUNTS)
+                   counts={"quick": QUICK_LATENT_COUNTS, "standard": STANDARD_LATENT_COUNTS,
+                           "paper": LATENT_COUNTS}[scale])
 
 
 #: Table 8 columns: (key, label).
@@ -370,77 +366,50 @@ def latent_count_records(pipe: EnergyMoGenPipeline, results: Mapping[str, Any],
                 values.update(vae_sample_values(variant, test))
             records.append(vae_record(variant, values,
                                       {**reference, "concept_preservation": real_recall},
-                                      role=role, reads=reads))
+                                      role=role, reads=reads, arm=f"N={n}"))
             records.append(denoiser_record(variant, fit, reference=reference, role=role,
-                                           reads=reads))
+                                           reads=reads, arm=f"N={n}"))
     return records
 
 
-def _offset_height(features: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Test clips raised by ``offsets`` (per clip, m): the root height (feature 3) and the y of
-    every stored joint position (features 4:67, which carry their own height), so every
-    recovered joint moves up by exactly that much and MPJPE is the mean |offset|."""
-    out = np.array(features, copy=True)
-    lift = offsets[:, None].astype(out.dtype)
-    out[:, :, 3] += lift
-    out[:, :, 5:67:3] += lift[..., None]
-    return out
-
-
 def latent_count_controls(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
-                          counts: Sequence[int], seeds: Sequence[int], *, scale: float = 1.0
-                          ) -> Controls:
-    """EMG-7's controls: "reconstructions" = the test clips with per-clip root height offsets
-    (MPJPE through ``mpjpe`` is exactly their mean) and "generations" = the test clips with
-    feature noise (FID as ``evaluate_generated`` computes it, ``harness.t2m_measurements``).
-    The study measures every N of a seed on the same test set with the same texts, so every
-    N here is the same draw of the seed (``harness.control_rng``): the same offsets
-    |N(0, 1)|·√(π/2)·e (mean e = 0.05 m; the decision is scale-free in e) and the same
-    feature noise z (``harness.feature_noise``); different seeds draw anew.
-
-    Positive: N = 7's offsets × (1 − 0.362), exactly (δ: half the paper's 72.5 % margin, of
-    the other N's error); N = 5's noise amplitude, on the same z, the one the FID curve
-    (:class:`FidCurve`, fitted on calibration draws of its own) gives (1 − 0.177) × the others'
-    FID (δ: half of 35.4 %; FID has no exact transformation, so this size is calibrated, not
-    exact). Null: every N the same offsets and noise (the arms identical)."""
-    base = 0.05
-    reference = reference_embeddings(pipe, test)
-    curve = fid_curve(pipe, test, reference)
-    other_fid = curve.fid(BASE_AMPLITUDE)
-    best_amplitude = curve.amplitude((1 - 0.177 * scale) * other_fid)
-    out: dict[str, Any] = {kind: {"reconstruction_error": {}, "generation_fid": {}}
-                           for kind in KINDS}
-    for seed in seeds:
-        rng = control_rng(seed, 7)
-        offsets = base * np.sqrt(np.pi / 2) * np.abs(rng.standard_normal(len(test)))
-        noise = feature_noise(test.features, rng)
-
-        def error(factor: float, offsets: np.ndarray = offsets) -> float:
-            return mpjpe(_offset_height(test.features, factor * offsets), test.features)
-
-        def fid(amplitude: float, noise: np.ndarray = noise, seed: int = seed) -> float:
-            generated = with_feature_noise(test.features, pipe.data.std, amplitude, noise)
-            return t2m_measurements(pipe, test, generated, seed, reference)["fid"]
-
-        same_error, same_fid = error(1.0), fid(BASE_AMPLITUDE)
-        planted = {"reconstruction_error": {7: error(1 - 0.362 * scale)},
-                   "generation_fid": {5: fid(best_amplitude)}}
-        for name, value in (("reconstruction_error", same_error), ("generation_fid", same_fid)):
-            for n in counts:
-                out["null"][name].setdefault(str(n), []).append(value)
-                out["positive"][name].setdefault(str(n), []).append(
-                    planted[name].get(n, value))
-    return Controls(null=out["null"], positive=out["positive"],
-                    planted={"offset_mean_m": base, "base_amplitude": BASE_AMPLITUDE,
-                             "best_amplitude": best_amplitude, "other_fid": other_fid,
-                             "fid_curve": dataclasses.asdict(curve)},
-                    null_text=(f"one draw per seed shared by every N: the test clips lifted by "
-                               f"{base:g} m on average and noised at {BASE_AMPLITUDE:g} × std, "
-                               f"the same lifts and noise for every N (identical arms), "
-                               f"{len(seeds)} seed(s)"),
-                    positive_text=(f"the same draws; N = 7's lifts × {1 - 0.362 * scale:g} "
-                                   f"(exact); N = 5's noise {best_amplitude:.3g} × std on the "
-                                   f"same z (FID × {1 - 0.177 * scale:g} by the FID curve)"))
+                          results: Mapping[str, Any], counts: Sequence[int],
+                          seeds: Sequence[int], *, threads: int | None = 1) -> Controls:
+    """EMG-7's controls as A/A runs (``harness.aa_controls``). Each part's reference arm is
+    the N it names (N = 7 for reconstruction, N = 5 for generation); its null is that N's
+    pipeline of train seed s against the same N trained with seed s' = ``copy_seed(seeds,
+    s)`` (the run's next seed, cyclic: the standard scale's seeds already train it; one seed:
+    s + 1, trained here), in every other N's slot: reconstruction error = MPJPE of decode(μ)
+    on the same test clips (deterministic in the models, so a copy the study measured is
+    reused), generation FID = the study's measurement with seed s's captions and noise on the
+    copy. Positive: the same A/A with twice each part's δ planted on the named N (its error
+    or FID × exp(−2δ): every log(other N / named N) up by 2δ)."""
+    copies = {int(s): copy_seed(seeds, s) for s in seeds}
+    copy: dict[str, Any] = {"reconstruction_error": {"7": []}, "generation_fid": {"5": []}}
+    with torch_threads(threads):     # the study's threads: the same cache entries
+        for seed, other in copies.items():
+            if other in seeds:
+                recon = results["reconstruction"]["7"]["mpjpe"][list(seeds).index(other)]
+            else:
+                variant = load_or_train_variant(pipe, 7, other, threads=threads)
+                recon = mpjpe(variant.decode(variant.encode_motion(test.features)),
+                              test.features)
+            copy["reconstruction_error"]["7"].append(float(recon))
+            variant = load_or_train_variant(pipe, REFERENCE_LATENT_COUNT, other, threads=threads)
+            copy["generation_fid"]["5"].append(
+                float(generation_metrics(variant, test, seed)["fid"]))
+    reference = {"reconstruction_error": {str(n): results["reconstruction"][str(n)]["mpjpe"]
+                                          for n in counts},
+                 "generation_fid": {str(n): results["generation"][str(n)]["fid"]
+                                    for n in counts}}
+    slots = ([AASlot(("reconstruction_error", str(n)), ("reconstruction_error", "7"))
+              for n in counts if n != 7]
+             + [AASlot(("generation_fid", str(n)), ("generation_fid", "5"))
+                for n in counts if n != REFERENCE_LATENT_COUNT])
+    return aa_controls("EMG-7", reference, copy, slots,
+                       {"n7_reconstructs_best": [("reconstruction_error", "7")],
+                        "n5_generates_best": [("generation_fid", "5")]},
+                       copies=copies, what="N = 7's reconstruction / N = 5's generation")
 
 
 def emg7_result(results: Mapping[str, Any], settings: LatentCountSettings,
@@ -462,8 +431,9 @@ def emg7_result(results: Mapping[str, Any], settings: LatentCountSettings,
         f"{config.vae_layers}+{config.vae_layers} layers, d={config.latent_dim}, "
         f"{plan.summary()}; denoiser width {config.denoiser_width}, {config.denoiser_layers} "
         f"layers; N swept {list(counts)}"
-        + (f" (N = {list(settings.counts_not_run)} not run at the {settings.scale} scale: paper "
-           "scale only; 'every other N' is the N swept)" if settings.counts_not_run else "")
+        + (f" (N = {list(settings.counts_not_run)} not run at the {settings.scale} scale: "
+           "standard and paper scales only; 'every other N' is the N swept)"
+           if settings.counts_not_run else "")
         + f"; guidance "
         f"{config.guidance_scale}, DDIM {config.ddim_steps}); the frozen text encoder shared by "
         "every N; training seeds vary VAE and denoiser, not the data. Reconstruction error = "

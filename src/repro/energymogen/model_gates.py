@@ -231,9 +231,9 @@ def evaluator_gate_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
 def _record(*, name: str, family: str, values: Mapping[str, float],
             reference: Mapping[str, float], model: nn.Module,
             training: TrainingRecord | None, reads: Sequence[str] | None,
-            role: str) -> dict[str, Any]:
+            role: str, arm: str | None) -> dict[str, Any]:
     record = model_record(
-        name=name, family=family, values=values, reference=reference, role=role,
+        name=name, family=family, values=values, reference=reference, role=role, arm=arm,
         parameters=parameter_count(model), steps=None if training is None else training.steps,
         train_seconds=None if training is None else training.train_seconds,
         validation_curve=[] if training is None else [v for _, v in training.validation_curve],
@@ -245,56 +245,61 @@ def _record(*, name: str, family: str, values: Mapping[str, float],
 
 def vae_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float],
                reference: Mapping[str, float], *, role: str,
-               reads: Sequence[str] | None = None) -> dict[str, Any]:
+               reads: Sequence[str] | None = None, arm: str | None = None) -> dict[str, Any]:
     """The ``vae`` record of ``pipe.vae`` (N latents, training seed): ``values`` of
     :func:`vae_gate_values` (or the same measurement from a study) and, in the reference
     ``role``, :func:`vae_sample_values`; ``reference`` the test clips' own values
     (:func:`data_sample_values`); training from ``pipe.training["vae"]``; ``reads`` the
-    claim's parts resting on it (None: all)."""
+    claim's parts resting on it (None: all); ``arm`` the arm of those parts it serves (None:
+    every arm shares it, ``core.gates.model_record``)."""
     return _record(name=f"EMG VAE N={pipe.config.latent_count} train seed {pipe.train_seed}",
                    family="vae", values=values, reference=reference, model=pipe.vae,
-                   training=pipe.training.get("vae"), reads=reads, role=role)
+                   training=pipe.training.get("vae"), reads=reads, role=role, arm=arm)
 
 
 def denoiser_record(pipe: EnergyMoGenPipeline, values: Mapping[str, float], *, role: str,
                     reference: Mapping[str, float] | None = None, name: str | None = None,
                     denoiser: nn.Module | None = None, training: TrainingRecord | None = None,
-                    reads: Sequence[str] | None = None) -> dict[str, Any]:
+                    reads: Sequence[str] | None = None, arm: str | None = None
+                    ) -> dict[str, Any]:
     """The ``latent_denoiser`` record of ``pipe.denoiser`` (training from
     ``pipe.training["denoiser"]``), or of a fine-tuned ``denoiser`` (EMG-8) with its own
     ``name`` and ``training``: ``values`` of :func:`denoiser_gate_values` and, in the
     reference ``role``, :func:`denoiser_sample_values` against ``reference``
-    (:func:`data_sample_values`); ``reads`` the claim's parts resting on it (None: all)."""
+    (:func:`data_sample_values`); ``reads`` the claim's parts resting on it (None: all);
+    ``arm`` the arm of those parts it serves (None: every arm shares it)."""
     if denoiser is None:
         denoiser, training = pipe.denoiser, pipe.training.get("denoiser")
     return _record(name=name or (f"EMG latent denoiser N={pipe.config.latent_count} train seed "
                                  f"{pipe.train_seed}"),
                    family="latent_denoiser", values=values, reference=reference or {},
-                   model=denoiser, training=training, reads=reads, role=role)
+                   model=denoiser, training=training, reads=reads, role=role, arm=arm)
 
 
 def evaluator_record(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
-                     reads: Sequence[str] | None = None) -> dict[str, Any]:
+                     reads: Sequence[str] | None = None, arm: str | None = None
+                     ) -> dict[str, Any]:
     """The ``evaluator`` record (:func:`evaluator_gate_values` with seed 0): its configured
     steps and training losses (the evaluator trains for a fixed number of steps, without
     validation; its cache keeps no training seconds); ``reads`` the claim's parts resting on
-    it (None: all)."""
+    it (None: all); ``arm`` None: every arm of those parts is measured by it (common-mode)."""
     record = model_record(name="EMG evaluator", family="evaluator",
                           values=evaluator_gate_values(pipe, test), reference={},
                           parameters=parameter_count(pipe.evaluator),
                           steps=pipe.evaluator.config.training.steps, train_seconds=None,
-                          reads=reads, role="reference")
+                          reads=reads, role="reference", arm=arm)
     record["training_losses"] = [float(v) for v in pipe.evaluator.losses]
     return record
 
 
 def pipeline_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
-                     role: str = "reference",
-                     reads: Sequence[str] | None = None) -> list[dict[str, Any]]:
+                     role: str = "reference", reads: Sequence[str] | None = None,
+                     arm: str | None = None) -> list[dict[str, Any]]:
     """[``vae`` record, ``latent_denoiser`` record] of one pipeline, both measured here
     (the denoiser with :func:`gate_seed`), both with ``reads``; in the reference ``role`` (the
     pipeline every arm of a composition or guidance comparison samples) with their sample
-    gates against the test clips."""
+    gates against the test clips; ``arm``: the arm both serve (None: one pipeline every arm of
+    the parts reading it samples, as in EMG-2…6)."""
     reference = data_sample_values(pipe, test)
     seed = gate_seed(pipe)
     vae_values = vae_gate_values(pipe, test)
@@ -302,9 +307,9 @@ def pipeline_records(pipe: EnergyMoGenPipeline, test: TextToMotionTest, *,
     if role == "reference":
         vae_values.update(vae_sample_values(pipe, test))
         denoiser_values.update(denoiser_sample_values(pipe, test, seed, reference))
-    return [vae_record(pipe, vae_values, reference, role=role, reads=reads),
+    return [vae_record(pipe, vae_values, reference, role=role, reads=reads, arm=arm),
             denoiser_record(pipe, denoiser_values, reference=reference, role=role,
-                            reads=reads)]
+                            reads=reads, arm=arm)]
 
 
 Models = Sequence[Mapping[str, Any]]

@@ -13,8 +13,8 @@ the settings are ``SEFAblationSettings``.
 - **EMG-5** (Sec. 5.5 Q2, Tables 3 and 7: "Synergistic Energy Fusion (SEF) effectively
   alleviates these issues"): the λ rows of :func:`run_rows` and their transitions on the
   MTT-style timelines (:func:`timeline_rows`, :func:`timeline_measurements`);
-  :func:`emg5_result`; its controls: :func:`sef_controls` (both transition measurements
-  planted at once, :func:`plant_transitions`).
+  :func:`emg5_result`; its controls: :func:`sef_controls` (A/A runs: the latent row of an
+  independently trained copy in the semantic and SEF rows' places).
 - **the sets of three** (outside the rules): the tables of every row on
   ``settings.THREE_CONCEPT_SETS`` (``run_rows(..., test_set="threes")``), of the two-concept
   control on the same motions (``settings.THREES_AS_PAIRS``, ``test_set="threes_as_pairs"``),
@@ -66,10 +66,8 @@ import torch
 from matplotlib.figure import Figure
 from torch import Tensor
 
-from repro.claims.registry_energymogen import R3_PERCENT_64, R3_PERCENT_320
 from repro.claims.result import ClaimResult, Controls, not_measurable_result
-from repro.claims.verdicts import log_margin
-from repro.core import metrics, tables
+from repro.core import tables
 from repro.core.tables import interval_text
 from repro.energymogen import settings as rule_settings
 from repro.energymogen.data import (
@@ -82,18 +80,13 @@ from repro.energymogen.data import (
 )
 from repro.energymogen.figures import Figures
 from repro.energymogen.harness import (
-    CONTROL_STREAM,
-    KINDS,
+    AASlot,
+    aa_controls,
     composition_metrics,
-    control_rng,
-    first_reaching,
-    pair_index,
+    copy_seed,
+    copy_source,
     per_frame_displacement_cm,
-    scale_movement,
-    swap_draw,
-    swap_motions,
     transition_distance_at_transitions_cm,
-    transition_distance_cm,
     transition_speed_ratio,
 )
 from repro.energymogen.model_gates import Models
@@ -142,16 +135,13 @@ __all__ = [
     "agd_relative_change",
     "agd_scale",
     "agd_step_size_figure",
-    "amplify_transition_steps",
     "control_markdown",
     "emg4_result",
     "emg5_result",
     "gamma_key",
     "lambda_key",
     "markdown_table",
-    "plant_transitions",
     "real_then_clips",
-    "row_measurements",
     "run_rows",
     "save_sef_figures",
     "save_three_concepts_figure",
@@ -751,240 +741,70 @@ def summary_line(results: Results, results3: Study, results3_control: Study,
             + rates(results))
 
 
-def amplify_transition_steps(features: np.ndarray, transitions: Sequence[int], factor: float
-                             ) -> np.ndarray:
-    """``features`` (T, 263) whose step into each transition frame p is ``factor`` times as
-    large: from p on, features 3:67 (root height, root-relative joints) are shifted by
-    (factor − 1)(x_p − x_{p−1}). Every other step is unchanged, so the distance at the
-    transitions (``harness.transition_distances_at_cm``) scales by ``factor`` exactly."""
-    out = np.array(features, dtype=np.float64, copy=True)
-    for p in sorted(int(q) for q in transitions):
-        out[p:, 3:67] += (factor - 1.0) * (out[p, 3:67] - out[p - 1, 3:67])
-    return out.astype(np.asarray(features).dtype)
+def step_size_controls(source: PipelineSource, results: Results, seeds: Sequence[int],
+                       row_keys: Sequence[str], *, items_per_pair: int) -> Controls:
+    """EMG-4's controls as A/A runs (``harness.aa_controls``). The reference arm is γ = 0
+    (no AGD, κ irrelevant); the rows are sampled as :func:`table9_rows` samples them
+    (:func:`run_rows` on the seed's ``items_per_pair`` items, texts and noise) from two
+    independently trained copies of seed s's pipeline, s' and s'' (``copy_seed`` 1 and 2
+    steps on: the run's other seeds at standard; s + 1, s + 2 with one seed). Null: the
+    claimed best row [0.001, 0.002] = copy s' γ = 0, [0.1, 0.2] = copy s'' γ = 0, every other
+    row seed s's own γ = 0, so each comparison of both parts sets two trainings of γ = 0
+    against each other. Positive: the same A/A with twice each part's δ planted ([0.1, 0.2]'s
+    R@3 lowered, [0.001, 0.002]'s raised, each by the factor of 2δ on the log scale)."""
+    best, large, zero = "0.001,0.002", "0.1,0.2", gamma_key((0.0, 0.0))
+    sampler = {zero: transferred_rows(1.0)[zero]}
+    copies = {int(s): (copy_seed(seeds, s), copy_seed(seeds, s, 2)) for s in seeds}
+    copy: dict[str, Any] = {}
+    for index, name in enumerate(("first", "second")):
+        rows = cast(Results, run_rows(copy_source(source, {s: c[index] for s, c
+                                                           in copies.items()}),
+                                      sampler, seeds, items_per_pair=items_per_pair))
+        copy[name] = rows[zero]["r_precision_top3"]
+    reference = {"r_precision_top3": {key: results[key]["r_precision_top3"] for key in row_keys}}
+    slots = [AASlot(("r_precision_top3", key), ("r_precision_top3", zero))
+             for key in row_keys if key not in (best, large)]
+    slots += [AASlot(("r_precision_top3", best), ("first",)),
+              AASlot(("r_precision_top3", large), ("second",))]
+    merged = {**copy, "r_precision_top3": reference["r_precision_top3"]}
+    return aa_controls("EMG-4", reference, merged, slots,
+                       {"large_step_degrades": [("r_precision_top3", large)],
+                        "small_step_best": [("r_precision_top3", best)]},
+                       copies=copies, what="γ = 0 (two copies: [0.001,0.002] and [0.1,0.2])")
 
 
-def plant_transitions(clips: RealThenClips, factor: float) -> tuple[list[np.ndarray], float]:
-    """The clips with both EMG-5 transition measurements ``factor`` × their clean values: the
-    steps at the transitions amplified by f (:func:`amplify_transition_steps`) and the whole
-    movement scaled by ``factor``/f (:func:`scale_movement`), so the distance at the
-    transitions is exactly ``factor`` × and f is found by bisection (the ratio rises
-    monotonically in f) so that the speed ratio is ``factor`` × too. Returns (clips, f)."""
-    clean = list(clips.features)
-    if factor == 1.0:
-        return clean, 1.0
-    target = factor * transition_speed_ratio(clean, clips.transitions)
-
-    def build(f: float) -> list[np.ndarray]:
-        return [scale_movement(amplify_transition_steps(c, p, f), factor / f)
-                for c, p in zip(clean, clips.transitions, strict=True)]
-
-    low, high = 0.0, np.log(1e3)
-    for _ in range(60):
-        mid = 0.5 * (low + high)
-        if transition_speed_ratio(build(float(np.exp(mid))), clips.transitions) < target:
-            low = mid
-        else:
-            high = mid
-    f = float(np.exp(0.5 * (low + high)))
-    return build(f), f
-
-
-def row_measurements(pipe: EnergyMoGenPipeline, features: np.ndarray, items: Any, seed: int
-                     ) -> dict[str, float]:
-    """R@3 (%) and transition distance of one row, computed exactly as
-    ``harness.composition_metrics`` computes those two (the same calls; the oracles and the
-    other columns, which no control reads, are left out for speed)."""
-    evaluator = pipe.evaluator
-    text = evaluator.embed_texts(list(items.multi_texts))
-    gen = evaluator.embed_motions(features, np.full(len(features), features.shape[1]))
-    r = metrics.r_precision(text, gen, 32, 3, seed)
-    return {"r_precision_top3": 100.0 * float(r[2]),
-            "transition_distance": transition_distance_cm(features)}
-
-
-def _swap_groups(items: Any) -> np.ndarray:
-    """Whose motions a swap takes: another held-out pair's (``harness.pair_index``); on a data
-    folder's items (its test windows, no concepts) any other item's."""
-    return pair_index(items) if any(items.concepts) else np.arange(len(items))
-
-
-class _SwapPath:
-    """One seed's draw for the R@3 rows of EMG-4's and EMG-5's controls: the seed's
-    ground-truth composition motions (the data as the model) and one random order of swaps
-    (``harness.swap_draw``: each item once, to another held-out pair's motion). The arm with
-    k items swapped is the first k swaps of that order, so every row of a seed is the same
-    motions, texts and batches and two rows differ on whole items. ``r3(k)``: its R@3 (%) as
-    ``composition_metrics`` ranks (the evaluator embeds each motion on its own, so a swapped
-    item's embedding is its donor's); ``step``: one item of R@3 in percent as the claim's rule
-    counts it."""
-
-    def __init__(self, pipe: EnergyMoGenPipeline, items: Any, seed: int, claim: int,
-                 step: float) -> None:
-        self.pipe, self.items, self.seed, self.step = pipe, items, seed, step
-        self.swaps = swap_draw(control_rng(seed, claim), _swap_groups(items))
-        self.text = pipe.evaluator.embed_texts(list(items.multi_texts))
-        self.motion = pipe.evaluator.embed_motions(
-            items.gt_features, np.full(len(items), items.gt_features.shape[1]))
-        self._r3: dict[int, float] = {}
-
-    def __len__(self) -> int:
-        return len(self.swaps)
-
-    def r3(self, count: int) -> float:
-        if count not in self._r3:
-            motion = self.motion.copy()
-            for item, donor in self.swaps[:count]:
-                motion[item] = self.motion[donor]
-            self._r3[count] = 100.0 * float(
-                metrics.r_precision(self.text, motion, 32, 3, self.seed)[2])
-        return self._r3[count]
-
-    def log_ratio(self, fewer: int, more: int) -> float:
-        """log(R@3 after ``fewer`` swaps / R@3 after ``more``), each offset by half of the
-        rule's item (``step``), as EMG-4/5's rules compare rows."""
-        half = self.step / 2
-        return float(np.log((self.r3(fewer) + half) / (self.r3(more) + half)))
-
-    def measure(self, count: int) -> dict[str, float]:
-        """The arm with ``count`` items swapped, measured by :func:`row_measurements`."""
-        features = swap_motions(self.items.gt_features, self.swaps[:count])
-        return row_measurements(self.pipe, features, self.items, self.seed)
-
-
-def _row_arms(source: PipelineSource, seeds: Sequence[int], claim: int,
-              plant: Callable[[_SwapPath], dict[str, int]], rows: Sequence[str], *,
-              items_per_pair: int, step: float) -> dict[str, Any]:
-    """Per seed one :class:`_SwapPath` (the seed's ``items_per_pair`` items per held-out pair,
-    the rule's item ``step``); positive: each row the number of
-    swaps ``plant`` gives it, null: every row unswapped (the rows identical). Returns kind →
-    metric → row → per-seed list, and ``"swaps"``: the positive rows' counts per seed."""
-    out: dict[str, Any] = {kind: {"r_precision_top3": {}, "transition_distance": {}}
-                           for kind in KINDS}
-    counts = []
-    for seed in seeds:
-        pipe = pipeline_for(source, seed)
-        path = _SwapPath(pipe, energy_view_items(pipe.data, seed, items_per_pair), seed, claim,
-                         step)
-        planted = plant(path)
-        counts.append({**planted, "items": len(path)})
-        measured = {count: path.measure(count) for count in {0, *planted.values()}}
-        for kind in KINDS:
-            for row in rows:
-                values = measured[planted[row] if kind == "positive" else 0]
-                for metric in ("r_precision_top3", "transition_distance"):
-                    out[kind][metric].setdefault(row, []).append(values[metric])
-    out["swaps"] = counts
-    return out
-
-
-def step_size_controls(source: PipelineSource, seeds: Sequence[int], row_keys: Sequence[str],
-                       *, items_per_pair: int, scale: float = 1.0) -> Controls:
-    """EMG-4's controls: every Table 9 row is the seed's ground-truth composition motions with
-    some items swapped to another pair's motion (:class:`_SwapPath`), measured as
-    ``composition_metrics`` measures (:func:`row_measurements`). ``run_rows`` gives every row
-    of a seed the same model, items and starting noise, so every row here is the same draw:
-    the same motions, texts, R@3 batches and order of swaps.
-
-    Positive: [0.001, 0.002] unswapped (R₀); every other row the fewest swaps that bring
-    log(R₀ / its R@3) to δ = log 1.035 (the claimed best exceeds it by 3.5 % of the other row),
-    the same items in every other row; [0.1, 0.2] γ = 0's swaps and the fewest further ones
-    that bring log(R@3 γ = 0 / [0.1, 0.2]) to δ = −log(1 − 0.417) (half the paper's 83.5 %
-    drop); each log ratio with the rule's offset of half an item (R@3 in percent over 320
-    items), each row's count read off the path's R@3 and the row then measured. Null: every
-    row unswapped (the rows identical). ``items_per_pair``: the experiment's
-    (``SEFAblationSettings.table9_items_per_pair``). On a data folder the rows are its test
-    windows (``data.energy_view_items``, as ``run_rows``), a swap takes any other window's
-    motion."""
-    best, large = "0.001,0.002", "0.1,0.2"
-    small_delta = log_margin(0.035 * scale, of="denominator")
-    large_delta = log_margin(0.417 * scale, of="numerator")
-
-    def plant(path: _SwapPath) -> dict[str, int]:
-        other = first_reaching(range(len(path) + 1), lambda k: path.log_ratio(0, k),
-                               small_delta)
-        dropped = first_reaching(range(other, len(path) + 1),
-                                 lambda k: path.log_ratio(other, k), large_delta)
-        counts = {key: other for key in row_keys}
-        counts[best], counts[large] = 0, dropped
-        return counts
-
-    out = _row_arms(source, seeds, 4, plant, row_keys, items_per_pair=items_per_pair,
-                    step=R3_PERCENT_320)
-    r3 = {kind: {"r_precision_top3": out[kind]["r_precision_top3"]} for kind in KINDS}
-    return Controls(null=r3["null"], positive=r3["positive"],
-                    planted={"swaps": out["swaps"], "small_step_log_delta": small_delta,
-                             "large_step_log_delta": large_delta},
-                    null_text=(f"every row the seed's ground-truth motions unswapped: one draw "
-                               f"per seed, the rows identical, {len(seeds)} seed(s)"),
-                    positive_text=(f"one draw per seed: [{best}] unswapped (R₀), the other rows "
-                                   f"the same items with the fewest swaps to log(R₀ / R@3) ≥ "
-                                   f"{small_delta:.3g}, [{large}] γ = 0's swaps and the fewest "
-                                   f"more to log(γ = 0 / R@3) ≥ {large_delta:.3g}"))
-
-
-def sef_controls(source: PipelineSource, seeds: Sequence[int], *, scale: float = 1.0,
-                 timeline_items_per_seed: int = 16) -> Controls | None:
-    """EMG-5's controls, paired as the experiment pairs its rows (every row of a seed: the
-    same model, items and starting noise). R@3: the seed's ground-truth composition motions
-    (held-out pairs) with some items swapped to another pair's motion, one draw per seed
-    (:class:`_SwapPath`), measured as ``composition_metrics`` measures (the all-frames
-    transition distance, context that no part reads, measured beside it on the same arms, not
-    planted). The transition measurements: one draw per seed of ground-truth "then" clips of
-    the seed's MTT-style timeline items (``real_then_clips``), shared by the three rows and
-    measured at their labelled transitions as ``timeline_measurements`` measures.
-
-    Positive (every part's δ, half the paper's relative effects): transition measurements
-    latent 1, semantic 1.1875 (+18.75 %), SEF 1.1875·(1 − 0.1364) × the clips' clean values,
-    both planted exactly (:func:`plant_transitions`); R@3: SEF unswapped (R₀), latent the
-    fewest swaps that bring log(R₀ / latent) to δ = log 1.2143, semantic the fewest swaps
-    undone from latent's (the same items) that bring log(semantic / latent) to δ = log 1.2015
-    (R@3 offset by half the rule's item). Null: the three rows the same unswapped motions and
-    the same clean clips (identical rows). None on a data folder (EMG-5 composes concepts: not
-    measurable there)."""
-    if not pipeline_for(source, seeds[0]).data.labelled:
+def sef_controls(source: PipelineSource, results: Results,
+                 timelines: Results | NotMeasurable, seeds: Sequence[int], *,
+                 timeline_items_per_seed: int) -> Controls | None:
+    """EMG-5's controls as A/A runs (``harness.aa_controls``). The reference arm is latent-only
+    composition (λ = (1, 0, 0)); the null is seed s's latent row against the latent row
+    sampled, with seed s's items, timelines, texts and noise (:func:`run_rows`,
+    :func:`timeline_rows`), from the pipeline of seed s' = ``copy_seed(seeds, s)`` (the run's
+    next seed, cyclic; one seed: s + 1), in the semantic and SEF rows' places, for R@3 and
+    both transition measurements. Positive: the same A/A with twice each part's δ planted in
+    the paper's direction: semantic's R@3 and transitions raised, then SEF's R@3 raised and
+    its transitions lowered (each comparison by exactly 2δ on the log scale). None on a data
+    folder (EMG-5 composes concepts: not measurable there)."""
+    if isinstance(timelines, NotMeasurable):
         return None
     lat, sem, sef = _LAT, _SEM, _SEF
-    sef_delta = log_margin(0.2143 * scale, of="denominator")
-    sem_delta = log_margin(0.2015 * scale, of="denominator")
-
-    def plant(path: _SwapPath) -> dict[str, int]:
-        latent = first_reaching(range(len(path) + 1), lambda k: path.log_ratio(0, k),
-                                sef_delta)
-        undone = first_reaching(range(latent + 1),
-                                lambda u: path.log_ratio(latent - u, latent), sem_delta)
-        return {lat: latent, sem: latent - undone, sef: 0}
-
-    out = _row_arms(source, seeds, 5, plant, (lat, sem, sef),
-                    items_per_pair=pipeline_for(source, seeds[0]).config.items_per_pair,
-                    step=R3_PERCENT_64)
-    semantic = 1 + 0.1875 * scale
-    factors = {lat: 1.0, sem: semantic, sef: semantic * (1 - 0.1364 * scale)}
-    planted: dict[str, list[float]] = {}
-    for seed in seeds:
-        frames = pipeline_for(source, seed).data.frames
-        clips = real_then_clips(timeline_items(seed, timeline_items_per_seed, frames), seed,
-                                (CONTROL_STREAM, 5))
-        clean = timeline_measurements(clips.features, clips.transitions)
-        for key, factor in factors.items():
-            features, f = plant_transitions(clips, factor)
-            planted.setdefault(key, []).append(f)
-            values = timeline_measurements(features, clips.transitions)
-            for metric in ("transition_distance_at_transitions", "transition_speed_ratio"):
-                out["positive"].setdefault(metric, {}).setdefault(key, []).append(
-                    values[metric])
-                out["null"].setdefault(metric, {}).setdefault(key, []).append(clean[metric])
-    return Controls(null=out["null"], positive=out["positive"],
-                    planted={"swaps": out["swaps"], "sef_r3_log_delta": sef_delta,
-                             "semantic_r3_log_delta": sem_delta,
-                             "transition_step_factor": planted},
-                    null_text=(f"one draw per seed, the three rows identical: the same unswapped "
-                               f"ground truth (R@3) and the same clean \"then\" clips "
-                               f"(transitions), {len(seeds)} seed(s)"),
-                    positive_text=(f"the same draws; transitions latent × 1, semantic × "
-                                   f"{semantic:g}, SEF × {factors[sef]:.4g}; R@3 SEF "
-                                   f"unswapped, latent the fewest swaps to log(SEF / latent) ≥ "
-                                   f"{sef_delta:.3g}, semantic the fewest of them undone to "
-                                   f"log(semantic / latent) ≥ {sem_delta:.3g}"))
+    copies = {int(s): copy_seed(seeds, s) for s in seeds}
+    shifted = copy_source(source, copies)
+    row = {lat: Sampler("sef", lambdas=(1.0, 0.0, 0.0))}
+    names = ("r_precision_top3", "transition_distance_at_transitions", "transition_speed_ratio")
+    copy_rows = cast(Results, run_rows(shifted, row, seeds))[lat]
+    copy_rows.update(cast(Results, timeline_rows(shifted, row, seeds,
+                                                 items_per_seed=timeline_items_per_seed))[lat])
+    reference = {name: {key: (results if name == names[0] else timelines)[key][name]
+                        for key in (lat, sem, sef)} for name in names}
+    copy = {name: {lat: copy_rows[name]} for name in names}
+    slots = [AASlot((name, key), (name, lat)) for name in names for key in (sem, sef)]
+    trans = [(name, sem) for name in names[1:]]
+    return aa_controls("EMG-5", reference, copy, slots,
+                       {"semantic_aligns_better_than_latent": [(names[0], sem)],
+                        "latent_smoother_than_semantic": trans,
+                        "sef_balances_both": [(name, sef) for name in names]},
+                       copies=copies, what="latent-only composition")
 
 
 #: EMG-5's rows: latent only, semantic only, SEF (Table 3's λ)
