@@ -27,8 +27,8 @@ __all__ = ["PAPER_CPU_HOURS", "PAPER_SHARED_CPU_HOURS", "STANDARD_PLAN_MINUTES",
 #: on 3 seeds: 10 more models ≈ 10 × 125 s, 12 more imputed sample sets ≈ 85 s, their gates
 #: and Table B.1's Emphasis row ≈ 45 s, the A/A copies' 6 sample sets ≈ 43 s); 06 + 1.8 (F1's
 #: A/A: 12 of the 22 sweep groups per seed the experiment samples, ≈ 3 × 36 s). EnergyMoGen's
-#: A/A controls and EMG-7's N ∈ {1, 3, 5, 7} added, counted from the standard run's stage times on the slow
-#: CPU (results/): 04 + 150 s (EMG-2/3's three baseline samplers of 9 on a copy, 14 s of
+#: A/A controls and EMG-7's N ∈ {1, 3, 5, 7} added, counted from the standard run's stage
+#: times on the slow CPU (results/): 04 + 150 s (EMG-2/3's three baseline samplers of 9 on a copy, 14 s of
 #: 41 s; EMG-6's maps again on a copy, 139 s); 05 + 110 s (EMG-4's γ = 0 on two copies,
 #: 2 × 3 × 15 s on 320 items; EMG-5's latent row and timeline on a copy, 3 × (3 + 3) s);
 #: 07 + 940 s (N = 1 and 3 × 3 seeds: VAE ≈ 55 and 67 s, denoiser ≈ 74 and 86 s, linear in
