@@ -15,26 +15,26 @@ from __future__ import annotations
 __all__ = ["PAPER_CPU_HOURS", "PAPER_SHARED_CPU_HOURS", "STANDARD_PLAN_MINUTES",
            "STANDARD_READS", "planned_seconds"]
 
-#: docs/COMPUTE.md §16a (the fourth standard design): the wall minutes per notebook of its
-#: cold standard run on the Intel with AMX, doubled — the plan is sized for the slowest CPU,
-#: the Intel without AMX, about twice as slow on these models (§0); 05 from §19a's run
-#: (EMG-4's Table 9 on 320 items, registry v7: 430 s). Then the GMD arms and controls added
-#: since, counted from ``results/models.json``'s training seconds on the slow CPU under two
-#: notebooks at a time and the standard UNets' forward passes: 01 + 20.9 (GMD-A4's ε motion
-#: arm, 3 × 4500 steps ≈ 3 × 375 s, and its 3 × 128 samples ≈ 60 s; the A/A copies' sampling,
-#: A3 ≈ 26 s and A4 ≈ 87 s, less A4's former FID-calibrated controls ≈ 35 s); 02 + 1.0 (B2's
-#: A/A: rel imputation and guidance of 3 copies, ≈ 58 s); 03 + 23.7 (GMD-C4 at k = c ∈ {2, 10}
-#: on 3 seeds: 10 more models ≈ 10 × 125 s, 12 more imputed sample sets ≈ 85 s, their gates
-#: and Table B.1's Emphasis row ≈ 45 s, the A/A copies' 6 sample sets ≈ 43 s); 06 + 1.8 (F1's
-#: A/A: 12 of the 22 sweep groups per seed the experiment samples, ≈ 3 × 36 s). EnergyMoGen's
-#: A/A controls and EMG-7's N ∈ {1, 3, 5, 7} added, counted from the standard run's stage
-#: times on the slow CPU (results/): 04 + 150 s (EMG-2/3's three baseline samplers of 9 on a copy, 14 s of
-#: 41 s; EMG-6's maps again on a copy, 139 s); 05 + 110 s (EMG-4's γ = 0 on two copies,
-#: 2 × 3 × 15 s on 320 items; EMG-5's latent row and timeline on a copy, 3 × (3 + 3) s);
-#: 07 + 940 s (N = 1 and 3 × 3 seeds: VAE ≈ 55 and 67 s, denoiser ≈ 74 and 86 s, linear in
-#: N from N = 5, 7's 79/91 s and 98/110 s, 846 s; their measurements and gates, 6 × 14 s;
-#: the A/A's three N = 5 generations on a copy, 12 s); 08 + 10 s (the copy's control
-#: generations, 3 × 3 s); the planted controls they replace are not subtracted
+#: docs/COMPUTE.md §16a (the fourth standard design): the wall minutes per notebook of its cold
+#: standard run on the Intel with AMX, doubled — the plan is sized for the slowest CPU, the
+#: Intel without AMX, about twice as slow on these models (§0); 05 from §19a's run (EMG-4's
+#: Table 9 on 320 items, registry v7: 430 s). Then the GMD arms and controls added since,
+#: counted from ``results/models.json``'s training seconds on the slow CPU under two notebooks
+#: at a time and the standard UNets' forward passes: 01 + 20.9 (GMD-A4's ε motion arm, 3 × 4500
+#: steps ≈ 3 × 375 s, and its 3 × 128 samples ≈ 60 s; the A/A copies' sampling, A3 ≈ 26 s and A4
+#: ≈ 87 s, less A4's former FID-calibrated controls ≈ 35 s); 02 + 1.0 (B2's A/A: rel imputation
+#: and guidance of 3 copies, ≈ 58 s); 03 + 23.7 (GMD-C4 at k = c ∈ {2, 10} on 3 seeds: 10 more
+#: models ≈ 10 × 125 s, 12 more imputed sample sets ≈ 85 s, their gates and Table B.1's Emphasis
+#: row ≈ 45 s, the A/A copies' 6 sample sets ≈ 43 s); 06 + 1.8 (F1's A/A: 12 of the 22 sweep
+#: groups per seed the experiment samples, ≈ 3 × 36 s). EnergyMoGen's A/A controls and EMG-7's N
+#: ∈ {1, 3, 5, 7} added, counted from the standard run's stage times on the slow CPU (results/):
+#: 04 + 150 s (EMG-2/3's three baseline samplers of 9 on a copy, 14 s of 41 s; EMG-6's maps
+#: again on a copy, 139 s); 05 + 110 s (EMG-4's γ = 0 on two copies, 2 × 3 × 15 s on 320 items;
+#: EMG-5's latent row and timeline on a copy, 3 × (3 + 3) s); 07 + 940 s (N = 1 and 3 × 3 seeds:
+#: VAE ≈ 55 and 67 s, denoiser ≈ 74 and 86 s, linear in N from N = 5, 7's 79/91 s and 98/110 s,
+#: 846 s; their measurements and gates, 6 × 14 s; the A/A's three N = 5 generations on a copy,
+#: 12 s); 08 + 10 s (the copy's control generations, 3 × 3 s); the planted controls they replace
+#: are not subtracted
 STANDARD_PLAN_MINUTES: dict[str, float] = {
     "00_stand_in_data": 0.5,
     "01_x0_vs_eps": 52.1,
