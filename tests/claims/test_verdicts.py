@@ -381,3 +381,17 @@ def test_best_option_on_log_ratios() -> None:
     tie = best_option("claimed", {"claimed": [50.0, 60.0], "tie": [50.0, 60.0]},
                       lower_is_better=False, fraction=0.035, log_ratio=True, step=1.5625)
     assert tie[0].differences == [0.0, 0.0] and tie[0].resolution > 0
+
+
+def test_an_aa_null_fires_on_any_decided_part_an_exact_one_on_its_verdict() -> None:
+    """Between two copies of one arm no direction is real: an A/A null with a contradicted
+    part has found an effect, though its verdict is not "reproduced"."""
+    from repro.claims.verdicts import CONTRADICTED, PartResult, null_fired
+
+    contradicted = Decision("not reproduced", "", {}, [PartResult("a", CONTRADICTED, "")])
+    assert null_fired(contradicted, exact=False)
+    assert not null_fired(contradicted, exact=True)
+    assert not null_fired(contradicted, exact=False, not_run=["a"])
+    assert null_fired(Decision(PARTIAL, ""), exact=True)
+    fired = apply_controls(contradicted, {"null": contradicted}, exact_controls=False)
+    assert fired.verdict == "inconclusive" and "null control fired" in fired.reason

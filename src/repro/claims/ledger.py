@@ -28,12 +28,12 @@ from repro.claims.provenance import ReportError
 from repro.claims.registry import READINGS, REGISTRY_VERSION, get_claim, interval_summary
 from repro.claims.verdicts import (
     INCONCLUSIVE,
-    PARTIAL,
     REPRODUCED,
     Decision,
     PartResult,
     apply_controls,
     combine,
+    null_fired,
     parts_in_words,
 )
 from repro.infra import paths
@@ -44,7 +44,9 @@ CONTROLS = ("positive", "null")
 #: a control's status when its claim's scale runs none of the claim's parts
 NOT_RUN = "not run"
 _EXPECTED = {"positive": f"{REPRODUCED} (the registered effect planted)",
-             "null": f"neither {REPRODUCED} nor partially (no effect planted)"}
+             "null": f"neither {REPRODUCED} nor partially (no effect planted)",
+             "aa_null": "no part supported or contradicted (an independently trained copy of "
+                        "the reference arm in the other arm's place)"}
 
 
 def _git_commit() -> str | None:
@@ -57,7 +59,7 @@ def _git_commit() -> str | None:
 
 
 def _control_record(claim_id: str, kind: str, measured: Mapping[str, Any] | None,
-                    not_run: Mapping[str, str] | None = None,
+                    not_run: Mapping[str, str] | None = None, *, exact: bool = True,
                     ) -> tuple[dict[str, Any], Decision | None]:
     """A control decided by the claim's own rule over the parts the run runs, as the sidecar
     stores it; "not run" when the run's scale runs none of the claim's parts."""
@@ -67,13 +69,15 @@ def _control_record(claim_id: str, kind: str, measured: Mapping[str, Any] | None
                 "reason": "no part of the claim runs at this scale"}, None
     if measured is None:
         return {"status": "missing", "expected": _EXPECTED[kind]}, None
-    decision = claim.decide(measured, not_run, control=True)
+    decision = claim.decide(measured, not_run, control=exact)
     if not_run:   # a control sees what the run runs: its verdict over those parts alone
         ran = [p for p in claim.parts if p.name not in not_run]
         decision.verdict = combine([r for r in decision.parts if r.name not in not_run], ran)
     passed = (decision.verdict == REPRODUCED if kind == "positive"
-              else decision.verdict not in (REPRODUCED, PARTIAL))
-    return {"status": "passed" if passed else "failed", "expected": _EXPECTED[kind],
+              else not null_fired(decision, exact=exact, not_run=list(not_run or ())))
+    expected = _EXPECTED[kind] if exact or kind == "positive" else _EXPECTED["aa_null"]
+    return {"status": "passed" if passed else "failed", "expected": expected,
+            "design": "exact" if exact else "A/A",
             "verdict": decision.verdict, "reason": decision.reason,
             "parts": [p.as_dict() for p in decision.parts], "measured": dict(measured)}, decision
 
@@ -130,8 +134,12 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
                  gate_reads: Mapping[str, Sequence[str] | None] | None = None,
                  not_measurable: str | None = None,
                  not_run: Mapping[str, str] | None = None,
+                 controls_exact: bool = True,
                  ) -> tuple[Decision, dict[str, Any]]:
-    """(the decision after controls and gates, the controls as stored); ``gate_reads``: the
+    """(the decision after controls and gates, the controls as stored); ``controls_exact``:
+    the controls are paired draws with δ planted exactly (True) or A/A runs of independently
+    trained models (False: decided by the claim's own rule, the null failing when any part
+    comes out supported or contradicted, ``verdicts.null_fired``); ``gate_reads``: the
     parts each gate's model is read by (absent: every part). ``not_measurable``: why the
     run's data cannot give the rule's measurements (e.g. "not measurable on real data: ...");
     then nothing is required, every part is inconclusive with that reason, and so is the
@@ -159,9 +167,10 @@ def decide_claim(claim_id: str, measured: Mapping[str, Any], *,
     stored, decided = {}, {}
     for kind in CONTROLS:
         stored[kind], decided[kind] = _control_record(claim_id, kind, (controls or {}).get(kind),
-                                                      not_run)
+                                                      not_run, exact=controls_exact)
     decision = apply_controls(claim.decide(measured, not_run), decided, quality_gates,
-                              gate_reads, claim.parts, not_run=list(not_run or ()))
+                              gate_reads, claim.parts, not_run=list(not_run or ()),
+                              exact_controls=controls_exact)
     return decision, stored
 
 
@@ -197,6 +206,7 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
                               extra: Mapping[str, Any] | None = None,
                               not_measurable: str | None = None,
                               not_run: Mapping[str, str] | None = None,
+                              controls_exact: bool = True,
                               ) -> tuple[Decision, dict[str, dict[str, Any]]]:
     """Apply the registered rules of ``claim_id`` to ``measured`` and write its sidecar; the
     decision and each control as the sidecar stores it.
@@ -217,6 +227,9 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
             rule: a positive control that is not reproduced or a null control that comes out
             reproduced or partially makes the claim inconclusive. Missing controls are
             recorded as missing, not an error.
+        controls_exact: False when the controls are A/A runs of independently trained
+            models: decided by the claim's own rule, the null failing when any part comes
+            out supported or contradicted (``decide_claim``).
         quality_gates: gate name → passed, for what the measurements rest on beyond the
             models; a failed one makes every part inconclusive.
         models: the trained models behind the measurements, each a
@@ -245,7 +258,8 @@ def record_claim_and_controls(ctx: RunContext, claim_id: str, measured: Mapping[
            for part, why in (not_run or {}).items()}
     decision, stored_controls = decide_claim(claim_id, measured, controls=controls,
                                              quality_gates=gates or None, gate_reads=reads,
-                                             not_measurable=not_measurable, not_run=cut)
+                                             not_measurable=not_measurable, not_run=cut,
+                                             controls_exact=controls_exact)
     decision = _gating_notes(decision, models)
     sidecar = {
         "id": claim.id,

@@ -116,6 +116,7 @@ def record(ctx: RunContext, result: ClaimResult) -> Recorded:
     decision, stored = record_claim_and_controls(
         ctx, result.claim_id, result.measured, seeds=result.seeds, settings=result.settings,
         controls=controls,
+        controls_exact=result.controls.exact if result.controls is not None else True,
         quality_gates=result.quality_gates, models=result.models, figures=result.figures,
         notes=result.notes, headline=result.headline, extra=result.extra,
         not_measurable=result.not_measurable, not_run=result.not_run or None)

@@ -519,11 +519,23 @@ def _missed_control(result: PartResult, control: str) -> PartResult:
                       f"{result.reason})", result.numbers)
 
 
+def null_fired(null: Decision, *, exact: bool = True, not_run: Sequence[str] = ()) -> bool:
+    """Whether a null control found an effect where none was planted. An exact null (paired
+    draws of one model) fires when it comes out reproduced or partially; an A/A null (the
+    reference arm against an independently trained copy, ``exact`` False) fires when any part
+    that runs comes out supported or contradicted: between two copies of one arm no direction
+    is real."""
+    if exact:
+        return null.verdict in (REPRODUCED, PARTIAL)
+    return any(p.outcome in (SUPPORTED, CONTRADICTED) for p in null.parts
+               if p.name not in set(not_run))
+
+
 def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
                    quality_gates: Mapping[str, bool] | None = None,
                    gate_reads: Mapping[str, Sequence[str] | None] | None = None,
-                   parts: Sequence[Part] | None = None, not_run: Sequence[str] = ()
-                   ) -> Decision:
+                   parts: Sequence[Part] | None = None, not_run: Sequence[str] = (),
+                   *, exact_controls: bool = True) -> Decision:
     """The claim's decision after its controls and fitness gates.
 
     The two controls guard different errors. The null control (no effect planted) guards
@@ -539,10 +551,11 @@ def apply_controls(decision: Decision, controls: Mapping[str, Decision | None],
     absent or None: every part; []: a model no part rests on, shown but never deciding), and
     the verdict is combined again (``parts``: their kinds). A part in ``not_run`` (its
     scale does not run it) keeps its outcome and reason: no control or gate speaks to it, and
-    a gate read only by such parts is reported, never decides."""
+    a gate read only by such parts is reported, never decides. ``exact_controls`` False: the
+    controls are A/A runs of independently trained models (:func:`null_fired`)."""
     kept = set(not_run)
     positive, null = controls.get("positive"), controls.get("null")
-    if null is not None and null.verdict in (REPRODUCED, PARTIAL):
+    if null is not None and null_fired(null, exact=exact_controls, not_run=not_run):
         problem = (f"the null control fired: the measurement finds an effect where none was "
                    f"planted (control: {null.verdict})")
         if positive is not None and positive.verdict != REPRODUCED:

@@ -331,7 +331,7 @@ def aa_controls(claim_id: str, readings: AAReadings, slots: Sequence[Slot], *,
         spread[name] = float(np.std(gaps_ok, ddof=1)) if len(gaps_ok) > 1 else 0.0
     pairs = ", ".join(f"{s}↔{c}" for s, c in readings.pairs)
     return Controls(
-        null=null, positive=positive,
+        null=null, positive=positive, exact=False,
         planted={"design": "A/A: the reference arm against an independently trained copy",
                  "reference_arm": reference_arm, "pairs": [list(p) for p in readings.pairs],
                  "planted_2delta": planted, "between_model_spread": spread},
