@@ -12,7 +12,7 @@ import torch
 
 from repro.claims.registry import CLAIMS
 from repro.core import metrics
-from repro.core.gates import family_measures, gate_results, gates_markdown
+from repro.core.gates import family_measures, gate_results, gates_markdown, loss_curve
 from repro.gmd import model_gates as mg
 from repro.gmd.measurements import sample_quality
 from repro.gmd.models import load_or_train_gmd
@@ -167,8 +167,8 @@ def test_one_caption_each_draws_from_lists_and_keeps_strings() -> None:
 
 
 def test_loss_curve_keeps_short_curves_and_averages_long_ones() -> None:
-    assert mg.loss_curve([3.0, 2.0]) == [3.0, 2.0]
-    curve = mg.loss_curve(list(range(100)), points=10)
+    assert loss_curve([3.0, 2.0]) == [3.0, 2.0]
+    curve = loss_curve(list(range(100)), points=10)
     assert len(curve) == 10 and curve[0] == pytest.approx(4.5) and curve[-1] == pytest.approx(94.5)
 
 

@@ -34,13 +34,16 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from repro.core.tables import markdown_table
 
-__all__ = ["GATES", "GATES_VERSION", "PLATEAU_LOG_IMPROVEMENT", "PUBLISHED_SKATING_RATIO",
-           "PUBLISHED_SKATING_RATIO_SOURCE", "REPORTED_METRICS", "REREAD_DRAWS",
-           "REREAD_SEED_STRIDE", "TRAINING_GATES", "Gate", "family_measures",
-           "gate_results", "gates_markdown", "model_record", "plateau_improvement",
-           "reading", "reported_values", "straddling"]
+__all__ = ["CURVE_POINTS", "GATES", "GATES_VERSION", "PLATEAU_LOG_IMPROVEMENT",
+           "PUBLISHED_SKATING_RATIO", "PUBLISHED_SKATING_RATIO_SOURCE",
+           "REPORTED_METRICS", "REREAD_DRAWS", "REREAD_SEED_STRIDE", "TRAINING_GATES",
+           "Gate", "family_measures", "gate_results", "gates_markdown", "loss_curve",
+           "model_record", "plateau_improvement", "reading", "reported_values",
+           "straddling"]
 
 #: 5: a gate guards a reading (``claims.gating``): which failed gate holds back which part is
 #: the registry's, per part; every trained diffusion model and autoencoder reports whether its
@@ -91,6 +94,20 @@ class Gate:
         low, high = self.bounds(reference)
         return (math.isfinite(value) and (low is None or value >= low)
                 and (high is None or value <= high))
+
+
+#: points of the training-loss curve kept in a model record (means of equal chunks of steps)
+CURVE_POINTS = 50
+
+
+def loss_curve(losses: Sequence[float], points: int = CURVE_POINTS) -> list[float]:
+    """The per-step training losses as ``points`` means of equal chunks of steps (all of
+    them when there are fewer steps): a model record's curve where no held-out curve was
+    kept."""
+    values = np.asarray(list(losses), dtype=np.float64)
+    if len(values) <= points:
+        return values.tolist()
+    return [float(chunk.mean()) for chunk in np.array_split(values, points)]
 
 
 #: a tenth of training that lowers the loss by more than this (log scale: 5 %) is not a plateau

@@ -44,7 +44,13 @@ import torch
 from torch import Tensor, nn
 
 from repro.core import fitness, metrics
-from repro.core.gates import REREAD_DRAWS, REREAD_SEED_STRIDE, model_record, straddling
+from repro.core.gates import (
+    REREAD_DRAWS,
+    REREAD_SEED_STRIDE,
+    loss_curve,
+    model_record,
+    straddling,
+)
 from repro.energymogen.harness import TextToMotionTest, oracle_accuracy
 from repro.energymogen.pipeline import (
     EnergyMoGenPipeline,
@@ -236,7 +242,8 @@ def _record(*, name: str, family: str, values: Mapping[str, float],
         name=name, family=family, values=values, reference=reference, role=role, arm=arm,
         parameters=parameter_count(model), steps=None if training is None else training.steps,
         train_seconds=None if training is None else training.train_seconds,
-        validation_curve=[] if training is None else [v for _, v in training.validation_curve],
+        validation_curve=[] if training is None else (
+            [v for _, v in training.validation_curve] or loss_curve(training.losses)),
         converged=None if training is None else training.converged, reads=reads)
     if training is not None:
         record["training"] = training.to_dict()

@@ -34,7 +34,13 @@ import torch
 from torch import Tensor
 
 from repro.core import fitness, metrics
-from repro.core.gates import REREAD_DRAWS, REREAD_SEED_STRIDE, model_record, straddling
+from repro.core.gates import (
+    REREAD_DRAWS,
+    REREAD_SEED_STRIDE,
+    loss_curve,
+    model_record,
+    straddling,
+)
 from repro.core.tables import markdown_table
 from repro.gmd import measurements
 from repro.gmd.guidance import sample
@@ -46,10 +52,10 @@ from repro.models.evaluator import Evaluator, EvaluatorConfig, load_or_train_eva
 from repro.motion.features import FPS, features_to_joints
 from repro.motion.skeleton import NUM_JOINTS
 
-__all__ = ["COMPARED", "CURVE_POINTS", "FAMILIES_READ", "FITNESS_WINDOWS", "MotionEvaluation",
+__all__ = ["COMPARED", "FAMILIES_READ", "FITNESS_WINDOWS", "MotionEvaluation",
            "REFERENCE_FID_DRAWS", "R_PRECISION_SHUFFLES", "SAMPLE_GATE_WINDOWS", "SampleGateData",
            "budget_markdown", "denoising_gate_values", "evaluator_gate_values",
-           "evaluator_model_record", "gmd_model_name", "gmd_model_record", "loss_curve",
+           "evaluator_model_record", "gmd_model_name", "gmd_model_record",
            "model_space_windows", "motion_evaluation", "motion_sample_values", "one_caption_each",
            "path_length", "reference_fid", "sample_gate_data", "training_summary",
            "trajectory_gate_values"]
@@ -82,10 +88,6 @@ FAMILIES_READ: dict[str, tuple[str, ...]] = {
     "GMD-B2": ("gmd_trajectory",), "GMD-B3": ("gmd_motion", "evaluator"),
     "GMD-C4": ("gmd_motion",), "GMD-F1": ("gmd_trajectory", "gmd_motion"),
 }
-
-
-#: points of the training-loss curve kept in a model record (means of equal chunks of steps).
-CURVE_POINTS = 50
 
 
 #: draws of training windows whose mean FID is the ``evaluator`` gate's real FID (the
@@ -330,15 +332,6 @@ def evaluator_gate_values(evaluator: Evaluator, features: np.ndarray, lengths: S
         lambda w: evaluator.embed_motions(w, [w.shape[1]] * len(w)), train_features, motions,
         samples, seed=seed, real_fid=real_fid)
     return {"r_precision_top3": float(np.mean(hits)), "trivial_fid_ratio": baselines["ratio"]}
-
-
-def loss_curve(losses: Sequence[float], points: int = CURVE_POINTS) -> list[float]:
-    """The per-step training losses as ``points`` means of equal chunks of steps (all of
-    them when there are fewer steps)."""
-    values = np.asarray(list(losses), dtype=np.float64)
-    if len(values) <= points:
-        return values.tolist()
-    return [float(chunk.mean()) for chunk in np.array_split(values, points)]
 
 
 def gmd_model_name(trained: TrainedGMD, label: str = "") -> str:
