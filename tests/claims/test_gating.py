@@ -136,3 +136,17 @@ def test_a_worse_arm_trained_for_fewer_steps_is_held_back() -> None:
     with pytest.raises(ValueError, match="none of the part's arms"):
         held_back({"eps_reaches_goal_better": reading}, [{**eps, "arm": "relative"}],
                   ["eps_reaches_goal_better"])
+
+
+def test_a_part_that_compares_one_arm_does_not_read_the_other_arms_models() -> None:
+    readings = READINGS["GMD-B2"]
+    parts = list(readings)
+    passing = {m: {"passed": True} for m in ("training_plateau", "x0_error_vs_gaussian")}
+    relative = {"name": "rel", "family": "gmd_trajectory", "arm": "relative",
+                "gate": {**passing, "path_length": {"passed": False}}, "passed": False,
+                "reads": None, "steps": 1000}
+    absolute = {**relative, "name": "abs", "arm": "absolute"}
+    gating = held_back(readings, [relative, absolute], parts)
+    assert "abs_imputation_below_10cm" not in gating["rel"]["holds_back"]
+    assert gating["abs"]["holds_back"]["abs_imputation_below_10cm"] == ["path_length"]
+    assert gating["rel"]["holds_back"] == {}          # the worse arm: its training alone

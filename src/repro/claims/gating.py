@@ -68,6 +68,14 @@ class Reading:
         raise ValueError(f"arm {arm!r} is none of the part's arms {self.arms}")
 
 
+def _has_arm(reading: Reading, arm: str) -> bool:
+    try:
+        reading.arm_of(arm)
+    except ValueError:
+        return False
+    return True
+
+
 def arm_role(reading: Reading, arm: str | None) -> str:
     """:data:`COMMON` for a component every arm shares (``arm`` None, with more than one arm),
     :data:`WORSE` for an arm the claim predicts worse, else :data:`REFERENCE`."""
@@ -107,14 +115,19 @@ def held_back(readings: Mapping[str, Reading], records: Sequence[Mapping[str, An
     reads of it, ``common`` part → its failed gates reported beside that part (common-mode).
     ``readings``: the claim's registered readings; a part without one reads no model."""
     out: dict[str, dict[str, Any]] = {}
+    every_arm = Reading(arms=tuple(dict.fromkeys(a for r in readings.values() for a in r.arms)),
+                        properties=())
     for record in records:
         entry: dict[str, Any] = {"holds_back": {}, "common": {}}
         every_failed = [m for m, g in (record.get("gate") or {}).items() if not g["passed"]]
+        arm = record.get("arm")
+        if arm is not None and readings:
+            every_arm.arm_of(arm)   # a name none of the claim's parts compares is an error
         for part in (parts if record.get("reads") is None else record["reads"]):
             reading = readings.get(part)
-            if reading is None:
-                continue
-            role = arm_role(reading, record.get("arm"))
+            if reading is None or (arm is not None and not _has_arm(reading, arm)):
+                continue    # a part that reads no model, or not this arm's
+            role = arm_role(reading, arm)
             if role == COMMON:
                 if every_failed:
                     entry["common"][part] = every_failed
