@@ -86,15 +86,17 @@ STANDARD_C4_TRAIN_STEPS = 1500
 
 
 # ------------------------------------------------------------------------------------------------
-# What the standard scale does not run: arms cut to fit the 60-minute budget (docs/COMPUTE.md
-# §16), each a statement of what the scale cannot decide, fixed before the run that uses it.
+# What the standard scale does not run, each a statement of what the scale cannot decide,
+# fixed before the run that uses it (docs/COMPUTE.md §16, §21).
 #
-# Only the models of parts that read a measurement no standard design passes (B3's evaluator)
-# or a model that failed every sample gate (F1's second stage, the absolute-root motion model)
-# are cut. A treatment arm is never cut on its expected outcome: GMD-A4's ε motion arm, which
-# the claim predicts learns worse, runs at standard with the x0 motion arm's spec and steps
-# (width 64, the standard design; GMD's widths are the paper scale's). The quick scale runs
-# every part (a test of the code); the paper scale decides the cut ones.
+# A part is cut for what it reads or for the budget, with its cost: B3's parts read the motion
+# evaluator, which no design piloted within the budget passes (blind to frame order); F1's
+# second stage is cut for its CPU-minutes (its model, shared by both stop arms, would gate
+# nothing under gates version 5). A treatment arm is never cut on its expected outcome:
+# GMD-A4's ε motion arm, which the claim predicts learns worse, runs at standard with the x0
+# motion arm's spec and steps (width 64, the standard design; GMD's widths are the paper
+# scale's). The quick scale runs every part (a test of the code); the paper scale decides the
+# cut ones.
 # ------------------------------------------------------------------------------------------------
 
 _B3_EVALUATOR = (
@@ -105,9 +107,13 @@ _B3_EVALUATOR = (
     "paper scale decides it")
 
 _F1_SECOND_STAGE = (
-    "GMD's second stage is not run: its absolute-root x0 motion model generates jagged motion "
-    "within the standard budget (joint jerk 14–23× the windows', every sample gate failed in "
-    "the pilot and in a full run; docs/COMPUTE.md §15, §15a). The paper scale decides it")
+    "cut for the budget: GMD's second stage needs its own absolute-root x0 motion models, "
+    "3 × 4500 steps ≈ 19 CPU-minutes of training on the Intel without AMX (375 s each, as the "
+    "x0 motion models of docs/COMPUTE.md §20a) and ≈ 3 CPU-minutes of guided sampling, which "
+    "would take the standard run past its 75 minutes on Zen 4 (≈ 67 without them, §21). Both "
+    "stop arms would sample the same model, so its gates would not hold the part back (gates "
+    "version 5); its samples were jagged at this width (joint jerk 14–23× the windows', §15a). "
+    "The paper scale decides it")
 
 #: claim → part → why the standard scale does not run it
 STANDARD_NOT_RUN: dict[str, dict[str, str]] = {
