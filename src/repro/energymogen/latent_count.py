@@ -151,7 +151,7 @@ class LatentCountSettings(NotebookSettings):
         the same code)."""
         scale = check_scale(scale)
         return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-7", scale),
-                   test_clips=64 if scale == "quick" else 256,
+                   test_clips=rule_settings.text_test_clips(scale),
                    plan=TrainingPlan.for_scale(scale),
                    counts={"quick": QUICK_LATENT_COUNTS, "standard": STANDARD_LATENT_COUNTS,
                            "paper": LATENT_COUNTS}[scale])

@@ -530,6 +530,18 @@ def seeds_of(claim_id: str, scale: str) -> int:
     return row[claim_id]
 
 
+#: the held-out text-to-motion test set's size per scale (8 R-precision batches of 32 and the
+#: FID of 256 samples; 64 in quick runs): the models' sample gates of notebooks 04, 05 and 07
+#: and EMG-7's test read the same set (``harness.load_or_build_text_to_motion_test``)
+TEXT_TEST_CLIPS: dict[str, int] = {"quick": 64, "standard": 256, "paper": 256}
+
+
+def text_test_clips(scale: str) -> int:
+    """How many held-out clips the text-to-motion test set of ``scale`` holds
+    (:data:`TEXT_TEST_CLIPS`)."""
+    return TEXT_TEST_CLIPS[check_scale(scale)]
+
+
 def folder_needs(scale: str) -> WindowNeeds:
     """What the EnergyMoGen notebooks of ``scale`` cut from a data folder
     (``data.build_folder_data``): windows of ``FRAMES`` frames every
