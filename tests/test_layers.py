@@ -141,7 +141,8 @@ def test_each_paper_notebook_has_its_claim_group_module() -> None:
         if notebook.stem.startswith("00_"):   # the stand-in data, no paper's claim
             continue
         name = _claim_group_module(notebook)
-        homes = [paper for paper in PAPERS if (PACKAGE / paper / f"{name}.py").is_file()]
+        homes = [paper for paper in PAPERS if (PACKAGE / paper / f"{name}.py").is_file()
+                 or (PACKAGE / paper / name / "__init__.py").is_file()]
         assert len(homes) == 1, f"{notebook.name}: repro.<paper>.{name} in {homes or 'neither'}"
         text = notebook.read_text(encoding="utf-8")
         assert f"repro.{homes[0]}.{name}" in text or f"repro.{homes[0]} import {name}" in text, (
