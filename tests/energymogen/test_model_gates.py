@@ -139,6 +139,10 @@ def test_records_come_from_the_pipeline(tiny) -> None:
     for metric in ("joint_jerk", "foot_skating"):
         assert vae["gate"][metric]["data"] == pytest.approx(
             mg.data_sample_values(pipe, test)[metric])
+    # GMD's skating ratio of the reconstructions, beside the data's (reported, not gated)
+    assert vae["reported"]["foot_skating_ratio"]["data"] == pytest.approx(
+        mg.data_sample_values(pipe, test)["foot_skating_ratio"])
+    assert 0.0 <= vae["reported"]["foot_skating_ratio"]["value"] <= 1.0
     assert set(denoiser["gate"]) >= {"joint_speed", "root_speed", "concept_recall"}
     assert vae["reads"] == denoiser["reads"] == ["n5_generates_best"]
     assert vae["arm"] is None and denoiser["arm"] is None    # one pipeline every arm samples

@@ -45,6 +45,7 @@ from torch import Tensor, nn
 
 from repro.core import fitness, metrics
 from repro.core.gates import (
+    REPORTED_METRICS,
     REREAD_DRAWS,
     REREAD_SEED_STRIDE,
     loss_curve,
@@ -176,13 +177,15 @@ def data_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dic
 @torch.no_grad()
 def vae_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest) -> dict[str, float]:
     """The ``vae`` sample gates' values: joint jerk and foot skating of decode(μ(x)) of the test
-    clips (every decoded sample passes through this decoder)."""
+    clips (every decoded sample passes through this decoder), each with its sampling
+    interval, and GMD's skating ratio of the same reconstructions, reported beside them
+    (``core.gates.REPORTED_METRICS``)."""
     joints = pipe.joints(pipe.decode(pipe.encode_motion(test.features)))
     stats = metrics.motion_statistics(joints)
     intervals = metrics.motion_statistics_intervals(joints)
-    return {metric: stats[metric] for metric in ("joint_jerk", "foot_skating")} | {
-        f"{metric}_interval": intervals[f"{metric}_interval"]
-        for metric in ("joint_jerk", "foot_skating")}
+    gated = ("joint_jerk", "foot_skating")
+    return {metric: stats[metric] for metric in (*gated, *REPORTED_METRICS)} | {
+        f"{metric}_interval": intervals[f"{metric}_interval"] for metric in gated}
 
 
 def denoiser_sample_values(pipe: EnergyMoGenPipeline, test: TextToMotionTest,
