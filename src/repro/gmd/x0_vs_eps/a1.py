@@ -3,6 +3,8 @@
 
 The measurements (:func:`posterior_mean_forms`, :func:`printed_c_relative_error`,
 :func:`c_identity_error`) and the claim's result (:func:`a1_result`).
+
+Its registered rule and measurements: the ``GMD-A1`` entry of ``repro.claims.registry_gmd``.
 """
 
 from __future__ import annotations

@@ -4,6 +4,8 @@ model's as t→T (cosine schedule).
 The coefficients themselves live on ``core.diffusion.GaussianDiffusion`` (Eq. 1's a, b and
 Eq. 2's c, d; ``x0_vs_eps.a1``). The coefficient curves (:func:`coefficient_shares`), their
 peaks (:func:`peak_fraction`) and the claim's result (:func:`a2_result`).
+
+Its registered rule and measurements: the ``GMD-A2`` entry of ``repro.claims.registry_gmd``.
 """
 
 from __future__ import annotations

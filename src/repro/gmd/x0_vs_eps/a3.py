@@ -12,6 +12,8 @@ kept at the end (``goal_reaching.best_gain_survival``, the registered measuremen
 - the gate records of the trajectory models, the A/A runs (:func:`a3_aa_readings`: the ε
   model against an independently trained copy), the reading paragraphs and the result
   (:func:`a3_result`).
+
+Its registered rule and measurements: the ``GMD-A3`` entry of ``repro.claims.registry_gmd``.
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ The unguided sample quality (jitter, FID) of x0 and ε models:
   independently trained copy);
 - the gate records (:func:`a4_model_records`), the longer ε run (outside the rule), the
   result (:func:`a4_result`) and the training-budget table.
+
+Its registered rule and measurements: the ``GMD-A4`` entry of ``repro.claims.registry_gmd``.
 """
 
 from __future__ import annotations
