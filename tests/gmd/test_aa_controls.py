@@ -28,7 +28,6 @@ from repro.claims.verdicts import EXACT_TIE, one_sided_p
 from repro.gmd import emphasis_projection as ep
 from repro.gmd import guidance_schedule as gs
 from repro.gmd import root_representation as rr
-from repro.gmd import x0_vs_eps
 from repro.gmd.controls import (
     AAReadings,
     Slot,
@@ -39,6 +38,8 @@ from repro.gmd.controls import (
 )
 from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
+from repro.gmd.x0_vs_eps import a3, a4
+from repro.gmd.x0_vs_eps.common import Settings
 
 #: the quick scale's run seeds: one, so the A/A trains one more copy (two pairings)
 QUICK_RUN_SEEDS = [0]
@@ -127,7 +128,7 @@ def test_aa_controls_fill_slots_and_plant_twice_delta_in_the_predicted_direction
     copy = {0: {"goal_error": np.array([1.5, 2.5]), "best_gain_survival": 0.7},
             1: {"goal_error": np.array([1.0, 3.0]), "best_gain_survival": None}}
     readings = AAReadings([(0, 1), (1, 0)], own, copy)
-    controls = aa_controls("GMD-A3", readings, x0_vs_eps.A3_SLOTS, reference_arm="ε")
+    controls = aa_controls("GMD-A3", readings, a3.A3_SLOTS, reference_arm="ε")
     assert controls.null["goal_error_eps"] == [1.5, 2.0]
     assert controls.null["goal_error_x0"] == [2.0, 2.0]
     assert controls.null["best_gain_survival_x0"] == [0.7, None]
@@ -141,13 +142,12 @@ def test_aa_controls_fill_slots_and_plant_twice_delta_in_the_predicted_direction
 def test_a3_aa_null_has_between_model_spread(cache, small_spec, small_config,
                                              trajectory_windows) -> None:
     models = _trained(small_spec())
-    settings = dataclasses.replace(x0_vs_eps.Settings.for_scale("quick"), goals=4,
-                                   min_goal_distance=0.0)
-    study = x0_vs_eps.A3Study({}, list(QUICK_RUN_SEEDS), {})
-    readings = x0_vs_eps.a3_aa_readings(study, {("epsilon", s): m for s, m in models.items()},
-                                        trajectory_windows["absolute"], settings)
-    controls = aa_controls("GMD-A3", readings, x0_vs_eps.A3_SLOTS, reference_arm="ε")
-    _check("GMD-A3", readings, x0_vs_eps.A3_SLOTS, controls)
+    settings = dataclasses.replace(Settings.for_scale("quick"), goals=4, min_goal_distance=0.0)
+    study = a3.A3Study({}, list(QUICK_RUN_SEEDS), {})
+    readings = a3.a3_aa_readings(study, {("epsilon", s): m for s, m in models.items()},
+                                 trajectory_windows["absolute"], settings)
+    controls = aa_controls("GMD-A3", readings, a3.A3_SLOTS, reference_arm="ε")
+    _check("GMD-A3", readings, a3.A3_SLOTS, controls)
 
 
 class _MeanEmbedding:
@@ -166,16 +166,16 @@ def test_a4_aa_null_has_between_model_spread(cache, small_spec, small_config,
               **{("motion", "x0", s): m for s, m in motion.items()}}
     embeddings = np.random.default_rng(0).standard_normal((32, 8))
     evaluator = _MeanEmbedding()
-    own = x0_vs_eps.a4_reading(motion[0], trajectory[0], 0, n=16, evaluator=evaluator,
-                               test_embeddings=embeddings)
-    quality = x0_vs_eps.SampleQuality({"motion_jitter_x0": [own["motion_jitter"]],
-                                       "motion_fid_x0": [own["motion_fid"]],
-                                       "trajectory_jitter_eps": [own["trajectory_jitter"]]}, {})
-    readings = x0_vs_eps.a4_aa_readings(quality, models, QUICK_RUN_SEEDS, n=16,
-                                        evaluator=evaluator,  # type: ignore[arg-type]
-                                        test_embeddings=embeddings)
-    controls = aa_controls("GMD-A4", readings, x0_vs_eps.A4_SLOTS, reference_arm="x0 / ε")
-    _check("GMD-A4", readings, x0_vs_eps.A4_SLOTS, controls)
+    own = a4.a4_reading(motion[0], trajectory[0], 0, n=16, evaluator=evaluator,
+                        test_embeddings=embeddings)
+    quality = a4.SampleQuality({"motion_jitter_x0": [own["motion_jitter"]],
+                                "motion_fid_x0": [own["motion_fid"]],
+                                "trajectory_jitter_eps": [own["trajectory_jitter"]]}, {})
+    readings = a4.a4_aa_readings(quality, models, QUICK_RUN_SEEDS, n=16,
+                                 evaluator=evaluator,  # type: ignore[arg-type]
+                                 test_embeddings=embeddings)
+    controls = aa_controls("GMD-A4", readings, a4.A4_SLOTS, reference_arm="x0 / ε")
+    _check("GMD-A4", readings, a4.A4_SLOTS, controls)
 
 
 def test_b2_aa_null_has_between_model_spread(cache, small_spec, small_config,

@@ -15,11 +15,11 @@ from repro.gmd import (
     emphasis_projection,
     guidance_schedule,
     root_representation,
-    x0_vs_eps,
 )
 from repro.gmd.emphasis_projection import C4_VALUES, coherence
 from repro.gmd.measurements import evaluator_inputs, jitter_of
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
+from repro.gmd.x0_vs_eps.a4 import a4_controls, jagged_by
 from repro.infra.paths import data_stubs_dir
 from repro.models.evaluator import EvaluatorConfig, train_evaluator
 
@@ -99,8 +99,8 @@ def test_a4_arms_are_paired_and_positive_plants_the_jitter_ratio_exactly(
         windows: MotionWindows, evaluator) -> None:
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
     test_embeddings = evaluator.embed_motions(features, lengths)
-    result = x0_vs_eps.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
-                                   test_embeddings=test_embeddings)
+    result = a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
+                         test_embeddings=test_embeddings)
     null, positive = result.null, result.positive
     for name in ("motion_jitter", "motion_fid", "trajectory_jitter"):
         assert null[f"{name}_eps"] == null[f"{name}_x0"]  # the same draw in both arms
@@ -121,7 +121,7 @@ def test_jagged_by_plants_the_jerk_ratio_on_the_samples_themselves(
         windows: MotionWindows) -> None:
     space = windows.space("motion")
     x = windows.x[:6]
-    rough, amplitude = x0_vs_eps.jagged_by(space, x, 1.3, seed=5)
+    rough, amplitude = jagged_by(space, x, 1.3, seed=5)
     assert amplitude > 0
     assert jitter_of(space, rough).jerk == pytest.approx(1.3 * jitter_of(space, x).jerk,
                                                          rel=1e-5)
@@ -153,9 +153,9 @@ def test_jag_puts_white_noise_on_world_positions_in_both_representations(
 def test_a4_controls_take_relative_motion_and_absolute_trajectory_windows(
         windows: MotionWindows, relative: MotionWindows, evaluator) -> None:
     features, lengths = evaluator_inputs(relative.space("motion"), relative.x)
-    result = x0_vs_eps.a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
-                                   test_embeddings=evaluator.embed_motions(features, lengths),
-                                   trajectory_train=windows)
+    result = a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
+                         test_embeddings=evaluator.embed_motions(features, lengths),
+                         trajectory_train=windows)
     np.testing.assert_allclose(result.positive["motion_jitter_eps"],
                                1.1 * np.asarray(result.positive["motion_jitter_x0"]), rtol=1e-5)
     assert min(result.planted["fid_ratio"]) == pytest.approx(1.1, rel=1e-5) or min(
@@ -170,8 +170,8 @@ def test_a4_positive_at_delta_is_seen_and_null_is_silent(windows: MotionWindows,
                                                           evaluator) -> None:
     claim = get_claim("GMD-A4")
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
-    result = x0_vs_eps.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
-                                   test_embeddings=evaluator.embed_motions(features, lengths))
+    result = a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
+                         test_embeddings=evaluator.embed_motions(features, lengths))
     assert claim.decide(result.positive, control=True).verdict == REPRODUCED
     assert claim.decide(result.null, control=True).verdict not in (REPRODUCED, PARTIAL)
 

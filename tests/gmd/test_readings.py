@@ -3,13 +3,13 @@ truth depends on them."""
 
 from __future__ import annotations
 
-from repro.gmd import emphasis_projection, root_representation, x0_vs_eps
+from repro.gmd import emphasis_projection, root_representation
+from repro.gmd.x0_vs_eps import a3
 
 
 def _clamp(ours: float, gmds: float, x0: float) -> str:
-    errors = dict(zip(x0_vs_eps.CLAMP_LABELS, ([gmds], [ours], [1e5]), strict=True))
-    return x0_vs_eps.reading_clamp(errors, bound=11.3, unguided_eps=3.0, guided_x0=x0,
-                                   seeds=[0])
+    errors = dict(zip(a3.CLAMP_LABELS, ([gmds], [ours], [1e5]), strict=True))
+    return a3.reading_clamp(errors, bound=11.3, unguided_eps=3.0, guided_x0=x0, seeds=[0])
 
 
 def test_clamp_reading_follows_the_numbers() -> None:
@@ -23,16 +23,16 @@ def test_clamp_reading_follows_the_numbers() -> None:
 
 
 def test_a3_reading_says_where_the_closest_approach_lies() -> None:
-    text = x0_vs_eps.reading_a3(stop=20, num_timesteps=1000,
-                                best_step={"x0": 240.0, "epsilon": 30.0},
-                                survival={"x0": 0.7, "epsilon": 0.95},
-                                stop_step_survival={"x0": 1.0, "epsilon": 1.0})
+    text = a3.reading_a3(stop=20, num_timesteps=1000,
+                         best_step={"x0": 240.0, "epsilon": 30.0},
+                         survival={"x0": 0.7, "epsilon": 0.95},
+                         stop_step_survival={"x0": 1.0, "epsilon": 1.0})
     assert "t ≥ 20 of T = 1000" in text and "t ≈ 240" in text and "keeps 0.70" in text
     assert "both closest approaches lie before the stop step" in text
-    late = x0_vs_eps.reading_a3(stop=20, num_timesteps=1000,
-                                best_step={"x0": 3.0, "epsilon": 30.0},
-                                survival={"x0": 0.7, "epsilon": 0.95},
-                                stop_step_survival={"x0": 1.0, "epsilon": 1.0})
+    late = a3.reading_a3(stop=20, num_timesteps=1000,
+                         best_step={"x0": 3.0, "epsilon": 30.0},
+                         survival={"x0": 0.7, "epsilon": 0.95},
+                         stop_step_survival={"x0": 1.0, "epsilon": 1.0})
     assert "after the stop step" in late
 
 

@@ -128,7 +128,7 @@ def test_quick_mode_stays_a_small_test_of_the_code() -> None:
 
 def test_b2_abs_trajectory_model_is_the_guidance_notebooks_model() -> None:
     """Full mode: B2's absolute-root trajectory model is notebook 01's and 06's (one cache key)."""
-    from repro.gmd.x0_vs_eps import guidance_trajectory_spec
+    from repro.gmd.x0_vs_eps.common import guidance_trajectory_spec
 
     assert (R.Settings.for_scale("paper").trajectory_spec("absolute", 0)
             == guidance_trajectory_spec("paper", "epsilon", None, 0))

@@ -21,6 +21,7 @@ from repro.gmd.settings import (
     scale_note,
     seeds_of,
 )
+from repro.gmd.x0_vs_eps.common import guidance_trajectory_spec
 from repro.models.evaluator import EvaluatorConfig
 from repro.run.params import notebook_parameters
 
@@ -75,7 +76,7 @@ def test_notebook_seed_parameters_default_to_the_table(notebook: str) -> None:
 
 
 # ------------------------------------------------------------------------------------------------
-# The three scales of GMD's settings (issue #32, docs/COMPUTE.md §5): each scale's models are
+# The three scales of GMD's settings (docs/COMPUTE.md §5): each scale's models are
 # what the plan says, the paper scale is today's registered full settings (same cache keys),
 # and at the standard scale the models the plan aligns are one cache key (the model bank).
 # ------------------------------------------------------------------------------------------------
@@ -141,7 +142,7 @@ def test_the_standard_model_bank_shares_keys() -> None:
     for seed in (0, 2):
         a4 = nb01.spec("trajectory", "epsilon", data, seed)
         assert a4 == nb01.guidance_trajectory_spec("epsilon", data, seed)
-        assert a4 == x0eps.guidance_trajectory_spec("standard", "epsilon", seed=seed)
+        assert a4 == guidance_trajectory_spec("standard", "epsilon", seed=seed)
         assert a4 == rr.Settings.for_scale("standard").trajectory_spec("absolute", seed)
         assert a4 == guidance_schedule.Settings.for_scale("standard").spec().replace(seed=seed)
         assert (nb01.spec("trajectory", "x0", data, seed)
