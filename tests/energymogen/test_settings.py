@@ -20,7 +20,7 @@ from repro.energymogen.composed_augmentation import AugmentationSettings
 from repro.energymogen.data import trained_pairs
 from repro.energymogen.energy_contour_maps import EnergyViewSettings, energy_map_case
 from repro.energymogen.latent_count import LatentCountSettings
-from repro.energymogen.sef_ablation import SEFAblationSettings
+from repro.energymogen.sef_ablation.common import SEFAblationSettings
 from repro.energymogen.settings import (
     ARM_CONCEPTS,
     EXTRA_TEST_SETS,
