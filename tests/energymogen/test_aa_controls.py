@@ -16,7 +16,6 @@ from repro.claims.registry import get_claim
 from repro.claims.result import Controls
 from repro.claims.verdicts import CONTRADICTED, SUPPORTED
 from repro.energymogen import energy_contour_maps as ecm
-from repro.energymogen import latent_count as lc
 from repro.energymogen.harness import (
     AA_PLANT,
     AASlot,
@@ -26,6 +25,7 @@ from repro.energymogen.harness import (
     copy_source,
     plant_effect,
 )
+from repro.energymogen.latent_count import emg7 as lc
 from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, SeedPipelines
 from repro.energymogen.sef_ablation import common, emg4, emg5
 

@@ -17,7 +17,7 @@ from repro.energymogen.energy_contour_maps import (
     fid_fixed_cases,
     fid_formula_errors,
 )
-from repro.energymogen.latent_count import LatentCountSettings, emg7_result
+from repro.energymogen.latent_count.emg7 import LatentCountSettings, emg7_result
 from repro.energymogen.sef_ablation.threes import summary_line
 
 

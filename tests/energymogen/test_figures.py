@@ -12,10 +12,10 @@ import pytest
 from repro.core.diffusion import GaussianDiffusion
 from repro.energymogen import composed_augmentation as ag
 from repro.energymogen import energy_contour_maps as ecm
-from repro.energymogen import latent_count as lc
 from repro.energymogen.composed_augmentation import ROWS, ComposedSet
 from repro.energymogen.figures import training_markdown, validation_curves_figure
-from repro.energymogen.latent_count import latent_count_training
+from repro.energymogen.latent_count import emg7 as lc
+from repro.energymogen.latent_count.emg7 import latent_count_training
 from repro.energymogen.pipeline import TrainingRecord, scaled_linear_betas
 from repro.energymogen.sef_ablation import emg4, emg5, threes
 from repro.energymogen.sef_ablation.common import (

@@ -19,7 +19,7 @@ from repro.energymogen import pipeline as em
 from repro.energymogen.composed_augmentation import AugmentationSettings
 from repro.energymogen.data import trained_pairs
 from repro.energymogen.energy_contour_maps import EnergyViewSettings, energy_map_case
-from repro.energymogen.latent_count import LatentCountSettings
+from repro.energymogen.latent_count.emg7 import LatentCountSettings
 from repro.energymogen.sef_ablation.common import SEFAblationSettings
 from repro.energymogen.settings import (
     ARM_CONCEPTS,

@@ -33,7 +33,7 @@ from repro.energymogen.composed_augmentation import AugmentationSettings
 from repro.energymogen.data import build_folder_data, composition_items
 from repro.energymogen.energy_contour_maps import EnergyViewSettings
 from repro.energymogen.harness import oracle_accuracy
-from repro.energymogen.latent_count import LatentCountSettings, table8_markdown
+from repro.energymogen.latent_count.emg7 import LatentCountSettings, table8_markdown
 from repro.energymogen.sef_ablation import common
 from repro.energymogen.sef_ablation.common import SEFAblationSettings
 from repro.energymogen.settings import FRAMES, folder_problems, pipeline_config
