@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from repro.core.diffusion import GaussianDiffusion
-from repro.energymogen import composed_augmentation as ag
 from repro.energymogen import energy_contour_maps as ecm
-from repro.energymogen.composed_augmentation import ROWS, ComposedSet
+from repro.energymogen.composed_augmentation import emg8
+from repro.energymogen.composed_augmentation.compml import ComposedSet
+from repro.energymogen.composed_augmentation.emg8 import ROWS
 from repro.energymogen.figures import training_markdown, validation_curves_figure
 from repro.energymogen.latent_count import emg7 as lc
 from repro.energymogen.latent_count.emg7 import latent_count_training
@@ -123,12 +124,12 @@ def test_notebook_08_figures() -> None:
     example = ComposedSet(concepts=(HELD_OUT_PAIRS[0], ("walk_forward", "wave_left")),
                           concept_texts=(("a", "b"), ("c", "d")), texts=("ab", "cd"),
                           features=np.zeros((2, 8, 263)), joints=np.zeros((2, 8, 22, 3)))
-    fig = ag.composed_examples_figure(example, [0, 1])
+    fig = emg8.composed_examples_figure(example, [0, 1])
     titles = [ax.get_title() for ax in fig.axes]
     assert "held-out pair" in titles[0] and "trained pair" in titles[1]
     part = {row: {m: [0.1, 0.2] for m in ("r_precision_top3", "fid", "both_present")}
             for row in ROWS}
-    fig = ag.augmentation_figure({"t2m": part, "held_out": part}, SEEDS)
+    fig = emg8.augmentation_figure({"t2m": part, "held_out": part}, SEEDS)
     assert len(fig.axes) == 3 and len(fig.axes[0].patches) == len(ROWS)
 
 

@@ -29,7 +29,7 @@ import pytest
 import torch
 
 from repro.claims.ledger import load_sidecars
-from repro.energymogen.composed_augmentation import AugmentationSettings
+from repro.energymogen.composed_augmentation.emg8 import AugmentationSettings
 from repro.energymogen.data import build_folder_data, composition_items
 from repro.energymogen.energy_contour_maps import EnergyViewSettings
 from repro.energymogen.harness import oracle_accuracy
