@@ -17,8 +17,8 @@ from repro.energymogen.energy_contour_maps import (
     fid_fixed_cases,
     fid_formula_errors,
 )
-from repro.energymogen.latent_count import LatentCountSettings, emg7_result
-from repro.energymogen.sef_ablation import summary_line
+from repro.energymogen.latent_count.emg7 import LatentCountSettings, emg7_result
+from repro.energymogen.sef_ablation.threes import summary_line
 
 
 def test_emg9_is_recorded_with_every_measurement_its_rule_reads(tmp_path: Path) -> None:
