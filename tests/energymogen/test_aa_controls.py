@@ -15,7 +15,7 @@ import pytest
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls
 from repro.claims.verdicts import CONTRADICTED, SUPPORTED
-from repro.energymogen import energy_contour_maps as ecm
+from repro.energymogen.energy_contour_maps import composition, emg6
 from repro.energymogen.harness import (
     AA_PLANT,
     AASlot,
@@ -146,12 +146,12 @@ def test_emg23_aa_compares_each_baseline_with_its_copy(tiny_pipeline: EnergyMoGe
     pipeline: the same rates), and fill the compared arms (the kept rate at the rule's
     threshold, half the baseline's)."""
     pipes = SeedPipelines(tiny_pipeline, log=None)
-    study = ecm.composition_study(pipes, [0], per_case=4)
-    own = ecm.composition_reference_rates(pipes(0), 0, 4)
+    study = composition.composition_study(pipes, [0], per_case=4)
+    own = composition.composition_reference_rates(pipes(0), 0, 4)
     for name, value in own.items():
         assert study["latent"][name] == [value] == study["semantic"][name]
-    controls = ecm.composition_controls(pipes, study, [0], per_case=4)
-    copy = ecm.composition_reference_rates(pipes(1), 0, 4)
+    controls = composition.composition_controls(pipes, study, [0], per_case=4)
+    copy = composition.composition_reference_rates(pipes(1), 0, 4)
     for claim_id in ("EMG-2", "EMG-3"):
         null = controls[claim_id].null
         assert controls[claim_id].exact is False
@@ -241,10 +241,10 @@ def test_emg6_aa_reads_the_copys_floor_in_the_composed_arms_place(
     pipes = SeedPipelines(tiny_pipeline, log=None)
     kwargs = {"grid": 4, "n_noise": 1, "timesteps": (100,), "samples": 4, "upsample": 2,
               "sigma": 1.0}
-    measured = ecm.map_similarities(ecm.energy_map_study(pipes, [0], count=1, **kwargs))
-    controls = ecm.energy_map_controls(pipes, measured, [0], count=1, **kwargs)
-    copy = ecm.map_similarities(ecm.energy_map_study(copy_source(pipes, {0: 1}), [0], count=1,
-                                                     **kwargs))
+    measured = emg6.map_similarities(emg6.energy_map_study(pipes, [0], count=1, **kwargs))
+    controls = emg6.energy_map_controls(pipes, measured, [0], count=1, **kwargs)
+    copy = emg6.map_similarities(emg6.energy_map_study(copy_source(pipes, {0: 1}), [0], count=1,
+                                                       **kwargs))
     for kind in ("conjunction", "negation"):
         assert controls.null[f"{kind}_similarity_floor"] == measured[f"{kind}_similarity_floor"]
         assert controls.null[f"{kind}_similarity_to_multi"] == copy[f"{kind}_similarity_floor"]

@@ -11,7 +11,7 @@ from conftest import make_context
 from repro.claims.ledger import load_sidecars
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls, record
-from repro.energymogen.energy_contour_maps import (
+from repro.energymogen.energy_contour_maps.emg9 import (
     emg9_result,
     fid_draws_markdown,
     fid_fixed_cases,

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from repro.core.diffusion import GaussianDiffusion
-from repro.energymogen import energy_contour_maps as ecm
 from repro.energymogen.composed_augmentation import emg8
 from repro.energymogen.composed_augmentation.compml import ComposedSet
 from repro.energymogen.composed_augmentation.emg8 import ROWS
+from repro.energymogen.energy_contour_maps import composition, emg1, emg6
 from repro.energymogen.figures import training_markdown, validation_curves_figure
 from repro.energymogen.latent_count import emg7 as lc
 from repro.energymogen.latent_count.emg7 import latent_count_training
@@ -44,7 +44,7 @@ def _rows(keys: list[str], metrics: tuple[str, ...]) -> dict[str, dict[str, list
 def test_notebook_04_figures() -> None:
     diffusion = GaussianDiffusion(scaled_linear_betas(50))
     asymmetry = {"trained, text": np.full((3, 4), 0.05), "random init, text": np.ones((3, 4))}
-    fig = ecm.jacobian_asymmetry_figure(asymmetry, (10, 20, 30), diffusion)
+    fig = emg1.jacobian_asymmetry_figure(asymmetry, (10, 20, 30), diffusion)
     assert len(fig.axes) == 2 and len(fig.axes[1].lines[0].get_xdata()) == 50
     names = ("conjunction_both_present", "best_single_concept_both_present",
              "negation_negated_present", "baseline_negated_present", "negation_kept_present",
@@ -53,24 +53,24 @@ def test_notebook_04_figures() -> None:
     extra = {k: [0.1, 0.2] for k in ("unconditional_both_present", "multi_text_both_present",
                                      "ground_truth_both_present")}
     study = {"latent": measured, "semantic": measured, "extra": extra}
-    fig = ecm.composition_oracle_figure(study, SEEDS, 2.5)
+    fig = composition.composition_oracle_figure(study, SEEDS, 2.5)
     assert len(fig.axes) == 3 and len(fig.axes[0].patches) == 6
     assert fig.axes[0].patches[3].get_height() == pytest.approx(0.6)
-    fig = ecm.composition_examples_figure({"a": np.zeros((16, 22, 3)),
-                                               "b": np.zeros((16, 22, 3))})
+    fig = composition.composition_examples_figure({"a": np.zeros((16, 22, 3)),
+                                                       "b": np.zeros((16, 22, 3))})
     assert len(fig.axes) == 2 and HELD_OUT_PAIRS[0][0] in fig._suptitle.get_text()
     maps = {name: np.random.default_rng(0).normal(size=(8, 8)) for name in (
         "concept 1", "concept 2", "composed", "multi-concept", "paraphrase", "control")}
     case = {"extent": (1.0, 1.0), "smooth": maps, "texts": {k: "text" for k in (
         "c1", "c2", "multi", "ceiling", "control")}, "scores": {"composed": np.zeros((4, 2))},
         "case": "walk_forward/clap"}
-    fig = ecm.energy_maps_figure({"conjunction": case, "negation": case}, 0)
+    fig = emg6.energy_maps_figure({"conjunction": case, "negation": case}, 0)
     assert len(fig.axes) == 12
     measured = {f"{kind}_similarity_{what}": [value, value + 0.05]
                 for kind in ("conjunction", "negation")
                 for what, value in (("floor", 0.2), ("to_multi", 0.5), ("ceiling", 0.8),
                                     ("to_control", 0.1))}
-    fig = ecm.map_similarity_figure(measured)
+    fig = emg6.map_similarity_figure(measured)
     assert list(fig.axes[0].lines[0].get_ydata()) == [0.2, 0.5, 0.8]     # seed 1's line
 
 

@@ -16,9 +16,9 @@ import pytest
 from repro.claims.registry import get_claim
 from repro.claims.registry_energymogen import R3_PERCENT_320
 from repro.claims.verdicts import VERDICTS
-from repro.energymogen import energy_contour_maps as ecm
 from repro.energymogen import harness as em_harness
 from repro.energymogen.data import build_composition_pool, composition_items
+from repro.energymogen.energy_contour_maps import composition
 from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, SeedPipelines
 from repro.energymogen.sef_ablation import common, emg4, emg5
 from repro.energymogen.sef_ablation.emg5 import (
@@ -115,7 +115,7 @@ def test_rows_on_the_sets_of_three(tiny_pipeline: EnergyMoGenPipeline, tmp_path:
 
 
 def test_composition_study_feeds_the_rules(tiny_pipeline: EnergyMoGenPipeline) -> None:
-    study = ecm.composition_study(tiny_pipeline, seeds=[0], per_case=2)
+    study = composition.composition_study(tiny_pipeline, seeds=[0], per_case=2)
     for mode in ("latent", "semantic"):
         assert set(study[mode]) == set(get_claim("EMG-2").measurements)
         assert all(len(v) == 1 for v in study[mode].values())
@@ -132,9 +132,9 @@ def test_studies_use_the_model_of_each_seed(tiny_pipeline: EnergyMoGenPipeline) 
             assert values == [alone[0][row][metric][0], alone[1][row][metric][0]]
     shared = common.run_rows(tiny_pipeline, rows, [1])
     assert shared["latent"]["fid"] != per_seed["latent"]["fid"][1:]
-    study = ecm.composition_study(pipes, [0, 1], per_case=1)
+    study = composition.composition_study(pipes, [0, 1], per_case=1)
     assert all(len(v) == 2 for v in study["latent"].values())
-    study1 = ecm.composition_study(pipes(1), [1], per_case=1)
+    study1 = composition.composition_study(pipes(1), [1], per_case=1)
     assert study1["semantic"]["conjunction_both_present"] == \
         study["semantic"]["conjunction_both_present"][1:]
 
