@@ -72,32 +72,15 @@ def _degraded(features: np.ndarray, *, shrink: float, shift: float, noise: float
     return out.astype(np.float32)
 
 
-def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mapping[str, float],
-                seeds: Sequence[int], *, calibration_draws: int = 3, rounds: int = 4,
-                iterations: int = 12, fid_ratio: float = B3_FID_RATIO,
-                gap_ratio: float = B3_GAP_RATIO) -> Controls:
-    """GMD-B3's controls: the evaluation windows themselves, degraded (:func:`_degraded`),
-    stand in for both models' samples, measured with the experiment's ``measurements.table_row``
-    and ``measurements.registered_measurements`` (FID, R@3, Diversity against the same
-    evaluation set).
-
-    Paired as the experiment (``b3_rows``: both representations generate for the same
-    evaluation captions from the same seed, x_T included, and are scored with the same seed):
-    in a seed both arms degrade the same windows with the same white-noise draw
-    (:func:`control_seed` with arm 0; another draw per seed) and are scored with the seed.
-    Null: both arms degraded by :data:`B3_DEGRADATION` (identical arms: every log ratio 0).
-    Positive: the abs arm degraded less — the shrink and shift that, measured on
-    ``calibration_draws`` noise draws disjoint from the control's (alternating bisections,
-    ``rounds`` times), give FID × (1 − 0.1525) and a diversity gap to real × (1 − 0.412) of
-    the rel arm's: part 1's and part 2's δ (no exact transformation moves an FID by a set
-    ratio; R@3 is left to come out as it does). Each bisection takes ``iterations`` steps
-    (quick runs pass fewer draws, rounds and steps: a test of the code)."""
-    features, lengths = evaluation.features, evaluation.lengths
-    direction = np.random.default_rng(control_seed(0, 0, stream=40)).standard_normal(
-        features.shape[-1])
-    direction /= np.linalg.norm(direction)
-    real = float(real_row["diversity"])
-
+def _calibrated_abs_arm(evaluator: Evaluator, features: np.ndarray, lengths: np.ndarray,
+                        direction: np.ndarray, real: float, *, calibration_draws: int,
+                        rounds: int, iterations: int, fid_ratio: float,
+                        gap_ratio: float) -> tuple[float, float, float, float]:
+    """The positive control's abs arm: the shrink and shift (alternating bisections, ``rounds``
+    times, ``iterations`` steps each) that give ``fid_ratio`` × the rel arm's FID and
+    ``gap_ratio`` × its diversity gap to ``real``, measured on ``calibration_draws`` noise
+    draws disjoint from the control's; with the FID and gap ratios they reach:
+    (shrink, shift, FID ratio, gap ratio)."""
     truth = evaluator.embed_motions(features, lengths)
     pairs = min(DIVERSITY_PAIRS, len(features))
 
@@ -123,6 +106,37 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
                                      fid_ratio * fid_rel, high=1.0,
                                      iterations=iterations)
     reached = fid_and_gap(shrink, shift)
+    return shrink, shift, reached[0] / fid_rel, reached[1] / gap_rel
+
+
+def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mapping[str, float],
+                seeds: Sequence[int], *, calibration_draws: int = 3, rounds: int = 4,
+                iterations: int = 12, fid_ratio: float = B3_FID_RATIO,
+                gap_ratio: float = B3_GAP_RATIO) -> Controls:
+    """GMD-B3's controls: the evaluation windows themselves, degraded (:func:`_degraded`),
+    stand in for both models' samples, measured with the experiment's ``measurements.table_row``
+    and ``measurements.registered_measurements`` (FID, R@3, Diversity against the same
+    evaluation set).
+
+    Paired as the experiment (``b3_rows``: both representations generate for the same
+    evaluation captions from the same seed, x_T included, and are scored with the same seed):
+    in a seed both arms degrade the same windows with the same white-noise draw
+    (:func:`control_seed` with arm 0; another draw per seed) and are scored with the seed.
+    Null: both arms degraded by :data:`B3_DEGRADATION` (identical arms: every log ratio 0).
+    Positive: the abs arm degraded less — the shrink and shift that, measured on
+    ``calibration_draws`` noise draws disjoint from the control's (alternating bisections,
+    ``rounds`` times), give FID × (1 − 0.1525) and a diversity gap to real × (1 − 0.412) of
+    the rel arm's: part 1's and part 2's δ (no exact transformation moves an FID by a set
+    ratio; R@3 is left to come out as it does). Each bisection takes ``iterations`` steps
+    (quick runs pass fewer draws, rounds and steps: a test of the code)."""
+    features, lengths = evaluation.features, evaluation.lengths
+    direction = np.random.default_rng(control_seed(0, 0, stream=40)).standard_normal(
+        features.shape[-1])
+    direction /= np.linalg.norm(direction)
+    shrink, shift, fid_reached, gap_reached = _calibrated_abs_arm(
+        evaluator, features, lengths, direction, float(real_row["diversity"]),
+        calibration_draws=calibration_draws, rounds=rounds, iterations=iterations,
+        fid_ratio=fid_ratio, gap_ratio=gap_ratio)
     rows: dict[str, dict[str, list[dict[str, float]]]] = {
         "null": {"relative": [], "absolute": []}, "positive": {"relative": [], "absolute": []}}
     for s in seeds:
@@ -140,8 +154,8 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
         null=measurements.registered_measurements(dict(real_row), rows["null"]),
         positive=measurements.registered_measurements(dict(real_row), rows["positive"]),
         planted={"rel_degradation": B3_DEGRADATION, "abs_shrink": shrink, "abs_shift": shift,
-                 "calibrated_fid_ratio": reached[0] / fid_rel,
-                 "calibrated_gap_ratio": reached[1] / gap_rel,
+                 "calibrated_fid_ratio": fid_reached,
+                 "calibrated_gap_ratio": gap_reached,
                  "calibration_draws": calibration_draws},
         null_text=(f"paired as the experiment: the same {len(features)} evaluation windows "
                    f"with the same noise draw in both arms of a seed (another draw per seed), "
@@ -149,8 +163,8 @@ def b3_controls(evaluator: Evaluator, evaluation: EvaluationSet, real_row: Mappi
                    f"{B3_DEGRADATION['shrink']:g}, shift {B3_DEGRADATION['shift']:g} std, noise "
                    f"{B3_DEGRADATION['noise']:g} std), identical arms"),
         positive_text=(f"the same paired draws; the abs arm degraded less (shrink "
-                       f"{shrink:.3g}, shift {shift:.3g}: FID × {reached[0] / fid_rel:.3g}, "
-                       f"diversity gap × {reached[1] / gap_rel:.3g} on {calibration_draws} "
+                       f"{shrink:.3g}, shift {shift:.3g}: FID × {fid_reached:.3g}, "
+                       f"diversity gap × {gap_reached:.3g} on {calibration_draws} "
                        f"calibration draws disjoint from the control's)"))
 
 
