@@ -183,10 +183,10 @@ def test_b2_aa_null_has_between_model_spread(cache, small_spec, small_config,
     relative = _trained(small_spec(data=small_config("relative")))
     settings = dataclasses.replace(rr.Settings.for_scale("quick"), targets=4)
     test = trajectory_windows["relative"]
-    readings = rr.b2_aa_readings({}, {}, {"relative": relative}, test, QUICK_RUN_SEEDS,
-                                 settings)
-    controls = aa_controls("GMD-B2", readings, rr.B2_SLOTS, reference_arm="rel")
-    _check("GMD-B2", readings, rr.B2_SLOTS, controls)
+    readings = rr.b2.b2_aa_readings({}, {}, {"relative": relative}, test, QUICK_RUN_SEEDS,
+                                    settings)
+    controls = aa_controls("GMD-B2", readings, rr.b2.B2_SLOTS, reference_arm="rel")
+    _check("GMD-B2", readings, rr.b2.B2_SLOTS, controls)
     # per target and frame, the copy's location errors differ from the own model's
     assert np.any(item_differences(readings, "imputation_error") != 0)
 

@@ -180,14 +180,14 @@ def test_a4_positive_at_delta_is_seen_and_null_is_silent(windows: MotionWindows,
 
 @pytest.fixture(scope="module")
 def location_tasks(windows: MotionWindows) -> dict:
-    from repro.gmd.root_representation import location_task
+    from repro.gmd.root_representation.b2 import location_task
 
     return {s: location_task(windows, 6, seed=s) for s in SEEDS}
 
 
 def test_b2_arms_are_paired_and_positive_plants_delta_exactly(windows, location_tasks
                                                               ) -> None:
-    result = root_representation.b2_controls(windows, location_tasks, SEEDS)
+    result = root_representation.b2.b2_controls(windows, location_tasks, SEEDS)
     null, positive = result.null, result.positive
     first = null["rel_imputation_error"]
     assert len(set(first)) == len(SEEDS)  # another draw per seed
@@ -207,11 +207,11 @@ def test_b2_arms_are_paired_and_positive_plants_delta_exactly(windows, location_
 def test_b2_positive_at_delta_is_seen_and_null_is_silent(windows) -> None:
     """At δ itself; enough targets (128 per seed) that the threshold part, which keeps its
     draw's own noise (0.1 m − abs error: nothing pairs it), is seen too."""
-    from repro.gmd.root_representation import location_task
+    from repro.gmd.root_representation.b2 import location_task
 
     claim = get_claim("GMD-B2")
     tasks = {s: location_task(windows, 128, seed=s) for s in SEEDS[:4]}
-    result = root_representation.b2_controls(windows, tasks, SEEDS[:4])
+    result = root_representation.b2.b2_controls(windows, tasks, SEEDS[:4])
     assert claim.decide(result.positive, control=True).verdict == REPRODUCED
     silent = claim.decide(result.null, control=True)
     assert silent.verdict not in (REPRODUCED, PARTIAL)
@@ -310,7 +310,7 @@ def table_b1_setup():
 
 
 def test_b3_arms_are_paired_and_positive_is_seen_at_delta(table_b1_setup) -> None:
-    from repro.gmd.root_representation import B3_FID_RATIO, B3_GAP_RATIO, b3_controls
+    from repro.gmd.root_representation.b3 import B3_FID_RATIO, B3_GAP_RATIO, b3_controls
 
     evaluator, evaluation, real = table_b1_setup
     result = b3_controls(evaluator, evaluation, real, SEEDS[:3], calibration_draws=1)

@@ -46,13 +46,13 @@ def _runs(abs_guidance: float) -> dict[str, list[dict[str, float]]]:
 
 
 def test_b2_reading_counts_each_mechanism_and_picks_the_guidance_sentence() -> None:
-    worse = root_representation.reading_b2(_runs(8.0), seeds=[0, 1], stop_t=20)
+    worse = root_representation.b2.reading_b2(_runs(8.0), seeds=[0, 1], stop_t=20)
     assert "abs closer on 2 of 2 seeds" in worse and "abs closer on 0 of 2 seeds" in worse
     assert "guidance did not help in abs" in worse and "helped in rel" in worse
     assert "last 20 free steps" in worse
-    helped = root_representation.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=20)
+    helped = root_representation.b2.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=20)
     assert "guidance helped in abs" in helped and "abs closer on 2 of 2 seeds" in helped
-    to_the_end = root_representation.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=0)
+    to_the_end = root_representation.b2.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=0)
     assert "act to the last step" in to_the_end and "free steps" not in to_the_end
 
 
@@ -78,10 +78,11 @@ def test_b3_reading_names_the_lower_fid() -> None:
     row = {"fid": 1.0, "r_precision_top3": 0.2, "diversity": 1.0, "concept_recall": 0.1}
     rows = {"relative": [{**row, "fid": 2.0}], "absolute": [row]}
     real = {"diversity": 1.3, "r_precision_top3": 0.9, "concept_recall": 0.8}
-    text = root_representation.reading_b3(rows, real, paper_fid=(0.305, 0.212))
+    text = root_representation.b3.reading_b3(rows, real, paper_fid=(0.305, 0.212))
     assert "lower mean: abs" in text and "30% of its rel value" in text
     rows = {"relative": [row], "absolute": [{**row, "fid": 2.0}]}
-    assert "lower mean: rel" in root_representation.reading_b3(rows, real, paper_fid=(0.305, 0.212))
+    assert "lower mean: rel" in root_representation.b3.reading_b3(rows, real,
+                                                                  paper_fid=(0.305, 0.212))
 
 
 def test_b1_reading_checks_that_the_linear_curve_is_flat() -> None:
@@ -89,6 +90,6 @@ def test_b1_reading_checks_that_the_linear_curve_is_flat() -> None:
                "rel_rotation": {"gap_1": 0.001, "gap_54": 0.03}}
     kwargs = dict(round_trip_error=1e-15, joints_error=0.0, late_gap=54, growth=3.0,
                   real_growth=None, linearisation=[0.01, 0.5], deltas=[0.01, 0.5])
-    assert "(the same shift)" in root_representation.reading_b1(summary=summary, **kwargs)
+    assert "(the same shift)" in root_representation.b1.reading_b1(summary=summary, **kwargs)
     summary["rel_linear"]["gap_54"] = 0.02
-    assert "(not constant)" in root_representation.reading_b1(summary=summary, **kwargs)
+    assert "(not constant)" in root_representation.b1.reading_b1(summary=summary, **kwargs)
