@@ -25,7 +25,6 @@ import torch
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls
 from repro.claims.verdicts import EXACT_TIE, one_sided_p
-from repro.gmd import emphasis_projection as ep
 from repro.gmd import guidance_schedule as gs
 from repro.gmd import root_representation as rr
 from repro.gmd.controls import (
@@ -36,6 +35,8 @@ from repro.gmd.controls import (
     aa_seeds,
     item_differences,
 )
+from repro.gmd.emphasis_projection import c4 as ep_c4
+from repro.gmd.emphasis_projection import experiment as ep
 from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
 from repro.gmd.x0_vs_eps import a3, a4
@@ -198,8 +199,8 @@ def test_c4_aa_null_has_between_model_spread(cache, small_config) -> None:
     train = load_windows(base.data)
     settings = dataclasses.replace(ep.Settings.for_scale("quick"), samples=8)
     results = ep.Results([], [], {}, {}, {}, {}, None, {}, {})  # type: ignore[arg-type]
-    controls = ep.c4_aa_controls(results, settings, base, train, train, QUICK_RUN_SEEDS)
-    slots = ep.c4_slots(settings.values)
+    controls = ep_c4.c4_aa_controls(results, settings, base, train, train, QUICK_RUN_SEEDS)
+    slots = ep_c4.c4_slots(settings.values)
     assert controls.null["values"] == [2, 10]
     pairs = aa_pairs(QUICK_RUN_SEEDS)
     readings = AAReadings(pairs, {}, {})   # the pairs only: C4's readings are in the controls

@@ -12,11 +12,11 @@ from repro.claims.verdicts import PARTIAL, REPRODUCED
 from repro.core import metrics
 from repro.gmd import (
     controls,
-    emphasis_projection,
     guidance_schedule,
     root_representation,
 )
-from repro.gmd.emphasis_projection import C4_VALUES, coherence
+from repro.gmd.emphasis_projection.c4 import c4_controls
+from repro.gmd.emphasis_projection.experiment import C4_VALUES, coherence
 from repro.gmd.measurements import evaluator_inputs, jitter_of
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
 from repro.gmd.x0_vs_eps.a4 import a4_controls, jagged_by
@@ -69,7 +69,7 @@ def test_calibrate_increasing_finds_the_size() -> None:
 # --- the arms of a seed are the same draws; δ is seen, the null stays silent ----------------
 
 def test_c4_arms_are_paired_and_positive_plants_a_tenth_exactly(windows: MotionWindows) -> None:
-    result = emphasis_projection.c4_controls(windows, SEEDS[:3], (2, 10), n=6)
+    result = c4_controls(windows, SEEDS[:3], (2, 10), n=6)
     first = result.null["foot_skating_emphasis"]["2"]
     assert len(set(first)) == 3  # another draw per seed
     for v in ("2", "10"):
@@ -83,7 +83,7 @@ def test_c4_arms_are_paired_and_positive_plants_a_tenth_exactly(windows: MotionW
 
 def test_c4_positive_at_delta_is_seen_and_null_is_silent(windows: MotionWindows) -> None:
     claim = get_claim("GMD-C4")
-    result = emphasis_projection.c4_controls(windows, SEEDS[:3], C4_VALUES, n=6)
+    result = c4_controls(windows, SEEDS[:3], C4_VALUES, n=6)
     assert claim.decide(result.positive, control=True).verdict == REPRODUCED
     assert claim.decide(result.null, control=True).verdict not in (REPRODUCED, PARTIAL)
 

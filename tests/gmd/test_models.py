@@ -96,7 +96,7 @@ PINNED_WINDOW_FINGERPRINTS = {"absolute": "f4045791fc65bb18", "relative": "2d4a0
 
 def _pinned_specs() -> dict[str, GMDModelSpec]:
     from repro.gmd.emphasis_projection import Settings as EmphasisSettings
-    from repro.gmd.emphasis_projection import Variant
+    from repro.gmd.emphasis_projection.experiment import Variant
     from repro.gmd.root_representation import Settings as RootSettings
 
     quick_motion = GMDModelSpec(task="motion", prediction="x0",

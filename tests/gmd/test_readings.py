@@ -3,7 +3,8 @@ truth depends on them."""
 
 from __future__ import annotations
 
-from repro.gmd import emphasis_projection, root_representation
+from repro.gmd import root_representation
+from repro.gmd.emphasis_projection.c4 import reading_c4
 from repro.gmd.x0_vs_eps import a3
 
 
@@ -65,12 +66,12 @@ def _skating(loss: list[float], emphasis: list[float]) -> dict[str, dict[str, li
 def test_c4_reading_states_the_direction_measured() -> None:
     kwargs = dict(data_skating=0.05, final_losses={"a": 0.4, "b": 0.5}, train_steps=1000,
                   kappas={0: 1e3, 1: 5e4}, emphasis_skating_c10=[2.0, 30.0])
-    worse = emphasis_projection.reading_c4(skating=_skating([1, 1, 1, 1], [6, 4, 3, 2]), **kwargs)
+    worse = reading_c4(skating=_skating([1, 1, 1, 1], [6, 4, 3, 2]), **kwargs)
     assert "Emphasis skates more than loss scaling at every matched value" in worse
     assert "the gap shrinks" in worse and "seed 1 (κ = 5e+04" in worse
-    better = emphasis_projection.reading_c4(skating=_skating([6, 4, 3, 2], [1, 1, 1, 1]), **kwargs)
+    better = reading_c4(skating=_skating([6, 4, 3, 2], [1, 1, 1, 1]), **kwargs)
     assert "Emphasis skates less" in better
-    mixed = emphasis_projection.reading_c4(skating=_skating([1, 4, 1, 1], [2, 1, 3, 5]), **kwargs)
+    mixed = reading_c4(skating=_skating([1, 4, 1, 1], [2, 1, 3, 5]), **kwargs)
     assert "neither method" in mixed and "does not shrink" in mixed
 
 

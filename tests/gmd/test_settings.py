@@ -10,7 +10,8 @@ from repro.core.training import TrainConfig
 from repro.gmd import emphasis_projection, guidance_schedule, models, root_representation, x0_vs_eps
 from repro.gmd import root_representation as rr
 from repro.gmd import x0_vs_eps as x0eps
-from repro.gmd.emphasis_projection import Variant
+from repro.gmd.emphasis_projection.experiment import Variant
+from repro.gmd.emphasis_projection.projection import ProjectionSettings
 from repro.gmd.models import GMDModelSpec, training_fields
 from repro.gmd.settings import (
     FULL_SEEDS,
@@ -156,7 +157,8 @@ def test_the_standard_model_bank_shares_keys() -> None:
         # F1's second stage is B3's absolute-root x0 text model (sampled with the null text)
         assert (guidance_schedule.Settings.for_scale("standard").motion_spec().replace(seed=seed)
                 == rr.Settings.for_scale("standard").motion_spec("absolute", seed))
-    # one evaluator for notebooks 01, 02 and 03 (``emphasis_projection.window_evaluator``)
+    # one evaluator for notebooks 01, 02 and 03 (``emphasis_projection.experiment``'s
+    # ``window_evaluator``)
     steps = emphasis_projection.Settings.for_scale("standard").evaluator_steps
     shared = EvaluatorConfig().replace(steps=steps)
     assert rr.Settings.for_scale("standard").evaluator_config() == shared
@@ -196,7 +198,7 @@ def test_paper_scale_is_todays_full_settings() -> None:
 @pytest.mark.parametrize("build", [
     lambda s: x0eps.Settings.for_scale(s), lambda s: rr.Settings.for_scale(s),
     lambda s: emphasis_projection.Settings.for_scale(s),
-    lambda s: emphasis_projection.ProjectionSettings.for_scale(s),
+    lambda s: ProjectionSettings.for_scale(s),
     lambda s: guidance_schedule.Settings.for_scale(s),
     lambda s: training_fields("motion", scale=s)])
 def test_an_unknown_scale_is_a_clear_error(build) -> None:
