@@ -59,6 +59,7 @@ from repro.gmd.root_representation.common import (
     Settings,
     load_or_train_per_representation,
     settings_markdown,
+    window_needs,
 )
 
 __all__ = ["METHODS", "REAL_CLIP", "REGISTERED_METHODS", "Settings", "b1_figures", "b1_reading",
@@ -66,4 +67,4 @@ __all__ = ["METHODS", "REAL_CLIP", "REGISTERED_METHODS", "Settings", "b1_figures
            "b2_table_markdown", "b3_evaluation", "b3_model_records", "b3_not_run_markdown",
            "b3_not_run_result", "b3_result", "b3_rows", "load_or_train_per_representation",
            "plot_imputation", "plot_method_errors", "reading_b2", "reading_b3",
-           "round_trip_markdown", "settings_markdown"]
+           "round_trip_markdown", "settings_markdown", "window_needs"]

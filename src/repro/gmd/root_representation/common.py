@@ -42,8 +42,9 @@ from repro.gmd.windows import (
 )
 from repro.infra.context import RunSettings, check_scale
 from repro.models.evaluator import EvaluatorConfig
+from repro.motion.usability import WindowNeeds
 
-__all__ = ["B3_PARTS", "FigurePath", "QUICK_TRAJECTORY_DIFFUSION_STEPS",
+__all__ = ["B3_PARTS", "window_needs", "FigurePath", "QUICK_TRAJECTORY_DIFFUSION_STEPS",
            "REPRESENTATION_ROLES", "Settings", "Windows",
            "load_or_train_per_representation", "settings_markdown"]
 
@@ -251,3 +252,13 @@ def load_or_train_per_representation(spec: Callable[[str, int, DataDir], GMDMode
         trained = load_or_train_many(specs, windows[rep]["train"], device=device)
         models[rep] = dict(zip(seeds, trained, strict=True))
     return models
+
+
+def window_needs(scale: str) -> WindowNeeds:
+    """What notebook 02 cuts from a data folder at ``scale``: ``windows.DataConfig``'s windows,
+    and as many test windows as it draws goal targets from (``Settings.targets``:
+    ``goal_targets`` draws them without replacement; ``run.params`` asks this before any
+    kernel starts)."""
+    default = DataConfig()
+    return WindowNeeds(default.frames, default.stride,
+                       {"train": 1, "test": Settings.for_scale(scale).targets})

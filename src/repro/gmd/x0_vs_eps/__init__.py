@@ -32,6 +32,6 @@ The package re-exports :class:`Settings`, which notebook 06's settings
 
 from __future__ import annotations
 
-from repro.gmd.x0_vs_eps.common import Settings
+from repro.gmd.x0_vs_eps.common import Settings, window_needs
 
-__all__ = ["Settings"]
+__all__ = ["Settings", "window_needs"]

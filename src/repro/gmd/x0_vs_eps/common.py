@@ -37,6 +37,7 @@ from repro.gmd.windows import (
 )
 from repro.infra.context import RunSettings, check_scale
 from repro.models.evaluator import EvaluatorConfig
+from repro.motion.usability import WindowNeeds
 
 
 @dataclass(frozen=True)
@@ -225,3 +226,11 @@ def trajectory_model_values(model: TrainedGMD, unguided: Any, test: MotionWindow
     samples and its held-out x̂0 error over the Gaussian denoiser's."""
     return {**model_gates.trajectory_gate_values(model, unguided),
             **model_gates.denoising_gate_values(model, test, train, seed=seed)}
+
+
+def window_needs(scale: str) -> WindowNeeds:
+    """What notebook 01 cuts from a data folder at ``scale``: windows of ``Settings.frames``
+    frames (at least ``windows.DataConfig``'s) every ``DataConfig``'s stride, one per split at
+    least (``run.params`` asks this before any kernel starts)."""
+    default = DataConfig()
+    return WindowNeeds(max(default.frames, Settings.for_scale(scale).frames), default.stride)
