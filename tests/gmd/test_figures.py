@@ -14,7 +14,7 @@ from repro.gmd import (
     figures,
     guidance_schedule,  # noqa: E402
 )
-from repro.gmd.guidance_schedule import strength_key  # noqa: E402
+from repro.gmd.guidance_schedule.sampling import strength_key  # noqa: E402
 from repro.gmd.models import schedule_diffusion
 from repro.gmd.x0_vs_eps import (
     coefficient_shares,
