@@ -85,7 +85,7 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                 goals: int, min_distance: float, margin: float = 1.0,
                 whole_body: bool = True) -> Controls:
     """GMD-F1's controls: test trajectories toward the experiment's goals stand in for the
-    samples, measured as ``guidance_schedule.sweep_strengths`` measures them (mean goal error
+    samples, measured as :func:`sweep_strengths` measures them (mean goal error
     of the last frame, root jerk).
 
     Paired as the experiment (``run_sweeps``: the same goals and the same x_T for every
