@@ -155,6 +155,14 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                 coherent = _coherence(motion, x)
                 out[kind][f"joint_jerk_{key}"].append(coherent[0])
                 out[kind][f"foot_skating_{key}"].append(coherent[1])
+    return _planted_controls(out, sizes, goals=goals, seeds=len(seeds), whole_body=whole_body)
+
+
+def _planted_controls(out: dict[str, dict[str, Any]],
+                      sizes: Mapping[str, tuple[float, float, float, float]], *, goals: int,
+                      seeds: int, whole_body: bool) -> Controls:
+    """The :class:`Controls` of :func:`f1_controls`' null and positive readings ``out``, with
+    the planted factors ``sizes`` (goal, jerk, stop-20 jerk, stop-20 goal) and their texts."""
     null_f, pos_f = sizes["null"], sizes["positive"]
     body_null = ("; whole body: the same windows' motions at both stops (equal arms)"
                  if whole_body else "; whole body: not run at this scale")
@@ -170,7 +178,7 @@ def f1_controls(test: MotionWindows, seeds: Sequence[int], strengths: Sequence[f
                                       f"every arm"},
                     null_text=(f"paired as the experiment: the same {goals} test trajectories "
                                f"toward the same goals in every arm of a seed (another draw "
-                               f"per seed), {len(seeds)} seed(s); every part at its threshold: "
+                               f"per seed), {seeds} seed(s); every part at its threshold: "
                                f"guided goal error × {null_f[0]:g}, jerk × {null_f[1]:g}; stop "
                                f"20: jerk × {null_f[2]:g}, goal error × {null_f[3]:g} (exact)"
                                f"{body_null}"),
