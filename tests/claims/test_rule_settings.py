@@ -94,7 +94,7 @@ def test_every_experiment_passes_the_settings_its_rule_quotes() -> None:
     passes ``settings=`` read from its rule_settings function."""
     checked = set()
     for package in ("gmd", "energymogen"):
-        for path in sorted((paths.REPO_ROOT / "src" / "repro" / package).glob("*.py")):
+        for path in sorted((paths.REPO_ROOT / "src" / "repro" / package).rglob("*.py")):
             for call in _claim_result_calls(path):
                 first = call.args[0] if call.args else None
                 ids = ([first.value] if isinstance(first, ast.Constant) else
