@@ -37,6 +37,8 @@ from repro.gmd.controls import (
 )
 from repro.gmd.emphasis_projection import c4 as ep_c4
 from repro.gmd.emphasis_projection import experiment as ep
+from repro.gmd.guidance_schedule.experiment import ScheduleModels, Sweeps
+from repro.gmd.guidance_schedule.f1 import f1_aa_controls, f1_slots
 from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
 from repro.gmd.x0_vs_eps import a3, a4
@@ -214,11 +216,11 @@ def test_f1_aa_null_has_between_model_spread(cache, small_spec, trajectory_windo
         quick, goals=4, model=dataclasses.replace(quick.model, min_goal_distance=0.0))
     windows = trajectory_windows["absolute"]
     first = models[0]
-    schedule = gs.ScheduleModels(first.spec, None, windows, windows, models, {}, [True],
-                                 {0: 0, 20: 1}, None, None)
-    sweeps = gs.Sweeps(list(QUICK_RUN_SEEDS), {}, {}, {}, {}, {}, {}, {})
-    controls = gs.f1_aa_controls(schedule, sweeps, settings)
-    slots = gs.f1_slots(settings)
+    schedule = ScheduleModels(first.spec, None, windows, windows, models, {}, [True],
+                              {0: 0, 20: 1}, None, None)
+    sweeps = Sweeps(list(QUICK_RUN_SEEDS), {}, {}, {}, {}, {}, {}, {})
+    controls = f1_aa_controls(schedule, sweeps, settings)
+    slots = f1_slots(settings)
     readings = AAReadings(aa_pairs(QUICK_RUN_SEEDS), {}, {})
     _check("GMD-F1", readings, slots, controls)
     assert torch.is_tensor(torch.as_tensor(controls.null["goal_error_unguided"]))

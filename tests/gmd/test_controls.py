@@ -12,11 +12,12 @@ from repro.claims.verdicts import PARTIAL, REPRODUCED
 from repro.core import metrics
 from repro.gmd import (
     controls,
-    guidance_schedule,
     root_representation,
 )
 from repro.gmd.emphasis_projection.c4 import c4_controls
 from repro.gmd.emphasis_projection.experiment import C4_VALUES, coherence
+from repro.gmd.guidance_schedule.f1 import f1_controls
+from repro.gmd.guidance_schedule.settings import WHOLE_BODY_MEASUREMENTS
 from repro.gmd.measurements import evaluator_inputs, jitter_of
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
 from repro.gmd.x0_vs_eps.a4 import a4_controls, jagged_by
@@ -233,8 +234,8 @@ def test_f1_arms_carry_the_planted_factors_exactly(windows: MotionWindows) -> No
 
 
 def test_f1_arms_are_paired_and_carry_the_planted_factors(windows: MotionWindows) -> None:
-    result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
-                                           min_distance=0.0)
+    result = f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
+                         min_distance=0.0)
     null, positive = result.null, result.positive
     unguided = np.asarray(null["goal_error_unguided"])
     assert len(set(unguided)) == 3  # another draw per seed
@@ -254,15 +255,15 @@ def test_f1_arms_are_paired_and_carry_the_planted_factors(windows: MotionWindows
 
 def test_f1_positive_at_delta_is_seen_and_null_is_silent(windows) -> None:
     claim = get_claim("GMD-F1")
-    result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
-                                           min_distance=0.0)
+    result = f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
+                         min_distance=0.0)
     assert claim.decide(result.positive, control=True).verdict == REPRODUCED
     assert claim.decide(result.null, control=True).verdict not in (REPRODUCED, PARTIAL)
 
 
 def test_f1_whole_body_positive_is_smoother_by_the_planted_factor(windows) -> None:
-    result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
-                                           min_distance=0.0)
+    result = f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
+                         min_distance=0.0)
     null, positive = result.null, result.positive
     assert positive["joint_jerk_stop_0"] == null["joint_jerk_stop_0"]
     np.testing.assert_allclose(positive["joint_jerk_stop_20"],
@@ -279,14 +280,13 @@ def test_f1_controls_without_the_second_stage_are_decided_over_the_parts_that_ru
     from repro.gmd.settings import not_run
 
     kwargs = {"goals": 6, "min_distance": 0.0}
-    full = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), **kwargs)
-    cut = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), whole_body=False,
-                                        **kwargs)
+    full = f1_controls(windows, SEEDS[:3], (100, 150, 200), **kwargs)
+    cut = f1_controls(windows, SEEDS[:3], (100, 150, 200), whole_body=False, **kwargs)
     for kind in ("null", "positive"):
         got = getattr(cut, kind)
-        assert not set(guidance_schedule.WHOLE_BODY_MEASUREMENTS) & set(got)
+        assert not set(WHOLE_BODY_MEASUREMENTS) & set(got)
         assert got == {k: v for k, v in getattr(full, kind).items()
-                       if k not in guidance_schedule.WHOLE_BODY_MEASUREMENTS}
+                       if k not in WHOLE_BODY_MEASUREMENTS}
     assert "whole body: not run at this scale" in cut.positive_text
     _, stored = decide_claim("GMD-F1", cut.positive, controls=cut.as_controls(),
                              not_run=not_run("GMD-F1", "standard"))
