@@ -21,7 +21,13 @@ import torch
 
 from repro.claims.registry import CLAIMS
 from repro.claims.registry_gmd import float32_round_trip_bound
-from repro.gmd import emphasis_projection as emphasis
+from repro.gmd.emphasis_projection.c2 import c2_result, distance_inverse_check
+from repro.gmd.emphasis_projection.experiment import Settings
+from repro.gmd.emphasis_projection.projection import (
+    EmphasisProjection,
+    ProjectionSettings,
+    reconstruction_error,
+)
 from repro.gmd.windows import load_windows
 from repro.run.notebook import seeds_for, setup_notebook
 
@@ -30,8 +36,8 @@ def matrix_rows(seeds: int = 40, frames: int = 1000) -> list[dict]:
     x = np.random.default_rng(0).standard_normal((frames, 263))
     rows = []
     for seed in range(seeds):
-        projection = emphasis.EmphasisProjection(c=10.0, seed=seed)
-        error = float(emphasis.reconstruction_error(projection, x, torch.float32).max())
+        projection = EmphasisProjection(c=10.0, seed=seed)
+        error = float(reconstruction_error(projection, x, torch.float32).max())
         kappa = projection.condition_number
         rows.append({"kind": "matrix", "matrix_seed": seed, "kappa": kappa, "error": error,
                      "over_bound": error / float32_round_trip_bound(kappa),
@@ -42,15 +48,14 @@ def matrix_rows(seeds: int = 40, frames: int = 1000) -> list[dict]:
 def notebook_row(base_seed: int, build_dir: str) -> dict:
     ctx = setup_notebook(scale="standard", seed=base_seed, device="cpu", build_dir=build_dir,
                          data_dir=None, notebook="03_emphasis_projection")
-    settings = emphasis.Settings.for_run(ctx)
+    settings = Settings.for_run(ctx)
     seeds = seeds_for(ctx, full=settings.seeds)
     base = settings.base_spec(ctx.data_dir)
     train = load_windows(base.data)
     test = load_windows(base.data, "test", statistics=(train.mean, train.std))
     frames = test.x.transpose(1, 2).reshape(-1, test.x.shape[1]).double().numpy()
-    check = emphasis.distance_inverse_check(frames, seeds, emphasis.ProjectionSettings.for_run(
-        ctx), seed=ctx.seed)
-    measured = emphasis.c2_result(check).measured
+    check = distance_inverse_check(frames, seeds, ProjectionSettings.for_run(ctx), seed=ctx.seed)
+    measured = c2_result(check).measured
     decision = CLAIMS["GMD-C2"].decide(measured)
     return {"kind": "notebook_03_standard", "base_seed": base_seed, "matrix_seeds": seeds,
             "measured": measured, "verdict": decision.verdict, "checks": dict(decision.checks)}

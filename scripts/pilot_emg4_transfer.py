@@ -4,7 +4,7 @@ for a transfer of EMG-4's steps registered before a run.
 On the standard pipeline of training seed 0 (``load_pipeline``, the cached models of a
 standard run: point ``REPRO_CACHE_DIR`` at its cache), for Table 9's grid scaled by each
 ``--kappa``: the text embedding's relative change by the last block, ‖Δc‖/‖c‖ at t = 500
-(``sef_ablation.agd_relative_change``, on notebook 05's items of seed 0), and R@3 of γ = 0, of
+(``sef_ablation.emg4.agd_relative_change``, on notebook 05's items of seed 0), and R@3 of γ = 0, of
 the scaled largest row and of the scaled smallest row, sampled as notebook 05 samples them
 (``run_rows``) on ``--items-per-pair`` items per held-out pair, with the CPU seconds of each
 row (one thread). One JSON line per κ goes to ``--out``::
@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from repro.energymogen import sef_ablation as sef
 from repro.energymogen.data import energy_view_items
 from repro.energymogen.pipeline import Sampler, load_pipeline
-from repro.energymogen.sef_ablation import SEFAblationSettings
+from repro.energymogen.sef_ablation import common, emg4
+from repro.energymogen.sef_ablation.common import SEFAblationSettings
 
 
 def main() -> None:
@@ -46,7 +46,7 @@ def main() -> None:
     pipe = load_pipeline(config, "cpu", plan=settings.plan)
     items = energy_view_items(pipe.data, 0, config.items_per_pair)
     texts = list(items.multi_texts)
-    largest, smallest = sef.TABLE9_GAMMAS[1], sef.TABLE9_GAMMAS[-1]
+    largest, smallest = common.TABLE9_GAMMAS[1], common.TABLE9_GAMMAS[-1]
     baseline = None
     with args.out.open("a") as out:
         for kappa in args.kappa:
@@ -55,7 +55,7 @@ def main() -> None:
             for name, gammas in (("largest", largest), ("smallest", smallest)):
                 scaled = (kappa * gammas[0], kappa * gammas[1])
                 row[f"gammas_{name}"] = scaled
-                row[f"relative_change_{name}"] = sef.agd_relative_change(pipe, texts, scaled)
+                row[f"relative_change_{name}"] = emg4.agd_relative_change(pipe, texts, scaled)
             if not args.no_r3:
                 rows = {"largest": Sampler("single", gammas=row["gammas_largest"]),
                         "smallest": Sampler("single", gammas=row["gammas_smallest"])}
@@ -63,7 +63,7 @@ def main() -> None:
                     rows["zero"] = Sampler("single", gammas=(0.0, 0.0))
                 for name, sampler in rows.items():
                     start = time.process_time()
-                    measured = sef.run_rows(pipe, {name: sampler}, [0])
+                    measured = common.run_rows(pipe, {name: sampler}, [0])
                     row[f"r3_{name}"] = float(np.mean(measured[name]["r_precision_top3"]))
                     row[f"cpu_s_{name}"] = round(time.process_time() - start, 1)
                     if name == "zero":

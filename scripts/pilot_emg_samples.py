@@ -23,7 +23,7 @@ import torch
 from repro.energymogen import model_gates
 from repro.energymogen.energy_contour_maps import EnergyViewSettings
 from repro.energymogen.harness import load_or_build_text_to_motion_test
-from repro.energymogen.latent_count import LatentCountSettings
+from repro.energymogen.latent_count.emg7 import LatentCountSettings
 from repro.energymogen.pipeline import SeedPipelines, load_pipeline
 from repro.energymogen.settings import pipeline_config
 

@@ -27,7 +27,7 @@ import torch
 from repro.core import metrics
 from repro.energymogen.data import load_or_build_data
 from repro.energymogen.harness import load_or_build_text_to_motion_test, oracle_accuracy
-from repro.energymogen.latent_count import LatentCountSettings, mpjpe
+from repro.energymogen.latent_count.emg7 import LatentCountSettings, mpjpe
 from repro.energymogen.pipeline import train_seed_for, vae_kwargs, vae_train_config
 from repro.energymogen.settings import pipeline_config
 from repro.models.vae import MotionVAE

@@ -82,7 +82,7 @@ def main() -> None:
     evaluation = measurements.evaluation_set(test, settings.evaluation_windows, seed=args.seed)
     real_row = measurements.ground_truth_row(evaluator, evaluation, train_features,
                                              seed=args.seed)
-    b3 = rr.B3Evaluation(evaluator, train_features, evaluation, real_row)
+    b3 = rr.b3.B3Evaluation(evaluator, train_features, evaluation, real_row)
     values = model_gates.evaluator_gate_values(
         b3.evaluator, evaluation.features, evaluation.lengths, evaluation.captions,
         seed=args.seed, train_features=b3.train_features, samples=len(evaluation))

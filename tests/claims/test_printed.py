@@ -11,7 +11,8 @@ import pytest
 from repro.claims import printed, seed_text
 from repro.claims.printed import QUOTES, get_table, value
 from repro.claims.registry import CLAIMS
-from repro.energymogen import latent_count, sef_ablation
+from repro.energymogen.latent_count import emg7
+from repro.energymogen.sef_ablation import common
 from repro.gmd import measurements
 
 EMG = "EnergyMoGen"
@@ -55,23 +56,23 @@ def test_a_changed_number_interval_bold_row_or_quote_fails_the_seed_check() -> N
 def test_the_package_copies_of_the_tables_are_the_printed_ones() -> None:
     names = {"r_precision_top1": "R@1", "r_precision_top3": "R@3", "tmr_m2t": "M2T",
              "tmr_m2m": "M2M", "fid": "FID", "transition_distance": "Transition"}
-    for copy, table in ((sef_ablation.PAPER_TABLE7, "Table 7"),
-                        (sef_ablation.PAPER_TABLE9, "Table 9")):
+    for copy, table in ((common.PAPER_TABLE7, "Table 7"),
+                        (common.PAPER_TABLE9, "Table 9")):
         for row, cells in copy.items():
             assert cells == {k: value(EMG, table, row, c) for k, c in names.items()}, row
     t3 = {"single text": "Ours", "single text + AGD": "Ours + AGD",
           "latent only": "Ours (latent only)", "semantic only": "Ours (semantic only)",
           "SEF": "Ours + SEF"}
     for ours, row in t3.items():
-        assert sef_ablation.PAPER_TABLE3[ours] == {k: value(EMG, "Table 3", row, c)
-                                              for k, c in names.items()}
+        assert common.PAPER_TABLE3[ours] == {k: value(EMG, "Table 3", row, c)
+                                             for k, c in names.items()}
     t8 = {"r_precision_top1": "R@1", "r_precision_top2": "R@2", "r_precision_top3": "R@3",
           "fid": "FID", "mm_dist": "MM-Dist", "diversity": "Diversity"}
-    for part, rows in latent_count.PAPER_TABLE8.items():
+    for part, rows in emg7.PAPER_TABLE8.items():
         for n, cells in rows.items():
             assert cells == {k: value(EMG, f"Table 8 {part}", n, c) for k, c in t8.items()}
-    assert latent_count.PAPER_REAL_MOTION == {k: value(EMG, "Table 4", "Real motion", c)
-                                              for k, c in t8.items()}
+    assert emg7.PAPER_REAL_MOTION == {k: value(EMG, "Table 4", "Real motion", c)
+                                      for k, c in t8.items()}
     labels = {"Real": "Real", "MDM (rel)": "MDM [10] (rel)", "MDM (abs)": "MDM [10] (abs)",
               "Ours (rel)": "Ours (rel)", "Ours (abs)": "Ours (abs)", "Ours xproj": "Ours xproj"}
     for ours, row in labels.items():

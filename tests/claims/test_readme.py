@@ -1,5 +1,5 @@
 """README's verdict table is the committed snapshot's (results/claims.json), and README stays
-a five-minute read (issue #34: at most 200 lines; measurements and pilots go to docs/)."""
+a five-minute read (at most 200 lines; measurements and pilots go to docs/)."""
 
 from __future__ import annotations
 

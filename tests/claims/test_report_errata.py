@@ -14,7 +14,7 @@ from repro.claims import printed
 from repro.claims.errata import errata_markdown, load_errata, parse_errata
 from repro.claims.pages import markdown_html
 from repro.claims.registry import CLAIMS
-from repro.energymogen import sef_ablation
+from repro.energymogen.sef_ablation import common
 from repro.infra import paths
 
 
@@ -141,7 +141,7 @@ def test_eq3_k_prime_as_printed_cannot_left_multiply_k() -> None:
 
 
 def test_sef_rows_of_tables_3_and_7_differ_only_in_r_at_1() -> None:
-    table3, table7 = sef_ablation.PAPER_TABLE3["SEF"], sef_ablation.PAPER_TABLE7["0.1,0.7,0.2"]
+    table3, table7 = common.PAPER_TABLE3["SEF"], common.PAPER_TABLE7["0.1,0.7,0.2"]
     differing = sorted(k for k in table7 if table3[k] != table7[k])
     assert differing == ["r_precision_top1"]
     assert (table3["r_precision_top1"], table7["r_precision_top1"]) == (15.9, 15.7)
@@ -150,7 +150,7 @@ def test_sef_rows_of_tables_3_and_7_differ_only_in_r_at_1() -> None:
 
 
 def test_table_7_multi_concept_row_is_table_3_without_agd() -> None:
-    multi = sef_ablation.PAPER_TABLE7["0.0,0.0,1.0"]
-    assert multi == sef_ablation.PAPER_TABLE3["single text"] == sef_ablation.PAPER_TABLE9["0.0,0.0"]
-    assert multi != sef_ablation.PAPER_TABLE3["single text + AGD"]
-    assert sef_ablation.PAPER_TABLE7["0.0,1.0,0.0"] == sef_ablation.PAPER_TABLE3["semantic only"]
+    multi = common.PAPER_TABLE7["0.0,0.0,1.0"]
+    assert multi == common.PAPER_TABLE3["single text"] == common.PAPER_TABLE9["0.0,0.0"]
+    assert multi != common.PAPER_TABLE3["single text + AGD"]
+    assert common.PAPER_TABLE7["0.0,1.0,0.0"] == common.PAPER_TABLE3["semantic only"]

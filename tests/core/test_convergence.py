@@ -1,4 +1,4 @@
-"""Training to convergence (issue #14): EMA validation loss on fixed (t, noise) pairs, the
+"""Training to convergence: EMA validation loss on fixed (t, noise) pairs, the
 plateau criterion, the step cap, and the opt-in cache key."""
 
 from __future__ import annotations

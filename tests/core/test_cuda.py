@@ -1,4 +1,4 @@
-"""The GPU path (issue #15): a tiny training run and both samplers on ``cuda``, in fp32 and
+"""The GPU path: a tiny training run and both samplers on ``cuda``, in fp32 and
 under bf16 autocast. Skipped, with the reason, where torch sees no CUDA device."""
 
 from __future__ import annotations

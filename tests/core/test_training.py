@@ -160,7 +160,7 @@ def test_train_config_validation_and_hashable_fields(capsys):
     assert "training" not in capsys.readouterr().err
 
 
-# -- speed levers (issue #15) --------------------------------------------------------------------
+# -- speed levers --------------------------------------------------------------------------------
 
 
 def _loop_reference(model: nn.Module, steps: int, lr: float) -> tuple[nn.Module, nn.Module]:

@@ -15,9 +15,7 @@ import pytest
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls
 from repro.claims.verdicts import CONTRADICTED, SUPPORTED
-from repro.energymogen import energy_contour_maps as ecm
-from repro.energymogen import latent_count as lc
-from repro.energymogen import sef_ablation as sef
+from repro.energymogen.energy_contour_maps import composition, emg6
 from repro.energymogen.harness import (
     AA_PLANT,
     AASlot,
@@ -27,7 +25,9 @@ from repro.energymogen.harness import (
     copy_source,
     plant_effect,
 )
+from repro.energymogen.latent_count import emg7 as lc
 from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, SeedPipelines
+from repro.energymogen.sef_ablation import common, emg4, emg5
 
 THREE = [0, 1, 2]
 
@@ -146,12 +146,12 @@ def test_emg23_aa_compares_each_baseline_with_its_copy(tiny_pipeline: EnergyMoGe
     pipeline: the same rates), and fill the compared arms (the kept rate at the rule's
     threshold, half the baseline's)."""
     pipes = SeedPipelines(tiny_pipeline, log=None)
-    study = ecm.composition_study(pipes, [0], per_case=4)
-    own = ecm.composition_reference_rates(pipes(0), 0, 4)
+    study = composition.composition_study(pipes, [0], per_case=4)
+    own = composition.composition_reference_rates(pipes(0), 0, 4)
     for name, value in own.items():
         assert study["latent"][name] == [value] == study["semantic"][name]
-    controls = ecm.composition_controls(pipes, study, [0], per_case=4)
-    copy = ecm.composition_reference_rates(pipes(1), 0, 4)
+    controls = composition.composition_controls(pipes, study, [0], per_case=4)
+    copy = composition.composition_reference_rates(pipes(1), 0, 4)
     for claim_id in ("EMG-2", "EMG-3"):
         null = controls[claim_id].null
         assert controls[claim_id].exact is False
@@ -165,24 +165,24 @@ def test_emg23_aa_compares_each_baseline_with_its_copy(tiny_pipeline: EnergyMoGe
 def sef_study(tiny_pipeline: EnergyMoGenPipeline) -> dict:
     """Notebook 05's rows on the tiny pipeline's seed pipelines, two seeds."""
     pipes = SeedPipelines(tiny_pipeline, log=None)
-    rows = {sef.lambda_key(lam): Sampler("sef", lambdas=lam) for lam in sef.TABLE7_LAMBDAS}
-    results = sef.run_rows(pipes, rows, [0, 1])
-    timelines = sef.timeline_rows(pipes, rows, [0, 1], items_per_seed=2)
-    table9 = sef.run_rows(pipes, sef.transferred_rows(1.0), [0, 1], items_per_pair=4)
+    rows = {common.lambda_key(lam): Sampler("sef", lambdas=lam) for lam in common.TABLE7_LAMBDAS}
+    results = common.run_rows(pipes, rows, [0, 1])
+    timelines = emg5.timeline_rows(pipes, rows, [0, 1], items_per_seed=2)
+    table9 = common.run_rows(pipes, emg4.transferred_rows(1.0), [0, 1], items_per_pair=4)
     return {"pipes": pipes, "results": results, "timelines": timelines, "table9": table9}
 
 
 def test_emg5_aa_puts_a_copys_latent_row_in_the_compared_rows(sef_study: dict) -> None:
-    controls = sef.sef_controls(sef_study["pipes"], sef_study["results"],
-                                sef_study["timelines"], [0, 1], timeline_items_per_seed=2)
+    controls = emg5.sef_controls(sef_study["pipes"], sef_study["results"],
+                                 sef_study["timelines"], [0, 1], timeline_items_per_seed=2)
     lat, sem, sef_row = "1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"
     null = controls.null
     assert controls.exact is False and controls.planted["copies"] == {"0": 1, "1": 0}
     for name in ("r_precision_top3", "transition_distance_at_transitions"):
         assert null[name][sem] == null[name][sef_row] != null[name][lat]
     own = sef_study["results"][lat]["r_precision_top3"]
-    copy = sef.run_rows(copy_source(sef_study["pipes"], {0: 1, 1: 0}),
-                        {lat: Sampler("sef", lambdas=(1.0, 0.0, 0.0))}, [0, 1])
+    copy = common.run_rows(copy_source(sef_study["pipes"], {0: 1, 1: 0}),
+                           {lat: Sampler("sef", lambdas=(1.0, 0.0, 0.0))}, [0, 1])
     assert null["r_precision_top3"][lat] == own      # each seed's draws, the copy's training
     assert null["r_precision_top3"][sem] == copy[lat]["r_precision_top3"]
     for name in ("transition_distance_at_transitions", "transition_speed_ratio"):
@@ -194,17 +194,17 @@ def test_emg5_aa_puts_a_copys_latent_row_in_the_compared_rows(sef_study: dict) -
 
 def test_emg4_aa_sets_two_copies_of_gamma_zero_against_the_seeds_own(sef_study: dict
                                                                       ) -> None:
-    keys = [sef.gamma_key(g) for g in sef.TABLE9_GAMMAS]
-    controls = sef.step_size_controls(sef_study["pipes"], sef_study["table9"], [0, 1], keys,
-                                      items_per_pair=4)
+    keys = [common.gamma_key(g) for g in common.TABLE9_GAMMAS]
+    controls = emg4.step_size_controls(sef_study["pipes"], sef_study["table9"], [0, 1], keys,
+                                       items_per_pair=4)
     r3, own = controls.null["r_precision_top3"], sef_study["table9"]["0.0,0.0"]
     # two run seeds: the first copy the other seed, the second one trained with s + 2
     assert controls.planted["copies"] == {"0": (1, 2), "1": (0, 3)}
     assert r3["0.0,0.0"] == r3["0.01,0.02"] == own["r_precision_top3"]
-    zero = {"0.0,0.0": sef.transferred_rows(1.0)["0.0,0.0"]}
+    zero = {"0.0,0.0": emg4.transferred_rows(1.0)["0.0,0.0"]}
     for row, copies in (("0.001,0.002", {0: 1, 1: 0}), ("0.1,0.2", {0: 2, 1: 3})):
-        copy = sef.run_rows(copy_source(sef_study["pipes"], copies), zero, [0, 1],
-                            items_per_pair=4)
+        copy = common.run_rows(copy_source(sef_study["pipes"], copies), zero, [0, 1],
+                               items_per_pair=4)
         assert r3[row] == copy["0.0,0.0"]["r_precision_top3"]
     _moves_by_twice_delta("EMG-4", controls)
 
@@ -241,10 +241,10 @@ def test_emg6_aa_reads_the_copys_floor_in_the_composed_arms_place(
     pipes = SeedPipelines(tiny_pipeline, log=None)
     kwargs = {"grid": 4, "n_noise": 1, "timesteps": (100,), "samples": 4, "upsample": 2,
               "sigma": 1.0}
-    measured = ecm.map_similarities(ecm.energy_map_study(pipes, [0], count=1, **kwargs))
-    controls = ecm.energy_map_controls(pipes, measured, [0], count=1, **kwargs)
-    copy = ecm.map_similarities(ecm.energy_map_study(copy_source(pipes, {0: 1}), [0], count=1,
-                                                     **kwargs))
+    measured = emg6.map_similarities(emg6.energy_map_study(pipes, [0], count=1, **kwargs))
+    controls = emg6.energy_map_controls(pipes, measured, [0], count=1, **kwargs)
+    copy = emg6.map_similarities(emg6.energy_map_study(copy_source(pipes, {0: 1}), [0], count=1,
+                                                       **kwargs))
     for kind in ("conjunction", "negation"):
         assert controls.null[f"{kind}_similarity_floor"] == measured[f"{kind}_similarity_floor"]
         assert controls.null[f"{kind}_similarity_to_multi"] == copy[f"{kind}_similarity_floor"]

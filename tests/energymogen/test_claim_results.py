@@ -11,14 +11,14 @@ from conftest import make_context
 from repro.claims.ledger import load_sidecars
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls, record
-from repro.energymogen.energy_contour_maps import (
+from repro.energymogen.energy_contour_maps.emg9 import (
     emg9_result,
     fid_draws_markdown,
     fid_fixed_cases,
     fid_formula_errors,
 )
-from repro.energymogen.latent_count import LatentCountSettings, emg7_result
-from repro.energymogen.sef_ablation import summary_line
+from repro.energymogen.latent_count.emg7 import LatentCountSettings, emg7_result
+from repro.energymogen.sef_ablation.threes import summary_line
 
 
 def test_emg9_is_recorded_with_every_measurement_its_rule_reads(tmp_path: Path) -> None:

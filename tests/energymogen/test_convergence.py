@@ -14,9 +14,9 @@ import pytest
 from conftest import TINY_PIPELINE as TINY
 
 from repro.energymogen import data as em_data
-from repro.energymogen import latent_count as lc
 from repro.energymogen import pipeline as em
 from repro.energymogen.data import VALIDATION_KEY, load_or_build_validation_clips
+from repro.energymogen.latent_count import emg7 as lc
 from repro.energymogen.pipeline import cached_training_record
 from repro.energymogen.settings import TrainingPlan, pipeline_config
 from repro.infra import cache

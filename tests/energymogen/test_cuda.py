@@ -1,4 +1,4 @@
-"""EnergyMoGen's models on ``cuda`` through ``load_pipeline(config, "cuda")`` (issue #33): a
+"""EnergyMoGen's models on ``cuda`` through ``load_pipeline(config, "cuda")``: a
 tiny training of the VAE and the latent denoiser, a composed DDIM sampler step and the
 decoding. Skipped, with the reason, where torch sees no CUDA device."""
 
@@ -10,9 +10,9 @@ import pytest
 import torch
 from conftest import TINY_PIPELINE
 
-from repro.energymogen import composed_augmentation as ag
 from repro.energymogen import pipeline as em
 from repro.energymogen import settings as emg_settings
+from repro.energymogen.composed_augmentation import compml
 from repro.energymogen.pipeline import Sampler, load_pipeline
 from repro.models.latent_denoiser import train_latent_denoiser
 
@@ -39,7 +39,7 @@ def test_the_latent_denoiser_trains_and_samples_on_cuda(
         emg_cache: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     devices = _record_devices(monkeypatch, em)
     pipe = load_pipeline(TINY_PIPELINE, "cuda", log=None)
-    assert devices == ["cuda"]   # before issue #33 the denoiser trained on the CPU
+    assert devices == ["cuda"]   # the denoiser trains on the pipeline's device, not the CPU
     for name, module in (("VAE", pipe.vae), ("latent denoiser", pipe.denoiser)):
         assert all(p.device.type == "cuda" for p in module.parameters()), name
     texts = [["walk forward"], ["wave the right hand"]]
@@ -54,10 +54,11 @@ def test_the_latent_denoiser_trains_and_samples_on_cuda(
 def test_emg8_fine_tuning_trains_on_the_pipelines_device(
         emg_cache: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """EMG-8's fine-tuning config names no device: ``load_or_finetune`` trains on the
-    pipeline's (it trained on the CPU before issue #33, then moved the result)."""
+    pipeline's (not on the CPU with the result moved afterwards)."""
     pipe = load_pipeline(TINY_PIPELINE, "cuda", log=None)
-    devices = _record_devices(monkeypatch, ag)
-    rows = ag.caption_rows(pipe, pipe.data.train_features[:8], pipe.data.train_captions[:8])
-    tuned, _ = ag.load_or_finetune(pipe, rows, emg_settings.finetune_config(pipe.config, seed=0))
+    devices = _record_devices(monkeypatch, compml)
+    rows = compml.caption_rows(pipe, pipe.data.train_features[:8], pipe.data.train_captions[:8])
+    tuned, _ = compml.load_or_finetune(pipe, rows,
+                                       emg_settings.finetune_config(pipe.config, seed=0))
     assert devices == ["cuda"]
     assert all(p.device.type == "cuda" for p in tuned.parameters())

@@ -1,11 +1,11 @@
-"""EMG-9's draw-independent fixed cases (``energymogen.energy_contour_maps.fid_fixed_cases``)."""
+"""EMG-9's draw-independent fixed cases (``energy_contour_maps.emg9.fid_fixed_cases``)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from repro.claims.registry import get_claim
-from repro.energymogen.energy_contour_maps import fid_fixed_cases, fixed_cases
+from repro.energymogen.energy_contour_maps.emg9 import fid_fixed_cases, fixed_cases
 
 
 def test_ours_matches_every_closed_form_and_is_zero_at_p_equals_p() -> None:

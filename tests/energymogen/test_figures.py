@@ -10,15 +10,21 @@ import numpy as np
 import pytest
 
 from repro.core.diffusion import GaussianDiffusion
-from repro.energymogen import composed_augmentation as ag
-from repro.energymogen import energy_contour_maps as ecm
-from repro.energymogen import latent_count as lc
-from repro.energymogen import sef_ablation as sef
-from repro.energymogen.composed_augmentation import ROWS, ComposedSet
+from repro.energymogen.composed_augmentation import emg8
+from repro.energymogen.composed_augmentation.compml import ComposedSet
+from repro.energymogen.composed_augmentation.emg8 import ROWS
+from repro.energymogen.energy_contour_maps import composition, emg1, emg6
 from repro.energymogen.figures import training_markdown, validation_curves_figure
-from repro.energymogen.latent_count import latent_count_training
+from repro.energymogen.latent_count import emg7 as lc
+from repro.energymogen.latent_count.emg7 import latent_count_training
 from repro.energymogen.pipeline import TrainingRecord, scaled_linear_betas
-from repro.energymogen.sef_ablation import TABLE7_LAMBDAS, TABLE9_GAMMAS, gamma_key, lambda_key
+from repro.energymogen.sef_ablation import emg4, emg5, threes
+from repro.energymogen.sef_ablation.common import (
+    TABLE7_LAMBDAS,
+    TABLE9_GAMMAS,
+    gamma_key,
+    lambda_key,
+)
 from repro.energymogen.settings import HELD_OUT_PAIRS
 
 SEEDS = [0, 1]
@@ -38,7 +44,7 @@ def _rows(keys: list[str], metrics: tuple[str, ...]) -> dict[str, dict[str, list
 def test_notebook_04_figures() -> None:
     diffusion = GaussianDiffusion(scaled_linear_betas(50))
     asymmetry = {"trained, text": np.full((3, 4), 0.05), "random init, text": np.ones((3, 4))}
-    fig = ecm.jacobian_asymmetry_figure(asymmetry, (10, 20, 30), diffusion)
+    fig = emg1.jacobian_asymmetry_figure(asymmetry, (10, 20, 30), diffusion)
     assert len(fig.axes) == 2 and len(fig.axes[1].lines[0].get_xdata()) == 50
     names = ("conjunction_both_present", "best_single_concept_both_present",
              "negation_negated_present", "baseline_negated_present", "negation_kept_present",
@@ -47,24 +53,24 @@ def test_notebook_04_figures() -> None:
     extra = {k: [0.1, 0.2] for k in ("unconditional_both_present", "multi_text_both_present",
                                      "ground_truth_both_present")}
     study = {"latent": measured, "semantic": measured, "extra": extra}
-    fig = ecm.composition_oracle_figure(study, SEEDS, 2.5)
+    fig = composition.composition_oracle_figure(study, SEEDS, 2.5)
     assert len(fig.axes) == 3 and len(fig.axes[0].patches) == 6
     assert fig.axes[0].patches[3].get_height() == pytest.approx(0.6)
-    fig = ecm.composition_examples_figure({"a": np.zeros((16, 22, 3)),
-                                               "b": np.zeros((16, 22, 3))})
+    fig = composition.composition_examples_figure({"a": np.zeros((16, 22, 3)),
+                                                       "b": np.zeros((16, 22, 3))})
     assert len(fig.axes) == 2 and HELD_OUT_PAIRS[0][0] in fig._suptitle.get_text()
     maps = {name: np.random.default_rng(0).normal(size=(8, 8)) for name in (
         "concept 1", "concept 2", "composed", "multi-concept", "paraphrase", "control")}
     case = {"extent": (1.0, 1.0), "smooth": maps, "texts": {k: "text" for k in (
         "c1", "c2", "multi", "ceiling", "control")}, "scores": {"composed": np.zeros((4, 2))},
         "case": "walk_forward/clap"}
-    fig = ecm.energy_maps_figure({"conjunction": case, "negation": case}, 0)
+    fig = emg6.energy_maps_figure({"conjunction": case, "negation": case}, 0)
     assert len(fig.axes) == 12
     measured = {f"{kind}_similarity_{what}": [value, value + 0.05]
                 for kind in ("conjunction", "negation")
                 for what, value in (("floor", 0.2), ("to_multi", 0.5), ("ceiling", 0.8),
                                     ("to_control", 0.1))}
-    fig = ecm.map_similarity_figure(measured)
+    fig = emg6.map_similarity_figure(measured)
     assert list(fig.axes[0].lines[0].get_ydata()) == [0.2, 0.5, 0.8]     # seed 1's line
 
 
@@ -72,7 +78,7 @@ def test_notebook_05_figures() -> None:
     keys = [lambda_key(lam) for lam in TABLE7_LAMBDAS] + [gamma_key(g) for g in TABLE9_GAMMAS]
     results = _rows(keys, ("r_precision_top3", "transition_distance", "both_present"))
     timelines = _rows(keys + ["real"], ("transition_distance_at_transitions",))
-    fig = sef.sef_tradeoff_figure(results, timelines)
+    fig = emg5.sef_tradeoff_figure(results, timelines)
     assert len(fig.axes) == 3                                  # two panels and the colour bar
     fig.canvas.draw()   # every named point's label inside its panel ("single text" sits at
     renderer = fig.canvas.get_renderer()   # the paper panel's right edge)
@@ -85,21 +91,21 @@ def test_notebook_05_figures() -> None:
             extent = label.get_window_extent(renderer)
             assert box.x0 <= extent.x0 and extent.x1 <= box.x1, label.get_text()
     plt.close(fig)
-    fig = sef.transition_measures_figure(
+    fig = emg5.transition_measures_figure(
         _rows(keys + ["real"], ("transition_distance_at_transitions", "transition_speed_ratio")),
         [("SEF", "0.1,0.7,0.2"), ("latent only", "1.0,0.0,0.0")])
     assert len(fig.axes) == 2 and len(fig.axes[0].patches) == 2
     change = {gamma_key(g): [0.0 if g == (0.0, 0.0) else 10 * g[0], 12 * g[0]]
               for g in TABLE9_GAMMAS}
-    fig = sef.agd_step_size_figure(results, {"relative_change": change, "target_change": 1.0,
-                                             "t": 500})
+    fig = emg4.agd_step_size_figure(results, {"relative_change": change, "target_change": 1.0,
+                                              "t": 500})
     heights = [p.get_height() for p in fig.axes[0].patches]
     assert heights == pytest.approx([np.mean(results[gamma_key(g)]["r_precision_top3"])
                                      for g in TABLE9_GAMMAS])
     dots = [line.get_ydata().tolist() for line in fig.axes[2].lines[:-1]]   # the rows with AGD
     assert dots == [change[gamma_key(g)] for g in TABLE9_GAMMAS[1:]]
     rows = [("SEF", "0.1,0.7,0.2"), ("latent only", "1.0,0.0,0.0")]
-    fig = sef.three_concepts_figure(rows, results, results, results)
+    fig = threes.three_concepts_figure(rows, results, results, results)
     assert len(fig.axes) == 2 and len(fig.axes[0].patches) == 3 * len(rows)
 
 
@@ -118,12 +124,12 @@ def test_notebook_08_figures() -> None:
     example = ComposedSet(concepts=(HELD_OUT_PAIRS[0], ("walk_forward", "wave_left")),
                           concept_texts=(("a", "b"), ("c", "d")), texts=("ab", "cd"),
                           features=np.zeros((2, 8, 263)), joints=np.zeros((2, 8, 22, 3)))
-    fig = ag.composed_examples_figure(example, [0, 1])
+    fig = emg8.composed_examples_figure(example, [0, 1])
     titles = [ax.get_title() for ax in fig.axes]
     assert "held-out pair" in titles[0] and "trained pair" in titles[1]
     part = {row: {m: [0.1, 0.2] for m in ("r_precision_top3", "fid", "both_present")}
             for row in ROWS}
-    fig = ag.augmentation_figure({"t2m": part, "held_out": part}, SEEDS)
+    fig = emg8.augmentation_figure({"t2m": part, "held_out": part}, SEEDS)
     assert len(fig.axes) == 3 and len(fig.axes[0].patches) == len(ROWS)
 
 

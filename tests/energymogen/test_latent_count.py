@@ -9,9 +9,9 @@ import torch
 from conftest import TINY_PIPELINE as TINY
 
 from repro.claims.registry import get_claim
-from repro.energymogen import latent_count as lc
 from repro.energymogen import settings as emg_settings
 from repro.energymogen.harness import TextToMotionTest, load_or_build_text_to_motion_test
+from repro.energymogen.latent_count import emg7 as lc
 from repro.energymogen.pipeline import EnergyMoGenPipeline
 
 

@@ -15,8 +15,8 @@ from conftest import TINY_AUGMENTATION_PIPELINE, TINY_PIPELINE
 
 from repro.claims.registry import CLAIMS
 from repro.core.gates import family_measures, gate_results, gates_markdown, loss_curve
-from repro.energymogen import composed_augmentation as ag
 from repro.energymogen import model_gates as mg
+from repro.energymogen.composed_augmentation import compml, emg8
 from repro.energymogen.harness import TextToMotionTest, load_or_build_text_to_motion_test
 from repro.energymogen.pipeline import EnergyMoGenPipeline, TrainingRecord, load_pipeline
 
@@ -192,7 +192,7 @@ def test_augmentation_records_take_the_study_values_of_the_fine_tuned_denoisers(
     results = {"fitness": {"control": [0.5], "augmented": [0.75]},
                "training": {row: [pipe.training["denoiser"]] for row in ("control",
                                                                          "augmented")}}
-    records = ag.augmentation_records(pipe, test, results, [0])
+    records = emg8.augmentation_records(pipe, test, results, [0])
     values = {row: [r["gate"]["x0_error_vs_gaussian"]["value"] for r in records[row]]
               for row in ("control", "augmented")}
     assert values == {"control": [0.5], "augmented": [0.75]}
@@ -209,9 +209,9 @@ def test_augmentation_records_take_the_study_values_of_the_fine_tuned_denoisers(
 def test_fine_tuned_denoisers_carry_their_own_training(emg_cache: object) -> None:
     pipe = load_pipeline(TINY_AUGMENTATION_PIPELINE, log=None)
     test = load_or_build_text_to_motion_test(TINY_AUGMENTATION_PIPELINE, 32)
-    results = ag.augmentation_study(pipe, test, [0], size=8)
-    records = ag.augmentation_records(pipe, test, results, [0])
-    steps = ag.pipeline_finetune_config(pipe, 0).steps
+    results = emg8.augmentation_study(pipe, test, [0], size=8)
+    records = emg8.augmentation_records(pipe, test, results, [0])
+    steps = compml.pipeline_finetune_config(pipe, 0).steps
     for row in ("control", "augmented"):
         (record,) = records[row]
         assert record["steps"] == steps and record["train_seconds"] > 0

@@ -1,5 +1,5 @@
 """The EnergyMoGen pipeline (repro.energymogen.pipeline): samplers, the noise schedule, every
-stage cached, and training seeds (issue #6) — the stage functions keep the cache keys of the
+stage cached, and training seeds — the stage functions keep the cache keys of the
 default pipeline byte-identical to those ``load_pipeline`` built before it took a
 ``train_seed`` (so existing caches stay valid), the quick and full notebooks' cache entries
 keep their pinned keys, and a training seed changes the VAE and the denoiser only."""
@@ -17,10 +17,10 @@ import torch
 from conftest import TINY_PIPELINE as TINY
 
 from repro.core.training import TrainConfig
-from repro.energymogen import latent_count as lc
 from repro.energymogen import pipeline as em
 from repro.energymogen.compose import MODES
 from repro.energymogen.data import load_or_build_data
+from repro.energymogen.latent_count import emg7 as lc
 from repro.energymogen.settings import PipelineConfig, pipeline_config, with_learned_text
 from repro.infra import cache, paths
 from repro.models import vae as vae_module
@@ -34,11 +34,11 @@ LEARNED_KINDS = (*TRAINED_KINDS, "emg_text_encoder")
 TINY_LEARNED = with_learned_text(TINY)
 
 #: sha256[:16] of each key with its data fingerprints replaced by "<fingerprint>", recorded
-#: from ``load_pipeline`` (and ``latent_count._train_variant`` for seed 1) *before* the stage
+#: from ``load_pipeline`` (and ``latent_count.emg7._train_variant`` for seed 1) *before* the stage
 #: functions existed: model sizes, training configs, seeds and formats must stay as they were.
 #: These are the learned text encoder's (``with_learned_text``). Under generator v3 the text
 #: encoder's and the evaluator's were re-recorded: their keys hold the vocabulary of the
-#: training captions, which v3's partial captions change (issue #16); the VAE's and the
+#: training captions, which v3's partial captions change; the VAE's and the
 #: denoiser's structure is the one recorded before. The default's, MiniLM's: TINY_STRUCTURE_MINILM.
 TINY_STRUCTURE = {
     0: {"motion_vae": "b58ce7876b306d20", "emg_text_encoder": "d30432fb3ceea851",
@@ -47,7 +47,7 @@ TINY_STRUCTURE = {
         "emg_latent_denoiser": "134cae56e2f7af8c", "evaluator": "a2a27253c6afc08f"},
 }
 #: the default (MiniLM) pipeline's: no text encoder is trained; the denoiser reads 384-wide
-#: token states (issue #16)
+#: token states
 TINY_STRUCTURE_MINILM = {
     0: {"motion_vae": "b58ce7876b306d20", "emg_latent_denoiser": "a77e943d9c817cd0",
         "evaluator": "a2a27253c6afc08f"},
@@ -55,7 +55,7 @@ TINY_STRUCTURE_MINILM = {
         "evaluator": "a2a27253c6afc08f"},
 }
 #: the entries under build/cache that the quick notebooks use, recorded under generator v3 with
-#: the MiniLM default (issue #16: the data and the denoiser's text width changed on purpose;
+#: the MiniLM default (the data and the denoiser's text width changed on purpose;
 #: the entries of generator v2 and the learned encoder are no longer asked for). The denoiser's
 #: was re-recorded when the frozen encoder began to encode each distinct caption once, cut to
 #: its chunk's longest caption (token states equal to 1e-5, not bit for bit).
@@ -66,7 +66,7 @@ BUILD_CACHE = {
 #: which of those keys hold fingerprints of floats that differ in their last bits between CPU
 #: families: the evaluator's data holds the composition test features, the denoiser's the
 #: frozen encoder's token states, and numpy's OpenBLAS (DYNAMIC_ARCH) and torch pick their
-#: kernels per CPU. Recorded on Intel (AVX-512 + AMX); on AMD EPYC (session 8) both differ
+#: kernels per CPU. Recorded on Intel (AVX-512 + AMX); on AMD EPYC both differ
 #: while the VAE's does not. There the key's structure is pinned (CPU_DEPENDENT_STRUCTURE);
 #: a cache carried from one CPU family to the other misses and retrains, never reuses.
 CPU_DEPENDENT = {"evaluator", "emg_latent_denoiser"}

@@ -16,12 +16,12 @@ import pytest
 from repro.claims.registry import get_claim
 from repro.claims.registry_energymogen import R3_PERCENT_320
 from repro.claims.verdicts import VERDICTS
-from repro.energymogen import energy_contour_maps as ecm
 from repro.energymogen import harness as em_harness
-from repro.energymogen import sef_ablation as sef
 from repro.energymogen.data import build_composition_pool, composition_items
+from repro.energymogen.energy_contour_maps import composition
 from repro.energymogen.pipeline import EnergyMoGenPipeline, Sampler, SeedPipelines
-from repro.energymogen.sef_ablation import (
+from repro.energymogen.sef_ablation import common, emg4, emg5
+from repro.energymogen.sef_ablation.emg5 import (
     real_then_clips,
     timeline_item,
     timeline_items,
@@ -32,13 +32,13 @@ from repro.standin.concepts import CONCEPTS
 
 
 def test_paper_tables_have_the_registry_rows() -> None:
-    assert len(sef.PAPER_TABLE7) == 12 and len(sef.PAPER_TABLE9) == 6
+    assert len(common.PAPER_TABLE7) == 12 and len(common.PAPER_TABLE9) == 6
     for key in ("1.0,0.0,0.0", "0.0,1.0,0.0", "0.1,0.7,0.2"):
-        assert key in sef.PAPER_TABLE7
+        assert key in common.PAPER_TABLE7
     for key in ("0.0,0.0", "0.1,0.2", "0.001,0.002"):
-        assert key in sef.PAPER_TABLE9
-    assert all(abs(sum(lam) - 1) < 1e-9 for lam in sef.TABLE7_LAMBDAS)
-    assert sef.PAPER_TABLE9["0.001,0.002"]["r_precision_top3"] == 26.3
+        assert key in common.PAPER_TABLE9
+    assert all(abs(sum(lam) - 1) < 1e-9 for lam in common.TABLE7_LAMBDAS)
+    assert common.PAPER_TABLE9["0.001,0.002"]["r_precision_top3"] == 26.3
     assert set(get_claim("EMG-5").measurements) == {"r_precision_top3", "transition_distance"}
     assert set(get_claim("EMG-5").new_measurements) == {"transition_distance_at_transitions",
                                                         "transition_speed_ratio"}
@@ -57,48 +57,48 @@ def test_rows_sampling_and_metrics(tiny_pipeline: EnergyMoGenPipeline) -> None:
     items = composition_items(pipe.data, seed=0, per_pair=4)
     rows = {"0.1,0.7,0.2": Sampler("sef"), "0.0,0.0,1.0": Sampler("sef", (0.0, 0.0, 1.0)),
             "0.0,0.0": Sampler("single"), "0.1,0.2": Sampler("single", gammas=(0.1, 0.2))}
-    results = sef.run_rows(pipe, rows, seeds=[0])
+    results = common.run_rows(pipe, rows, seeds=[0])
     assert results["0.0,0.0"] == results["0.0,0.0,1.0"]    # one sampler, sampled once
     assert set(results["real"]) >= {"r_precision_top3", "transition_distance", "fid",
                                     "oracle_accuracy"}
     assert results["real"]["both_present"][0] > 0.9       # the oracles see the ground truth
-    table = sef.markdown_table(results, [("SEF", "0.1,0.7,0.2")], sef.PAPER_TABLE7)
+    table = common.markdown_table(results, [("SEF", "0.1,0.7,0.2")], common.PAPER_TABLE7)
     assert "[28.0]" in table
-    assert sef.agd_relative_change(pipe, items.multi_texts[:4], (0.1, 0.2)) > 0.0
-    assert sef.agd_relative_change(pipe, items.multi_texts[:4], (0.0, 0.0)) == 0.0
+    assert emg4.agd_relative_change(pipe, items.multi_texts[:4], (0.1, 0.2)) > 0.0
+    assert emg4.agd_relative_change(pipe, items.multi_texts[:4], (0.0, 0.0)) == 0.0
 
 
 def test_the_transfer_moves_the_largest_row_by_its_target_and_keeps_the_ratios(
         tiny_pipeline: EnergyMoGenPipeline) -> None:
     pipe = tiny_pipeline
     texts = list(composition_items(pipe.data, seed=0, per_pair=2).multi_texts)
-    kappa = sef.agd_scale(pipe, texts, 0.5, seed=0)
-    assert sef.agd_relative_change(pipe, texts, (0.1 * kappa, 0.2 * kappa)) == pytest.approx(
+    kappa = emg4.agd_scale(pipe, texts, 0.5, seed=0)
+    assert emg4.agd_relative_change(pipe, texts, (0.1 * kappa, 0.2 * kappa)) == pytest.approx(
         0.5, rel=1e-4)
-    assert sef.agd_scale(pipe, texts, 0.25, seed=0) < kappa          # a smaller step, less κ
-    rows = sef.transferred_rows(kappa)
+    assert emg4.agd_scale(pipe, texts, 0.25, seed=0) < kappa          # a smaller step, less κ
+    rows = emg4.transferred_rows(kappa)
     assert rows["0.0,0.0"].gammas == (0.0, 0.0)
     assert np.divide(rows["0.1,0.2"].gammas, rows["0.001,0.002"].gammas) == pytest.approx(100)
     with pytest.raises(ValueError, match="not reached"):
-        sef.agd_scale(pipe, texts, 1e12, seed=0)
+        emg4.agd_scale(pipe, texts, 1e12, seed=0)
 
 
 def test_table9_rows_run_the_transferred_rows_on_their_own_items(
         tiny_pipeline: EnergyMoGenPipeline) -> None:
-    settings = replace(sef.SEFAblationSettings.for_scale("quick"), table9_items_per_pair=4,
+    settings = replace(common.SEFAblationSettings.for_scale("quick"), table9_items_per_pair=4,
                        agd_largest_change=0.5)
-    results, transfer = sef.table9_rows(tiny_pipeline, [0, 1], settings)
-    assert set(results) == {sef.gamma_key(g) for g in sef.TABLE9_GAMMAS} | {"real"}
+    results, transfer = emg4.table9_rows(tiny_pipeline, [0, 1], settings)
+    assert set(results) == {common.gamma_key(g) for g in common.TABLE9_GAMMAS} | {"real"}
     assert all(len(v["r_precision_top3"]) == 2 for v in results.values())
     assert transfer["relative_change"]["0.1,0.2"] == pytest.approx([0.5, 0.5], rel=1e-4)
     assert transfer["relative_change"]["0.0,0.0"] == [0.0, 0.0]
     assert len(transfer["kappa"]) == 2 and transfer["kappa"][0] != transfer["kappa"][1]
-    assert "| 1 |" in sef.transfer_markdown(transfer, [0, 1])
+    assert "| 1 |" in emg4.transfer_markdown(transfer, [0, 1])
 
 
 @pytest.mark.parametrize("scale", ["standard", "paper"])
 def test_table9_ranks_the_items_the_registered_resolution_counts(scale: str) -> None:
-    settings = sef.SEFAblationSettings.for_scale(scale)
+    settings = common.SEFAblationSettings.for_scale(scale)
     assert settings.table9_items == round(100 / R3_PERCENT_320) == 320
     assert settings.table9_items % 32 == 0                         # every item ranked
 
@@ -107,15 +107,15 @@ def test_rows_on_the_sets_of_three(tiny_pipeline: EnergyMoGenPipeline, tmp_path:
                                    monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("REPRO_CACHE_DIR", str(tmp_path))
     pipe = tiny_pipeline
-    results = sef.run_rows(pipe, {"SEF": Sampler("sef")}, [0], test_set="threes")
+    results = common.run_rows(pipe, {"SEF": Sampler("sef")}, [0], test_set="threes")
     assert results["real"]["both_present"][0] > 0.9       # all three seen on the ground truth
     assert "oracle_accuracy_concept_3" in results["SEF"]
     assert results["SEF"]["fid"][0] != pytest.approx(
-        sef.run_rows(pipe, {"SEF": Sampler("sef")}, [0])["SEF"]["fid"][0])
+        common.run_rows(pipe, {"SEF": Sampler("sef")}, [0])["SEF"]["fid"][0])
 
 
 def test_composition_study_feeds_the_rules(tiny_pipeline: EnergyMoGenPipeline) -> None:
-    study = ecm.composition_study(tiny_pipeline, seeds=[0], per_case=2)
+    study = composition.composition_study(tiny_pipeline, seeds=[0], per_case=2)
     for mode in ("latent", "semantic"):
         assert set(study[mode]) == set(get_claim("EMG-2").measurements)
         assert all(len(v) == 1 for v in study[mode].values())
@@ -125,16 +125,16 @@ def test_composition_study_feeds_the_rules(tiny_pipeline: EnergyMoGenPipeline) -
 def test_studies_use_the_model_of_each_seed(tiny_pipeline: EnergyMoGenPipeline) -> None:
     pipes = SeedPipelines(tiny_pipeline, log=None)
     rows = {"single": Sampler("single"), "latent": Sampler("latent")}
-    per_seed = sef.run_rows(pipes, rows, [0, 1])
-    alone = {seed: sef.run_rows(pipes(seed), rows, [seed]) for seed in (0, 1)}
+    per_seed = common.run_rows(pipes, rows, [0, 1])
+    alone = {seed: common.run_rows(pipes(seed), rows, [seed]) for seed in (0, 1)}
     for row in rows:
         for metric, values in per_seed[row].items():
             assert values == [alone[0][row][metric][0], alone[1][row][metric][0]]
-    shared = sef.run_rows(tiny_pipeline, rows, [1])
+    shared = common.run_rows(tiny_pipeline, rows, [1])
     assert shared["latent"]["fid"] != per_seed["latent"]["fid"][1:]
-    study = ecm.composition_study(pipes, [0, 1], per_case=1)
+    study = composition.composition_study(pipes, [0, 1], per_case=1)
     assert all(len(v) == 2 for v in study["latent"].values())
-    study1 = ecm.composition_study(pipes(1), [1], per_case=1)
+    study1 = composition.composition_study(pipes(1), [1], per_case=1)
     assert study1["semantic"]["conjunction_both_present"] == \
         study["semantic"]["conjunction_both_present"][1:]
 
@@ -143,7 +143,7 @@ def test_timeline_rows_measure_every_row_and_the_real_then_clips(
         tiny_pipeline: EnergyMoGenPipeline) -> None:
     rows = {"1.0,0.0,0.0": Sampler("sef", (1.0, 0.0, 0.0)),
             "0.1,0.7,0.2": Sampler("sef", (0.1, 0.7, 0.2))}
-    results = sef.timeline_rows(tiny_pipeline, rows, seeds=[0], items_per_seed=4)
+    results = emg5.timeline_rows(tiny_pipeline, rows, seeds=[0], items_per_seed=4)
     assert set(results) == {*rows, "real"}
     for row in results.values():
         assert set(row) == {"transition_distance_at_transitions", "transition_speed_ratio",
@@ -157,13 +157,13 @@ def test_tables_put_the_transitions_beside_the_paper_and_the_real_clips() -> Non
            "mean_speed": [0.9, 1.1], "transition_distance": [0.5, 0.6]}
     real = {k: [2 * v for v in values] for k, values in row.items()}
     results = {"0.1,0.7,0.2": row, "real": real}
-    table = sef.markdown_table(results, [("SEF", "0.1,0.7,0.2")],
-                                      sef.PAPER_TABLE7,
-                                      [("transition_distance_at_transitions", "T"),
-                                       ("transition_distance", "all"), ("fid", "FID")])
+    table = common.markdown_table(results, [("SEF", "0.1,0.7,0.2")],
+                                  common.PAPER_TABLE7,
+                                  [("transition_distance_at_transitions", "T"),
+                                   ("transition_distance", "all"), ("fid", "FID")])
     assert "[1.6]" in table and "— [0.604]" in table      # the paper's Trans. beside ours only
     assert table.count("[—]") == 1                          # the all-frames distance: no paper
-    timeline = sef.timeline_table(results, [("SEF", "0.1,0.7,0.2")])
+    timeline = emg5.timeline_table(results, [("SEF", "0.1,0.7,0.2")])
     assert "(2.2 ±" in timeline and "(2.4 ±" in timeline and "SEF" in timeline
 
 
@@ -246,5 +246,5 @@ def test_speed_ratio_does_not_reward_standing_still() -> None:
     # the all-frames distance v2 read calls the still clip the smoothest
     assert em_harness.transition_distance_cm(still[None]) < em_harness.transition_distance_cm(
         moving[None])
-    values = sef.timeline_measurements([jumping, still], [(30,), (30,)])
+    values = emg5.timeline_measurements([jumping, still], [(30,), (30,)])
     assert values["transition_speed_ratio"] == pytest.approx((ratio["jumping"] + 1.0) / 2)

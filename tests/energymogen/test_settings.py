@@ -16,11 +16,12 @@ from conftest import make_context
 
 from repro.core.training import PlateauCriterion
 from repro.energymogen import pipeline as em
-from repro.energymogen.composed_augmentation import AugmentationSettings
+from repro.energymogen.composed_augmentation.emg8 import AugmentationSettings
 from repro.energymogen.data import trained_pairs
-from repro.energymogen.energy_contour_maps import EnergyViewSettings, energy_map_case
-from repro.energymogen.latent_count import LatentCountSettings
-from repro.energymogen.sef_ablation import SEFAblationSettings
+from repro.energymogen.energy_contour_maps import EnergyViewSettings
+from repro.energymogen.energy_contour_maps.emg6 import energy_map_case
+from repro.energymogen.latent_count.emg7 import LatentCountSettings
+from repro.energymogen.sef_ablation.common import SEFAblationSettings
 from repro.energymogen.settings import (
     ARM_CONCEPTS,
     EXTRA_TEST_SETS,

@@ -1,4 +1,4 @@
-"""The frozen MiniLM text encoder, the EnergyMoGen pipeline's default (issue #16): the text
+"""The frozen MiniLM text encoder, the EnergyMoGen pipeline's default: the text
 stage is the pretrained all-MiniLM-L6-v2 (nothing trained), whose 384-wide token states reach
 the denoiser; ``with_learned_text`` keeps the learned encoder as an option. Real
 HumanML3D-style captions are encoded."""

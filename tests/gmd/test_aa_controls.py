@@ -25,10 +25,8 @@ import torch
 from repro.claims.registry import get_claim
 from repro.claims.result import Controls
 from repro.claims.verdicts import EXACT_TIE, one_sided_p
-from repro.gmd import emphasis_projection as ep
 from repro.gmd import guidance_schedule as gs
 from repro.gmd import root_representation as rr
-from repro.gmd import x0_vs_eps
 from repro.gmd.controls import (
     AAReadings,
     Slot,
@@ -37,8 +35,14 @@ from repro.gmd.controls import (
     aa_seeds,
     item_differences,
 )
+from repro.gmd.emphasis_projection import c4 as ep_c4
+from repro.gmd.emphasis_projection import experiment as ep
+from repro.gmd.guidance_schedule.experiment import ScheduleModels, Sweeps
+from repro.gmd.guidance_schedule.f1 import f1_aa_controls, f1_slots
 from repro.gmd.models import GMDModelSpec, TrainedGMD, load_or_train_gmd
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
+from repro.gmd.x0_vs_eps import a3, a4
+from repro.gmd.x0_vs_eps.common import Settings
 
 #: the quick scale's run seeds: one, so the A/A trains one more copy (two pairings)
 QUICK_RUN_SEEDS = [0]
@@ -127,7 +131,7 @@ def test_aa_controls_fill_slots_and_plant_twice_delta_in_the_predicted_direction
     copy = {0: {"goal_error": np.array([1.5, 2.5]), "best_gain_survival": 0.7},
             1: {"goal_error": np.array([1.0, 3.0]), "best_gain_survival": None}}
     readings = AAReadings([(0, 1), (1, 0)], own, copy)
-    controls = aa_controls("GMD-A3", readings, x0_vs_eps.A3_SLOTS, reference_arm="ε")
+    controls = aa_controls("GMD-A3", readings, a3.A3_SLOTS, reference_arm="ε")
     assert controls.null["goal_error_eps"] == [1.5, 2.0]
     assert controls.null["goal_error_x0"] == [2.0, 2.0]
     assert controls.null["best_gain_survival_x0"] == [0.7, None]
@@ -141,13 +145,12 @@ def test_aa_controls_fill_slots_and_plant_twice_delta_in_the_predicted_direction
 def test_a3_aa_null_has_between_model_spread(cache, small_spec, small_config,
                                              trajectory_windows) -> None:
     models = _trained(small_spec())
-    settings = dataclasses.replace(x0_vs_eps.Settings.for_scale("quick"), goals=4,
-                                   min_goal_distance=0.0)
-    study = x0_vs_eps.A3Study({}, list(QUICK_RUN_SEEDS), {})
-    readings = x0_vs_eps.a3_aa_readings(study, {("epsilon", s): m for s, m in models.items()},
-                                        trajectory_windows["absolute"], settings)
-    controls = aa_controls("GMD-A3", readings, x0_vs_eps.A3_SLOTS, reference_arm="ε")
-    _check("GMD-A3", readings, x0_vs_eps.A3_SLOTS, controls)
+    settings = dataclasses.replace(Settings.for_scale("quick"), goals=4, min_goal_distance=0.0)
+    study = a3.A3Study({}, list(QUICK_RUN_SEEDS), {})
+    readings = a3.a3_aa_readings(study, {("epsilon", s): m for s, m in models.items()},
+                                 trajectory_windows["absolute"], settings)
+    controls = aa_controls("GMD-A3", readings, a3.A3_SLOTS, reference_arm="ε")
+    _check("GMD-A3", readings, a3.A3_SLOTS, controls)
 
 
 class _MeanEmbedding:
@@ -166,16 +169,16 @@ def test_a4_aa_null_has_between_model_spread(cache, small_spec, small_config,
               **{("motion", "x0", s): m for s, m in motion.items()}}
     embeddings = np.random.default_rng(0).standard_normal((32, 8))
     evaluator = _MeanEmbedding()
-    own = x0_vs_eps.a4_reading(motion[0], trajectory[0], 0, n=16, evaluator=evaluator,
-                               test_embeddings=embeddings)
-    quality = x0_vs_eps.SampleQuality({"motion_jitter_x0": [own["motion_jitter"]],
-                                       "motion_fid_x0": [own["motion_fid"]],
-                                       "trajectory_jitter_eps": [own["trajectory_jitter"]]}, {})
-    readings = x0_vs_eps.a4_aa_readings(quality, models, QUICK_RUN_SEEDS, n=16,
-                                        evaluator=evaluator,  # type: ignore[arg-type]
-                                        test_embeddings=embeddings)
-    controls = aa_controls("GMD-A4", readings, x0_vs_eps.A4_SLOTS, reference_arm="x0 / ε")
-    _check("GMD-A4", readings, x0_vs_eps.A4_SLOTS, controls)
+    own = a4.a4_reading(motion[0], trajectory[0], 0, n=16, evaluator=evaluator,
+                        test_embeddings=embeddings)
+    quality = a4.SampleQuality({"motion_jitter_x0": [own["motion_jitter"]],
+                                "motion_fid_x0": [own["motion_fid"]],
+                                "trajectory_jitter_eps": [own["trajectory_jitter"]]}, {})
+    readings = a4.a4_aa_readings(quality, models, QUICK_RUN_SEEDS, n=16,
+                                 evaluator=evaluator,  # type: ignore[arg-type]
+                                 test_embeddings=embeddings)
+    controls = aa_controls("GMD-A4", readings, a4.A4_SLOTS, reference_arm="x0 / ε")
+    _check("GMD-A4", readings, a4.A4_SLOTS, controls)
 
 
 def test_b2_aa_null_has_between_model_spread(cache, small_spec, small_config,
@@ -183,10 +186,10 @@ def test_b2_aa_null_has_between_model_spread(cache, small_spec, small_config,
     relative = _trained(small_spec(data=small_config("relative")))
     settings = dataclasses.replace(rr.Settings.for_scale("quick"), targets=4)
     test = trajectory_windows["relative"]
-    readings = rr.b2_aa_readings({}, {}, {"relative": relative}, test, QUICK_RUN_SEEDS,
-                                 settings)
-    controls = aa_controls("GMD-B2", readings, rr.B2_SLOTS, reference_arm="rel")
-    _check("GMD-B2", readings, rr.B2_SLOTS, controls)
+    readings = rr.b2.b2_aa_readings({}, {}, {"relative": relative}, test, QUICK_RUN_SEEDS,
+                                    settings)
+    controls = aa_controls("GMD-B2", readings, rr.b2.B2_SLOTS, reference_arm="rel")
+    _check("GMD-B2", readings, rr.b2.B2_SLOTS, controls)
     # per target and frame, the copy's location errors differ from the own model's
     assert np.any(item_differences(readings, "imputation_error") != 0)
 
@@ -198,8 +201,8 @@ def test_c4_aa_null_has_between_model_spread(cache, small_config) -> None:
     train = load_windows(base.data)
     settings = dataclasses.replace(ep.Settings.for_scale("quick"), samples=8)
     results = ep.Results([], [], {}, {}, {}, {}, None, {}, {})  # type: ignore[arg-type]
-    controls = ep.c4_aa_controls(results, settings, base, train, train, QUICK_RUN_SEEDS)
-    slots = ep.c4_slots(settings.values)
+    controls = ep_c4.c4_aa_controls(results, settings, base, train, train, QUICK_RUN_SEEDS)
+    slots = ep_c4.c4_slots(settings.values)
     assert controls.null["values"] == [2, 10]
     pairs = aa_pairs(QUICK_RUN_SEEDS)
     readings = AAReadings(pairs, {}, {})   # the pairs only: C4's readings are in the controls
@@ -213,11 +216,11 @@ def test_f1_aa_null_has_between_model_spread(cache, small_spec, trajectory_windo
         quick, goals=4, model=dataclasses.replace(quick.model, min_goal_distance=0.0))
     windows = trajectory_windows["absolute"]
     first = models[0]
-    schedule = gs.ScheduleModels(first.spec, None, windows, windows, models, {}, [True],
-                                 {0: 0, 20: 1}, None, None)
-    sweeps = gs.Sweeps(list(QUICK_RUN_SEEDS), {}, {}, {}, {}, {}, {}, {})
-    controls = gs.f1_aa_controls(schedule, sweeps, settings)
-    slots = gs.f1_slots(settings)
+    schedule = ScheduleModels(first.spec, None, windows, windows, models, {}, [True],
+                              {0: 0, 20: 1}, None, None)
+    sweeps = Sweeps(list(QUICK_RUN_SEEDS), {}, {}, {}, {}, {}, {}, {})
+    controls = f1_aa_controls(schedule, sweeps, settings)
+    slots = f1_slots(settings)
     readings = AAReadings(aa_pairs(QUICK_RUN_SEEDS), {}, {})
     _check("GMD-F1", readings, slots, controls)
     assert torch.is_tensor(torch.as_tensor(controls.null["goal_error_unguided"]))

@@ -6,12 +6,8 @@ import numpy as np
 import pytest
 
 from repro.gmd.models import schedule_diffusion
-from repro.gmd.x0_vs_eps import (
-    coefficient_shares,
-    peak_fraction,
-    posterior_mean_forms,
-    printed_c_relative_error,
-)
+from repro.gmd.x0_vs_eps.a1 import posterior_mean_forms, printed_c_relative_error
+from repro.gmd.x0_vs_eps.a2 import coefficient_shares, peak_fraction
 
 FRAMES = 16  # = conftest.FRAMES: the windows of the small_config fixture
 

@@ -12,14 +12,15 @@ from repro.claims.verdicts import PARTIAL, REPRODUCED
 from repro.core import metrics
 from repro.gmd import (
     controls,
-    emphasis_projection,
-    guidance_schedule,
     root_representation,
-    x0_vs_eps,
 )
-from repro.gmd.emphasis_projection import C4_VALUES, coherence
+from repro.gmd.emphasis_projection.c4 import c4_controls
+from repro.gmd.emphasis_projection.experiment import C4_VALUES, coherence
+from repro.gmd.guidance_schedule.f1 import f1_controls
+from repro.gmd.guidance_schedule.settings import WHOLE_BODY_MEASUREMENTS
 from repro.gmd.measurements import evaluator_inputs, jitter_of
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
+from repro.gmd.x0_vs_eps.a4 import a4_controls, jagged_by
 from repro.infra.paths import data_stubs_dir
 from repro.models.evaluator import EvaluatorConfig, train_evaluator
 
@@ -69,7 +70,7 @@ def test_calibrate_increasing_finds_the_size() -> None:
 # --- the arms of a seed are the same draws; δ is seen, the null stays silent ----------------
 
 def test_c4_arms_are_paired_and_positive_plants_a_tenth_exactly(windows: MotionWindows) -> None:
-    result = emphasis_projection.c4_controls(windows, SEEDS[:3], (2, 10), n=6)
+    result = c4_controls(windows, SEEDS[:3], (2, 10), n=6)
     first = result.null["foot_skating_emphasis"]["2"]
     assert len(set(first)) == 3  # another draw per seed
     for v in ("2", "10"):
@@ -83,7 +84,7 @@ def test_c4_arms_are_paired_and_positive_plants_a_tenth_exactly(windows: MotionW
 
 def test_c4_positive_at_delta_is_seen_and_null_is_silent(windows: MotionWindows) -> None:
     claim = get_claim("GMD-C4")
-    result = emphasis_projection.c4_controls(windows, SEEDS[:3], C4_VALUES, n=6)
+    result = c4_controls(windows, SEEDS[:3], C4_VALUES, n=6)
     assert claim.decide(result.positive, control=True).verdict == REPRODUCED
     assert claim.decide(result.null, control=True).verdict not in (REPRODUCED, PARTIAL)
 
@@ -99,8 +100,8 @@ def test_a4_arms_are_paired_and_positive_plants_the_jitter_ratio_exactly(
         windows: MotionWindows, evaluator) -> None:
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
     test_embeddings = evaluator.embed_motions(features, lengths)
-    result = x0_vs_eps.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
-                                   test_embeddings=test_embeddings)
+    result = a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
+                         test_embeddings=test_embeddings)
     null, positive = result.null, result.positive
     for name in ("motion_jitter", "motion_fid", "trajectory_jitter"):
         assert null[f"{name}_eps"] == null[f"{name}_x0"]  # the same draw in both arms
@@ -121,7 +122,7 @@ def test_jagged_by_plants_the_jerk_ratio_on_the_samples_themselves(
         windows: MotionWindows) -> None:
     space = windows.space("motion")
     x = windows.x[:6]
-    rough, amplitude = x0_vs_eps.jagged_by(space, x, 1.3, seed=5)
+    rough, amplitude = jagged_by(space, x, 1.3, seed=5)
     assert amplitude > 0
     assert jitter_of(space, rough).jerk == pytest.approx(1.3 * jitter_of(space, x).jerk,
                                                          rel=1e-5)
@@ -153,9 +154,9 @@ def test_jag_puts_white_noise_on_world_positions_in_both_representations(
 def test_a4_controls_take_relative_motion_and_absolute_trajectory_windows(
         windows: MotionWindows, relative: MotionWindows, evaluator) -> None:
     features, lengths = evaluator_inputs(relative.space("motion"), relative.x)
-    result = x0_vs_eps.a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
-                                   test_embeddings=evaluator.embed_motions(features, lengths),
-                                   trajectory_train=windows)
+    result = a4_controls(relative, SEEDS[:2], n=8, evaluator=evaluator,
+                         test_embeddings=evaluator.embed_motions(features, lengths),
+                         trajectory_train=windows)
     np.testing.assert_allclose(result.positive["motion_jitter_eps"],
                                1.1 * np.asarray(result.positive["motion_jitter_x0"]), rtol=1e-5)
     assert min(result.planted["fid_ratio"]) == pytest.approx(1.1, rel=1e-5) or min(
@@ -170,8 +171,8 @@ def test_a4_positive_at_delta_is_seen_and_null_is_silent(windows: MotionWindows,
                                                           evaluator) -> None:
     claim = get_claim("GMD-A4")
     features, lengths = evaluator_inputs(windows.space("motion"), windows.x)
-    result = x0_vs_eps.a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
-                                   test_embeddings=evaluator.embed_motions(features, lengths))
+    result = a4_controls(windows, SEEDS[:3], n=8, evaluator=evaluator,
+                         test_embeddings=evaluator.embed_motions(features, lengths))
     assert claim.decide(result.positive, control=True).verdict == REPRODUCED
     assert claim.decide(result.null, control=True).verdict not in (REPRODUCED, PARTIAL)
 
@@ -180,14 +181,14 @@ def test_a4_positive_at_delta_is_seen_and_null_is_silent(windows: MotionWindows,
 
 @pytest.fixture(scope="module")
 def location_tasks(windows: MotionWindows) -> dict:
-    from repro.gmd.root_representation import location_task
+    from repro.gmd.root_representation.b2 import location_task
 
     return {s: location_task(windows, 6, seed=s) for s in SEEDS}
 
 
 def test_b2_arms_are_paired_and_positive_plants_delta_exactly(windows, location_tasks
                                                               ) -> None:
-    result = root_representation.b2_controls(windows, location_tasks, SEEDS)
+    result = root_representation.b2.b2_controls(windows, location_tasks, SEEDS)
     null, positive = result.null, result.positive
     first = null["rel_imputation_error"]
     assert len(set(first)) == len(SEEDS)  # another draw per seed
@@ -207,11 +208,11 @@ def test_b2_arms_are_paired_and_positive_plants_delta_exactly(windows, location_
 def test_b2_positive_at_delta_is_seen_and_null_is_silent(windows) -> None:
     """At δ itself; enough targets (128 per seed) that the threshold part, which keeps its
     draw's own noise (0.1 m − abs error: nothing pairs it), is seen too."""
-    from repro.gmd.root_representation import location_task
+    from repro.gmd.root_representation.b2 import location_task
 
     claim = get_claim("GMD-B2")
     tasks = {s: location_task(windows, 128, seed=s) for s in SEEDS[:4]}
-    result = root_representation.b2_controls(windows, tasks, SEEDS[:4])
+    result = root_representation.b2.b2_controls(windows, tasks, SEEDS[:4])
     assert claim.decide(result.positive, control=True).verdict == REPRODUCED
     silent = claim.decide(result.null, control=True)
     assert silent.verdict not in (REPRODUCED, PARTIAL)
@@ -233,8 +234,8 @@ def test_f1_arms_carry_the_planted_factors_exactly(windows: MotionWindows) -> No
 
 
 def test_f1_arms_are_paired_and_carry_the_planted_factors(windows: MotionWindows) -> None:
-    result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
-                                           min_distance=0.0)
+    result = f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
+                         min_distance=0.0)
     null, positive = result.null, result.positive
     unguided = np.asarray(null["goal_error_unguided"])
     assert len(set(unguided)) == 3  # another draw per seed
@@ -254,15 +255,15 @@ def test_f1_arms_are_paired_and_carry_the_planted_factors(windows: MotionWindows
 
 def test_f1_positive_at_delta_is_seen_and_null_is_silent(windows) -> None:
     claim = get_claim("GMD-F1")
-    result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
-                                           min_distance=0.0)
+    result = f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
+                         min_distance=0.0)
     assert claim.decide(result.positive, control=True).verdict == REPRODUCED
     assert claim.decide(result.null, control=True).verdict not in (REPRODUCED, PARTIAL)
 
 
 def test_f1_whole_body_positive_is_smoother_by_the_planted_factor(windows) -> None:
-    result = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
-                                           min_distance=0.0)
+    result = f1_controls(windows, SEEDS[:3], (100, 150, 200), goals=6,
+                         min_distance=0.0)
     null, positive = result.null, result.positive
     assert positive["joint_jerk_stop_0"] == null["joint_jerk_stop_0"]
     np.testing.assert_allclose(positive["joint_jerk_stop_20"],
@@ -279,14 +280,13 @@ def test_f1_controls_without_the_second_stage_are_decided_over_the_parts_that_ru
     from repro.gmd.settings import not_run
 
     kwargs = {"goals": 6, "min_distance": 0.0}
-    full = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), **kwargs)
-    cut = guidance_schedule.f1_controls(windows, SEEDS[:3], (100, 150, 200), whole_body=False,
-                                        **kwargs)
+    full = f1_controls(windows, SEEDS[:3], (100, 150, 200), **kwargs)
+    cut = f1_controls(windows, SEEDS[:3], (100, 150, 200), whole_body=False, **kwargs)
     for kind in ("null", "positive"):
         got = getattr(cut, kind)
-        assert not set(guidance_schedule.WHOLE_BODY_MEASUREMENTS) & set(got)
+        assert not set(WHOLE_BODY_MEASUREMENTS) & set(got)
         assert got == {k: v for k, v in getattr(full, kind).items()
-                       if k not in guidance_schedule.WHOLE_BODY_MEASUREMENTS}
+                       if k not in WHOLE_BODY_MEASUREMENTS}
     assert "whole body: not run at this scale" in cut.positive_text
     _, stored = decide_claim("GMD-F1", cut.positive, controls=cut.as_controls(),
                              not_run=not_run("GMD-F1", "standard"))
@@ -310,7 +310,7 @@ def table_b1_setup():
 
 
 def test_b3_arms_are_paired_and_positive_is_seen_at_delta(table_b1_setup) -> None:
-    from repro.gmd.root_representation import B3_FID_RATIO, B3_GAP_RATIO, b3_controls
+    from repro.gmd.root_representation.b3 import B3_FID_RATIO, B3_GAP_RATIO, b3_controls
 
     evaluator, evaluation, real = table_b1_setup
     result = b3_controls(evaluator, evaluation, real, SEEDS[:3], calibration_draws=1)

@@ -1,4 +1,4 @@
-"""GMD's models on ``cuda`` through the paths the notebooks take (issue #33): a tiny training
+"""GMD's models on ``cuda`` through the paths the notebooks take: a tiny training
 step of the UNet (``load_or_train_gmd`` with ``device="cuda"``) and a guided sampler step
 (``gmd.guidance.sample``). Skipped, with the reason, where torch sees no CUDA device."""
 

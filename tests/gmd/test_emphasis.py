@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from repro.gmd.emphasis_projection import (
+from repro.gmd.emphasis_projection.projection import (
     EmphasisProjection,
     c_for_importance,
     distance_ratios,
@@ -162,7 +162,7 @@ def test_singular_values_and_drowned_directions() -> None:
 
 
 def test_condition_number_of_a_known_matrix() -> None:
-    from repro.gmd.emphasis_projection import condition_number
+    from repro.gmd.emphasis_projection.projection import condition_number
 
     # singular values 4 and 0.5 after a rotation: κ = 8
     angle = 0.3

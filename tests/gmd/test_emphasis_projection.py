@@ -13,12 +13,10 @@ import torch
 from torch import nn
 
 from repro.claims.result import Controls
-from repro.gmd import emphasis_projection
-from repro.gmd.emphasis_projection import (
-    EmphasisProjection,
+from repro.gmd.emphasis_projection import c1, c2, c3, c4, experiment
+from repro.gmd.emphasis_projection.experiment import (
     ImputedX0,
     ProjectedFeatureSpace,
-    ProjectionSettings,
     Settings,
     Variant,
     coherence,
@@ -27,6 +25,7 @@ from repro.gmd.emphasis_projection import (
     root_velocity_disagreement,
     trajectory_error,
 )
+from repro.gmd.emphasis_projection.projection import EmphasisProjection, ProjectionSettings
 from repro.gmd.models import GMDModelSpec
 from repro.gmd.windows import DataConfig, MotionWindows, load_windows
 from repro.infra.paths import data_stubs_dir
@@ -128,7 +127,7 @@ def test_variants_follow_gmds_configs() -> None:
 
 
 def test_projection_settings_shrink_in_quick_mode() -> None:
-    from repro.gmd.emphasis_projection import ProjectionSettings
+    from repro.gmd.emphasis_projection.projection import ProjectionSettings
 
     quick, full = ProjectionSettings.for_scale("quick"), ProjectionSettings.for_scale("paper")
     assert full.simulation_samples == 10000 and full.kappa_scan_seeds == 20
@@ -137,7 +136,7 @@ def test_projection_settings_shrink_in_quick_mode() -> None:
 
 def test_c4_settings_follow_the_registry_and_the_run_seeds() -> None:
     from repro.claims.registry import get_claim
-    from repro.gmd.emphasis_projection import TABLE_B1_VARIANTS, Settings
+    from repro.gmd.emphasis_projection.experiment import TABLE_B1_VARIANTS, Settings
     from repro.gmd.settings import FULL_SEEDS
 
     claim = get_claim("GMD-C4")
@@ -172,8 +171,6 @@ def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
     samples it through GMD's float32 P and P⁻¹; the orthogonal arm trains on its own data."""
     import dataclasses
 
-    from repro.gmd import emphasis_projection
-
     @dataclasses.dataclass
     class Loaded:
         space: object
@@ -184,11 +181,11 @@ def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
         trained_on.append(data.fingerprint)
         return Loaded(windows.space("motion"))
 
-    monkeypatch.setattr(emphasis_projection, "load_or_train_gmd", fake_load_or_train)
+    monkeypatch.setattr(experiment, "load_or_train_gmd", fake_load_or_train)
     base = GMDModelSpec(task="motion", prediction="x0")
     arms = [Variant("emphasis", 10), Variant("emphasis", 10, precision="float32_gmd"),
             Variant("emphasis", 10, kind="orthogonal")]
-    loaded = [emphasis_projection.load_or_train_variant(base, v, windows, 1) for v in arms]
+    loaded = [experiment.load_or_train_variant(base, v, windows, 1) for v in arms]
     assert trained_on[0] == trained_on[1] != trained_on[2]
     assert [m.space.projection.precision for m in loaded] == ["float64", "float32_gmd",
                                                               "float64"]
@@ -197,7 +194,7 @@ def test_gmd_float32_arm_samples_the_gaussian_arms_model(windows: MotionWindows,
 
 def _fake_results(seeds: int = 4):
     """A ``Results`` with known per-seed skating and κ (no models)."""
-    from repro.gmd.emphasis_projection import Results, Settings
+    from repro.gmd.emphasis_projection.experiment import Results, Settings
 
     settings = Settings.for_scale("paper")
     variants, outside = settings.variants(), settings.outside_rule_variants()
@@ -219,7 +216,7 @@ def _fake_results(seeds: int = 4):
 
 
 def test_kappa_relation_and_outside_rule_summary() -> None:
-    from repro.gmd.emphasis_projection import kappa_skating_relation, outside_rule_summary
+    from repro.gmd.emphasis_projection.c4 import kappa_skating_relation, outside_rule_summary
 
     results = _fake_results()
     relation = kappa_skating_relation(results)
@@ -243,7 +240,7 @@ def test_skating_against_kappa_figure() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from repro.gmd.emphasis_projection import plot_skating_against_kappa
+    from repro.gmd.emphasis_projection.c4 import plot_skating_against_kappa
 
     fig = plot_skating_against_kappa(_fake_results())
     ax = fig.axes[0]
@@ -254,7 +251,7 @@ def test_skating_against_kappa_figure() -> None:
 
 # ------------------------------------------------------------------------------------------------
 # GMD-C1…C3 as experiments that return their measurements and their ClaimResults
-# (notebook 03; issue #34): Eq. 4's c*, the inverse's errors and the variance factors.
+# (notebook 03): Eq. 4's c*, the inverse's errors and the variance factors.
 # ------------------------------------------------------------------------------------------------
 
 #: tiny sample sizes: a test of the code, never a result
@@ -268,11 +265,11 @@ def frames() -> np.ndarray:
 
 
 def test_c1_finds_c_star_and_records_the_rules_inputs(frames: np.ndarray) -> None:
-    check = emphasis_projection.relative_importance_check(frames, [0], CHECKS, seed=0)
+    check = c1.relative_importance_check(frames, [0], CHECKS, seed=0)
     assert check.c_star == pytest.approx(math.sqrt(260 / 3))
     assert check.importance_at_c_star == pytest.approx(0.5)
-    assert len(check.simulated) == len(emphasis_projection.C1_GRID) and check.simulation_error < 0.1
-    result = emphasis_projection.c1_result(check, seed=0, figures=["c1.png"])
+    assert len(check.simulated) == len(c1.C1_GRID) and check.simulation_error < 0.1
+    result = c1.c1_result(check, seed=0, figures=["c1.png"])
     assert result.claim_id == "GMD-C1" and result.seeds == [0]
     assert result.measured == {"simulation_max_abs_error": check.simulation_error,
                                "c_star": check.c_star,
@@ -282,11 +279,11 @@ def test_c1_finds_c_star_and_records_the_rules_inputs(frames: np.ndarray) -> Non
 
 
 def test_c2_measures_distances_at_c1_and_the_inverse_at_c10(frames: np.ndarray) -> None:
-    check = emphasis_projection.distance_inverse_check(frames, [0, 1], CHECKS, seed=0)
+    check = c2.distance_inverse_check(frames, [0, 1], CHECKS, seed=0)
     assert set(check.ratios) == {(1.0, 0), (1.0, 1), (10.0, 0), (10.0, 1)}
     assert check.fraction_within == min(check.within[(1.0, 0)], check.within[(1.0, 1)])
     assert check.inverse64 < check.inverse32 and check.inverse_frames == 50
-    result = emphasis_projection.c2_result(check)
+    result = c2.c2_result(check)
     assert result.seeds == [0, 1] and result.measured["inverse_relative_error_float32"] == (
         check.inverse32)
     assert set(result.extra["within_20_percent"]) == {"c=1,seed=0", "c=1,seed=1",
@@ -301,8 +298,8 @@ def test_c2_float32_part_does_not_turn_on_the_matrix_drawn(frames: np.ndarray) -
     from repro.claims.registry import CLAIMS
     from repro.claims.registry_gmd import float32_round_trip_bound
 
-    check = emphasis_projection.distance_inverse_check(frames, list(range(12)), CHECKS, seed=0)
-    measured = emphasis_projection.c2_result(check).measured
+    check = c2.distance_inverse_check(frames, list(range(12)), CHECKS, seed=0)
+    measured = c2.c2_result(check).measured
     assert max(check.kappa[(10.0, s)] for s in range(12)) > 1e5
     assert 0 < measured["inverse_float32_error_over_bound"] <= 1.0
     assert measured["inverse_relative_error_float32"] > 1e-4   # the v8 bound would fail
@@ -322,18 +319,18 @@ def test_c2_float32_part_does_not_turn_on_the_matrix_drawn(frames: np.ndarray) -
 
 
 def test_c3_the_printed_factor_leaves_a_tiny_variance(frames: np.ndarray) -> None:
-    check = emphasis_projection.unit_variance_check(frames, CHECKS, seed=0)
+    check = c3.unit_variance_check(frames, CHECKS, seed=0)
     assert check.variance_printed == pytest.approx(1 / 560, rel=0.2)
     assert check.variance_sqrt == pytest.approx(1.0, rel=0.2)
-    result = emphasis_projection.c3_result(check)
+    result = c3.c3_result(check)
     assert result.seeds == [0] and result.measured == {
         "variance_with_printed_factor": check.variance_printed,
         "variance_with_sqrt_factor": check.variance_sqrt}
-    assert result.extra["c_grid"] == list(map(float, emphasis_projection.C3_GRID))
+    assert result.extra["c_grid"] == list(map(float, c3.C3_GRID))
 
 
 # ------------------------------------------------------------------------------------------------
-# GMD-C4's readings and ClaimResult (notebook 03; issue #34) from a ``Results`` with known
+# GMD-C4's readings and ClaimResult (notebook 03) from a ``Results`` with known
 # per-seed skating and κ (no models).
 # ------------------------------------------------------------------------------------------------
 
@@ -342,7 +339,7 @@ def test_spectra_count_the_drowned_directions_per_seed() -> None:
     results.models["Emphasis c=10"] = SimpleNamespace(
         diffusion=SimpleNamespace(alphas_cumprod=[0.999]))
     settings = Settings.for_scale("paper")
-    spectra = emphasis_projection.spectra(results, settings, results.seeds, seed=0)
+    spectra = c4.spectra(results, settings, results.seeds, seed=0)
     assert spectra.alpha_bar_last == pytest.approx(0.999)
     assert set(spectra.drowned) == {"2", "10"} and len(spectra.drowned["10"]) == 4
     assert "| 10 | 100, 200, 300, 400 |" in spectra.markdown
@@ -351,15 +348,15 @@ def test_spectra_count_the_drowned_directions_per_seed() -> None:
 def test_c4_result_records_the_rules_lists_and_the_readings() -> None:
     results = _fake_results()
     settings = Settings.for_scale("paper")
-    kappa = emphasis_projection.kappa_reading(results)
+    kappa = c4.kappa_reading(results)
     assert kappa.relation["10"]["rho"] == pytest.approx(1.0)
     assert "κ 100–400" in kappa.markdown
-    spectra = emphasis_projection.Spectra(0.99, {"2": [0] * 4, "10": [1] * 4}, "")
+    spectra = c4.Spectra(0.99, {"2": [0] * 4, "10": [1] * 4}, "")
     controls = Controls(null={}, positive={}, planted={"foot_skating_factor_loss_scaling": 1.1})
-    result = emphasis_projection.c4_result(results, settings, settings.base_spec(), results.seeds,
-                                           controls=controls, spectra=spectra, kappa=kappa,
-                                           model_records=[], outside_records=[{"name": "orthogonal",
-                                                                               "passed": True}])
+    result = c4.c4_result(results, settings, settings.base_spec(), results.seeds,
+                          controls=controls, spectra=spectra, kappa=kappa,
+                          model_records=[], outside_records=[{"name": "orthogonal",
+                                                              "passed": True}])
     assert result.claim_id == "GMD-C4" and result.controls is controls
     assert result.measured["values"] == [2, 10]
     assert result.measured["foot_skating_emphasis"]["10"] == [1.0, 2.0, 3.0, 4.0]
@@ -371,14 +368,14 @@ def test_c4_result_records_the_rules_lists_and_the_readings() -> None:
 
 def test_setup_summary_and_table_b1_name_what_the_scale_leaves_out() -> None:
     standard = Settings.for_scale("standard")
-    text = emphasis_projection.setup_summary(standard, ProjectionSettings.for_scale("standard"),
-                                             [0], scale="standard", threads=1)
+    text = experiment.setup_summary(standard, ProjectionSettings.for_scale("standard"),
+                                    [0], scale="standard", threads=1)
     assert text.splitlines()[2] == "seeds: [0] | torch threads: 1"
     assert "not run at the standard scale: " in text
-    assert "not run" not in emphasis_projection.setup_summary(
+    assert "not run" not in experiment.setup_summary(
         Settings.for_scale("paper"), ProjectionSettings.for_scale("paper"), [0],
         scale="paper", threads=1)
-    assert emphasis_projection.table_b1_markdown(None, None, standard, [0], seed=0).startswith(
+    assert c4.table_b1_markdown(None, None, standard, [0], seed=0).startswith(
         "*Table B.1 is not run at the standard scale")
 
 
@@ -392,14 +389,14 @@ matplotlib.use("Agg")
 def test_emphasis_figures() -> None:
     grid = np.array([1.0, 2.0, 10.0])
     share = grid**2 / (grid**2 + 1)
-    fig = emphasis_projection.plot_relative_importance(grid, share, {0: share}, share, share,
-                                                       c_star=9.3, importance_at_10=0.54,
-                                                       simulation_error=1e-3)
+    fig = c1.plot_relative_importance(grid, share, {0: share}, share, share,
+                                      c_star=9.3, importance_at_10=0.54,
+                                      simulation_error=1e-3)
     assert len(fig.axes) == 1
     spread = np.ones(263)
-    fig = emphasis_projection.plot_unit_variance(grid, 260 + 3 * grid**2,
-                                                 1 / np.sqrt(260 + 3 * grid**2),
-                                                 1 / (260 + 3 * grid**2), spread, spread, spread)
+    fig = c3.plot_unit_variance(grid, 260 + 3 * grid**2,
+                                1 / np.sqrt(260 + 3 * grid**2),
+                                1 / (260 + 3 * grid**2), spread, spread, spread)
     assert len(fig.axes) == 3
     plt.close("all")
 
@@ -410,7 +407,7 @@ def test_coherence_figure_does_not_depend_on_timings() -> None:
 
     import matplotlib.pyplot as plt
 
-    from repro.gmd.emphasis_projection import COHERENCE_PANELS, plot_coherence
+    from repro.gmd.emphasis_projection.c4 import COHERENCE_PANELS, plot_coherence
 
     base = _fake_results()
     for arms in base.imputed.values():

@@ -14,14 +14,10 @@ from repro.gmd import (
     figures,
     guidance_schedule,  # noqa: E402
 )
-from repro.gmd.guidance_schedule import strength_key  # noqa: E402
+from repro.gmd.guidance_schedule.sampling import strength_key  # noqa: E402
 from repro.gmd.models import schedule_diffusion
-from repro.gmd.x0_vs_eps import (
-    coefficient_shares,
-    peak_fraction,
-    posterior_mean_forms,
-    printed_c_relative_error,
-)
+from repro.gmd.x0_vs_eps.a1 import posterior_mean_forms, printed_c_relative_error
+from repro.gmd.x0_vs_eps.a2 import coefficient_shares, peak_fraction
 
 
 @pytest.fixture(autouse=True)

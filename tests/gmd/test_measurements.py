@@ -85,7 +85,7 @@ def test_registered_measurements_use_the_short_labels() -> None:
 
 
 # ------------------------------------------------------------------------------------------------
-# The denoiser diagnostics of issue #14 on inputs whose answers are known.
+# The denoiser diagnostics on inputs whose answers are known.
 # ------------------------------------------------------------------------------------------------
 
 FRAMES = 32

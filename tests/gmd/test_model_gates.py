@@ -197,7 +197,8 @@ def test_gmd_model_record_reads_the_cache_metrics(cache, small_spec, windows) ->
 
 def test_emphasis_study_records_measure_each_variant_in_its_own_space(
         cache, dataset_dir) -> None:
-    from repro.gmd import emphasis_projection as study
+    from repro.gmd.emphasis_projection import experiment as study
+    from repro.gmd.emphasis_projection.c4 import emphasis_study_records
     from repro.gmd.models import GMDModelSpec
     from repro.gmd.windows import DataConfig
 
@@ -214,13 +215,13 @@ def test_emphasis_study_records_measure_each_variant_in_its_own_space(
                                              representation="relative"))
     evaluator = study.window_evaluator(train_relative, 5)
     results = study.run_experiment(settings, base, train, test, evaluator, [0], log=lambda _: None)
-    records = study.emphasis_study_records(results, base=base, train=train, test=test,
-                                           parts={1: ["emphasis_less_foot_skating_at_1"]})
+    records = emphasis_study_records(results, base=base, train=train, test=test,
+                                     parts={1: ["emphasis_less_foot_skating_at_1"]})
     assert [r["name"].split(" seed")[0] for r in records] == [
         "gmd motion/x0 loss scaling k=1", "gmd motion/x0 Emphasis c=1"]
     assert all(r["reads"] == ["emphasis_less_foot_skating_at_1"] for r in records)
-    assert study.emphasis_study_records(results, base=base, train=train, test=test,
-                                        parts={2: ["x"]})[0]["reads"] == []
+    assert emphasis_study_records(results, base=base, train=train, test=test,
+                                  parts={2: ["x"]})[0]["reads"] == []
     assert set(records[0]["gate"]) == {"x0_error_vs_gaussian", "training_plateau"}
     # the Emphasis model is measured in its projected space: the same as by hand
     trained = study.load_or_train_variant(base, study.Variant("emphasis", 1), train, 0)

@@ -70,16 +70,11 @@ def test_load_or_train_many_trains_missing_models_in_worker_processes(small_conf
     assert in_process.cache_key == trained[1].cache_key
 
 
-#: cache keys of models (spec + a fixed data fingerprint) computed before the split of
-#: gmd/library.py; a refactor that changes one would orphan every cached model. The nb02/nb03
-#: keys changed on purpose with issue #14 (convergence training, the 288-wide motion UNet);
-#: nb02_traj_rel_full with #17 too (T = 1000 cosine, the guidance experiments' model), and
-#: again with #14's trajectory pilot (GMD's widths 64 × (1, 2, 4), cap 12000); every key with
-#: cache version 2 (the initialisation is seeded from the spec's seed, issue #14); nb03_k5_full
-#: again with the motion family's cap 4000 → 12000 (issue #14, session 11), and with its bf16
-#: autocast (session 13, pilots/pilot_bf16_motion.md; quick and trajectory keys unchanged);
-#: every key with the fourth standard design (docs/COMPUTE.md §16: GMD's stand-in is the
-#: locomotion pool by default, a text model draws one caption per window and batch).
+#: cache keys of models (spec + a fixed data fingerprint): a refactor that changes one would
+#: orphan every cached model, so a key changes only with a deliberate change of a model's spec,
+#: its data or the cache version (git log of this table says which: convergence training,
+#: T = 1000 guidance models, seeded initialisation, the motion family's cap and autocast, the
+#: fourth standard design of docs/COMPUTE.md §16).
 PINNED_MODEL_KEYS = {
     "default": "f404c269f4481ef1",
     "nb01_quick_motion_x0": "1940edf5cf9ef4fa",
@@ -90,13 +85,13 @@ PINNED_MODEL_KEYS = {
     "max_windows": "d8d336cf2fe0cf09",
 }
 #: window fingerprints (part of every model key) of the 10-clip seed-3 stand-in folder;
-#: changed on purpose with generator v3 (issue #16: partial captions, free body parts).
+#: changed on purpose with generator v3 (partial captions, free body parts).
 PINNED_WINDOW_FINGERPRINTS = {"absolute": "f4045791fc65bb18", "relative": "2d4a020827358396"}
 
 
 def _pinned_specs() -> dict[str, GMDModelSpec]:
     from repro.gmd.emphasis_projection import Settings as EmphasisSettings
-    from repro.gmd.emphasis_projection import Variant
+    from repro.gmd.emphasis_projection.experiment import Variant
     from repro.gmd.root_representation import Settings as RootSettings
 
     quick_motion = GMDModelSpec(task="motion", prediction="x0",

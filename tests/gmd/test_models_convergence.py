@@ -1,4 +1,4 @@
-"""GMD models that can represent their data and are trained to convergence (issue #14)."""
+"""GMD models that can represent their data and are trained to convergence."""
 
 from __future__ import annotations
 

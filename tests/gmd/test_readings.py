@@ -3,13 +3,14 @@ truth depends on them."""
 
 from __future__ import annotations
 
-from repro.gmd import emphasis_projection, root_representation, x0_vs_eps
+from repro.gmd import root_representation
+from repro.gmd.emphasis_projection.c4 import reading_c4
+from repro.gmd.x0_vs_eps import a3
 
 
 def _clamp(ours: float, gmds: float, x0: float) -> str:
-    errors = dict(zip(x0_vs_eps.CLAMP_LABELS, ([gmds], [ours], [1e5]), strict=True))
-    return x0_vs_eps.reading_clamp(errors, bound=11.3, unguided_eps=3.0, guided_x0=x0,
-                                   seeds=[0])
+    errors = dict(zip(a3.CLAMP_LABELS, ([gmds], [ours], [1e5]), strict=True))
+    return a3.reading_clamp(errors, bound=11.3, unguided_eps=3.0, guided_x0=x0, seeds=[0])
 
 
 def test_clamp_reading_follows_the_numbers() -> None:
@@ -23,16 +24,16 @@ def test_clamp_reading_follows_the_numbers() -> None:
 
 
 def test_a3_reading_says_where_the_closest_approach_lies() -> None:
-    text = x0_vs_eps.reading_a3(stop=20, num_timesteps=1000,
-                                best_step={"x0": 240.0, "epsilon": 30.0},
-                                survival={"x0": 0.7, "epsilon": 0.95},
-                                stop_step_survival={"x0": 1.0, "epsilon": 1.0})
+    text = a3.reading_a3(stop=20, num_timesteps=1000,
+                         best_step={"x0": 240.0, "epsilon": 30.0},
+                         survival={"x0": 0.7, "epsilon": 0.95},
+                         stop_step_survival={"x0": 1.0, "epsilon": 1.0})
     assert "t ≥ 20 of T = 1000" in text and "t ≈ 240" in text and "keeps 0.70" in text
     assert "both closest approaches lie before the stop step" in text
-    late = x0_vs_eps.reading_a3(stop=20, num_timesteps=1000,
-                                best_step={"x0": 3.0, "epsilon": 30.0},
-                                survival={"x0": 0.7, "epsilon": 0.95},
-                                stop_step_survival={"x0": 1.0, "epsilon": 1.0})
+    late = a3.reading_a3(stop=20, num_timesteps=1000,
+                         best_step={"x0": 3.0, "epsilon": 30.0},
+                         survival={"x0": 0.7, "epsilon": 0.95},
+                         stop_step_survival={"x0": 1.0, "epsilon": 1.0})
     assert "after the stop step" in late
 
 
@@ -46,13 +47,13 @@ def _runs(abs_guidance: float) -> dict[str, list[dict[str, float]]]:
 
 
 def test_b2_reading_counts_each_mechanism_and_picks_the_guidance_sentence() -> None:
-    worse = root_representation.reading_b2(_runs(8.0), seeds=[0, 1], stop_t=20)
+    worse = root_representation.b2.reading_b2(_runs(8.0), seeds=[0, 1], stop_t=20)
     assert "abs closer on 2 of 2 seeds" in worse and "abs closer on 0 of 2 seeds" in worse
     assert "guidance did not help in abs" in worse and "helped in rel" in worse
     assert "last 20 free steps" in worse
-    helped = root_representation.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=20)
+    helped = root_representation.b2.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=20)
     assert "guidance helped in abs" in helped and "abs closer on 2 of 2 seeds" in helped
-    to_the_end = root_representation.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=0)
+    to_the_end = root_representation.b2.reading_b2(_runs(1.0), seeds=[0, 1], stop_t=0)
     assert "act to the last step" in to_the_end and "free steps" not in to_the_end
 
 
@@ -65,12 +66,12 @@ def _skating(loss: list[float], emphasis: list[float]) -> dict[str, dict[str, li
 def test_c4_reading_states_the_direction_measured() -> None:
     kwargs = dict(data_skating=0.05, final_losses={"a": 0.4, "b": 0.5}, train_steps=1000,
                   kappas={0: 1e3, 1: 5e4}, emphasis_skating_c10=[2.0, 30.0])
-    worse = emphasis_projection.reading_c4(skating=_skating([1, 1, 1, 1], [6, 4, 3, 2]), **kwargs)
+    worse = reading_c4(skating=_skating([1, 1, 1, 1], [6, 4, 3, 2]), **kwargs)
     assert "Emphasis skates more than loss scaling at every matched value" in worse
     assert "the gap shrinks" in worse and "seed 1 (κ = 5e+04" in worse
-    better = emphasis_projection.reading_c4(skating=_skating([6, 4, 3, 2], [1, 1, 1, 1]), **kwargs)
+    better = reading_c4(skating=_skating([6, 4, 3, 2], [1, 1, 1, 1]), **kwargs)
     assert "Emphasis skates less" in better
-    mixed = emphasis_projection.reading_c4(skating=_skating([1, 4, 1, 1], [2, 1, 3, 5]), **kwargs)
+    mixed = reading_c4(skating=_skating([1, 4, 1, 1], [2, 1, 3, 5]), **kwargs)
     assert "neither method" in mixed and "does not shrink" in mixed
 
 
@@ -78,10 +79,11 @@ def test_b3_reading_names_the_lower_fid() -> None:
     row = {"fid": 1.0, "r_precision_top3": 0.2, "diversity": 1.0, "concept_recall": 0.1}
     rows = {"relative": [{**row, "fid": 2.0}], "absolute": [row]}
     real = {"diversity": 1.3, "r_precision_top3": 0.9, "concept_recall": 0.8}
-    text = root_representation.reading_b3(rows, real, paper_fid=(0.305, 0.212))
+    text = root_representation.b3.reading_b3(rows, real, paper_fid=(0.305, 0.212))
     assert "lower mean: abs" in text and "30% of its rel value" in text
     rows = {"relative": [row], "absolute": [{**row, "fid": 2.0}]}
-    assert "lower mean: rel" in root_representation.reading_b3(rows, real, paper_fid=(0.305, 0.212))
+    assert "lower mean: rel" in root_representation.b3.reading_b3(rows, real,
+                                                                  paper_fid=(0.305, 0.212))
 
 
 def test_b1_reading_checks_that_the_linear_curve_is_flat() -> None:
@@ -89,6 +91,6 @@ def test_b1_reading_checks_that_the_linear_curve_is_flat() -> None:
                "rel_rotation": {"gap_1": 0.001, "gap_54": 0.03}}
     kwargs = dict(round_trip_error=1e-15, joints_error=0.0, late_gap=54, growth=3.0,
                   real_growth=None, linearisation=[0.01, 0.5], deltas=[0.01, 0.5])
-    assert "(the same shift)" in root_representation.reading_b1(summary=summary, **kwargs)
+    assert "(the same shift)" in root_representation.b1.reading_b1(summary=summary, **kwargs)
     summary["rel_linear"]["gap_54"] = 0.02
-    assert "(not constant)" in root_representation.reading_b1(summary=summary, **kwargs)
+    assert "(not constant)" in root_representation.b1.reading_b1(summary=summary, **kwargs)

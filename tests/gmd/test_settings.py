@@ -10,7 +10,8 @@ from repro.core.training import TrainConfig
 from repro.gmd import emphasis_projection, guidance_schedule, models, root_representation, x0_vs_eps
 from repro.gmd import root_representation as rr
 from repro.gmd import x0_vs_eps as x0eps
-from repro.gmd.emphasis_projection import Variant
+from repro.gmd.emphasis_projection.experiment import Variant
+from repro.gmd.emphasis_projection.projection import ProjectionSettings
 from repro.gmd.models import GMDModelSpec, training_fields
 from repro.gmd.settings import (
     FULL_SEEDS,
@@ -21,6 +22,7 @@ from repro.gmd.settings import (
     scale_note,
     seeds_of,
 )
+from repro.gmd.x0_vs_eps.common import guidance_trajectory_spec
 from repro.models.evaluator import EvaluatorConfig
 from repro.run.params import notebook_parameters
 
@@ -75,7 +77,7 @@ def test_notebook_seed_parameters_default_to_the_table(notebook: str) -> None:
 
 
 # ------------------------------------------------------------------------------------------------
-# The three scales of GMD's settings (issue #32, docs/COMPUTE.md §5): each scale's models are
+# The three scales of GMD's settings (docs/COMPUTE.md §5): each scale's models are
 # what the plan says, the paper scale is today's registered full settings (same cache keys),
 # and at the standard scale the models the plan aligns are one cache key (the model bank).
 # ------------------------------------------------------------------------------------------------
@@ -141,7 +143,7 @@ def test_the_standard_model_bank_shares_keys() -> None:
     for seed in (0, 2):
         a4 = nb01.spec("trajectory", "epsilon", data, seed)
         assert a4 == nb01.guidance_trajectory_spec("epsilon", data, seed)
-        assert a4 == x0eps.guidance_trajectory_spec("standard", "epsilon", seed=seed)
+        assert a4 == guidance_trajectory_spec("standard", "epsilon", seed=seed)
         assert a4 == rr.Settings.for_scale("standard").trajectory_spec("absolute", seed)
         assert a4 == guidance_schedule.Settings.for_scale("standard").spec().replace(seed=seed)
         assert (nb01.spec("trajectory", "x0", data, seed)
@@ -155,7 +157,8 @@ def test_the_standard_model_bank_shares_keys() -> None:
         # F1's second stage is B3's absolute-root x0 text model (sampled with the null text)
         assert (guidance_schedule.Settings.for_scale("standard").motion_spec().replace(seed=seed)
                 == rr.Settings.for_scale("standard").motion_spec("absolute", seed))
-    # one evaluator for notebooks 01, 02 and 03 (``emphasis_projection.window_evaluator``)
+    # one evaluator for notebooks 01, 02 and 03 (``emphasis_projection.experiment``'s
+    # ``window_evaluator``)
     steps = emphasis_projection.Settings.for_scale("standard").evaluator_steps
     shared = EvaluatorConfig().replace(steps=steps)
     assert rr.Settings.for_scale("standard").evaluator_config() == shared
@@ -195,7 +198,7 @@ def test_paper_scale_is_todays_full_settings() -> None:
 @pytest.mark.parametrize("build", [
     lambda s: x0eps.Settings.for_scale(s), lambda s: rr.Settings.for_scale(s),
     lambda s: emphasis_projection.Settings.for_scale(s),
-    lambda s: emphasis_projection.ProjectionSettings.for_scale(s),
+    lambda s: ProjectionSettings.for_scale(s),
     lambda s: guidance_schedule.Settings.for_scale(s),
     lambda s: training_fields("motion", scale=s)])
 def test_an_unknown_scale_is_a_clear_error(build) -> None:

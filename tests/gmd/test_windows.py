@@ -78,7 +78,7 @@ def test_short_labels_derive_from_the_one_definition() -> None:
 
 def test_a_path_data_dir_is_kept_as_its_string(tmp_path: Path) -> None:
     """A run context's ``data_dir`` (a Path) makes the config, and so the cache key, of its
-    string (issue #34: notebooks pass ``ctx.data_dir``)."""
+    string (notebooks pass ``ctx.data_dir``)."""
     from_path = DataConfig(data_dir=tmp_path, frames=16)
     from_text = DataConfig(data_dir=str(tmp_path), frames=16)
     assert from_path == from_text and isinstance(from_path.data_dir, str)

@@ -16,7 +16,6 @@ from conftest import make_context
 from repro.claims.registry import get_claim
 from repro.claims.result import record
 from repro.claims.verdicts import PAPER_DISCREPANCY, PARTIAL, REPRODUCED
-from repro.gmd import x0_vs_eps
 from repro.gmd.guidance import goal_error, sample
 from repro.gmd.measurements import jitter_of
 from repro.gmd.models import (
@@ -28,12 +27,13 @@ from repro.gmd.models import (
     schedule_diffusion,
 )
 from repro.gmd.windows import DataConfig, FeatureSpace, MotionWindows, load_windows
-from repro.gmd.x0_vs_eps import (
-    A3Study,
-    a1_result,
-    a2_result,
+from repro.gmd.x0_vs_eps import a1, a2, a3, a4
+from repro.gmd.x0_vs_eps.a1 import a1_result
+from repro.gmd.x0_vs_eps.a2 import a2_result
+from repro.gmd.x0_vs_eps.a3 import A3Study, finite
+from repro.gmd.x0_vs_eps.common import Settings
+from repro.gmd.x0_vs_eps.goal_reaching import (
     best_gain_survival,
-    finite,
     goal_error_kept,
     goal_reaching_experiment,
     guided_change_survival,
@@ -113,7 +113,6 @@ def test_exact_x0_and_eps_models_are_guided_identically(small_spec) -> None:
 
 def test_settings_build_the_specs_notebook_01_always_trained() -> None:
     from repro.gmd.models import training_fields
-    from repro.gmd.x0_vs_eps import Settings
 
     quick = Settings.for_scale("quick")
     data = quick.data(None)
@@ -170,7 +169,7 @@ def test_goal_reaching_result_reads_the_survival_from_its_own_path(small_spec,
 
 def test_guidance_trajectory_spec_is_gmds_diffusion_and_stops_at_20() -> None:
     from repro.gmd.guidance import default_stop_step, guidance_parameters
-    from repro.gmd.x0_vs_eps import Settings, guidance_trajectory_spec
+    from repro.gmd.x0_vs_eps.common import guidance_trajectory_spec
 
     full = Settings.for_scale("paper")
     spec = full.guidance_trajectory_spec("epsilon", full.data(None), seed=2)
@@ -209,7 +208,7 @@ def test_guided_sampling_at_t_1000_stops_at_t_20() -> None:
 
 def test_clamp_sensitivity_repeats_the_guided_run_under_each_bound(small_spec,
                                                                    cache: Path) -> None:
-    from repro.gmd.x0_vs_eps import CLAMPS, clamp_sensitivity
+    from repro.gmd.x0_vs_eps.a3 import CLAMPS, clamp_sensitivity
 
     trained = load_or_train_gmd(small_spec())
     targets = np.array([[0.5, 1.0], [0.0, 2.0]], dtype=np.float32)
@@ -250,7 +249,7 @@ def models(windows: MotionWindows) -> dict:
 
 
 def test_exact_pair_samples_identically(models) -> None:
-    pair = x0_vs_eps.exact_pair(models[("x0", 0)])
+    pair = a3.exact_pair(models[("x0", 0)])
     assert pair["x0"].spec.prediction == "x0" and pair["epsilon"].spec.prediction == "epsilon"
     runs = {p: goal_reaching_experiment(m, TARGETS, seed=3, clip_x0=6.0)
             for p, m in pair.items()}
@@ -262,10 +261,9 @@ def test_exact_pair_samples_identically(models) -> None:
 
 def test_late_reverting_model_leaves_the_unguided_run_and_undoes_the_guided_gain(models
                                                                                  ) -> None:
-    exact = x0_vs_eps.exact_pair(models[("x0", 0)])["x0"]
+    exact = a3.exact_pair(models[("x0", 0)])["x0"]
     honest = goal_reaching_experiment(exact, TARGETS, seed=3, clip_x0=6.0)
-    reverting = x0_vs_eps.late_reverting_model(exact, len(TARGETS), seed=3, below=5,
-                                               share=0.5)
+    reverting = a3.late_reverting_model(exact, len(TARGETS), seed=3, below=5, share=0.5)
     planted = goal_reaching_experiment(reverting, TARGETS, seed=3, clip_x0=6.0)
     assert torch.equal(planted.unguided, honest.unguided)
     # guided steps down to the stop are the same; the last (t < 5) lose guided gain
@@ -278,7 +276,7 @@ def test_late_reverting_model_leaves_the_unguided_run_and_undoes_the_guided_gain
 
 def test_a3_null_does_not_fire_and_positive_is_seen(windows, models) -> None:
     claim = get_claim("GMD-A3")
-    result = x0_vs_eps.a3_controls(models, windows, SEEDS, goals=6, min_distance=0.0)
+    result = a3.a3_controls(models, windows, SEEDS, goals=6, min_distance=0.0)
     null, positive = result.null, result.positive
     np.testing.assert_allclose(null["goal_error_x0"], null["goal_error_eps"], atol=1e-4)
     assert positive["goal_error_eps"] == null["goal_error_eps"]
@@ -293,42 +291,43 @@ def test_a3_null_does_not_fire_and_positive_is_seen(windows, models) -> None:
 
 
 # ------------------------------------------------------------------------------------------------
-# Notebook 01's results (``gmd.x0_vs_eps``): what GMD-A1…A4 record, built from the
+# Notebook 01's results (``gmd.x0_vs_eps.a1`` … ``a4``): what GMD-A1…A4 record, built from the
 # measurements, and the per-seed views of the A3 study.
 # ------------------------------------------------------------------------------------------------
 
-#: what every sidecar of notebook 01 records under ``extra["parameters"]`` (issue #17)
+#: what every sidecar of notebook 01 records under ``extra["parameters"]``
 KEYS = {"num_timesteps", "guidance_stop_t", "x0_clamp"}
 
 
 def test_a1_and_a2_record_the_registered_measurements_and_the_parameters(
         tmp_path: Path) -> None:
     cosine = schedule_diffusion("cosine", 1000)
-    mu_difference = x0_vs_eps.posterior_mean_forms(cosine, samples=4, seed=0)
-    printed = x0_vs_eps.printed_c_relative_error(cosine)
-    a1 = a1_result(cosine, mu_difference, printed, figure=tmp_path / "a1.png", seed=0)
-    assert set(get_claim("GMD-A1").measurements) <= set(a1.measured)
-    assert set(a1.extra["parameters"]) == KEYS
-    assert a1.extra["c_equals_one_over_sqrt_alpha_max_error"] == x0_vs_eps.c_identity_error(
+    mu_difference = a1.posterior_mean_forms(cosine, samples=4, seed=0)
+    printed = a1.printed_c_relative_error(cosine)
+    a1_record = a1_result(cosine, mu_difference, printed, figure=tmp_path / "a1.png", seed=0)
+    assert set(get_claim("GMD-A1").measurements) <= set(a1_record.measured)
+    assert set(a1_record.extra["parameters"]) == KEYS
+    assert a1_record.extra["c_equals_one_over_sqrt_alpha_max_error"] == a1.c_identity_error(
         cosine) < 1e-9
-    schedules = {name: x0_vs_eps.coefficient_shares(schedule_diffusion(name))
+    schedules = {name: a2.coefficient_shares(schedule_diffusion(name))
                  for name in ("cosine", "linear")}
-    peaks = {name: {k: x0_vs_eps.peak_fraction(v[k]) for k in ("x0_share", "eps_share")}
+    peaks = {name: {k: a2.peak_fraction(v[k]) for k in ("x0_share", "eps_share")}
              for name, v in schedules.items()}
-    a2 = a2_result(schedules, peaks, figure=tmp_path / "a2.png", seed=0)
-    assert a2.extra["parameters"] == {"num_timesteps": 1000, "guidance_stop_t": None,
-                                      "x0_clamp": None}
-    assert a2.headline.startswith("cosine: x0 share a/(a+b) peaks at t = 1/1000")
-    assert set(a2.extra["cosine_x0_share_at"]) == {"1", "10", "500", "1000"}
+    a2_record = a2_result(schedules, peaks, figure=tmp_path / "a2.png", seed=0)
+    assert a2_record.extra["parameters"] == {"num_timesteps": 1000, "guidance_stop_t": None,
+                                             "x0_clamp": None}
+    assert a2_record.headline.startswith("cosine: x0 share a/(a+b) peaks at t = 1/1000")
+    assert set(a2_record.extra["cosine_x0_share_at"]) == {"1", "10", "500", "1000"}
     ctx = make_context(tmp_path, scale="standard")
-    assert record(ctx, a1).verdict == PAPER_DISCREPANCY  # the printed Eq. 2 drops a square root
-    assert record(ctx, a2).verdict == REPRODUCED
+    # the printed Eq. 2 drops a square root
+    assert record(ctx, a1_record).verdict == PAPER_DISCREPANCY
+    assert record(ctx, a2_record).verdict == REPRODUCED
 
 
 def test_every_result_of_notebook_01_records_the_guidance_parameters() -> None:
-    tree = ast.parse(inspect.getsource(x0_vs_eps))
-    calls = [node for node in ast.walk(tree) if isinstance(node, ast.Call)
-             and getattr(node.func, "id", None) == "ClaimResult"]
+    calls = [node for module in (a1, a2, a3, a4)
+             for node in ast.walk(ast.parse(inspect.getsource(module)))
+             if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "ClaimResult"]
     assert len(calls) == 4
     for call in calls:
         extra = next(k.value for k in call.keywords if k.arg == "extra")
@@ -356,21 +355,21 @@ def test_every_scale_trains_the_eps_motion_arm_with_the_x0_arms_spec() -> None:
     """A4's ε motion arm is a treatment arm, never cut on its expected outcome: every scale
     trains both motion arms, the ε arm at standard with exactly the x0 arm's spec and steps
     (width 64, 4500 steps); the headline of a run without an ε arm still reads."""
-    standard = x0_vs_eps.Settings.for_scale("standard")
+    standard = Settings.for_scale("standard")
     data = standard.motion_data()
     x0, eps = (standard.spec("motion", p, data, seed=1) for p in ("x0", "epsilon"))
     assert eps == x0.replace(prediction="epsilon")
     assert x0.base_channels == 64 and x0.training.steps == 4500
-    assert set(x0_vs_eps.A4_PARTS) == {p.name for p in get_claim("GMD-A4").parts}
+    assert set(a4.A4_PARTS) == {p.name for p in get_claim("GMD-A4").parts}
     for scale in ("quick", "standard", "paper"):
-        settings = x0_vs_eps.Settings.for_scale(scale)
+        settings = Settings.for_scale(scale)
         assert settings.motion_predictions == ("x0", "epsilon") and settings.a4_not_run == {}
     x0_only = {"motion_jitter_x0": [80.0, 90.0], "motion_fid_x0": [1.5, 2.5],
                "trajectory_jitter_x0": [30.0, 40.0], "trajectory_jitter_eps": [60.0, 80.0]}
-    lines = x0_vs_eps.sample_quality_lines(x0_only, [0, 1]).splitlines()
+    lines = a4.sample_quality_lines(x0_only, [0, 1]).splitlines()
     assert lines[1] == ("seed 1: motion jerk x0 90; FID x0 2.5; trajectory jerk x0 40 / ε 80 "
                         "(jerk m/s³)")
-    headline = x0_vs_eps._a4_headline(x0_only, {"trajectory_jitter": 2.0},
-                                      {"motion_fid": 1.0, "motion_jitter": 70.0}, "standard")
+    headline = a4._a4_headline(x0_only, {"trajectory_jitter": 2.0},
+                               {"motion_fid": 1.0, "motion_jitter": 70.0}, "standard")
     assert headline.startswith("ε motion arm not run at the standard scale; x0 motion samples: "
                                "joint jerk 85 m/s³ (data 70)")

@@ -1,4 +1,4 @@
-"""The frozen all-MiniLM-L6-v2 text encoder (repro.models.frozen_text, issue #16): the
+"""The frozen all-MiniLM-L6-v2 text encoder (repro.models.frozen_text): the
 published weights load from the installed package with no network, and real caption strings
 give finite, deterministic token states whose pooled vectors rank a paraphrase above an
 unrelated caption. The model is loaded once per test session."""

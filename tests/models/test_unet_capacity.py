@@ -1,4 +1,4 @@
-"""Architectures able to represent their targets (issue #14): an ε model must be able to fit
+"""Architectures able to represent their targets: an ε model must be able to fit
 ε ≈ x_t at t = T − 1, which needs its full-resolution layers at least as wide as the data."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ MOTION_FEATURES = 263
 
 
 @pytest.mark.parametrize("base,mults,expected", [
-    (16, (1, 2, 4), 16),          # the narrow motion UNet the GMD notebooks used (issue #14)
+    (16, (1, 2, 4), 16),          # a narrow motion UNet (too small for its target)
     (288, (1, 1, 1), 288),
     (64, (2, 1), 128),            # only the first level runs at full resolution
     (64, (0.5, 1, 2), 32),

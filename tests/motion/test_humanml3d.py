@@ -387,5 +387,5 @@ def test_real_clips_validate_and_load(tmp_path: Path) -> None:
         warnings.simplefilter("error")
         val = D.MotionDataset(tmp_path, "test")
     assert val[0]["length"] == 196 and val[0]["motion"].dtype == torch.float32
-    (tmp_path / "test.txt").write_text("")   # issue #33: the validator accepted this folder
+    (tmp_path / "test.txt").write_text("")   # an empty split list must not pass
     assert ("test.txt", "split") in {(p.path.name, p.kind) for p in D.validate_dataset(tmp_path)}

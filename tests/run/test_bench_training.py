@@ -1,4 +1,4 @@
-"""The training bench (issue #15) in its quick mode: sections, keys, merging, and its helpers."""
+"""The training bench in its quick mode: sections, keys, merging, and its helpers."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``run.notebook.setup_notebook``: a notebook's run settings come by one road (issue #34).
+"""``run.notebook.setup_notebook``: a notebook's run settings come by one road.
 
 The runner checks the parameters before any kernel starts; a notebook run by hand makes the
 same checks (``run.params``) in ``setup_notebook``; the context carries what the notebook reads

@@ -1,4 +1,4 @@
-"""A folder in the real HumanML3D layout, without the stand-in's ``labels/`` (issue #33): the
+"""A folder in the real HumanML3D layout, without the stand-in's ``labels/``: the
 validator and the parameter check accept it and reject what the notebooks cannot use, and the
 notebooks run on it at the quick scale, reading "not measurable on real data" where they would
 compare against labels.
@@ -29,13 +29,13 @@ import pytest
 import torch
 
 from repro.claims.ledger import load_sidecars
-from repro.energymogen import sef_ablation as em_studies
-from repro.energymogen.composed_augmentation import AugmentationSettings
+from repro.energymogen.composed_augmentation.emg8 import AugmentationSettings
 from repro.energymogen.data import build_folder_data, composition_items
 from repro.energymogen.energy_contour_maps import EnergyViewSettings
 from repro.energymogen.harness import oracle_accuracy
-from repro.energymogen.latent_count import LatentCountSettings, table8_markdown
-from repro.energymogen.sef_ablation import SEFAblationSettings
+from repro.energymogen.latent_count.emg7 import LatentCountSettings, table8_markdown
+from repro.energymogen.sef_ablation import common
+from repro.energymogen.sef_ablation.common import SEFAblationSettings
 from repro.energymogen.settings import FRAMES, folder_problems, pipeline_config
 from repro.gmd.windows import DataConfig, load_windows
 from repro.infra import paths
@@ -264,8 +264,8 @@ def test_the_oracle_columns_of_a_folder_read_not_measurable() -> None:
     # notebook 05's tables: a row run_rows left empty (it composes texts) and a NaN column
     rows = {"0.1,0.7,0.2": {}, "0.001,0.002": {"r_precision_top3": [12.5],
                                                "both_present": [float("nan")]}}
-    table = em_studies.markdown_table(rows, [("SEF", "0.1,0.7,0.2"), ("γ", "0.001,0.002")], {},
-                                      [("r_precision_top3", "R@3"), ("both_present", "both")])
+    table = common.markdown_table(rows, [("SEF", "0.1,0.7,0.2"), ("γ", "0.001,0.002")], {},
+                                  [("r_precision_top3", "R@3"), ("both_present", "both")])
     assert table.count("not measurable on real data") == 3 and "12.5" in table
 
 

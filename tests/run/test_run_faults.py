@@ -127,7 +127,7 @@ def test_report_refuses_to_mix_runs_unless_allowed(
     _notebook(sandbox / "notebooks" / "02_other.ipynb", _recording("two", ["GMD-B1"]))
     quick = sandbox / "build" / "quick"
     report_before = (quick / "report" / "REPORT.md").read_bytes()
-    # issue #35 case 8: the partial run succeeded: exit 0, saying how to report mixed runs
+    # a partial run that succeeded: exit 0, saying how to report mixed runs
     assert runner.reproduce(scale="quick", only=["02"], seed=7) == 0
     out = capsys.readouterr().out
     assert "published" in out and "come from 2 runs" in out and first in out
@@ -178,7 +178,7 @@ BAD_VALUES = [
     (["-p", "stepz=3"], "has no parameter(s) ['stepz']"),
     (["--seed", "-1"], "parameter seed=-1 is negative: a base seed is a whole number from 0 "
                        "to 2^48 - 1 = 281474976710655 (e.g. --seed 0)"),
-    # issue #35 case 1: 2^64 - 1 used to fail inside the kernels of notebooks 05 and 06
+    # a seed past 2^48 - 1 is refused before any kernel starts (the kernels cannot take it)
     (["--seed", str(2**64 - 1)], "parameter seed=18446744073709551615 must be between 0 and "
                                  "2^48 - 1 = 281474976710655"),
     (["--device", "cuda:0"], "names CUDA, which is not available here"),
@@ -224,10 +224,10 @@ def _damage(folder: Path, how: str) -> str:
     elif how == "missing-statistics":
         (folder / "Mean.npy").unlink()
         return "Mean.npy"
-    elif how == "garbled-statistics":  # issue #35 case 3
+    elif how == "garbled-statistics":
         (folder / "Mean.npy").write_bytes(b"\x80\x04 not an array " * 40)
         return f"{folder / 'Mean.npy'}: is not a .npy array: it does not start with numpy's header"
-    elif how == "truncated-without-layout":  # issue #35 case 4: four layout errors besides
+    elif how == "truncated-without-layout":  # four layout errors besides
         features.write_bytes(features.read_bytes()[:200])
         shutil.rmtree(folder / "texts")
         for split in ("train", "val", "test"):

@@ -1,4 +1,4 @@
-"""Generator v3 (issue #16): partial captions of multi-concept clips at the stated share,
+"""Generator v3: partial captions of multi-concept clips at the stated share,
 ``caption_concepts`` that match the captions, single-concept clips whose unowned parts move
 (and still perform their concept alone), and the co-occurrence table of notebook 00."""
 

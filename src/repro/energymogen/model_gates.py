@@ -24,7 +24,8 @@ themselves measured the same way (:func:`data_sample_values`). The reference arm
 pipeline every composition and guidance arm samples (notebooks 04 and 05), the paper's N = 5
 among EMG-7's latent counts, and the pretrained pipeline of EMG-8; N = 1, 3, 7 and the
 fine-tuned denoisers are treatment arms, judged on their fitness only (their records:
-``latent_count.latent_count_records``, ``composed_augmentation.augmentation_records``).
+``latent_count.emg7.latent_count_records``,
+``composed_augmentation.emg8.augmentation_records``).
 
 Our choice: a model is measured with seed ``train_seed − data_seed`` (the evaluation seed whose
 model it is, ``pipeline.train_seed_for``), so one model gets one gate value in every notebook.

@@ -623,7 +623,7 @@ class SeedPipelines:
     Calling it with seed s gives the pipeline whose VAE and denoiser are trained with
     :func:`train_seed_for` (``base.config.data_seed + s``): ``base`` itself for s = 0, else
     :func:`retrain_pipeline` of ``base`` (shared data, frozen text encoder and evaluator; each
-    built once, then kept). The studies (``sef_ablation.run_rows``,
+    built once, then kept). The studies (``sef_ablation.common.run_rows``,
     ``energy_contour_maps.composition_study``) take it in place of a single pipeline.
     """
 

@@ -472,7 +472,7 @@ ONE_THREAD = 1
 #: EMG-4's transfer of Table 9's step sizes (registry v7): per seed every row runs κ × the
 #: paper's [γ_attn, γ_reg], κ set so that the largest row, [0.1, 0.2], moves the text embedding
 #: by ‖Δc‖/‖c‖ = AGD_LARGEST_CHANGE (a step as long as the embedding itself), read by the last
-#: block at t = AGD_CHANGE_T (``sef_ablation.agd_relative_change``)
+#: block at t = AGD_CHANGE_T (``sef_ablation.emg4.agd_relative_change``)
 AGD_LARGEST_CHANGE = 1.0
 AGD_CHANGE_T = 500
 #: Table 9's test items per held-out pair at standard and paper scale (EMG-4; registry v7):

@@ -1,13 +1,18 @@
 """Guided Motion Diffusion's appendix (layer 6): its math, experiments and figures. Never imports
 repro.energymogen.
 
-One module per claim group, named like its notebook, holding the group's settings,
-experiment, controls, readings, figures and results:
+One package per claim group, named like its notebook, with one module per claim (its
+experiment, controls, readings, figures and result) beside what the group's claims share:
 
-- ``x0_vs_eps`` (01): appendix A, x0 vs ε prediction (GMD-A1…A4);
-- ``root_representation`` (02): appendix B, relative vs absolute root (GMD-B1…B3);
-- ``emphasis_projection`` (03): appendix C, the Emphasis projection (GMD-C1…C4);
-- ``guidance_schedule`` (06): appendix F, guidance strength and stop step (GMD-F1).
+- ``x0_vs_eps`` (01): appendix A, x0 vs ε prediction (GMD-A1…A4): ``a1`` … ``a4``,
+  ``common``, ``goal_reaching``;
+- ``root_representation`` (02): appendix B, relative vs absolute root (GMD-B1…B3): ``b1``,
+  ``b2``, ``b3``, ``common``;
+- ``emphasis_projection`` (03): appendix C, the Emphasis projection (GMD-C1…C4): ``c1`` …
+  ``c4``, ``projection``, C4's ``experiment``;
+- ``guidance_schedule`` (06): appendix F, guidance strength and stop step (GMD-F1): ``f1`` and
+  the machinery it rests on (``settings``, ``sampling``, ``experiment``, ``obstacles``,
+  ``plots``).
 
 Below them, the tiny GMD every notebook shares: ``windows`` (data windows and their feature
 space), ``models`` (the paper's settings, specs, text conditioning, cached training),

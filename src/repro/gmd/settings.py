@@ -208,7 +208,7 @@ def a4(settings: Any) -> dict[str, Any]:
 
 def b2(settings: Any) -> dict[str, Any]:
     """GMD-B2: the trajectory models' T, the stop step imputation and guidance act down to,
-    the strength (``root_representation.impute_locations``' default), the clamp, targets."""
+    the strength (``root_representation.b2.impute_locations``' default), the clamp, targets."""
     return {"seeds": settings.seeds, "targets": settings.targets,
             "T": settings.trajectory_diffusion_steps, "stop_step": settings.guidance_stop_t,
             "strength": GMD_GUIDANCE_STRENGTH, "x0_clamp": settings.x0_clamp}

@@ -109,16 +109,18 @@ def _dataset_problem(resolved: str) -> str | None:
 
 
 def window_needs(scale: str) -> WindowNeeds:
-    """What the GMD notebooks of ``scale`` cut from a data folder: their longest windows
-    (``gmd.windows.DataConfig``'s and notebook 01's), and as many test windows as notebook 02
-    draws goal targets from (``goal_targets`` draws them without replacement)."""
+    """What the GMD notebooks of ``scale`` cut from a data folder, as their claim groups state
+    it (``gmd.x0_vs_eps.window_needs``: notebook 01's longest windows;
+    ``gmd.root_representation.window_needs``: as many test windows as notebook 02 draws goal
+    targets from): the longest windows and, per split, the most windows any of them needs."""
     from repro.gmd import root_representation, x0_vs_eps
-    from repro.gmd.windows import DataConfig
 
-    default = DataConfig()
-    frames = max(default.frames, x0_vs_eps.Settings.for_scale(scale).frames)
-    targets = root_representation.Settings.for_scale(scale).targets
-    return WindowNeeds(frames, default.stride, {"train": 1, "test": targets})
+    needs = (x0_vs_eps.window_needs(scale), root_representation.window_needs(scale))
+    if len({n.stride for n in needs}) != 1:
+        raise ValueError(f"the GMD notebooks cut windows at different strides: {needs}")
+    splits = dict.fromkeys(split for n in needs for split in n.windows)
+    return WindowNeeds(max(n.frames for n in needs), needs[0].stride,
+                       {split: max(n.windows.get(split, 0) for n in needs) for split in splits})
 
 
 def emg_window_needs(scale: str) -> WindowNeeds:

@@ -1,7 +1,7 @@
-"""Notebook 07, EMG-7: the number N of latent vectors of the motion VAE (EnergyMoGen appendix D,
-Table 8: "For reconstruction, 7 latent vectors achieve the best results. ... Using 5 latent
-vectors ... obtains the best text-to-motion generation performance"); the settings are
-``LatentCountSettings``.
+"""EMG-7 (EnergyMoGen appendix D, Table 8: "For reconstruction, 7 latent vectors achieve the best
+results. ... Using 5 latent vectors ... obtains the best text-to-motion generation
+performance"): the number N of latent vectors of the motion VAE; the settings are
+:class:`LatentCountSettings`. Registered as EMG-7 in ``repro.claims.registry_energymogen``.
 
 The sweep N ∈ ``settings.LATENT_COUNTS`` retrains the VAE and the latent denoiser of the
 shared pipeline (``repro.energymogen.pipeline``) with *everything else identical*: the same
