@@ -534,8 +534,8 @@ def composition_items(data: StandInData, seed: int, per_pair: int,
 
 
 def energy_view_items(data: StandInData, seed: int, per_pair: int) -> CompositionItems:
-    """The test latents' draws of EMG-1's model identities
-    (``energy_contour_maps.energy_view_study``, ``energy_contour_maps.gradient_field_study``)
+    """The test latents' draws of EMG-1's model identities (``energy_contour_maps.emg1``'s
+    ``energy_view_study`` and ``gradient_field_study``)
     and of notebook 05's rows (``sef_ablation.common.run_rows``, EMG-4's controls; a folder:
     single-text rows only): on the stand-in set :func:`composition_items` (``per_pair`` per
     held-out pair, unchanged); on a data folder (no concepts to compose) as many test windows

@@ -624,7 +624,7 @@ class SeedPipelines:
     :func:`train_seed_for` (``base.config.data_seed + s``): ``base`` itself for s = 0, else
     :func:`retrain_pipeline` of ``base`` (shared data, frozen text encoder and evaluator; each
     built once, then kept). The studies (``sef_ablation.common.run_rows``,
-    ``energy_contour_maps.composition_study``) take it in place of a single pipeline.
+    ``energy_contour_maps.composition.composition_study``) take it in place of a single pipeline.
     """
 
     def __init__(self, base: EnergyMoGenPipeline, *,

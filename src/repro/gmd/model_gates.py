@@ -258,7 +258,7 @@ def motion_sample_values(trained: TrainedGMD, data: SampleGateData, *,
 
 def model_space_windows(trained: TrainedGMD, windows: MotionWindows) -> Tensor:
     """``windows`` (B, C, T) in ``trained``'s model space: its task's channels, projected when
-    the model is an Emphasis variant (``emphasis_projection.ProjectedFeatureSpace``)."""
+    the model is an Emphasis variant (``emphasis_projection.experiment.ProjectedFeatureSpace``)."""
     x = windows.channels(trained.spec.task)
     projection = getattr(trained.space, "projection", None)
     if projection is None:

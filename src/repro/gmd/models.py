@@ -104,11 +104,11 @@ TRAJECTORY_ARCHITECTURE = Architecture(base_channels=64, channel_mults=(1, 2, 4)
 
 #: the standard scale (docs/COMPUTE.md §3–§4, §15–§16; ``make reproduce`` on 2 CPU cores):
 #: every GMD model at T = 100 cosine (the guidance stop steps at the same fraction of T,
-#: ``guidance_schedule.model_stop_step``: GMD's 20 of 1000 → 2); the motion UNet 64 × (1, 1)
-#: without an input skip (a full-rank input-to-output path passes x_t's noise into an x0
-#: model's output: its samples were jagged, COMPUTE.md §14; without it an ε model cannot carry
-#: 263-d noise through 64 channels, so the standard scale does not train the ε motion arm,
-#: ``gmd.settings.STANDARD_NOT_RUN``), the trajectory UNet 32 × (1, 2): the first run's
+#: ``guidance_schedule.sampling.model_stop_step``: GMD's 20 of 1000 → 2); the motion UNet
+#: 64 × (1, 1) without an input skip (a full-rank input-to-output path passes x_t's noise into
+#: an x0 model's output: its samples were jagged, COMPUTE.md §14; without it an ε model must
+#: carry 263-d noise through 64 channels — GMD-A4's ε motion arm, trained at this width as the
+#: arm its claim predicts worse, COMPUTE.md §21), the trajectory UNet 32 × (1, 2): the first run's
 #: 16 × (1, 2) at 1000 steps failed its path-length gate in 9 of 12 records (COMPUTE.md §8); the
 #: wider net passes at 1000 steps with a margin and costs less than 16 × (1, 2) at the 2000
 #: steps that also pass (COMPUTE.md §11). Fixed from pilots, before the standard run that

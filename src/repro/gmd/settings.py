@@ -192,8 +192,8 @@ def scale_note(scale: str) -> str:
 
 def a3(settings: Any) -> dict[str, Any]:
     """GMD-A3: the guidance trajectory models' T, GMD's stop step at that T and strength (the
-    defaults ``x0_vs_eps.goal_reaching_experiment`` runs with), the ε model's clamp (GMD's,
-    ``clip_x0="gmd"``), goals per seed."""
+    defaults ``x0_vs_eps.goal_reaching.goal_reaching_experiment`` runs with), the ε model's
+    clamp (GMD's, ``clip_x0="gmd"``), goals per seed."""
     steps = settings.guidance_diffusion_steps
     return {"seeds": settings.seeds, "goals": settings.goals, "T": steps,
             "strength": GMD_GUIDANCE_STRENGTH, "stop_step": default_stop_step(steps),

@@ -184,8 +184,8 @@ class Settings(RunSettings):
         and convergence training (``models.training_fields``, ``trajectory_steps`` the cap),
         ``trajectory_diffusion_steps`` of the ``GUIDANCE_SCHEDULE``. At the paper and standard
         scales its absolute-
-        root model is notebook 01's and 06's (``x0_vs_eps.guidance_trajectory_spec``: one cache
-        key, tested)."""
+        root model is notebook 01's and 06's
+        (``x0_vs_eps.common.guidance_trajectory_spec``: one cache key, tested)."""
         return GMDModelSpec(task="trajectory", prediction="epsilon",
                             data=self.data(representation, data_dir),
                             diffusion_steps=self.trajectory_diffusion_steps,

@@ -173,8 +173,9 @@ class Settings(RunSettings):
 
     def evaluator_config(self, data_id: str) -> EvaluatorConfig:
         """The package's evaluator (tiny in quick mode), named after the training windows; at
-        the standard scale notebooks 02's and 03's (``emphasis_projection.window_evaluator``: the
-        same relative-root windows, no name, so one cache key)."""
+        the standard scale notebooks 02's and 03's
+        (``emphasis_projection.experiment.window_evaluator``: the same relative-root windows, no
+        name, so one cache key)."""
         if self.quick:
             return EvaluatorConfig(dim=16, hidden=32, data_id=data_id).replace(steps=30)
         if self.shared_evaluator_steps is not None:
