@@ -7,6 +7,7 @@ import torch
 
 from repro.models import vae as vae_module
 from repro.models.vae import (
+    ARCHITECTURES,
     MotionVAE,
     VAETrainConfig,
     kl_to_standard_normal,
@@ -26,9 +27,10 @@ def _tiny(latent_count: int = 3, **kwargs) -> MotionVAE:
     return MotionVAE(**options).eval()
 
 
+@pytest.mark.parametrize("architecture", ARCHITECTURES)
 @pytest.mark.parametrize("latent_count", [1, 5, 7])
-def test_shapes_for_each_latent_count(latent_count):
-    vae = _tiny(latent_count)
+def test_shapes_for_each_latent_count(latent_count, architecture):
+    vae = _tiny(latent_count, architecture=architecture)
     motion, lengths = torch.randn(3, 24, 263), torch.tensor([24, 10, 1])
     mu, logvar = vae.encode(motion, lengths)
     assert mu.shape == logvar.shape == (3, latent_count, 8)
@@ -50,8 +52,9 @@ def test_distribution_tokens_are_two_n_and_latents_differ_per_token():
     assert not torch.allclose(mu[:, 0], mu[:, 1])
 
 
-def test_padding_never_changes_the_latent_the_output_or_the_loss():
-    vae = _tiny(5)
+@pytest.mark.parametrize("architecture", ARCHITECTURES)
+def test_padding_never_changes_the_latent_the_output_or_the_loss(architecture):
+    vae = _tiny(5, architecture=architecture)
     lengths = torch.tensor([20, 9])
     motion = torch.randn(2, 20, 263)
     garbage = motion.clone()
@@ -73,6 +76,18 @@ def test_padding_never_changes_the_latent_the_output_or_the_loss():
     recon = vae.decode(vae.sample_latent(mu_a, logvar_a), lengths)
     assert torch.count_nonzero(recon[1, 9:]) == 0
     assert torch.count_nonzero(recon[1, :9]) > 0
+
+
+def test_the_temporal_decoder_gives_each_time_slot_its_own_weights():
+    """z → T/4 slots by one linear map, so frames differ from the first step; a bad
+    architecture name is refused."""
+    vae = _tiny(5, architecture="temporal", max_frames=42)
+    assert vae.slots == 11 and vae.config()["architecture"] == "temporal"
+    out = vae.decode(torch.randn(2, 5, 8), [42, 42])
+    assert out.shape == (2, 42, 263)
+    assert out.std(dim=1).mean() > 0.1 * out.std()        # not one pose held over the clip
+    with pytest.raises(ValueError, match="architecture must be one of"):
+        MotionVAE(architecture="lstm")
 
 
 def test_kl_is_nonnegative_matches_the_closed_form_and_is_zero_at_the_prior():

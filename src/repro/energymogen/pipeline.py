@@ -298,10 +298,15 @@ class EnergyMoGenPipeline:
 
 
 def vae_kwargs(config: PipelineConfig) -> dict[str, Any]:
-    """``MotionVAE`` constructor arguments for ``config`` (part of the VAE's cache key)."""
-    return {"latent_count": config.latent_count, "latent_dim": config.latent_dim,
-            "width": config.vae_width, "layers": config.vae_layers, "heads": 4,
-            "max_frames": config.frames, "dropout": 0.0}
+    """``MotionVAE`` constructor arguments for ``config`` (part of the VAE's cache key; the
+    architecture named only when it is not the default transformer, whose keys it leaves as
+    they were)."""
+    kwargs = {"latent_count": config.latent_count, "latent_dim": config.latent_dim,
+              "width": config.vae_width, "layers": config.vae_layers, "heads": 4,
+              "max_frames": config.frames, "dropout": 0.0}
+    if config.vae_architecture != "transformer":
+        kwargs["architecture"] = config.vae_architecture
+    return kwargs
 
 
 def denoiser_kwargs(config: PipelineConfig) -> dict[str, Any]:

@@ -233,6 +233,9 @@ class PipelineConfig:
     latent_dim: int = 32
     vae_width: int = 64
     vae_layers: int = 2
+    #: ``models.vae.ARCHITECTURES``: MLD's all-encoder transformer (the paper's) or the
+    #: temporal convolution that keeps the stand-in's gait at CPU scale
+    vae_architecture: str = "transformer"
     vae_training: VAETrainConfig = VAE_TRAINING
     # frozen text encoder (the stand-in for CLIP ViT-L/14). text_dim is the width of its token
     # states (the denoiser's text width): the model's 384 with "minilm" (the default), 64 with

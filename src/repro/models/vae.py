@@ -22,6 +22,16 @@ Our choices (the paper leaves them open or MLD's size does not fit 2 CPU cores):
 - reconstruction is the smooth-L1 mean over valid frames × features; KL is the mean over the
   B·N·d latent entries (MLD's ``KLLoss`` mean);
 - inputs are the *normalised* features ((x − Mean)/Std): normalising is the caller's job.
+
+A second, temporal architecture (``architecture="temporal"``, our choice for the stand-in at
+CPU scale): the same N latent vectors of size d, the same loss, but the encoder is a strided
+1-D convolution over time (frames → T/4 time slots, ``TEMPORAL_STRIDE``) read out by one linear
+map to (μ, log σ²), and the decoder maps z by one linear map onto the T/4 slots and upsamples
+them twice (×2, linear interpolation) through residual convolutions to T frames. Each time slot
+has its own weights from z, so a gait's phase is a linear read of the latent; the all-encoder
+decoder's frame queries must find it through attention, and at width 64 and minutes of
+training it returns each frame near the clip's mean pose — walking clips glide
+(pilots/pilot_emg_vae_gait.md). ``layers`` and ``heads`` size the transformer only.
 """
 
 from __future__ import annotations
@@ -47,6 +57,8 @@ from repro.infra.cache import load_or_train
 from repro.models.unet import sinusoidal_embedding
 
 __all__ = [
+    "ARCHITECTURES",
+    "TEMPORAL_STRIDE",
     "MotionVAE",
     "VAETrainConfig",
     "VAETrainResult",
@@ -60,6 +72,10 @@ __all__ = [
 ]
 
 _FORMAT_VERSION = 1
+#: the VAE's architectures: MLD's all-encoder transformer, or the temporal convolution
+ARCHITECTURES = ("transformer", "temporal")
+#: frames per time slot of the temporal architecture (two stride-2 stages)
+TEMPORAL_STRIDE = 4
 
 
 def lengths_to_mask(lengths: Tensor | Sequence[int], frames: int,
@@ -97,8 +113,11 @@ class MotionVAE(nn.Module):
     def __init__(self, feature_dim: int = 263, latent_count: int = 5, latent_dim: int = 32,
                  width: int = 64, layers: int = 2, heads: int = 4, max_frames: int = 196,
                  ff_size: int | None = None, dropout: float = 0.1,
-                 kl_weight: float = 1e-4) -> None:
+                 kl_weight: float = 1e-4, architecture: str = "transformer") -> None:
         super().__init__()
+        if architecture not in ARCHITECTURES:
+            raise ValueError(f"architecture must be one of {ARCHITECTURES}, got "
+                             f"{architecture!r}")
         for name, value in (("feature_dim", feature_dim), ("latent_count", latent_count),
                             ("latent_dim", latent_dim), ("width", width), ("layers", layers),
                             ("heads", heads), ("max_frames", max_frames)):
@@ -110,7 +129,12 @@ class MotionVAE(nn.Module):
             raise ValueError(f"kl_weight must be >= 0, got {kl_weight}")
         self.feature_dim, self.latent_count, self.latent_dim = feature_dim, latent_count, latent_dim
         self.width, self.max_frames, self.kl_weight = width, max_frames, kl_weight
+        self.architecture = architecture
         ff_size = 2 * width if ff_size is None else ff_size
+        self._sizes = {"layers": layers, "heads": heads, "ff_size": ff_size, "dropout": dropout}
+        if architecture == "temporal":
+            self._build_temporal()
+            return
 
         # encoder: 2N distribution tokens (first N → μ, next N → log σ²) + embedded frames
         self.skel_embedding = nn.Linear(feature_dim, width)
@@ -129,6 +153,38 @@ class MotionVAE(nn.Module):
                              sinusoidal_embedding(torch.arange(max_frames), width),
                              persistent=False)
 
+    def _build_temporal(self) -> None:
+        """Conv encoder T → T/4 slots → (μ, log σ²); decoder z → T/4 slots → ×2 → ×2 → T."""
+        w, latent = self.width, self.latent_count * self.latent_dim
+        self.slots = -(-self.max_frames // TEMPORAL_STRIDE)
+        self.embed_frames = nn.Conv1d(self.feature_dim, w, 3, padding=1)
+        self.downsample = nn.Sequential(
+            nn.GELU(), nn.Conv1d(w, w, 4, stride=2, padding=1),
+            nn.GELU(), nn.Conv1d(w, w, 4, stride=2, padding=1), nn.GELU())
+        self.to_distribution = nn.Linear(self.slots * w, 2 * latent)
+        self.to_slots = nn.Linear(latent, self.slots * w)
+        self.residual_blocks = nn.ModuleList(
+            nn.Sequential(nn.Conv1d(w, w, 3, padding=1), nn.GELU(), nn.Conv1d(w, w, 3, padding=1))
+            for _ in range(3))
+        self.to_features = nn.Conv1d(w, self.feature_dim, 3, padding=1)
+
+    def _encode_temporal(self, motion: Tensor, mask: Tensor) -> tuple[Tensor, Tensor]:
+        b, frames, _ = motion.shape
+        x = motion.new_zeros(b, self.slots * TEMPORAL_STRIDE, self.feature_dim)
+        x[:, :frames] = motion * mask[..., None]          # padded frames read as zeros
+        h = self.downsample(self.embed_frames(x.transpose(1, 2)))      # (B, w, slots)
+        out = self.to_distribution(h.flatten(1)).unflatten(
+            1, (2, self.latent_count, self.latent_dim))
+        return out[:, 0], out[:, 1]
+
+    def _decode_temporal(self, z: Tensor, frames: int) -> Tensor:
+        h = self.to_slots(z.flatten(1)).unflatten(1, (self.width, self.slots))
+        for i, block in enumerate(self.residual_blocks):
+            h = h + block(h)
+            if i < len(self.residual_blocks) - 1:      # slots → ×2 → ×2 = T/4 · 4 frames
+                h = F.interpolate(h, scale_factor=2, mode="linear", align_corners=False)
+        return self.to_features(h).transpose(1, 2)[:, :frames]
+
     def _frame_mask(self, frames: int, lengths: Tensor | Sequence[int], batch: int,
                     device: torch.device) -> Tensor:
         if frames > self.max_frames:
@@ -145,6 +201,8 @@ class MotionVAE(nn.Module):
                              f"{tuple(motion.shape)}")
         b, frames, _ = motion.shape
         mask = self._frame_mask(frames, lengths, b, motion.device)
+        if self.architecture == "temporal":
+            return self._encode_temporal(motion, mask)
         x = self.skel_embedding(motion) + self.frame_encoding[:frames]
         tokens = self.distribution_tokens.expand(b, -1, -1)
         keep = torch.cat([torch.ones(b, tokens.shape[1], dtype=torch.bool, device=x.device),
@@ -174,6 +232,8 @@ class MotionVAE(nn.Module):
         if frames is None:
             frames = int(lengths.max()) if lengths.numel() else 1
         mask = self._frame_mask(frames, lengths, b, z.device)
+        if self.architecture == "temporal":
+            return self._decode_temporal(z, frames) * mask[..., None]
         latent = self.from_latent(z) + self.latent_index_embedding
         queries = (self.frame_query + self.frame_encoding[:frames]).expand(b, -1, -1)
         keep = torch.cat([torch.ones(b, self.latent_count, dtype=torch.bool, device=z.device),
@@ -208,13 +268,10 @@ class MotionVAE(nn.Module):
 
     def config(self) -> dict[str, Any]:
         """The constructor arguments (for cache keys)."""
-        encoder_layer = self.encoder.layers[0]
         return {"feature_dim": self.feature_dim, "latent_count": self.latent_count,
-                "latent_dim": self.latent_dim, "width": self.width,
-                "layers": len(self.encoder.layers),
-                "heads": encoder_layer.self_attn.num_heads, "max_frames": self.max_frames,
-                "ff_size": encoder_layer.linear1.out_features,
-                "dropout": encoder_layer.dropout.p, "kl_weight": self.kl_weight}
+                "latent_dim": self.latent_dim, "width": self.width, **self._sizes,
+                "max_frames": self.max_frames, "kl_weight": self.kl_weight,
+                "architecture": self.architecture}
 
 
 # ----------------------------------------------------------------------------------------------
