@@ -26,11 +26,12 @@ from repro.energymogen.harness import load_or_build_text_to_motion_test
 from repro.energymogen.latent_count.emg7 import LatentCountSettings
 from repro.energymogen.pipeline import SeedPipelines, load_pipeline
 from repro.energymogen.settings import pipeline_config
+from repro.infra.context import SCALES
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--scale", default="standard")
+    parser.add_argument("--scale", choices=SCALES, default="standard")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--label", default="standard pipeline")
     parser.add_argument("--out", type=Path, required=True)

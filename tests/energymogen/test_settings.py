@@ -38,7 +38,9 @@ from repro.energymogen.settings import (
     TrainingPlan,
     config_summary,
     pipeline_config,
+    scale_note,
     seeds_of,
+    text_test_clips,
 )
 from repro.infra.context import SCALES
 from repro.standin.concepts import can_be_simultaneous
@@ -190,13 +192,32 @@ def test_quick_scale() -> None:
     assert TrainingPlan.for_scale("quick").plateau_stop
 
 
-@pytest.mark.parametrize("make", [pipeline_config, TrainingPlan.for_scale,
-                                  *(s.for_scale for s in SETTINGS),
-                                  lambda scale: seeds_of("EMG-2", scale)])
+@pytest.mark.parametrize("settings", SETTINGS)
 @pytest.mark.parametrize("scale", ["full", "Standard", True, None])
-def test_an_unknown_scale_is_a_clear_error(make, scale) -> None:
-    with pytest.raises(ValueError, match="quick, standard, paper"):
-        make(scale)
+def test_an_unknown_scale_is_a_clear_error_where_the_settings_are_made(
+        settings: type[EnergyViewSettings], scale: object, monkeypatch) -> None:
+    """A notebook's settings constructor checks the scale, naming the three, before it builds
+    anything (no pipeline configuration, plan or seed count is asked for)."""
+    from repro.energymogen import settings as rule_settings
+
+    def no_work(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the scale is checked before any work")
+
+    for name in ("pipeline_config", "seeds_of", "text_test_clips"):
+        monkeypatch.setattr(rule_settings, name, no_work)
+        monkeypatch.setattr(inspect.getmodule(settings), name, no_work, raising=False)
+    monkeypatch.setattr(TrainingPlan, "for_scale", no_work)
+    with pytest.raises(ValueError, match="scale must be one of quick, standard, paper"):
+        settings.for_scale(scale)
+
+
+@pytest.mark.parametrize("make", [pipeline_config, TrainingPlan.for_scale, scale_note,
+                                  text_test_clips, lambda scale: seeds_of("EMG-2", scale)])
+def test_the_helpers_take_a_checked_scale_and_never_pick_one(make) -> None:
+    """Below the settings constructors a scale is a key of the per-scale tables: an unknown
+    one is a KeyError, never another scale's values."""
+    with pytest.raises(KeyError):
+        make("full")
 
 
 def test_seeds_of() -> None:

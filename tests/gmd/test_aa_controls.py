@@ -213,7 +213,7 @@ def test_f1_aa_null_has_between_model_spread(cache, small_spec, trajectory_windo
     models = _trained(small_spec())
     quick = gs.Settings.for_scale("quick")
     settings = dataclasses.replace(
-        quick, goals=4, model=dataclasses.replace(quick.model, min_goal_distance=0.0))
+        quick, goals=4, models=dataclasses.replace(quick.models, min_goal_distance=0.0))
     windows = trajectory_windows["absolute"]
     first = models[0]
     schedule = ScheduleModels(first.spec, None, windows, windows, models, {}, [True],

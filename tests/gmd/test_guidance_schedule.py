@@ -193,11 +193,12 @@ def test_recorded_steps_show_where_guidance_acts(trained: TrainedGMD) -> None:
 
 
 def test_settings_share_notebook_01s_guidance_trajectory_model() -> None:
-    from repro.gmd.x0_vs_eps import Settings as ModelSettings
+    from repro.gmd.x0_vs_eps import Settings as Notebook01Settings
 
     for scale in ("quick", "standard", "paper"):
         settings = Settings.for_scale(scale)
-        model = ModelSettings.for_scale(scale)
+        model = Notebook01Settings.for_scale(scale)
+        assert settings.models == model.models
         assert settings.spec() == model.guidance_trajectory_spec("epsilon", model.data(None))
         assert settings.motion_spec() == model.spec("motion", "x0", model.data(None)).replace(
             text_conditioned=scale != "paper")
@@ -275,7 +276,7 @@ def loaded(tmp_path_factory: pytest.TempPathFactory) -> ScheduleModels:
 def _settings() -> Settings:
     quick = Settings.for_scale("quick", seeds=1)
     return dataclasses.replace(quick, goals=3, obstacle_goals=2, strengths=(0, 3, 100, 150, 200),
-                               model=dataclasses.replace(quick.model, min_goal_distance=0.0))
+                               models=dataclasses.replace(quick.models, min_goal_distance=0.0))
 
 
 def test_the_experiment_returns_the_rules_lists_and_records_them(

@@ -38,7 +38,7 @@ def test_settings_read_the_table() -> None:
     assert seeds_of("GMD-C4", "paper") == 6
     with pytest.raises(ValueError, match="GMD-A1"):
         seeds_of("GMD-A1", "paper")
-    with pytest.raises(ValueError, match="scale"):
+    with pytest.raises(KeyError):   # a helper takes the scale its settings constructor checked
         seeds_of("GMD-A4", "full")
 
 
@@ -199,8 +199,28 @@ def test_paper_scale_is_todays_full_settings() -> None:
     lambda s: x0eps.Settings.for_scale(s), lambda s: rr.Settings.for_scale(s),
     lambda s: emphasis_projection.Settings.for_scale(s),
     lambda s: ProjectionSettings.for_scale(s),
-    lambda s: guidance_schedule.Settings.for_scale(s),
-    lambda s: training_fields("motion", scale=s)])
-def test_an_unknown_scale_is_a_clear_error(build) -> None:
+    lambda s: guidance_schedule.Settings.for_scale(s)])
+def test_an_unknown_scale_is_a_clear_error_where_the_settings_are_made(build, monkeypatch
+                                                                       ) -> None:
+    """A notebook's settings constructor checks the scale, naming the three, before it asks
+    any per-scale table (seeds, models, training)."""
+    def no_work(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the scale is checked before any work")
+
+    for module in (x0eps.common, rr.common, emphasis_projection.experiment,
+                   guidance_schedule.settings):
+        for name in ("seeds_of", "training_fields"):
+            monkeypatch.setattr(module, name, no_work, raising=False)
+    monkeypatch.setattr(models.GuidanceModels, "for_scale", no_work)
     with pytest.raises(ValueError, match="scale must be one of quick, standard, paper"):
         build("full")
+
+
+@pytest.mark.parametrize("helper", [
+    lambda s: training_fields("motion", scale=s, step_cap=10), lambda s: seeds_of("GMD-A3", s),
+    lambda s: not_run("GMD-F1", s), scale_note, lambda s: models.GuidanceModels.for_scale(s)])
+def test_the_helpers_take_a_checked_scale_and_never_pick_one(helper) -> None:
+    """Below the settings constructors a scale is a key of the per-scale tables: an unknown
+    one is a KeyError, never another scale's values."""
+    with pytest.raises(KeyError):
+        helper("full")

@@ -51,7 +51,7 @@ from pathlib import Path
 from typing import Any, ClassVar, Self
 
 from repro.core.training import TrainConfig, fixed_steps_patience
-from repro.infra.context import QUICK_NOTE, RunContext, RunSettings, check_scale
+from repro.infra.context import QUICK_NOTE, RunContext, RunSettings
 from repro.models.evaluator import EvaluatorConfig
 from repro.models.frozen_text import MINILM_WIDTH
 from repro.models.vae import VAETrainConfig
@@ -308,14 +308,23 @@ def pipeline_config(scale: str) -> PipelineConfig:
     one thread): loading about 4 s once per process + encoding the captions 1.8 s per
     pipeline load, against 4.0 s for the learned encoder's 40 training steps (measured under
     load) — not too slow for a test run.
+
+    ``scale`` is one a notebook's settings constructor checked; any other is a KeyError.
     """
-    scale = check_scale(scale)
-    if scale == "paper":
-        return PipelineConfig()
-    if scale == "standard":
-        return PipelineConfig(denoiser_width=STANDARD_DENOISER_WIDTH,
-                              denoiser_layers=STANDARD_DENOISER_LAYERS).with_steps(
-            vae=STANDARD_VAE_STEPS, denoiser=STANDARD_DENOISER_STEPS)
+    return {"paper": PipelineConfig, "standard": _standard_pipeline,
+            "quick": _quick_pipeline}[scale]()
+
+
+def _standard_pipeline() -> PipelineConfig:
+    """The standard scale's pipeline: the paper's, with the narrower latent denoiser and the
+    fixed standard step counts."""
+    return PipelineConfig(denoiser_width=STANDARD_DENOISER_WIDTH,
+                          denoiser_layers=STANDARD_DENOISER_LAYERS).with_steps(
+        vae=STANDARD_VAE_STEPS, denoiser=STANDARD_DENOISER_STEPS)
+
+
+def _quick_pipeline() -> PipelineConfig:
+    """The quick scale's pipeline: tiny data and few steps (a test of the code only)."""
     return PipelineConfig(n_train_clips=160, test_clips_per_pair=3, ddim_steps=5,
                           items_per_pair=4, items_per_extra_set=5).with_steps(
         vae=40, text=40, denoiser=80, evaluator=40)
@@ -430,17 +439,19 @@ class TrainingPlan:
         held-out curve is still recorded (VAE every 150 steps, as the pilot's checks;
         denoiser every 250), on 128 validation clips. quick: caps at the quick
         configuration's fixed step counts (40 VAE, 80 denoiser steps), two evaluations each,
-        patience 2: a test of the code path only."""
-        scale = check_scale(scale)
-        if scale == "quick":
-            return cls(validation_clips=16, vae_step_cap=40, vae_validate_every=20,
-                       denoiser_step_cap=80, denoiser_validate_every=40, patience=2)
-        if scale == "standard":
-            return cls(validation_clips=128, vae_step_cap=STANDARD_VAE_STEPS,
-                       vae_validate_every=150, denoiser_step_cap=STANDARD_DENOISER_STEPS,
-                       denoiser_validate_every=250, plateau_stop=False)
-        return cls(validation_clips=128, vae_step_cap=FULL_VAE_STEP_CAP, vae_validate_every=250,
-                   denoiser_step_cap=10000, denoiser_validate_every=250)
+        patience 2: a test of the code path only.
+
+        ``scale`` is one a notebook's settings constructor checked; any other is a KeyError."""
+        plans: dict[str, dict[str, Any]] = {
+            "quick": {"validation_clips": 16, "vae_step_cap": 40, "vae_validate_every": 20,
+                      "denoiser_step_cap": 80, "denoiser_validate_every": 40, "patience": 2},
+            "standard": {"validation_clips": 128, "vae_step_cap": STANDARD_VAE_STEPS,
+                         "vae_validate_every": 150, "denoiser_step_cap": STANDARD_DENOISER_STEPS,
+                         "denoiser_validate_every": 250, "plateau_stop": False},
+            "paper": {"validation_clips": 128, "vae_step_cap": FULL_VAE_STEP_CAP,
+                      "vae_validate_every": 250, "denoiser_step_cap": 10000,
+                      "denoiser_validate_every": 250}}
+        return cls(**plans[scale])
 
 
 LATENT_COUNTS = (1, 3, 5, 7)
@@ -506,14 +517,23 @@ FULL_SEEDS: dict[str, int] = SEEDS["paper"]
 
 def scale_note(scale: str) -> str:
     """A markdown line for the top of an EnergyMoGen notebook: the run's scale and, at
-    standard, how its pipeline differs from the paper settings the design text names."""
-    if check_scale(scale) == "quick":
-        return QUICK_NOTE
+    standard, how its pipeline differs from the paper settings the design text names (any
+    scale but quick, standard or paper is a KeyError)."""
+    return {"quick": lambda: QUICK_NOTE, "standard": _standard_note,
+            "paper": _paper_note}[scale]()
+
+
+def _paper_note() -> str:
+    """The paper scale's line: the pipeline as the design text states it."""
+    paper = pipeline_config("paper")
+    return (f"**Paper scale**: the pipeline as the design text states it (VAE width "
+            f"{paper.vae_width}, denoiser {paper.denoiser_width} × {paper.denoiser_layers} "
+            f"layers, trained to a plateau; N ∈ {set(LATENT_COUNTS)}; the registered seeds).")
+
+
+def _standard_note() -> str:
+    """The standard scale's line: its widths, fixed step counts, seeds and N."""
     paper, standard = pipeline_config("paper"), pipeline_config("standard")
-    if scale == "paper":
-        return (f"**Paper scale**: the pipeline as the design text states it (VAE width "
-                f"{paper.vae_width}, denoiser {paper.denoiser_width} × {paper.denoiser_layers} "
-                f"layers, trained to a plateau; N ∈ {set(LATENT_COUNTS)}; the registered seeds).")
     return (f"**Standard scale** (`make reproduce`, docs/COMPUTE.md): VAE width "
             f"{standard.vae_width}, a fixed {standard.vae_training.steps} steps; latent denoiser "
             f"{standard.denoiser_width} × {standard.denoiser_layers} layers (paper: "
@@ -526,8 +546,9 @@ def scale_note(scale: str) -> str:
 
 
 def seeds_of(claim_id: str, scale: str) -> int:
-    """How many seeds ``claim_id``'s experiment runs at ``scale``."""
-    row = SEEDS[check_scale(scale)]
+    """How many seeds ``claim_id``'s experiment runs at ``scale``, a scale its notebook's
+    settings constructor checked (any other is a KeyError)."""
+    row = SEEDS[scale]
     if claim_id not in row:
         raise ValueError(f"no seed count for {claim_id!r}; have {sorted(row)}")
     return row[claim_id]
@@ -541,8 +562,8 @@ TEXT_TEST_CLIPS: dict[str, int] = {"quick": 64, "standard": 256, "paper": 256}
 
 def text_test_clips(scale: str) -> int:
     """How many held-out clips the text-to-motion test set of ``scale`` holds
-    (:data:`TEXT_TEST_CLIPS`)."""
-    return TEXT_TEST_CLIPS[check_scale(scale)]
+    (:data:`TEXT_TEST_CLIPS`; a scale but quick, standard or paper is a KeyError)."""
+    return TEXT_TEST_CLIPS[scale]
 
 
 def folder_needs(scale: str) -> WindowNeeds:

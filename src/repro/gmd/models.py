@@ -36,21 +36,23 @@ from repro.core.training import (
 from repro.gmd.windows import (
     CHANNELS,
     DataConfig,
+    DataDir,
     FeatureSpace,
     MotionWindows,
+    Representation,
     Task,
     check_task,
     load_windows,
 )
 from repro.infra import cache, paths
-from repro.infra.context import check_scale
 from repro.infra.storage import read_json
 from repro.models.unet import UNet1D
 from repro.motion.features import FEATURE_DIM, TRAJECTORY_FEATURES
 from repro.standin.text import Vocabulary, tokenize
 
 __all__ = ["Architecture", "ConvergenceTraining", "GMDModelSpec", "GUIDANCE_DIFFUSION_STEPS",
-           "GUIDANCE_SCHEDULE", "GUIDANCE_STOP_T", "MOTION_ARCHITECTURE", "MOTION_TRAINING",
+           "GUIDANCE_SCHEDULE", "GUIDANCE_STOP_T", "GuidanceModels", "MIN_GOAL_DISTANCE",
+           "MOTION_ARCHITECTURE", "MOTION_TRAINING", "QUICK_GUIDANCE_DIFFUSION_STEPS",
            "QUICK_TRAINING", "STANDARD_DIFFUSION_STEPS", "STANDARD_MOTION_ARCHITECTURE",
            "STANDARD_MOTION_TRAINING", "STANDARD_TRAJECTORY_ARCHITECTURE",
            "STANDARD_TRAJECTORY_TRAINING", "TRAJECTORY_ARCHITECTURE", "TRAJECTORY_TRAINING",
@@ -425,7 +427,8 @@ class TrainedGMD:
 def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
                     seed: int = 0) -> dict[str, Any]:
     """The architecture fields and the ``training`` (seeded with ``seed``) of a notebook's
-    ``GMDModelSpec`` of ``task`` at ``scale`` (docs/COMPUTE.md).
+    ``GMDModelSpec`` of ``task`` at ``scale``, a scale its settings constructor checked
+    (docs/COMPUTE.md; any other is a KeyError).
 
     - ``paper``: ``models``' architecture of the family and its ``ConvergenceTraining``
       (batch, lr, validation interval, patience, autocast, step cap; ``step_cap`` overrides the
@@ -436,29 +439,119 @@ def training_fields(task: Task, *, scale: str, step_cap: int | None = None,
       short patience) on the notebook's own tiny model, whose step count (``step_cap``,
       required) is the cap."""
     check_task(task)
-    check_scale(scale)
-    if scale == "quick":
+    families = _SCALE_FAMILIES[scale]
+    if families is None:
         if step_cap is None:
             raise ValueError("quick mode needs the notebook's step count as step_cap")
         return {"training": dataclasses.replace(
             GMD_TRAINING, steps=int(step_cap), validate_every=QUICK_TRAINING.validate_every,
             patience=QUICK_TRAINING.patience, seed=int(seed))}
-    if scale == "standard":
-        architecture = (STANDARD_MOTION_ARCHITECTURE if task == "motion"
-                        else STANDARD_TRAJECTORY_ARCHITECTURE)
-        plan = STANDARD_MOTION_TRAINING if task == "motion" else STANDARD_TRAJECTORY_TRAINING
-        steps = plan.step_cap if step_cap is None else int(step_cap)
-        patience = fixed_steps_patience(steps, plan.validate_every)
-    else:
-        architecture = MOTION_ARCHITECTURE if task == "motion" else TRAJECTORY_ARCHITECTURE
-        plan = MOTION_TRAINING if task == "motion" else TRAJECTORY_TRAINING
-        steps = plan.step_cap if step_cap is None else int(step_cap)
-        patience = plan.patience
+    architecture, plan = families[task]
+    steps = plan.step_cap if step_cap is None else int(step_cap)
+    patience = (fixed_steps_patience(steps, plan.validate_every) if scale == "standard"
+                else plan.patience)
     training = dataclasses.replace(GMD_TRAINING, steps=steps, batch_size=plan.batch_size,
                                    lr=plan.lr, validate_every=plan.validate_every,
                                    patience=patience, autocast=plan.autocast, seed=int(seed))
     return {"base_channels": architecture.base_channels,
             "channel_mults": architecture.channel_mults, "training": training}
+
+
+#: per scale, each task's architecture and training plan (quick: None, the notebook's own tiny
+#: model on ``QUICK_TRAINING``)
+_SCALE_FAMILIES: dict[str, dict[str, tuple[Architecture, ConvergenceTraining]] | None] = {
+    "quick": None,
+    "standard": {"motion": (STANDARD_MOTION_ARCHITECTURE, STANDARD_MOTION_TRAINING),
+                 "trajectory": (STANDARD_TRAJECTORY_ARCHITECTURE, STANDARD_TRAJECTORY_TRAINING)},
+    "paper": {"motion": (MOTION_ARCHITECTURE, MOTION_TRAINING),
+              "trajectory": (TRAJECTORY_ARCHITECTURE, TRAJECTORY_TRAINING)}}
+
+
+#: the quick scale's T of the guidance experiments' trajectory models (a test of the code, never
+#: a result)
+QUICK_GUIDANCE_DIFFUSION_STEPS = 50
+
+
+#: the guidance experiments' goals are end positions of test windows whose root travels at least
+#: this far (m)
+MIN_GOAL_DISTANCE = 0.5
+
+
+@dataclass(frozen=True)
+class GuidanceModels:
+    """The GMD models of one scale that notebook 01 trains and the guidance notebooks load:
+    the windows they train on (``stand_in_clips`` clips cut into ``frames``-frame windows, or
+    a data folder's), their training (``train_steps``: the step cap, or count at the standard
+    scale; None: each family's, ``training_fields``), their T, and the goals guidance reaches
+    for (``min_goal_distance``).
+
+    :meth:`spec` is one of the four models (trajectory/motion × x0/ε); :meth:`guidance_
+    trajectory_spec` the trajectory model of the guidance experiments (GMD-A3, F1; GMD's
+    T = ``guidance_diffusion_steps`` cosine). One spec here is one cache key for every notebook
+    that builds it."""
+
+    scale: str
+    stand_in_clips: int
+    frames: int
+    train_steps: int | None
+    batch_size: int
+    diffusion_steps: int
+    #: T of the guidance experiments' trajectory models (GMD's 1000; standard 100; quick 50)
+    guidance_diffusion_steps: int
+    min_goal_distance: float = MIN_GOAL_DISTANCE
+
+    @classmethod
+    def for_scale(cls, scale: str, *, train_steps: int | None = None) -> GuidanceModels:
+        """The models of ``scale``, a scale its notebook's settings constructor checked (any
+        other is a KeyError). Paper: 48-frame windows of the 2000-clip stand-in set, batch 64,
+        T = 100 (guidance T = 1000). Standard: batch 32, T = 100 for every model (so the
+        guidance trajectory models are the T = 100 trajectory models). Quick: 24-frame windows
+        of 120 clips, 20 steps (``train_steps`` None), T = 20 (guidance 50)."""
+        steps = None if train_steps is None else int(train_steps)
+        table: dict[str, dict[str, Any]] = {
+            "quick": {"stand_in_clips": 120, "frames": 24,
+                      "train_steps": 20 if steps is None else steps, "batch_size": 32,
+                      "diffusion_steps": 20,
+                      "guidance_diffusion_steps": QUICK_GUIDANCE_DIFFUSION_STEPS},
+            "standard": {"stand_in_clips": 2000, "frames": 48, "train_steps": steps,
+                         "batch_size": 32, "diffusion_steps": STANDARD_DIFFUSION_STEPS,
+                         "guidance_diffusion_steps": STANDARD_DIFFUSION_STEPS},
+            "paper": {"stand_in_clips": 2000, "frames": 48, "train_steps": steps,
+                      "batch_size": 64, "diffusion_steps": 100,
+                      "guidance_diffusion_steps": GUIDANCE_DIFFUSION_STEPS}}
+        return cls(scale=scale, **table[scale])
+
+    def data(self, data_dir: DataDir = None,
+             representation: Representation = "absolute") -> DataConfig:
+        """The windows (``data_dir`` or the stand-in set) in ``representation``: absolute
+        root by default, the trajectory models'."""
+        if data_dir is not None:
+            return DataConfig(data_dir=data_dir, frames=self.frames,
+                              representation=representation)
+        return DataConfig(stand_in_clips=self.stand_in_clips, frames=self.frames,
+                          representation=representation)
+
+    def spec(self, task: Task, prediction: Literal["x0", "epsilon"], data: DataConfig,
+             seed: int = 0) -> GMDModelSpec:
+        """One of the four models (trajectory/motion × x0/ε): x0 and ε of a task share the
+        architecture and the training budget (:func:`training_fields`, ``train_steps`` the
+        cap). Below the paper scale the motion models are text-conditioned (notebook 02's
+        GMD-B3 relative-root model is notebook 01's x0 motion model, one cache key;
+        docs/COMPUTE.md §3d), sampled with the null condition where a claim reads the
+        unconditional model; the paper scale's are unconditional."""
+        fields = training_fields(task, scale=self.scale, step_cap=self.train_steps, seed=seed)
+        spec = GMDModelSpec(task=task, prediction=prediction, data=data,
+                            diffusion_steps=self.diffusion_steps, **fields)
+        return spec.replace(batch_size=self.batch_size,
+                            text_conditioned=task == "motion" and self.scale != "paper")
+
+    def guidance_trajectory_spec(self, prediction: Literal["x0", "epsilon"], data: DataConfig,
+                                 seed: int = 0) -> GMDModelSpec:
+        """The trajectory model of the guidance experiments (GMD-A3 in notebook 01, GMD-F1 in
+        06, GMD-B2 in 02: one cache key): ``spec("trajectory", …)`` with GMD's diffusion,
+        T = ``guidance_diffusion_steps`` (1000) and the ``GUIDANCE_SCHEDULE`` (cosine)."""
+        return self.spec("trajectory", prediction, data, seed).replace(
+            diffusion_steps=self.guidance_diffusion_steps, schedule=GUIDANCE_SCHEDULE)
 
 
 def longer_run(spec: GMDModelSpec, factor: int = 2) -> GMDModelSpec:

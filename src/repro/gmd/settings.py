@@ -27,7 +27,7 @@ from repro.gmd.models import (
     X0_CLAMP,
     Architecture,
 )
-from repro.infra.context import QUICK_NOTE, check_scale
+from repro.infra.context import QUICK_NOTE
 
 __all__ = ["FULL_SEEDS", "QUICK_SEEDS", "RULE_SETTINGS", "STANDARD_C4_TRAIN_STEPS",
            "STANDARD_NOT_RUN", "STANDARD_SEEDS", "a3", "a4", "b2", "b3", "c4", "f1",
@@ -67,8 +67,8 @@ QUICK_SEEDS = 1
 
 
 def seeds_of(claim_id: str, scale: str) -> int:
-    """The seeds ``claim_id``'s experiment runs at ``scale`` (quick, standard or paper)."""
-    check_scale(scale)
+    """The seeds ``claim_id``'s experiment runs at ``scale``, a scale its notebook's settings
+    constructor checked (quick, standard or paper; any other is a KeyError)."""
     if claim_id not in FULL_SEEDS:
         raise ValueError(f"no seed count for {claim_id!r}; have {sorted(FULL_SEEDS)}")
     return {"quick": QUICK_SEEDS, "standard": STANDARD_SEEDS[claim_id],
@@ -125,11 +125,12 @@ STANDARD_NOT_RUN: dict[str, dict[str, str]] = {
 
 def not_run(claim_id: str, scale: str) -> dict[str, str]:
     """The parts of ``claim_id`` that ``scale`` does not run, each with why (``{}``: every
-    part runs); ``ClaimResult.not_run`` takes it."""
-    check_scale(scale)
+    part runs; any scale but quick, standard or paper is a KeyError); ``ClaimResult.not_run``
+    takes it."""
     if claim_id not in FULL_SEEDS:
         raise ValueError(f"no GMD claim {claim_id!r}; have {sorted(FULL_SEEDS)}")
-    return dict(STANDARD_NOT_RUN.get(claim_id, {})) if scale == "standard" else {}
+    return {"quick": {}, "standard": dict(STANDARD_NOT_RUN.get(claim_id, {})),
+            "paper": {}}[scale]
 
 
 
@@ -148,14 +149,22 @@ def _widths(architecture: Architecture) -> str:
 
 def scale_note(scale: str) -> str:
     """A markdown line for the top of a GMD notebook: the run's scale and, at standard, how
-    its models and diffusion differ from the paper settings the design text names."""
-    if check_scale(scale) == "quick":
-        return QUICK_NOTE
-    if scale == "paper":
-        return ("**Paper scale**: GMD's settings as the design text states them "
-                f"(T = {GUIDANCE_DIFFUSION_STEPS} for guidance, motion UNet "
-                f"{_widths(MOTION_ARCHITECTURE)}, trajectory UNet "
-                f"{_widths(TRAJECTORY_ARCHITECTURE)}, the registered seed counts).")
+    its models and diffusion differ from the paper settings the design text names (any scale
+    but quick, standard or paper is a KeyError)."""
+    return {"quick": lambda: QUICK_NOTE, "standard": _standard_note,
+            "paper": _paper_note}[scale]()
+
+
+def _paper_note() -> str:
+    """The paper scale's line: GMD's settings as the design text states them."""
+    return ("**Paper scale**: GMD's settings as the design text states them "
+            f"(T = {GUIDANCE_DIFFUSION_STEPS} for guidance, motion UNet "
+            f"{_widths(MOTION_ARCHITECTURE)}, trajectory UNet "
+            f"{_widths(TRAJECTORY_ARCHITECTURE)}, the registered seed counts).")
+
+
+def _standard_note() -> str:
+    """The standard scale's line: its T, widths, steps, seeds and the parts it does not run."""
     seeds = ", ".join(f"{claim} {n}" for claim, n in STANDARD_SEEDS.items())
     cuts = "; ".join(f"{claim} ({', '.join(parts)})" for claim, parts in STANDARD_NOT_RUN.items())
     return (f"**Standard scale** (`make reproduce`, docs/COMPUTE.md): every GMD model has "

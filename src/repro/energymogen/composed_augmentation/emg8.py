@@ -141,6 +141,7 @@ class AugmentationSettings(NotebookSettings):
 
     @classmethod
     def for_scale(cls, scale: str) -> AugmentationSettings:
+        """The settings of ``scale``, checked here once (its helpers take a valid scale)."""
         scale = check_scale(scale)
         quick = scale == "quick"
         return cls(scale=scale, pipeline=pipeline_config(scale), seeds=seeds_of("EMG-8", scale),

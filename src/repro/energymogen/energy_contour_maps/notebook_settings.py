@@ -63,6 +63,7 @@ class EnergyViewSettings(NotebookSettings):
 
     @classmethod
     def for_scale(cls, scale: str) -> EnergyViewSettings:
+        """The settings of ``scale``, checked here once (its helpers take a valid scale)."""
         scale = check_scale(scale)
         common = {"scale": scale, "pipeline": pipeline_config(scale),
                   "plan": TrainingPlan.for_scale(scale), "seeds": seeds_of("EMG-2", scale)}

@@ -96,6 +96,7 @@ class SEFAblationSettings(NotebookSettings):
 
     @classmethod
     def for_scale(cls, scale: str) -> SEFAblationSettings:
+        """The settings of ``scale``, checked here once (its helpers take a valid scale)."""
         scale = check_scale(scale)
         config = pipeline_config(scale)
         return cls(scale=scale, pipeline=config, plan=TrainingPlan.for_scale(scale),

@@ -13,8 +13,8 @@ The modules, from the bottom up (each imports only those before it):
   imputations, and GMD's second stage (``whole_body``: the x0 motion model with a guided
   trajectory imputed into its root channels);
 - ``settings``: notebook 06's ``Settings`` (every grid and size; the models are notebook 01's,
-  ``x0_vs_eps.Settings``) and GMD-F1's whole-body part, which decides whether a scale runs the
-  second stage;
+  the scale's ``gmd.models.GuidanceModels``) and GMD-F1's whole-body part, which decides
+  whether a scale runs the second stage;
 - ``experiment``: the models (``load_models``), the strength and stop sweeps over the seeds
   (``run_sweeps``) and the second stage over them (``second_stage``), with their tables;
 - ``obstacles``: the obstacle extra (outside the rule): circular obstacles, their sampler and

@@ -193,7 +193,7 @@ def run_sweeps(m: ScheduleModels, settings: Settings, seeds: Sequence[int], *,
     for s in seeds:
         model = m.models[s]
         targets[s] = goal_targets(m.test, settings.goals, seed=s,
-                                  min_distance=settings.model.min_goal_distance)
+                                  min_distance=settings.models.min_goal_distance)
         sweep[s] = sweep_strengths(model, targets[s], list(settings.strengths), seed=s,
                                    stop=stops[settings.gmd_stop], record_steps=s == seeds[0])
         for g, step in stops.items():

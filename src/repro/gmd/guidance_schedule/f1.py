@@ -267,7 +267,7 @@ def f1_aa_controls(m: ScheduleModels, sweeps: Sweeps, settings: Settings) -> Con
             return of(sweeps.sweep[model_seed], sweeps.stop_sweep[(model_seed, 0)])
         model = reference_model(m.models, model_seed)
         targets = goal_targets(m.test, settings.goals, seed=pairing_seed,
-                               min_distance=settings.model.min_goal_distance)
+                               min_distance=settings.models.min_goal_distance)
         return of(sweep_strengths(model, targets, list(settings.strengths), seed=pairing_seed,
                                   stop=stops[settings.gmd_stop]),
                   sweep_strengths(model, targets, list(settings.stop_sweep_strengths),

@@ -1,9 +1,9 @@
 """Notebook 06's settings: every grid and size of the run (``Settings``), and GMD-F1's part
 that reads GMD's second stage (``WHOLE_BODY_PART``), which decides whether a scale runs it.
 
-The models are borrowed: the trajectory ε model is notebook 01's guidance model and the second
-stage's motion model is built from notebook 01's settings (``x0_vs_eps.Settings``, held in
-``Settings.model``).
+The models are notebook 01's: the trajectory ε model is its guidance model and the second
+stage's motion model its x0 motion spec, both from the scale's ``gmd.models.GuidanceModels``
+(held in ``Settings.models``; one cache key with notebook 01's).
 """
 
 from __future__ import annotations
@@ -12,10 +12,9 @@ from dataclasses import dataclass
 
 from repro.gmd import settings as rule_settings
 from repro.gmd.guidance_schedule.sampling import model_stop_step
-from repro.gmd.models import GUIDANCE_STOP_T, GMDModelSpec
+from repro.gmd.models import GUIDANCE_STOP_T, GMDModelSpec, GuidanceModels
 from repro.gmd.settings import seeds_of
 from repro.gmd.windows import DataDir
-from repro.gmd.x0_vs_eps import Settings as ModelSettings
 from repro.infra.context import RunSettings, check_scale
 
 __all__ = ["Settings", "WHOLE_BODY_MEASUREMENTS", "WHOLE_BODY_PART"]
@@ -32,9 +31,9 @@ WHOLE_BODY_MEASUREMENTS = ("joint_jerk_stop_0", "joint_jerk_stop_20", "foot_skat
 class Settings(RunSettings):
     """Every grid and size of notebook 06, fixed before any verdict was seen.
 
-    The trajectory ε model is notebook 01's guidance model (``x0_vs_eps.Settings.
-    guidance_trajectory_spec``: GMD's T = 1000 cosine, one cache key with GMD-A3's), the
-    second stage's motion model an x0 motion model with notebook 01's settings on GMD's
+    The trajectory ε model is notebook 01's guidance model (``models``, the scale's
+    ``gmd.models.GuidanceModels``: GMD's T = 1000 cosine, one cache key with GMD-A3's), the
+    second stage's motion model an x0 motion model with notebook 01's sizes on GMD's
     absolute-root windows (``motion_spec``; GMD-A4's own motion models are relative-root, so
     it is not one of theirs; below the paper scale it is notebook 02's text-conditioned B3
     model, sampled with the null condition). ``strengths``
@@ -51,7 +50,7 @@ class Settings(RunSettings):
     seeds: int
     goals: int
     obstacle_goals: int
-    model: ModelSettings
+    models: GuidanceModels
     strengths: tuple[int, ...] = (0, 1, 3, 10, 30, 100, 150, 200, 300, 1000)
     rule_strengths: tuple[int, ...] = (100, 150, 200)
     #: GMD's s, at which the rule compares the stop steps.
@@ -69,12 +68,12 @@ class Settings(RunSettings):
         """The settings of ``scale`` (``seeds`` None: ``settings.seeds_of("GMD-F1", scale)``).
         At the standard scale the models are notebook 01's at T = 100, and ``stops`` maps
         GMD's {0, 20, 50, 200} of 1000 to {0, 2, 5, 20}."""
-        check_scale(scale)
+        scale = check_scale(scale)
         seeds = seeds_of("GMD-F1", scale) if seeds is None else int(seeds)
-        model = ModelSettings.for_scale(scale, seeds=seeds)
-        if scale == "quick":
-            return cls(scale=scale, seeds=seeds, goals=4, obstacle_goals=4, model=model)
-        return cls(scale=scale, seeds=seeds, goals=32, obstacle_goals=16, model=model)
+        models = GuidanceModels.for_scale(scale)
+        goals = {"quick": (4, 4), "standard": (32, 16), "paper": (32, 16)}[scale]
+        return cls(scale=scale, seeds=seeds, goals=goals[0], obstacle_goals=goals[1],
+                   models=models)
 
     @property
     def quick(self) -> bool:
@@ -83,11 +82,11 @@ class Settings(RunSettings):
     @property
     def num_timesteps(self) -> int:
         """T of the trajectory model (GMD's 1000; standard 100; quick 50)."""
-        return self.model.guidance_diffusion_steps
+        return self.models.guidance_diffusion_steps
 
     def spec(self, data_dir: DataDir = None) -> GMDModelSpec:
         """Notebook 01's guidance ε trajectory model (seed 0; ``replace(seed=…)`` per seed)."""
-        return self.model.guidance_trajectory_spec("epsilon", self.model.data(data_dir))
+        return self.models.guidance_trajectory_spec("epsilon", self.models.data(data_dir))
 
     def motion_spec(self, data_dir: DataDir = None) -> GMDModelSpec:
         """GMD's second stage (seed 0): notebook 01's x0 motion spec on its absolute-root
@@ -96,7 +95,7 @@ class Settings(RunSettings):
         model (``root_representation.Settings.motion_spec``, one cache key; docs/COMPUTE.md
         §3d) — and ``whole_body`` samples it with the null condition (``guidance.sample``
         without text); the paper scale keeps today's unconditional model."""
-        spec = self.model.spec("motion", "x0", self.model.data(data_dir))
+        spec = self.models.spec("motion", "x0", self.models.data(data_dir))
         return spec if self.scale == "paper" else spec.replace(text_conditioned=True)
 
     def stops(self) -> dict[int, int]:

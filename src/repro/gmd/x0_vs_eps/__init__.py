@@ -26,8 +26,9 @@ and beside them what they share:
   and its measurements (``best_gain_survival``, the registered one), run by A3's study and
   its controls.
 
-The package re-exports :class:`Settings`, which notebook 06's settings
-(``gmd.guidance_schedule``), ``run.params``, the tests' conftest and scripts/ read.
+The package re-exports :class:`Settings`, which ``run.params``, the tests' conftest and
+scripts/ read; the models it shares with notebook 06 are the scale's
+``gmd.models.GuidanceModels`` (``Settings.models``).
 """
 
 from __future__ import annotations

@@ -21,11 +21,10 @@ from repro.gmd import model_gates
 from repro.gmd import settings as rule_settings
 from repro.gmd.models import (
     GUIDANCE_DIFFUSION_STEPS,
-    GUIDANCE_SCHEDULE,
-    STANDARD_DIFFUSION_STEPS,
+    MIN_GOAL_DISTANCE,
     GMDModelSpec,
+    GuidanceModels,
     TrainedGMD,
-    training_fields,
 )
 from repro.gmd.settings import seeds_of
 from repro.gmd.windows import (
@@ -55,7 +54,7 @@ class Settings(RunSettings):
     (``models.training_fields``), T = 100 for every model — so A4's trajectory models *are*
     A3's guidance models (one cache key) — 128 generated windows per seed, the evaluator of
     notebooks 02 and 03 (one key), no longer ε run. Quick scale shrinks everything (a test of
-    the code, never a result; guidance T = ``QUICK_GUIDANCE_DIFFUSION_STEPS``, 50).
+    the code, never a result; guidance T = ``models.QUICK_GUIDANCE_DIFFUSION_STEPS``, 50).
     ``train_steps`` may be overridden (the notebook's papermill parameter; None = the scale's).
 
     The trajectory models train on absolute-root windows (GMD's trajectory model: root x/z in
@@ -75,7 +74,7 @@ class Settings(RunSettings):
     goals: int
     generated: int
     #: goals are end positions of test windows whose root travels at least this far (m).
-    min_goal_distance: float = 0.5
+    min_goal_distance: float = MIN_GOAL_DISTANCE
     #: random draws of x_t and ε per t for the Eq. 1 vs Eq. 2 check (GMD-A1).
     posterior_samples: int = 256
     #: T of the guidance experiments' trajectory models (GMD's 1000; standard 100; quick 50).
@@ -89,25 +88,31 @@ class Settings(RunSettings):
     @classmethod
     def for_scale(cls, scale: str, *, seeds: int | None = None,
                   train_steps: int | None = None) -> Settings:
-        """The settings of ``scale``; ``seeds`` (None: ``settings.seeds_of("GMD-A4", scale)``)
-        and ``train_steps`` (None: the scale's) override."""
-        check_scale(scale)
+        """The settings of ``scale`` (checked here, once); ``seeds`` (None:
+        ``settings.seeds_of("GMD-A4", scale)``) and ``train_steps`` (None: the scale's)
+        override. The models' sizes are the scale's ``models.GuidanceModels``."""
+        scale = check_scale(scale)
         seeds = seeds_of("GMD-A4", scale) if seeds is None else int(seeds)
-        steps = None if train_steps is None else int(train_steps)
-        if scale == "quick":
-            return cls(scale=scale, seeds=seeds, stand_in_clips=120, frames=24,
-                       train_steps=20 if steps is None else steps,
-                       batch_size=32, diffusion_steps=20, goals=4, generated=32,
-                       guidance_diffusion_steps=QUICK_GUIDANCE_DIFFUSION_STEPS)
-        if scale == "standard":
-            return cls(scale=scale, seeds=seeds, stand_in_clips=2000, frames=48,
-                       train_steps=steps, batch_size=32,
-                       diffusion_steps=STANDARD_DIFFUSION_STEPS, goals=32, generated=128,
-                       guidance_diffusion_steps=STANDARD_DIFFUSION_STEPS,
-                       shared_evaluator_steps=500)
-        return cls(scale=scale, seeds=seeds, stand_in_clips=2000, frames=48,
-                   train_steps=steps, batch_size=64, diffusion_steps=100, goals=32,
-                   generated=256)
+        models = GuidanceModels.for_scale(scale, train_steps=train_steps)
+        shared = {"scale": scale, "seeds": seeds, "stand_in_clips": models.stand_in_clips,
+                  "frames": models.frames, "train_steps": models.train_steps,
+                  "batch_size": models.batch_size, "diffusion_steps": models.diffusion_steps,
+                  "guidance_diffusion_steps": models.guidance_diffusion_steps,
+                  "min_goal_distance": models.min_goal_distance}
+        sizes: dict[str, dict[str, Any]] = {
+            "quick": {"goals": 4, "generated": 32},
+            "standard": {"goals": 32, "generated": 128, "shared_evaluator_steps": 500},
+            "paper": {"goals": 32, "generated": 256}}
+        return cls(**shared, **sizes[scale])
+
+    @property
+    def models(self) -> GuidanceModels:
+        """The models of this notebook, as the guidance notebooks load them (one cache key)."""
+        return GuidanceModels(scale=self.scale, stand_in_clips=self.stand_in_clips,
+                              frames=self.frames, train_steps=self.train_steps,
+                              batch_size=self.batch_size, diffusion_steps=self.diffusion_steps,
+                              guidance_diffusion_steps=self.guidance_diffusion_steps,
+                              min_goal_distance=self.min_goal_distance)
 
     @property
     def quick(self) -> bool:
@@ -136,12 +141,8 @@ class Settings(RunSettings):
     def data(self, data_dir: DataDir = None,
              representation: Representation = "absolute") -> DataConfig:
         """The windows (``data_dir`` or the stand-in set) in ``representation``: absolute
-        root by default, the trajectory models'."""
-        if data_dir is not None:
-            return DataConfig(data_dir=data_dir, frames=self.frames,
-                              representation=representation)
-        return DataConfig(stand_in_clips=self.stand_in_clips, frames=self.frames,
-                          representation=representation)
+        root by default, the trajectory models' (``GuidanceModels.data``)."""
+        return self.models.data(data_dir, representation)
 
     def motion_data(self, data_dir: DataDir = None) -> DataConfig:
         """GMD-A4's motion windows: :meth:`data` in ``motion_representation``."""
@@ -149,27 +150,21 @@ class Settings(RunSettings):
 
     def spec(self, task: Task, prediction: Literal["x0", "epsilon"], data: DataConfig,
              seed: int = 0) -> GMDModelSpec:
-        """One of the four models (trajectory/motion × x0/ε): x0 and ε of a task share the
-        architecture and the training budget (``models.training_fields``: trained to
-        convergence, ``train_steps`` the cap). Below the paper scale the motion models are
-        text-conditioned, so that A4's x0 model *is* GMD-B3's relative-root model
-        (``root_representation.Settings.motion_spec``, one cache key; docs/COMPUTE.md §3d) and
-        its ε model the same spec predicting ε; A4 samples both with the null condition
-        (``guidance.sample`` without text: the unconditional model that classifier-free
-        training keeps). The paper scale keeps today's unconditional models."""
-        fields = training_fields(task, scale=self.scale, step_cap=self.train_steps, seed=seed)
-        spec = GMDModelSpec(task=task, prediction=prediction, data=data,
-                            diffusion_steps=self.diffusion_steps, **fields)
-        return spec.replace(batch_size=self.batch_size,
-                            text_conditioned=task == "motion" and self.scale != "paper")
+        """One of the four models (trajectory/motion × x0/ε), ``GuidanceModels.spec``: x0 and
+        ε of a task share the architecture and the training budget. Below the paper scale the
+        motion models are text-conditioned, so that A4's x0 model *is* GMD-B3's relative-root
+        model (``root_representation.Settings.motion_spec``, one cache key; docs/COMPUTE.md
+        §3d) and its ε model the same spec predicting ε; A4 samples both with the null
+        condition (``guidance.sample`` without text: the unconditional model that
+        classifier-free training keeps). The paper scale keeps today's unconditional models."""
+        return self.models.spec(task, prediction, data, seed)
 
     def guidance_trajectory_spec(self, prediction: Literal["x0", "epsilon"], data: DataConfig,
                                  seed: int = 0) -> GMDModelSpec:
         """The trajectory model of the guidance experiments (GMD-A3 in notebook 01, GMD-F1 in
-        06, GMD-B2 in 02: one cache key): ``spec("trajectory", …)`` with GMD's diffusion,
-        T = ``guidance_diffusion_steps`` (1000) and the ``GUIDANCE_SCHEDULE`` (cosine)."""
-        return self.spec("trajectory", prediction, data, seed).replace(
-            diffusion_steps=self.guidance_diffusion_steps, schedule=GUIDANCE_SCHEDULE)
+        06, GMD-B2 in 02: one cache key), ``GuidanceModels.guidance_trajectory_spec``: GMD's
+        diffusion, T = ``guidance_diffusion_steps`` (1000) and the ``GUIDANCE_SCHEDULE``."""
+        return self.models.guidance_trajectory_spec(prediction, data, seed)
 
     def evaluator_config(self, data_id: str) -> EvaluatorConfig:
         """The package's evaluator (tiny in quick mode), named after the training windows; at
@@ -181,10 +176,6 @@ class Settings(RunSettings):
         if self.shared_evaluator_steps is not None:
             return EvaluatorConfig().replace(steps=self.shared_evaluator_steps)
         return EvaluatorConfig(data_id=data_id)
-
-
-#: the quick mode's T for the guidance trajectory models (a test of the code, never a result)
-QUICK_GUIDANCE_DIFFUSION_STEPS = 50
 
 
 def guidance_trajectory_spec(scale: str, prediction: Literal["x0", "epsilon"] = "epsilon",
