@@ -12,9 +12,11 @@ running near 2 m/s; a flight phase of 0.25 s needs a 7.7 cm rise, g·t²/8), nev
 generated clips. Which concept owns which signal:
 
 - ``walk_*`` / ``run``: body-frame odometry (per-frame root displacement in the current
-  facing frame, summed), its direction, the path's straightness (net / path length) and the
-  highest 0.5-s mean speed.
-- ``turn_*`` / ``walk_circle``: the net change of the facing angle (left = +, toward +X).
+  facing frame, summed), its direction, the path's straightness (net / path length), the
+  highest 0.5-s mean speed, and steps: the feet must take turns leading along the travel
+  direction, so a figure that glides along the path without stepping does not travel.
+- ``turn_*`` / ``walk_circle``: the net change of the facing angle (left = +, toward +X);
+  ``walk_circle`` needs the steps too.
 - ``jump``: the longest stretch with every foot joint off the floor; ``squat``: sustained
   pelvis drop below standing height (estimated from the clip's own leg bones);
   ``kick_*``: one ankle high and ahead of the pelvis while the other foot is grounded.
@@ -48,6 +50,11 @@ THRESHOLDS: dict[str, tuple[float, str]] = {
                       "cos of the largest angle between travel and the named direction"),
     "straightness": (0.5, "net displacement / path length of a walk (a circle is ≈ 0)"),
     "run_speed": (2.0, "m/s over 0.5 s: the human walk-to-run transition speed"),
+    "step_swing": (0.1, "m the leading foot's lead along the travel direction must change by "
+                   "to count: a walking step moves one foot ≈ 0.3–0.7 m past the other, a "
+                   "planted stance sways by centimetres"),
+    "step_reversals": (1, "changes of which foot leads: one foot steps past the other and the "
+                       "other steps past it back, two steps"),
     "turn_min": (math.radians(60), "rad of heading change: clearly more than gait yaw sway"),
     "turn_max": (math.radians(270), "rad: beyond this a turn is a circle"),
     "circle_path": (1.5, "m of path for a walked circle (a turn on the spot walks none)"),
@@ -77,13 +84,10 @@ CONCEPT_NAMES: tuple[str, ...] = (
     "wave_right", "wave_both", "raise_arms", "clap", "punch",
 )
 
-#: Concepts read from the root's travel alone: a figure that glides along a path without
-#: stepping scores as one that walks it.
+#: Concepts read from the root's travel and the feet's steps: a figure that glides along a
+#: path without its feet taking turns does not travel.
 TRAVEL_CONCEPTS: tuple[str, ...] = ("walk_forward", "walk_backward", "walk_left", "walk_right",
                                     "run", "walk_circle")
-GLIDE_NOTE = ("The travel oracles (walk_*, run, walk_circle) read the root's body-frame travel "
-              "alone: a figure that glides along the path without stepping counts as "
-              "travelling (see the models' foot skating).")
 
 _J = JOINT_INDEX
 _FEET = [_J["L_ankle"], _J["R_ankle"], _J["L_foot"], _J["R_foot"]]
@@ -184,6 +188,7 @@ def _travel_scores(body: _Body) -> dict[str, float]:
         body.root[-1:] - body.root[:1]
     forward_speed = float(((forward_run * body.forward[:len(forward_run)]).sum(-1)).max()) \
         * FPS / window
+    stepped = _steps(body, odometry / length) / _limit("step_reversals")
     d, cos_limit = _limit("displacement"), _limit("direction_cos")
     walk_speed = _limit("run_speed") / max(peak_speed, 1e-9)
     straightness = straight / _limit("straightness")
@@ -192,12 +197,22 @@ def _travel_scores(body: _Body) -> dict[str, float]:
                              ("walk_left", 1, 1), ("walk_right", 1, -1)):
         travel = sign * odometry[axis]
         scores[name] = max(0.0, min(travel / d, travel / length / cos_limit, straightness,
-                                    walk_speed))
+                                    walk_speed, stepped))
     scores["run"] = max(0.0, min(forward_speed / _limit("run_speed"), odometry[0] / d,
-                                 odometry[0] / length / cos_limit))
+                                 odometry[0] / length / cos_limit, stepped))
     turned = abs(float(body.heading[-1] - body.heading[0]))
-    scores["walk_circle"] = min(turned / _limit("turn_max"), path / _limit("circle_path"))
+    scores["walk_circle"] = min(turned / _limit("turn_max"), path / _limit("circle_path"),
+                                stepped)
     return scores
+
+
+def _steps(body: _Body, direction: np.ndarray) -> int:
+    """How often the leading foot changes along ``direction`` (left, forward) of the facing
+    frame: reversals (hysteresis ``step_swing``) of the ankles' lead (L − R) · direction.
+    Gliding with the feet still gives 0; walking gives about one per step."""
+    lead = body.local(_J["L_ankle"]) - body.local(_J["R_ankle"])
+    along = lead[:, 0] * direction[1] + lead[:, 2] * direction[0]
+    return _reversals(along, _limit("step_swing"))
 
 
 def _turn_scores(body: _Body) -> dict[str, float]:

@@ -43,7 +43,6 @@ from repro.energymogen.harness import (
 from repro.energymogen.pipeline import EnergyMoGenPipeline, PipelineSource, Sampler, pipeline_for
 from repro.energymogen.settings import HELD_OUT_PAIRS, NEGATION_CASES
 from repro.motion.plotting import filmstrip, save_figure
-from repro.standin.oracles import GLIDE_NOTE, TRAVEL_CONCEPTS
 
 __all__ = ["by_pair_markdown", "composition_controls", "composition_examples_figure",
            "composition_extra", "composition_headline", "composition_notes",
@@ -278,10 +277,6 @@ def composition_notes(settings: EnergyViewSettings) -> str:
                    "noise. Stand-in captions are complete (a single-concept clip keeps its "
                    "other body parts idle), so the product of single-concept conditionals "
                    "behind Eq. 7 is narrow; the joined-text rate is in extra.")
-    read = {c for pair in HELD_OUT_PAIRS for c in pair} | {
-        c for pair, _ in NEGATION_CASES for c in pair}
-    if read & set(TRAVEL_CONCEPTS):
-        choice_note += " " + GLIDE_NOTE
     return choice_note
 
 
