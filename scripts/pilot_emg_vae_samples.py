@@ -1,10 +1,12 @@
 """Pilot: what does the EnergyMoGen VAE need for its reconstructions to pass gates version 4
 (joint jerk ≤ 2×, foot skating ≤ 3× the held-out clips' own; concept recall ≥ 0.9×)?
 
-The standard scale's VAE (``pipeline_config("standard")``: width 64, 2 layers, N = 5,
-batch 32, AdamW lr 1e-3, KL 1e-4) on its training clips, with ``--width``, ``--layers``,
-``--lr``, ``--kl``, ``--latent-dim`` and ``--steps`` changed, checked every ``--every`` steps
-on notebook 07's held-out test clips: the gate values of ``model_gates.vae_gate_values`` /
+The standard scale's VAE (``pipeline_config("standard")``: width 64, N = 5, batch 32,
+KL 1e-4, its lr) on its training clips, with ``--width``, ``--layers``, ``--lr``, ``--kl``,
+``--latent-dim``, ``--latent-count``, ``--steps``, ``--architecture``
+(``models.vae.ARCHITECTURES``; default the transformer) and ``--foot-velocity`` (λ of
+``models.vae.FootVelocityLoss``; default 0) set, checked every ``--every`` steps on notebook
+07's held-out test clips: the gate values of ``model_gates.vae_gate_values`` /
 ``vae_sample_values``, MPJPE, and the training CPU seconds (``time.process_time``, one
 thread). The loop is ``train_vae``'s (``models.vae``), run step by step here so it can be
 checked on the way. One JSON line per check goes to ``--out``::
@@ -48,6 +50,10 @@ def main() -> None:
     parser.add_argument("--kl", type=float, default=1e-4, help="KL weight (MLD's 1e-4)")
     parser.add_argument("--latent-dim", type=int, default=None,
                         help="d of each latent token (the standard pipeline's: 32)")
+    parser.add_argument("--architecture", default="transformer")
+    parser.add_argument("--foot-velocity", type=float, default=0.0,
+                        help="λ of the foot-velocity term (0: none)")
+    parser.add_argument("--latent-count", type=int, default=None)
     parser.add_argument("--steps", type=int, default=3600)
     parser.add_argument("--every", type=int, default=900)
     parser.add_argument("--seed", type=int, default=0)
@@ -56,7 +62,10 @@ def main() -> None:
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
-    config = replace(pipeline_config("standard"), vae_width=args.width)
+    config = replace(pipeline_config("standard"), vae_width=args.width,
+                     vae_architecture=args.architecture)
+    if args.latent_count is not None:
+        config = replace(config, latent_count=args.latent_count)
     if args.layers is not None:
         config = replace(config, vae_layers=args.layers)
     if args.latent_dim is not None:
@@ -64,8 +73,10 @@ def main() -> None:
     train_config = vae_train_config(config, train_seed_for(config, args.seed), threads=1)
     if args.lr is not None:
         train_config = replace(train_config, lr=args.lr)
-    train_config = replace(train_config, kl_weight=args.kl)
+    train_config = replace(train_config, kl_weight=args.kl,
+                           foot_velocity_weight=args.foot_velocity)
     data = load_or_build_data(config)
+    foot_velocity = train_config.foot_velocity((data.mean, data.std))
     test = load_or_build_text_to_motion_test(config,
                                              LatentCountSettings.for_scale("standard").test_clips)
     if args.on_train:
@@ -90,7 +101,7 @@ def main() -> None:
             order = torch.cat([order, torch.randperm(len(x), generator=generator)])
         index, order = order[:train_config.batch_size], order[train_config.batch_size:]
         out = vae.loss(x[index], batch_lengths, kl_weight=train_config.kl_weight,
-                       generator=generator)
+                       generator=generator, foot_velocity=foot_velocity)
         optimizer.zero_grad(set_to_none=True)
         out["loss"].backward()
         if train_config.grad_clip is not None:
@@ -108,12 +119,15 @@ def main() -> None:
             rj = joints(recon)
             stats = metrics.motion_statistics(rj)
             row = {"label": args.label, "width": args.width, "layers": config.vae_layers,
+                   "architecture": config.vae_architecture, "latent_count": config.latent_count,
+                   "foot_velocity": train_config.foot_velocity_weight,
                    "latent_dim": config.latent_dim,
                    "lr": train_config.lr, "kl": train_config.kl_weight, "seed": args.seed,
                    "step": step, "clips": "train" if args.on_train else "test",
                    "train_cpu_s": round(spent, 1), "mpjpe": mpjpe(recon, test.features),
                    "concept_preservation": oracle_accuracy(rj, test.concepts) / real_recall,
                    **{f"{k}_ratio": stats[k] / real_stats[k] for k in stats},
+                   "foot_skating_ratio_gmd": stats["foot_skating_ratio"],
                    "data": real_stats}
             print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v)
                               for k, v in row.items() if k != "data"}), flush=True)

@@ -41,6 +41,7 @@ from repro.energymogen.settings import (
     scale_note,
     seeds_of,
     text_test_clips,
+    with_stand_in_autoencoder,
 )
 from repro.infra.context import SCALES
 from repro.standin.concepts import can_be_simultaneous
@@ -71,14 +72,20 @@ def test_full_mode_is_the_default_config_and_quick_only_shrinks() -> None:
         quick, f.name)}
     trainings = {"vae_training", "text_training", "denoiser_training", "evaluator"}
     assert changed == {"n_train_clips", "test_clips_per_pair", "ddim_steps", "items_per_pair",
-                       "items_per_extra_set"} | trainings
-    assert all(getattr(quick, name) < getattr(full, name) for name in changed - trainings)
+                       "items_per_extra_set", "vae_architecture"} | trainings
+    assert all(getattr(quick, name) < getattr(full, name)
+               for name in changed - trainings - {"vae_architecture"})
+    # quick trains the standard scale's stand-in autoencoder, the paper MLD's transformer
+    assert quick == replace(with_stand_in_autoencoder(full).with_steps(
+        vae=quick.vae_training.steps, text=quick.text_training.steps,
+        denoiser=quick.denoiser_training.steps, evaluator=quick.evaluator.training.steps),
+        **{name: getattr(quick, name) for name in changed - trainings - {"vae_architecture"}})
+    assert (full.vae_architecture, quick.vae_architecture) == ("transformer", "temporal")
     for name in trainings:   # only the step counts shrink
         quick_training, full_training = (getattr(quick, name), getattr(full, name))
         if name == "evaluator":
             quick_training, full_training = quick_training.training, full_training.training
         assert quick_training.steps < full_training.steps
-        assert replace(quick_training, steps=full_training.steps) == full_training
     assert config_summary(full)["latent_count"] == 5
     assert full.data_dict()["held_out"] == [list(p) for p in HELD_OUT_PAIRS]
 
@@ -126,8 +133,11 @@ def test_standard_scale_is_the_compute_plan() -> None:
     paper = pipeline_config("paper")
     changed = {f.name for f in fields(PipelineConfig)
                if getattr(config, f.name) != getattr(paper, f.name)}
-    assert changed == {"vae_training", "denoiser_layers", "denoiser_training"}  # paper's width
-    assert config.vae_training == replace(paper.vae_training, steps=900)   # only the steps
+    assert changed == {"vae_training", "vae_architecture", "denoiser_layers",
+                       "denoiser_training"}                                # paper's width
+    assert config.vae_architecture == "temporal"          # the stand-in's autoencoder
+    assert config.vae_training == replace(paper.vae_training, steps=900, lr=2e-3,
+                                          foot_velocity_weight=0.3)
     assert config.denoiser_training == replace(paper.denoiser_training, steps=1500)
     vae = em.vae_train_config(config, 0, plan=plan)
     denoiser = em.denoiser_train_config(config, 0, plan=plan)

@@ -383,7 +383,8 @@ def train_vae_stage(data: StandInData, config: PipelineConfig, train_seed: int,
                     plan: TrainingPlan | None = None) -> VAEStage:
     """The motion VAE of ``config`` trained with ``train_seed`` on the normalised training
     features (``load_or_train_vae``: cache kind ``motion_vae``, keyed by :func:`vae_kwargs`,
-    :func:`vae_train_config` and the data; with a ``plan``, to convergence on the normalised
+    :func:`vae_train_config` and the data, the features' statistics too when its foot-velocity
+    term reads them; with a ``plan``, to convergence on the normalised
     validation clips, whose fingerprint enters the key), and the scaled training latents."""
     start = time.perf_counter()
     motions = data.normalise(data.train_features)
@@ -392,11 +393,14 @@ def train_vae_stage(data: StandInData, config: PipelineConfig, train_seed: int,
     validation = None if clips is None else (data.normalise(clips.features),
                                              np.full(len(clips), data.frames))
     train_config = vae_train_config(config, train_seed, threads, plan)
+    statistics = (data.mean, data.std)
     vae = load_or_train_vae(motions, lengths, model_kwargs=vae_kwargs(config),
-                            config=train_config, device=device, validation=validation).eval()
+                            config=train_config, device=device, validation=validation,
+                            statistics=statistics).eval()
     training = cached_training_record(
         "motion_vae", vae_cache_key(motions, lengths, model_kwargs=vae_kwargs(config),
-                                    config=train_config, validation=validation),
+                                    config=train_config, validation=validation,
+                                    statistics=statistics),
         train_config.steps)
     mu = encode_latents(vae, data, data.train_features, device)
     scale = float(1.0 / mu.std())

@@ -94,6 +94,8 @@ __all__ = [
     "QUICK_LATENT_COUNTS",
     "STANDARD_LATENT_COUNTS",
     "STANDARD_VAE_STEPS",
+    "STAND_IN_FOOT_VELOCITY_WEIGHT",
+    "STAND_IN_VAE_LR",
     "TEXT_ENCODERS",
     "TEXT_TRAINING",
     "THREES_AS_PAIRS",
@@ -118,6 +120,7 @@ __all__ = [
     "seeds_of",
     "with_learned_text",
     "with_minilm",
+    "with_stand_in_autoencoder",
 ]
 
 
@@ -183,6 +186,10 @@ MINILM_MAX_TEXT_LEN = 77
 #: both piloted seeds (§10: 0.86 / 0.88; the first run's 32 × 2 at 1000 failed, 2.1–3.7, and
 #: levels off at 1.7 at any step count)
 STANDARD_VAE_STEPS = 900
+#: the stand-in autoencoder's lr and feet's velocity weight (``with_stand_in_autoencoder``,
+#: pilots/pilot_emg_vae_gait.md; fixed before any result under registry version 11)
+STAND_IN_VAE_LR = 2e-3
+STAND_IN_FOOT_VELOCITY_WEIGHT = 0.3
 STANDARD_DENOISER_STEPS = 1500
 STANDARD_DENOISER_WIDTH, STANDARD_DENOISER_LAYERS = 64, 2
 
@@ -316,18 +323,31 @@ def pipeline_config(scale: str) -> PipelineConfig:
 
 
 def _standard_pipeline() -> PipelineConfig:
-    """The standard scale's pipeline: the paper's, with the narrower latent denoiser and the
-    fixed standard step counts."""
-    return PipelineConfig(denoiser_width=STANDARD_DENOISER_WIDTH,
-                          denoiser_layers=STANDARD_DENOISER_LAYERS).with_steps(
+    """The standard scale's pipeline: the paper's, with the stand-in autoencoder
+    (:func:`with_stand_in_autoencoder`), the narrower latent denoiser and the fixed standard
+    step counts."""
+    return with_stand_in_autoencoder(PipelineConfig(
+        denoiser_width=STANDARD_DENOISER_WIDTH,
+        denoiser_layers=STANDARD_DENOISER_LAYERS)).with_steps(
         vae=STANDARD_VAE_STEPS, denoiser=STANDARD_DENOISER_STEPS)
 
 
+def with_stand_in_autoencoder(config: PipelineConfig) -> PipelineConfig:
+    """``config`` with the autoencoder that keeps the stand-in's gait at CPU scale
+    (docs/COMPUTE.md §22, pilots/pilot_emg_vae_gait.md): the temporal architecture
+    (``models.vae``), the feet's velocity term λ = :data:`STAND_IN_FOOT_VELOCITY_WEIGHT` and lr
+    :data:`STAND_IN_VAE_LR`; N, d, width, the data and every other term as ``config``'s."""
+    return replace(config, vae_architecture="temporal", vae_training=replace(
+        config.vae_training, lr=STAND_IN_VAE_LR,
+        foot_velocity_weight=STAND_IN_FOOT_VELOCITY_WEIGHT))
+
+
 def _quick_pipeline() -> PipelineConfig:
-    """The quick scale's pipeline: tiny data and few steps (a test of the code only)."""
-    return PipelineConfig(n_train_clips=160, test_clips_per_pair=3, ddim_steps=5,
-                          items_per_pair=4, items_per_extra_set=5).with_steps(
-        vae=40, text=40, denoiser=80, evaluator=40)
+    """The quick scale's pipeline: tiny data and few steps, the standard scale's
+    autoencoder (a test of the code only)."""
+    return with_stand_in_autoencoder(PipelineConfig(
+        n_train_clips=160, test_clips_per_pair=3, ddim_steps=5, items_per_pair=4,
+        items_per_extra_set=5)).with_steps(vae=40, text=40, denoiser=80, evaluator=40)
 
 
 def with_minilm(config: PipelineConfig) -> PipelineConfig:
@@ -535,7 +555,10 @@ def _standard_note() -> str:
     """The standard scale's line: its widths, fixed step counts, seeds and N."""
     paper, standard = pipeline_config("paper"), pipeline_config("standard")
     return (f"**Standard scale** (`make reproduce`, docs/COMPUTE.md): VAE width "
-            f"{standard.vae_width}, a fixed {standard.vae_training.steps} steps; latent denoiser "
+            f"{standard.vae_width}, {standard.vae_architecture} (paper: MLD's "
+            f"{paper.vae_architecture}; the stand-in's autoencoder that keeps the gait, with the "
+            f"feet's velocity term λ = {standard.vae_training.foot_velocity_weight}), a fixed "
+            f"{standard.vae_training.steps} steps; latent denoiser "
             f"{standard.denoiser_width} × {standard.denoiser_layers} layers (paper: "
             f"{paper.denoiser_width} × {paper.denoiser_layers}), a fixed "
             f"{standard.denoiser_training.steps} steps; {SEEDS['standard']['EMG-2']} seeds per "

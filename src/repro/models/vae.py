@@ -9,7 +9,9 @@ Facts followed (REFERENCE.md "EnergyMoGen"; ChenFengYe/motion-latent-diffusion `
 - decoder: MLD's default "all-encoder" form — the N latent tokens are concatenated with T frame
   queries (positional encodings) and one transformer encoder runs over both; the outputs at
   the frame positions are mapped back to 263 features, padded frames set to 0;
-- loss: smooth-L1 reconstruction + KL(q(z|x) ‖ N(0, I)) with weight 1e-4 (appendix A).
+- loss: smooth-L1 reconstruction + KL(q(z|x) ‖ N(0, I)) with weight 1e-4 (appendix A);
+  optionally (:class:`FootVelocityLoss`, our choice for the stand-in at CPU scale) a term that
+  matches the feet's velocities on the joints recovered from the features.
 
 Our choices (the paper leaves them open or MLD's size does not fit 2 CPU cores):
 
@@ -55,10 +57,13 @@ from repro.core.training import (
 from repro.infra import cache
 from repro.infra.cache import load_or_train
 from repro.models.unet import sinusoidal_embedding
+from repro.motion.features import FPS, features_to_some_joints
+from repro.motion.skeleton import FOOT_JOINTS
 
 __all__ = [
     "ARCHITECTURES",
     "TEMPORAL_STRIDE",
+    "FootVelocityLoss",
     "MotionVAE",
     "VAETrainConfig",
     "VAETrainResult",
@@ -93,6 +98,40 @@ def lengths_to_mask(lengths: Tensor | Sequence[int], frames: int,
 def kl_to_standard_normal(mu: Tensor, logvar: Tensor) -> Tensor:
     """Elementwise KL(N(μ, σ²) ‖ N(0, 1)) = ½(μ² + σ² − 1 − log σ²) ≥ 0."""
     return 0.5 * (mu.pow(2) + logvar.exp() - 1.0 - logvar)
+
+
+@dataclass(frozen=True)
+class FootVelocityLoss:
+    """L_fv = λ · mean_{t, j ∈ feet} ‖(x̂_{t+1,j} − x̂_{t,j}) − (x_{t+1,j} − x_{t,j})‖² · fps²
+    on joints recovered from the de-normalised features (``features_to_joints``; feet: the
+    ankles and toes of ``FOOT_JOINTS``), over frame steps whose two frames are valid.
+
+    The velocity term of MDM's family (its L_vel, here on the feet only): stance and swing
+    alike, the feet move as the data's do, so a planted foot does not slide. Per-feature
+    smooth-L1 weighs a centimetre of disagreement between the root's velocity and the legs'
+    positions at a few 10⁻⁴; this term weighs the slide it makes in (m/s)². ``mean``/``std``
+    are the statistics the motions were normalised with (263,).
+    """
+
+    weight: float
+    mean: Tensor
+    std: Tensor
+
+    def __post_init__(self) -> None:
+        if self.weight < 0:
+            raise ValueError(f"foot velocity weight must be >= 0, got {self.weight}")
+
+    def __call__(self, recon: Tensor, motion: Tensor, mask: Tensor) -> Tensor:
+        """The unweighted term of normalised ``recon`` against ``motion`` (B, T, 263) with
+        the valid-frame ``mask`` (B, T)."""
+        mean, std = self.mean.to(recon), self.std.to(recon)
+        feet = FOOT_JOINTS["left"] + FOOT_JOINTS["right"]
+        predicted = features_to_some_joints(recon * std + mean, feet)
+        with torch.no_grad():
+            target = features_to_some_joints(motion * std + mean, feet)
+        slip = (predicted.diff(dim=1) - target.diff(dim=1)) * FPS        # (B, T−1, 4, 3) m/s
+        steps = (mask[:, 1:] & mask[:, :-1]).to(recon.dtype)[..., None]
+        return (slip.pow(2).sum(-1) * steps).sum() / (steps.sum() * len(feet)).clamp(min=1)
 
 
 def _encoder_stack(width: int, heads: int, layers: int, ff_size: int,
@@ -251,10 +290,13 @@ class MotionVAE(nn.Module):
 
     def loss(self, motion: Tensor, lengths: Tensor | Sequence[int], *,
              kl_weight: float | None = None,
-             generator: torch.Generator | None = None) -> dict[str, Tensor]:
-        """L = smoothL1(X̂, X) over valid frames + w_KL·KL(q(z|X) ‖ N(0, I)) (Sec. 3.1, app. A).
+             generator: torch.Generator | None = None,
+             foot_velocity: FootVelocityLoss | None = None) -> dict[str, Tensor]:
+        """L = smoothL1(X̂, X) over valid frames + w_KL·KL(q(z|X) ‖ N(0, I)) (Sec. 3.1, app. A)
+        [+ λ·L_fv with ``foot_velocity``].
 
-        Returns ``{"loss", "recon", "kl"}`` (scalars); w_KL defaults to ``self.kl_weight``.
+        Returns ``{"loss", "recon", "kl"}`` (scalars; ``"foot_velocity"`` too with the term);
+        w_KL defaults to ``self.kl_weight``.
         """
         weight = self.kl_weight if kl_weight is None else kl_weight
         if weight < 0:
@@ -264,7 +306,11 @@ class MotionVAE(nn.Module):
         error = F.smooth_l1_loss(recon, motion, reduction="none") * mask
         recon_loss = error.sum() / (mask.sum() * motion.shape[-1])
         kl = kl_to_standard_normal(mu, logvar).mean()
-        return {"loss": recon_loss + weight * kl, "recon": recon_loss, "kl": kl}
+        out = {"loss": recon_loss + weight * kl, "recon": recon_loss, "kl": kl}
+        if foot_velocity is not None:
+            out["foot_velocity"] = foot_velocity(recon, motion, mask[..., 0])
+            out["loss"] = out["loss"] + foot_velocity.weight * out["foot_velocity"]
+        return out
 
     def config(self) -> dict[str, Any]:
         """The constructor arguments (for cache keys)."""
@@ -295,17 +341,23 @@ class VAETrainConfig(TrainConfig):
     ``repro.core.training``: with ``validate_every`` set (and a validation set passed to
     ``train_vae``), stop when the validation loss has not improved by a relative ``min_delta``
     for ``patience`` evaluations, ``steps`` being the cap; these fields enter ``to_config``
-    only when ``validate_every`` is set.
+    only when ``validate_every`` is set. ``foot_velocity_weight`` λ > 0 adds
+    :class:`FootVelocityLoss` (the training then needs the features' statistics) and enters
+    ``to_config`` only when set.
     """
 
     steps: int = 2000
     lr: float = 5e-4
     kl_weight: float = 1e-4
+    foot_velocity_weight: float = 0.0
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.kl_weight < 0:
             raise ValueError(f"kl_weight must be >= 0, got {self.kl_weight}")
+        if self.foot_velocity_weight < 0:
+            raise ValueError(f"foot_velocity_weight must be >= 0, got "
+                             f"{self.foot_velocity_weight}")
         changed = [name for name in _UNUSED_FIELDS
                    if getattr(self, name) != getattr(TrainConfig, name)]
         if changed:
@@ -317,7 +369,21 @@ class VAETrainConfig(TrainConfig):
         config = super().to_config()
         for name in _UNUSED_FIELDS:
             config.pop(name, None)
+        if not self.foot_velocity_weight:
+            config.pop("foot_velocity_weight", None)
         return config
+
+    def foot_velocity(self, statistics: tuple[Tensor | np.ndarray, Tensor | np.ndarray] | None
+                      ) -> FootVelocityLoss | None:
+        """The :class:`FootVelocityLoss` of this training on features normalised with
+        ``statistics`` = (mean, std); None when λ = 0. ValueError when λ > 0 without them."""
+        if not self.foot_velocity_weight:
+            return None
+        if statistics is None:
+            raise ValueError("foot_velocity_weight > 0 needs the features' statistics "
+                             "(mean, std) the motions were normalised with")
+        mean, std = (torch.as_tensor(np.asarray(v), dtype=torch.float32) for v in statistics)
+        return FootVelocityLoss(self.foot_velocity_weight, mean, std)
 
 
 @dataclass
@@ -362,7 +428,8 @@ def _motions_and_lengths(motions: Tensor | np.ndarray,
 
 @torch.no_grad()
 def vae_validation_loss(vae: MotionVAE, motions: Tensor, lengths: Tensor, *,
-                        kl_weight: float, batch_size: int, noise_seed: int) -> float:
+                        kl_weight: float, batch_size: int, noise_seed: int,
+                        foot_velocity: FootVelocityLoss | None = None) -> float:
     """``vae.loss`` on held-out motions in eval mode, the reparameterisation noise from a
     fresh ``torch.Generator(noise_seed)`` each call (the same noise every evaluation);
     chunk losses are weighted by their clip count."""
@@ -376,7 +443,8 @@ def vae_validation_loss(vae: MotionVAE, motions: Tensor, lengths: Tensor, *,
             chunk_lengths = lengths[start:start + batch_size]
             frames = int(chunk_lengths.max())
             out = vae.loss(motions[start:start + batch_size, :frames].to(device),
-                           chunk_lengths.to(device), kl_weight=kl_weight, generator=generator)
+                           chunk_lengths.to(device), kl_weight=kl_weight, generator=generator,
+                           foot_velocity=foot_velocity)
             total += float(out["loss"]) * chunk_lengths.shape[0]
     finally:
         vae.train(was_training)
@@ -387,7 +455,9 @@ def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
               lengths: Tensor | np.ndarray | Sequence[int],
               config: VAETrainConfig | None = None, *,
               validation: tuple[Tensor | np.ndarray, Tensor | np.ndarray | Sequence[int]]
-              | None = None) -> VAETrainResult:
+              | None = None,
+              statistics: tuple[Tensor | np.ndarray, Tensor | np.ndarray] | None = None
+              ) -> VAETrainResult:
     """Minimise ``vae.loss`` on normalised motions (M, T, F) with lengths (M,) with
     ``core.training.train_loop`` (no EMA).
 
@@ -399,19 +469,25 @@ def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
     of held-out clips is required and evaluated after 0, k, 2k, … steps and after the last
     (``vae_validation_loss``); the plateau criterion may stop the run early, and the result's
     ``convergence`` records the curve. Validating leaves the training trajectory unchanged.
+    ``statistics`` = (mean, std) the motions were normalised with: needed (ValueError before
+    any step) when ``config.foot_velocity_weight`` > 0, for :class:`FootVelocityLoss`.
     """
     config = config or VAETrainConfig()
+    foot_velocity = config.foot_velocity(statistics)
     motions, lengths = _motions_and_lengths(motions, lengths)
     validation_data = None if validation is None else _motions_and_lengths(*validation)
     device = next(vae.parameters()).device
     generator = torch.Generator().manual_seed(config.seed)
     parts: dict[str, list[float]] = {"recon": [], "kl": []}
+    if foot_velocity is not None:
+        parts["foot_velocity"] = []
 
     def loss(index: Tensor) -> Tensor:
         batch_lengths = lengths[index]
         frames = int(batch_lengths.max())       # crop the batch to its longest clip
         out = vae.loss(motions[index, :frames].to(device), batch_lengths.to(device),
-                       kl_weight=config.kl_weight, generator=generator)
+                       kl_weight=config.kl_weight, generator=generator,
+                       foot_velocity=foot_velocity)
         for key, values in parts.items():
             values.append(out[key].item())
         return out["loss"]
@@ -420,7 +496,8 @@ def train_vae(vae: MotionVAE, motions: Tensor | np.ndarray,
         assert validation_data is not None
         return vae_validation_loss(model, *validation_data, kl_weight=config.kl_weight,
                                    batch_size=config.batch_size,
-                                   noise_seed=config.seed + VALIDATION_SEED_OFFSET)
+                                   noise_seed=config.seed + VALIDATION_SEED_OFFSET,
+                                   foot_velocity=foot_velocity)
 
     result = train_loop(vae, loss, shuffled_indices(motions.shape[0], config.batch_size,
                                                     generator),
@@ -439,11 +516,12 @@ def array_fingerprint(*arrays: Tensor | np.ndarray) -> str:
 def vae_cache_key(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray | Sequence[int],
                   *, model_kwargs: dict[str, Any], config: VAETrainConfig,
                   validation: tuple[Tensor | np.ndarray,
-                                    Tensor | np.ndarray | Sequence[int]] | None = None
+                                    Tensor | np.ndarray | Sequence[int]] | None = None,
+                  statistics: tuple[Tensor | np.ndarray, Tensor | np.ndarray] | None = None
                   ) -> dict[str, Any]:
     """The cache key (kind ``motion_vae``) of :func:`load_or_train_vae`: model kwargs,
     training config, data fingerprint, format; the validation data's fingerprint only when
-    given."""
+    given; the statistics' only when the training reads them (``foot_velocity_weight``)."""
     key = {"model": dict(model_kwargs), "train": config.to_config(),
            "data": array_fingerprint(np.asarray(motions, dtype=np.float32),
                                      np.asarray(lengths, dtype=np.int64)),
@@ -451,6 +529,10 @@ def vae_cache_key(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray | S
     if validation is not None:
         key["validation"] = array_fingerprint(np.asarray(validation[0], dtype=np.float32),
                                               np.asarray(validation[1], dtype=np.int64))
+    if config.foot_velocity(statistics) is not None:
+        assert statistics is not None
+        key["statistics"] = array_fingerprint(*(np.asarray(v, dtype=np.float32)
+                                                for v in statistics))
     return key
 
 
@@ -459,17 +541,19 @@ def load_or_train_vae(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray
                       config: VAETrainConfig | None = None, retrain: bool = False,
                       device: str | torch.device = "cpu",
                       validation: tuple[Tensor | np.ndarray,
-                                        Tensor | np.ndarray | Sequence[int]] | None = None
+                                        Tensor | np.ndarray | Sequence[int]] | None = None,
+                      statistics: tuple[Tensor | np.ndarray, Tensor | np.ndarray] | None = None
                       ) -> MotionVAE:
     """The VAE for these kwargs, training config and data from ``repro.infra.cache`` (kind
     ``motion_vae``), trained with ``train_vae`` (model seeded with ``config.seed``) if absent.
     ``validation`` (held-out motions, lengths; with ``config.validate_every``) enters the
-    key as a fingerprint only when given.
+    key as a fingerprint only when given; ``statistics`` (mean, std of the normalisation) as
+    :func:`train_vae` needs them.
     """
     model_kwargs = dict(model_kwargs or {})
     config = config or VAETrainConfig()
     cache_config = vae_cache_key(motions, lengths, model_kwargs=model_kwargs, config=config,
-                                 validation=validation)
+                                 validation=validation, statistics=statistics)
 
     def build() -> MotionVAE:
         torch.manual_seed(config.seed)
@@ -477,5 +561,6 @@ def load_or_train_vae(motions: Tensor | np.ndarray, lengths: Tensor | np.ndarray
 
     return load_or_train("motion_vae", cache_config, build,
                          lambda vae: train_vae(vae, motions, lengths, config,
-                                              validation=validation).for_cache(),
+                                              validation=validation,
+                                              statistics=statistics).for_cache(),
                          device=device, retrain=retrain)

@@ -17,6 +17,7 @@ arcsin(q_y) of the frame-to-frame facing quaternion, and the recovered facing qu
 from __future__ import annotations
 
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -132,13 +133,18 @@ def recover_root(features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def _ric_to_joints(features: torch.Tensor, rotation: torch.Tensor,
-                   root_position: torch.Tensor) -> torch.Tensor:
+                   root_position: torch.Tensor,
+                   joints: tuple[int, ...] | None = None) -> torch.Tensor:
     ric = features[..., FEATURE_BLOCKS["ric_positions"]].unflatten(-1, (NUM_JOINTS - 1, 3))
+    if joints is not None:                     # non-root joints only: ric holds joints 1..21
+        ric = ric[..., [j - 1 for j in joints], :]
     body = qrot(qinv(rotation)[..., None, :], ric)
     offset = torch.stack(
         (root_position[..., 0], torch.zeros_like(root_position[..., 0]), root_position[..., 2]),
         dim=-1,
     )
+    if joints is not None:
+        return body + offset[..., None, :]
     return torch.cat((root_position[..., None, :], body + offset[..., None, :]), dim=-2)
 
 
@@ -151,6 +157,16 @@ def features_to_joints(features: torch.Tensor) -> torch.Tensor:
     """
     rotation, root_position = recover_root(features)
     return _ric_to_joints(features, rotation, root_position)
+
+
+def features_to_some_joints(features: torch.Tensor, joints: Sequence[int]) -> torch.Tensor:
+    """``features_to_joints(features)[..., joints, :]`` for non-root ``joints`` (indices
+    1–21), rotating only those (torch; differentiable)."""
+    if not joints or min(joints) < 1 or max(joints) >= NUM_JOINTS:
+        raise ValueError(f"joints must be non-root joint indices 1..{NUM_JOINTS - 1}, got "
+                         f"{list(joints)}")
+    rotation, root_position = recover_root(features)
+    return _ric_to_joints(features, rotation, root_position, tuple(joints))
 
 
 # ------------------------------------------------------------------------- GMD's absolute root
