@@ -263,8 +263,7 @@ def by_pair_markdown(study: Mapping[str, Any] | NotMeasurable) -> str:
 
 def composition_notes(settings: EnergyViewSettings) -> str:
     """The notes EMG-2 and EMG-3 both record: the guidance and weights of each form, the items,
-    the oracles and the models behind the study (and the glide note when a travel concept is
-    read)."""
+    the oracles and the models behind the study."""
     config, per_case = settings.pipeline, settings.negation_items_per_case
     choice_note = (f"Guidance s = {config.guidance_scale}; Eq. 7 w_i = s; Eq. 8 w = s; Eq. 9 "
                    "conjunction w^s = (1, 1), negation w^s = (1, −0.5), guided with s. "
