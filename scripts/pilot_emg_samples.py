@@ -9,6 +9,9 @@ recall, each against the test clips. One JSON line goes to ``--out``::
 
     PYTHONPATH=src python scripts/pilot_emg_samples.py --scale standard --seed 0 \\
         --out pilots/emg_samples.jsonl
+
+``--kl`` (the VAE's KL weight), ``--denoiser-width`` and ``--denoiser-steps`` change the scale's
+pipeline for a design pilot (the row records them).
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -34,18 +38,33 @@ def main() -> None:
     parser.add_argument("--scale", choices=SCALES, default="standard")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--label", default="standard pipeline")
+    parser.add_argument("--kl", type=float, default=None, help="the VAE's KL weight")
+    parser.add_argument("--denoiser-width", type=int, default=None)
+    parser.add_argument("--denoiser-steps", type=int, default=None)
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
     started = time.perf_counter()
     config = pipeline_config(args.scale)
     plan = EnergyViewSettings.for_scale(args.scale).plan
+    if args.kl is not None:
+        config = replace(config, vae_training=replace(config.vae_training, kl_weight=args.kl))
+    if args.denoiser_width is not None:
+        config = replace(config, denoiser_width=args.denoiser_width)
+    if args.denoiser_steps is not None:
+        config = config.with_steps(denoiser=args.denoiser_steps)
+        plan = replace(plan, denoiser_step_cap=args.denoiser_steps)
     pipe = SeedPipelines(load_pipeline(config, "cpu", plan=plan))(args.seed)
     trained_s = time.perf_counter() - started
     test = load_or_build_text_to_motion_test(
         config, LatentCountSettings.for_scale(args.scale).test_clips, data=pipe.data)
     vae, denoiser = model_gates.pipeline_records(pipe, test)
     row = {"label": args.label, "scale": args.scale, "seed": args.seed,
+           "vae": {"architecture": config.vae_architecture,
+                   "kl_weight": config.vae_training.kl_weight,
+                   "foot_velocity_weight": config.vae_training.foot_velocity_weight},
+           "denoiser": {"width": config.denoiser_width, "layers": config.denoiser_layers,
+                        "steps": plan.denoiser_step_cap},
            "train_and_load_s": round(trained_s, 1), "test_clips": len(test),
            "gates": {record["family"]: {metric: {k: gate[k] for k in ("value", "data",
                                                                      "passed")}
