@@ -10,8 +10,10 @@ recall, each against the test clips. One JSON line goes to ``--out``::
     PYTHONPATH=src python scripts/pilot_emg_samples.py --scale standard --seed 0 \\
         --out pilots/emg_samples.jsonl
 
-``--kl`` (the VAE's KL weight), ``--denoiser-width`` and ``--denoiser-steps`` change the scale's
-pipeline for a design pilot (the row records them).
+``--kl`` (the VAE's KL weight), ``--vae-lr-schedule``, ``--denoiser-width``,
+``--denoiser-steps``, ``--denoiser-lr`` and ``--fixed-gait`` (the travel concepts' gait
+rhythm fixed, :data:`FIXED_GAIT`) change the scale's pipeline for a design pilot (the row
+records them).
 """
 
 from __future__ import annotations
@@ -24,13 +26,23 @@ from pathlib import Path
 
 import torch
 
-from repro.energymogen import model_gates
+from repro.core.train_config import LR_SCHEDULES
+from repro.energymogen import model_gates, settings
 from repro.energymogen.energy_contour_maps import EnergyViewSettings
 from repro.energymogen.harness import load_or_build_text_to_motion_test
 from repro.energymogen.latent_count.emg7 import LatentCountSettings
 from repro.energymogen.pipeline import SeedPipelines, load_pipeline
 from repro.energymogen.settings import pipeline_config
 from repro.infra.context import SCALES
+
+#: one gait rhythm per travel concept: the leading foot, the cadence and the ramp-in (each
+#: range's middle)
+FIXED_GAIT = {
+    "walk_forward": {"phase": 0.0, "cycle": 1.05, "ramp_in": 0.4},
+    "walk_backward": {"phase": 0.0, "cycle": 1.0, "ramp_in": 0.4},
+    "walk_left": {"phase": 0.0, "cycle": 1.0, "ramp_in": 0.4},
+    "walk_right": {"phase": 0.0, "cycle": 1.0, "ramp_in": 0.4},
+    "run": {"phase": 0.0, "cycle": 0.715, "ramp_in": 0.4}}
 
 
 def main() -> None:
@@ -39,8 +51,12 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--label", default="standard pipeline")
     parser.add_argument("--kl", type=float, default=None, help="the VAE's KL weight")
+    parser.add_argument("--vae-lr-schedule", choices=LR_SCHEDULES, default=None)
     parser.add_argument("--denoiser-width", type=int, default=None)
     parser.add_argument("--denoiser-steps", type=int, default=None)
+    parser.add_argument("--denoiser-lr", type=float, default=None)
+    parser.add_argument("--fixed-gait", action="store_true",
+                        help="the stand-in's gait rhythm fixed (FIXED_GAIT in RHYTHM_OVERRIDES)")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -49,8 +65,16 @@ def main() -> None:
     plan = EnergyViewSettings.for_scale(args.scale).plan
     if args.kl is not None:
         config = replace(config, vae_training=replace(config.vae_training, kl_weight=args.kl))
+    if args.fixed_gait:
+        settings.RHYTHM_OVERRIDES.update(FIXED_GAIT)
+    if args.vae_lr_schedule is not None:
+        config = replace(config, vae_training=replace(config.vae_training,
+                                                      lr_schedule=args.vae_lr_schedule))
     if args.denoiser_width is not None:
         config = replace(config, denoiser_width=args.denoiser_width)
+    if args.denoiser_lr is not None:
+        config = replace(config, denoiser_training=replace(config.denoiser_training,
+                                                           lr=args.denoiser_lr))
     if args.denoiser_steps is not None:
         config = config.with_steps(denoiser=args.denoiser_steps)
         plan = replace(plan, denoiser_step_cap=args.denoiser_steps)
@@ -62,9 +86,12 @@ def main() -> None:
     row = {"label": args.label, "scale": args.scale, "seed": args.seed,
            "vae": {"architecture": config.vae_architecture,
                    "kl_weight": config.vae_training.kl_weight,
+                   "lr_schedule": config.vae_training.lr_schedule,
                    "foot_velocity_weight": config.vae_training.foot_velocity_weight},
+           "fixed_gait": args.fixed_gait,
            "denoiser": {"width": config.denoiser_width, "layers": config.denoiser_layers,
-                        "steps": plan.denoiser_step_cap},
+                        "steps": plan.denoiser_step_cap,
+                        "lr": config.denoiser_training.lr},
            "train_and_load_s": round(trained_s, 1), "test_clips": len(test),
            "gates": {record["family"]: {metric: {k: gate[k] for k in ("value", "data",
                                                                      "passed")}
