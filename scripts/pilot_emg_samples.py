@@ -11,9 +11,9 @@ recall, each against the test clips. One JSON line goes to ``--out``::
         --out pilots/emg_samples.jsonl
 
 ``--kl`` (the VAE's KL weight), ``--vae-lr-schedule``, ``--denoiser-width``,
-``--denoiser-steps``, ``--denoiser-lr`` and ``--fixed-gait`` (the travel concepts' gait
-rhythm fixed, :data:`FIXED_GAIT`) change the scale's pipeline for a design pilot (the row
-records them).
+``--denoiser-steps`` and ``--denoiser-lr`` change the scale's pipeline for a design pilot
+(the row records them; the rows with ``fixed_gait`` true in pilots/emg_denoiser_latent.jsonl
+were made by this script at ce0b091, before ``settings.GAIT_RHYTHM`` was the stand-in's).
 """
 
 from __future__ import annotations
@@ -27,22 +27,13 @@ from pathlib import Path
 import torch
 
 from repro.core.train_config import LR_SCHEDULES
-from repro.energymogen import model_gates, settings
+from repro.energymogen import model_gates
 from repro.energymogen.energy_contour_maps import EnergyViewSettings
 from repro.energymogen.harness import load_or_build_text_to_motion_test
 from repro.energymogen.latent_count.emg7 import LatentCountSettings
 from repro.energymogen.pipeline import SeedPipelines, load_pipeline
 from repro.energymogen.settings import pipeline_config
 from repro.infra.context import SCALES
-
-#: one gait rhythm per travel concept: the leading foot, the cadence and the ramp-in (each
-#: range's middle)
-FIXED_GAIT = {
-    "walk_forward": {"phase": 0.0, "cycle": 1.05, "ramp_in": 0.4},
-    "walk_backward": {"phase": 0.0, "cycle": 1.0, "ramp_in": 0.4},
-    "walk_left": {"phase": 0.0, "cycle": 1.0, "ramp_in": 0.4},
-    "walk_right": {"phase": 0.0, "cycle": 1.0, "ramp_in": 0.4},
-    "run": {"phase": 0.0, "cycle": 0.715, "ramp_in": 0.4}}
 
 
 def main() -> None:
@@ -55,8 +46,6 @@ def main() -> None:
     parser.add_argument("--denoiser-width", type=int, default=None)
     parser.add_argument("--denoiser-steps", type=int, default=None)
     parser.add_argument("--denoiser-lr", type=float, default=None)
-    parser.add_argument("--fixed-gait", action="store_true",
-                        help="the stand-in's gait rhythm fixed (FIXED_GAIT in RHYTHM_OVERRIDES)")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -65,8 +54,6 @@ def main() -> None:
     plan = EnergyViewSettings.for_scale(args.scale).plan
     if args.kl is not None:
         config = replace(config, vae_training=replace(config.vae_training, kl_weight=args.kl))
-    if args.fixed_gait:
-        settings.RHYTHM_OVERRIDES.update(FIXED_GAIT)
     if args.vae_lr_schedule is not None:
         config = replace(config, vae_training=replace(config.vae_training,
                                                       lr_schedule=args.vae_lr_schedule))
@@ -88,7 +75,6 @@ def main() -> None:
                    "kl_weight": config.vae_training.kl_weight,
                    "lr_schedule": config.vae_training.lr_schedule,
                    "foot_velocity_weight": config.vae_training.foot_velocity_weight},
-           "fixed_gait": args.fixed_gait,
            "denoiser": {"width": config.denoiser_width, "layers": config.denoiser_layers,
                         "steps": plan.denoiser_step_cap,
                         "lr": config.denoiser_training.lr},

@@ -29,7 +29,7 @@ def test_sidecar_carries_parts_with_what_the_run_could_see_and_missing_controls(
     decision = record_claim(make_context(tmp_path, scale="standard"), "GMD-A3", A3_GOOD,
                             settings=A3_RUN, seeds=[0, 1, 2, 3, 4])
     sidecar = load_sidecars(tmp_path / "claims")["GMD-A3"]
-    assert sidecar["registry_version"] == REGISTRY_VERSION == 11
+    assert sidecar["registry_version"] == REGISTRY_VERSION == 12
     assert sidecar["verdict"] == decision.verdict == REPRODUCED
     assert "v1" not in sidecar and "power_note" not in sidecar
     assert [p["name"] for p in sidecar["parts"]] == ["eps_reaches_goal_better",
@@ -40,7 +40,7 @@ def test_sidecar_carries_parts_with_what_the_run_could_see_and_missing_controls(
     assert sidecar["controls"]["null"]["status"] == "missing"
     text = verdict_markdown(make_context(tmp_path, scale="standard"), "GMD-A3", decision,
                             sidecar["rule"])
-    assert "registry v11" in text and "**GMD-A3 — reproduced**" in text
+    assert "registry v12" in text and "**GMD-A3 — reproduced**" in text
     assert sidecar["rule"] in text and "T = 100 cosine" in sidecar["rule"]
     assert sidecar["settings"] == {**A3_RUN, "seeds": 5}
 

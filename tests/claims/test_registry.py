@@ -29,7 +29,7 @@ def test_registry_matches_claims_md() -> None:
 
 
 def test_version_5_registers_21_claims_with_disjoint_measurement_names() -> None:
-    assert REGISTRY_VERSION == 11
+    assert REGISTRY_VERSION == 12
     assert len(CLAIMS) == 21
     for claim in CLAIMS.values():
         assert not set(claim.new_measurements) & set(claim.measurements), claim.id

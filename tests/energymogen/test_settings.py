@@ -127,18 +127,18 @@ def test_one_model_bank_for_notebooks_04_05_07_08(scale: str) -> None:
 def test_standard_scale_is_the_compute_plan() -> None:
     config, plan = pipeline_config("standard"), TrainingPlan.for_scale("standard")
     assert (config.vae_width, config.vae_layers) == (64, 2)            # today's VAE
-    assert (config.denoiser_width, config.denoiser_layers) == (64, 2)  # COMPUTE.md §10
+    assert (config.denoiser_width, config.denoiser_layers) == (128, 2)  # COMPUTE.md §23
     assert (plan.vae_step_cap, plan.denoiser_step_cap) == (900, 1500)
     assert not plan.plateau_stop
     paper = pipeline_config("paper")
     changed = {f.name for f in fields(PipelineConfig)
                if getattr(config, f.name) != getattr(paper, f.name)}
-    assert changed == {"vae_training", "vae_architecture", "denoiser_layers",
-                       "denoiser_training"}                                # paper's width
+    assert changed == {"vae_training", "vae_architecture", "denoiser_width", "denoiser_layers",
+                       "denoiser_training"}
     assert config.vae_architecture == "temporal"          # the stand-in's autoencoder
     assert config.vae_training == replace(paper.vae_training, steps=900, lr=2e-3,
-                                          foot_velocity_weight=0.3)
-    assert config.denoiser_training == replace(paper.denoiser_training, steps=1500)
+                                          lr_schedule="cosine", foot_velocity_weight=0.3)
+    assert config.denoiser_training == replace(paper.denoiser_training, steps=1500, lr=2e-3)
     vae = em.vae_train_config(config, 0, plan=plan)
     denoiser = em.denoiser_train_config(config, 0, plan=plan)
     assert (vae.steps, denoiser.steps) == (900, 1500)

@@ -39,7 +39,7 @@ Measured = Mapping[str, Any]
 Path = str | tuple[str, ...]
 Example = Callable[[np.random.Generator, float, int], dict[str, Any]]
 
-REGISTRY_VERSION = 11
+REGISTRY_VERSION = 12
 SEEDS = "per-seed list"
 
 

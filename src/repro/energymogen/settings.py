@@ -21,10 +21,10 @@ the trained models, and what each notebook runs at each scale.
   any verdict; docs/COMPUTE.md §3–§5), :data:`SEEDS` the seeds of each claim:
 
   - **quick**: everything shrunk to a test of the code, never a result;
-  - **standard** (``make reproduce``, ≈ 30 CPU-minutes for EnergyMoGen): the paper's data,
-    test sets and VAE at fixed step counts (900 VAE, 1500 denoiser steps), a 64 × 2 latent
-    denoiser, 3 seeds per claim, EMG-6's maps with 2 noise draws, EMG-7's N ∈ {1, 3, 5, 7}
-    (the paper's sweep), no guidance-scale check;
+  - **standard** (``make reproduce``): the paper's data with the gait at one rhythm
+    (:data:`GAIT_RHYTHM`), test sets, the stand-in VAE and a 128 × 2 latent denoiser at fixed
+    step counts (900 VAE, 1500 denoiser steps), 3 seeds per claim, EMG-6's maps with 2
+    noise draws, EMG-7's N ∈ {1, 3, 5, 7} (the paper's sweep), no guidance-scale check;
   - **paper**: the design text's sizes, training to a plateau and the registered seeds.
 
   Every notebook uses the one pipeline configuration and training plan of its scale
@@ -85,10 +85,12 @@ __all__ = [
     "NotebookSettings",
     "ONE_THREAD",
     "PipelineConfig",
+    "GAIT_RHYTHM",
     "RHYTHM_OVERRIDES",
     "RULE_SETTINGS",
     "SEEDS",
     "STANDARD_DENOISER_LAYERS",
+    "STANDARD_DENOISER_LR",
     "STANDARD_DENOISER_STEPS",
     "STANDARD_DENOISER_WIDTH",
     "QUICK_LATENT_COUNTS",
@@ -96,6 +98,7 @@ __all__ = [
     "STANDARD_VAE_STEPS",
     "STAND_IN_FOOT_VELOCITY_WEIGHT",
     "STAND_IN_VAE_LR",
+    "STAND_IN_VAE_LR_SCHEDULE",
     "TEXT_ENCODERS",
     "TEXT_TRAINING",
     "THREES_AS_PAIRS",
@@ -142,9 +145,20 @@ ARM_CONCEPTS = ("wave_left", "wave_right", "wave_both", "raise_arms", "clap")
 #: phase): our choice, so that a 2-layer width-64 VAE trained for minutes on CPU reconstructs
 #: them — at a random rhythm and phase it damps the oscillation away (measured on its own
 #: reconstructions, before any claim was run).
+#: The same for the travel concepts' gait (the generator draws the leading foot, a cadence
+#: within ±10 % and a 0.2–0.6 s ramp-in): the middle of each range and the same leading foot,
+#: so that a latent denoiser small enough for 2 CPU cores learns where the feet are — at a
+#: random phase its samples average two walks out of step and the feet slide
+#: (pilots/pilot_emg_vae_gait.md §5; registry version 12).
+GAIT_RHYTHM: dict[str, dict[str, float]] = {
+    "walk_forward": {"phase": 0.0, "cycle": 1.05, "ramp_in": 0.4},
+    "walk_backward": {"phase": 0.0, "cycle": 1.0, "ramp_in": 0.4},
+    "walk_left": {"phase": 0.0, "cycle": 1.0, "ramp_in": 0.4},
+    "walk_right": {"phase": 0.0, "cycle": 1.0, "ramp_in": 0.4},
+    "run": {"phase": 0.0, "cycle": 0.715, "ramp_in": 0.4}}
 RHYTHM_OVERRIDES: dict[str, dict[str, float]] = {
     "wave_left": {"frequency": 1.0, "phase": 0.0}, "wave_right": {"frequency": 1.0, "phase": 0.0},
-    "wave_both": {"frequency": 1.0, "phase": 0.0}, "clap": {"frequency": 1.0}}
+    "wave_both": {"frequency": 1.0, "phase": 0.0}, "clap": {"frequency": 1.0}, **GAIT_RHYTHM}
 #: never seen together in training; every lower concept once or twice, every arm concept twice.
 HELD_OUT_PAIRS: tuple[tuple[str, str], ...] = (
     ("walk_forward", "wave_right"), ("walk_forward", "clap"), ("walk_backward", "raise_arms"),
@@ -187,11 +201,17 @@ MINILM_MAX_TEXT_LEN = 77
 #: levels off at 1.7 at any step count)
 STANDARD_VAE_STEPS = 900
 #: the stand-in autoencoder's lr and feet's velocity weight (``with_stand_in_autoencoder``,
-#: pilots/pilot_emg_vae_gait.md; fixed before any result under registry version 11)
+#: pilots/pilot_emg_vae_gait.md; fixed before any result under registry version 11) and its
+#: lr schedule (a cosine decay, so its last steps settle: §5 there, registry version 12)
 STAND_IN_VAE_LR = 2e-3
 STAND_IN_FOOT_VELOCITY_WEIGHT = 0.3
+STAND_IN_VAE_LR_SCHEDULE = "cosine"
 STANDARD_DENOISER_STEPS = 1500
-STANDARD_DENOISER_WIDTH, STANDARD_DENOISER_LAYERS = 64, 2
+#: the latent denoiser at the standard scale: 128 × 2 at lr 2·10⁻³, so it learns the stand-in
+#: autoencoder's gait-keeping latents in 1500 steps (pilots/pilot_emg_vae_gait.md §5; fixed
+#: before any result under registry version 12; 64 × 2 at 5·10⁻⁴ before)
+STANDARD_DENOISER_WIDTH, STANDARD_DENOISER_LAYERS = 128, 2
+STANDARD_DENOISER_LR = 2e-3
 
 
 #: the learned encoder's width and word limit
@@ -306,9 +326,10 @@ def pipeline_config(scale: str) -> PipelineConfig:
     (``infra.context.SCALES``; identical → shared cache).
 
     paper: the defaults. standard
-    (docs/COMPUTE.md §3b, §5; fixed before any standard result): the paper's data, VAE and
-    sampling, with the latent denoiser at width 64 × 2 layers (64 × 3 at paper) and
-    the step counts :data:`STANDARD_VAE_STEPS` / :data:`STANDARD_DENOISER_STEPS`
+    (docs/COMPUTE.md §3b, §5, §22, §23; each fixed before the results under it): the paper's
+    data and sampling, the stand-in autoencoder, the latent denoiser at 128 × 2 layers and lr
+    2·10⁻³ (64 × 3 at 5·10⁻⁴ at paper) and the step counts :data:`STANDARD_VAE_STEPS` /
+    :data:`STANDARD_DENOISER_STEPS`
     (900 / 1500, fixed: the standard ``TrainingPlan`` does not stop on a plateau). quick: tiny
     data and few steps, a test of the code only. Every scale uses the default frozen MiniLM
     text encoder; quick mode keeps it, measured on the quick set (480 captions, 323 distinct,
@@ -324,11 +345,12 @@ def pipeline_config(scale: str) -> PipelineConfig:
 
 def _standard_pipeline() -> PipelineConfig:
     """The standard scale's pipeline: the paper's, with the stand-in autoencoder
-    (:func:`with_stand_in_autoencoder`), the narrower latent denoiser and the fixed standard
+    (:func:`with_stand_in_autoencoder`), the latent denoiser 128 × 2 at lr 2·10⁻³
+    (:data:`STANDARD_DENOISER_WIDTH`, :data:`STANDARD_DENOISER_LR`) and the fixed standard
     step counts."""
     return with_stand_in_autoencoder(PipelineConfig(
-        denoiser_width=STANDARD_DENOISER_WIDTH,
-        denoiser_layers=STANDARD_DENOISER_LAYERS)).with_steps(
+        denoiser_width=STANDARD_DENOISER_WIDTH, denoiser_layers=STANDARD_DENOISER_LAYERS,
+        denoiser_training=replace(DENOISER_TRAINING, lr=STANDARD_DENOISER_LR))).with_steps(
         vae=STANDARD_VAE_STEPS, denoiser=STANDARD_DENOISER_STEPS)
 
 
@@ -336,9 +358,10 @@ def with_stand_in_autoencoder(config: PipelineConfig) -> PipelineConfig:
     """``config`` with the autoencoder that keeps the stand-in's gait at CPU scale
     (docs/COMPUTE.md §22, pilots/pilot_emg_vae_gait.md): the temporal architecture
     (``models.vae``), the feet's velocity term λ = :data:`STAND_IN_FOOT_VELOCITY_WEIGHT` and lr
-    :data:`STAND_IN_VAE_LR`; N, d, width, the data and every other term as ``config``'s."""
+    :data:`STAND_IN_VAE_LR` with :data:`STAND_IN_VAE_LR_SCHEDULE`; N, d, width, the data and
+    every other term as ``config``'s."""
     return replace(config, vae_architecture="temporal", vae_training=replace(
-        config.vae_training, lr=STAND_IN_VAE_LR,
+        config.vae_training, lr=STAND_IN_VAE_LR, lr_schedule=STAND_IN_VAE_LR_SCHEDULE,
         foot_velocity_weight=STAND_IN_FOOT_VELOCITY_WEIGHT))
 
 
